@@ -1,0 +1,67 @@
+"""Every tolerance and threshold of ellipsim, each with where its number comes from."""
+
+#: Unit roundoff of float64 (round to nearest): |fl(x op y) - x op y| <= U |x op y|.
+U = 2.0**-53
+
+
+def gamma(n):
+    """Higham's gamma_n = n u / (1 - n u): bound on the relative error of n roundings."""
+    return n * U / (1.0 - n * U)
+
+
+# --- Input validation ------------------------------------------------------------------------
+
+#: A rotation is accepted when max_ij |(R^T R - I)_ij| <= this.  MuJoCo's geom_xmat comes from
+#: normalised quaternions and sits near 1e-16; 1e-6 admits float32-built rotations too.
+ORTHONORMAL_TOL = 1e-6
+
+# --- Certified filter (ellipsim/certified.py) -------------------------------------------------
+
+#: Inflation of the bounding-sphere radius max(r).  A point of E is c + R^{-T} D u with |u| <= 1,
+#: so |x - c| <= r_max / sigma_min(R).  With the validated |(R^T R - I)_ij| <= 1e-6,
+#: ||R^T R - I||_2 <= 3e-6 and 1 / sigma_min(R) <= 1 + 1.6e-6 < 1 + 2^-16.
+BOUNDING_INFLATION = 1.0 + 2.0**-16
+
+#: The float path only runs when max/min over the six semi-axes of a pair is at most this.
+#: It bounds every intermediate of the frame computation within 2^±600 so that an underflowed
+#: product adds less than TAU to any certified value (see TAU); wider pairs go to exact arithmetic.
+RATIO_MAX = 2.0**40
+
+#: Absolute slack added to every certified comparison.  In the normalised frame (semi-axis ratio
+#: <= 2^40, |e| <= 2^42, mu within [2^-120, 2^120]) an underflowing multiplication errs by at most
+#: 2^-1075 and is amplified by at most 2^600 on its way to the result; a few thousand operations
+#: stay far below 2^-400.
+TAU = 2.0**-400
+
+#: Relative error coefficients for the certified signs: an expression evaluated with at most n
+#: roundings on any path (leaf roundings included) errs by at most gamma_n times its absolute
+#: polynomial ("mag", evaluated alongside with |leaves|).  The constants cover the depth counted in
+#: certified.py with a margin for the rounding of the bound itself.
+ERR_SHORT = gamma(16) * 1.01  # the bounding-sphere and centre-inside tests (depth <= 13)
+ERR_POLY = gamma(48) * 1.01  # f(mu) = mu N(mu) - (mu + alpha) P(mu) (depth <= 32)
+ERR_WITNESS = gamma(16) * 1.01  # |y|^2 < 1 and |W (y - e)|^2 < alpha (depth <= 13)
+
+#: mu (the pencil parameter in A's frame) is clamped to this range on the float path.
+MU_MIN = 2.0**-120
+MU_MAX = 2.0**120
+
+#: The centre-axis separation test uses |D R^T d| for the support |D R^{-1} d|.  For a validated
+#: rotation ||R^{-1} - R^T||_2 <= ||E|| (1 + ||E||) / (1 - ||E||) < 3.1e-6 (E = R^T R - I,
+#: ||E||_2 <= ||E||_F <= 3e-6), and the float evaluation adds < 1e-14 r_max |d|: 5e-6 covers both.
+SUPPORT_SLACK = 5e-6
+
+#: Perram-Wertheim maximisation (contact.py): Newton steps at most, and the relative step that
+#: ends it.  mu* is only determined to ~1e-9 by float64 (F is flat there); F(mu) is then exact to
+#: ~1e-16, which is what contact_scale reports.
+PW_MAX_ITER = 60
+PW_RTOL = 1e-13
+
+#: The certified filter tries its certificates when Newton's relative step falls below each of
+#: these in turn: most pairs are decided after the first (~2 steps), near-tangent ones need more.
+PW_STAGES = (1e-3, 1e-8, 1e-13)
+
+# --- Dispatch -------------------------------------------------------------------------------
+
+#: Batches at least this long run the parallel kernels (measured in bench/bench_classify.py:
+#: below ~2e4 pairs thread start-up costs more than it saves on 2 cores).
+PARALLEL_MIN_PAIRS = 20_000

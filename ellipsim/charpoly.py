@@ -1,0 +1,131 @@
+"""The characteristic polynomial det(lambda A + B) of two ellipsoids, set up the thesis's two ways.
+
+A and B are the 4x4 homogeneous quadrics X^T A X <= 0 (interior negative):
+    A = [[Q, -Q c], [-c^T Q, c^T Q c - 1]],  Q = R diag(1/r^2) R^T.
+
+"cofactor" (thesis 4.1.2): build A and B in world coordinates and expand the pencil's determinant
+by 2x2 minors of its first and last column pairs, reusing each minor (thesis 4.1.2.2).
+"rearranged" (thesis 4.1.3): det(lambda I + A^{-1} B) in A's frame (see frame.py), scaled back to
+det(lambda A + B).  Both assume R^{-1} = R^T, as the thesis does.
+"""
+
+import numpy as np
+
+from ._jit import jit, prange, stage
+from .frame import coefficients, invariants, load, matvec, offset, shape
+
+SETUPS = ("rearranged", "cofactor")
+
+
+@stage
+def _world_quadric(E):
+    """The 10 distinct entries of the world quadric (row-major upper triangle of the 4x4)."""
+    c, R, r = E
+    one = type(r[0])(1.0)
+    w0, w1, w2 = one / (r[0] * r[0]), one / (r[1] * r[1]), one / (r[2] * r[2])
+    q00 = R[0] * R[0] * w0 + R[1] * R[1] * w1 + R[2] * R[2] * w2
+    q01 = R[0] * R[3] * w0 + R[1] * R[4] * w1 + R[2] * R[5] * w2
+    q02 = R[0] * R[6] * w0 + R[1] * R[7] * w1 + R[2] * R[8] * w2
+    q11 = R[3] * R[3] * w0 + R[4] * R[4] * w1 + R[5] * R[5] * w2
+    q12 = R[3] * R[6] * w0 + R[4] * R[7] * w1 + R[5] * R[8] * w2
+    q22 = R[6] * R[6] * w0 + R[7] * R[7] * w1 + R[8] * R[8] * w2
+    g0 = -(q00 * c[0] + q01 * c[1] + q02 * c[2])
+    g1 = -(q01 * c[0] + q11 * c[1] + q12 * c[2])
+    g2 = -(q02 * c[0] + q12 * c[1] + q22 * c[2])
+    k = -(g0 * c[0] + g1 * c[1] + g2 * c[2]) - one
+    return q00, q01, q02, g0, q11, q12, g1, q22, g2, k
+
+
+@jit
+def _full(u):
+    """4x4 symmetric matrix as a 16-tuple (row-major) from its upper triangle."""
+    q00, q01, q02, g0, q11, q12, g1, q22, g2, k = u
+    return (q00, q01, q02, g0, q01, q11, q12, g1, q02, q12, q22, g2, g0, g1, g2, k)
+
+
+@jit
+def _minor_pencil(X, Y, ca, cb, i, j):
+    """2x2 minor on rows (i, j), columns (ca, cb) of lambda X + Y, as (lambda^2, lambda, 1) coefficients."""
+    xa_i, xa_j, xb_i, xb_j = X[4 * i + ca], X[4 * j + ca], X[4 * i + cb], X[4 * j + cb]
+    ya_i, ya_j, yb_i, yb_j = Y[4 * i + ca], Y[4 * j + ca], Y[4 * i + cb], Y[4 * j + cb]
+    m2 = xa_i * xb_j - xa_j * xb_i
+    m1 = (xa_i * yb_j - xa_j * yb_i) + (ya_i * xb_j - ya_j * xb_i)
+    m0 = ya_i * yb_j - ya_j * yb_i
+    return m2, m1, m0
+
+
+@jit
+def cofactor_coefficients(A, B):
+    """Coefficients (lambda^4 ... 1) of det(lambda A + B) by Laplace expansion on column pairs (0,1), (2,3).
+
+    det M = sum over row pairs (i<j) of sign * M[ij; 01] * M[kl; 23], (k, l) the complementary rows,
+    sign = (-1)^(i + j + 1); each pencil minor is a quadratic in lambda (thesis 4.1.2.2).
+    """
+    zero = type(A[2][0])(0.0)
+    A = _full(_world_quadric(A))
+    B = _full(_world_quadric(B))
+    c4, c3, c2, c1, c0 = zero, zero, zero, zero, zero
+    for i, j, k, l, sign in ((0, 1, 2, 3, 1), (0, 2, 1, 3, -1), (0, 3, 1, 2, 1),
+                             (1, 2, 0, 3, 1), (1, 3, 0, 2, -1), (2, 3, 0, 1, 1)):  # fmt: skip
+        a2, a1, a0 = _minor_pencil(A, B, 0, 1, i, j)
+        b2, b1, b0 = _minor_pencil(A, B, 2, 3, k, l)
+        if sign < 0:
+            a2, a1, a0 = -a2, -a1, -a0
+        c4 += a2 * b2
+        c3 += a2 * b1 + a1 * b2
+        c2 += a2 * b0 + a1 * b1 + a0 * b2
+        c1 += a1 * b0 + a0 * b1
+        c0 += a0 * b0
+    return c4, c3, c2, c1, c0
+
+
+@jit
+def rearranged_frame_coefficients(A, B):
+    """Coefficients of det(lambda A_y + B_y) in A's frame (frame.py), assuming R_a^{-1} = R_a^T."""
+    (ca, Ra, ra), (cb, Rb, rb) = A, B
+    e, me = offset(ca, Ra, ra, cb)
+    W, mW, alpha, malpha = shape(Ra, ra, Rb, rb, False)
+    v, mv = matvec(W, e), matvec(mW, me)
+    inv, _ = invariants(W, mW, e, me, v, mv)
+    return coefficients(inv, alpha)
+
+
+@jit
+def rearranged_coefficients(A, B):
+    """det(lambda A + B) = det(lambda A_y + B_y) * det(R_a)^2 / (r_a0 r_a1 r_a2)^2, R_a orthonormal."""
+    c4, c3, c2, c1, c0 = rearranged_frame_coefficients(A, B)
+    ra = A[2]
+    one = type(ra[0])(1.0)
+    s = one / (ra[0] * ra[1] * ra[2])
+    s = s * s
+    return c4 * s, c3 * s, c2 * s, c1 * s, c0 * s
+
+
+@jit(parallel=True)
+def _polynomials(Ca, Ra, ra, Cb, Rb, rb, cofactor, out):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    for i in prange(out.shape[0]):
+        ia, ib = i * sa, i * sb
+        if cofactor:
+            c = cofactor_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        else:
+            c = rearranged_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        for k in range(5):
+            out[i, k] = c[k]
+
+
+def characteristic_polynomial(a, b, *, setup="rearranged"):
+    """Coefficients of det(lambda A + B) for the pairs (a[i], b[i]).
+
+    a, b : Ellipsoids (a batch of length 1 broadcasts)
+    setup : "rearranged" (thesis 4.1.3) or "cofactor" (thesis 4.1.2)
+    returns : (n, 5) float64, columns lambda^4, lambda^3, lambda^2, lambda, 1
+    """
+    from .classify import check_pair
+
+    n = check_pair(a, b)
+    if setup not in SETUPS:
+        raise ValueError(f"setup must be one of {SETUPS}, got {setup!r}")
+    out = np.empty((n, 5))
+    _polynomials(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, setup == "cofactor", out)
+    return out

@@ -1,0 +1,116 @@
+"""Relation of two ellipsoids: separated, touching or overlapping.
+
+Two ellipsoids X^T A X <= 0 and X^T B X <= 0 are separated iff det(lambda A + B) = 0 has two
+distinct positive roots and externally touching iff it has a positive double root (Wang, Wang &
+Kim; thesis ch. 4, Theorem 1).  "exact" decides this on the float64 inputs with a certified float
+path (certified.py) and exact rationals where that path is unsure (exact.py); "sturm" and
+"descartes" are the thesis's uncertified tests (roots.py) on either set-up (charpoly.py).
+"""
+
+from enum import IntEnum
+
+import numpy as np
+
+from . import exact
+from ._jit import jit, prange
+from .certified import UNDECIDED, certify
+from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
+from .ellipsoids import Ellipsoids
+from .frame import load
+from .roots import descartes_relation, sturm_relation
+from .tolerances import PARALLEL_MIN_PAIRS
+
+
+class Relation(IntEnum):
+    """What classify returns, per pair (int8 codes)."""
+
+    SEPARATED = 0  #: closed ellipsoids disjoint
+    TOUCHING = 1  #: boundaries meet, interiors disjoint
+    OVERLAPPING = 2  #: interiors intersect (includes containment)
+
+
+METHODS = ("exact", "sturm", "descartes")
+DTYPES = ("float64", "float32")
+
+
+def check_pair(a, b):
+    """Validate two batches for a pairwise query; return the broadcast length."""
+    for name, value in (("a", a), ("b", b)):
+        if not isinstance(value, Ellipsoids):
+            raise ValueError(f"{name} must be an ellipsim.Ellipsoids batch, got {type(value).__name__}")
+    na, nb = len(a), len(b)
+    if na != nb and na != 1 and nb != 1:
+        raise ValueError(f"a and b must have the same length or one of them length 1, got {na} and {nb}")
+    return 0 if na == 0 or nb == 0 else max(na, nb)
+
+
+@jit(parallel=True)
+def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    for i in prange(out.shape[0]):
+        ia, ib = i * sa, i * sb
+        if cofactor:
+            c4, c3, c2, c1, c0 = cofactor_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        else:
+            c4, c3, c2, c1, c0 = rearranged_frame_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        out[i] = sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
+
+
+@jit
+def _classify_float_serial(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    for i in range(out.shape[0]):
+        ia, ib = i * sa, i * sb
+        if cofactor:
+            c4, c3, c2, c1, c0 = cofactor_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        else:
+            c4, c3, c2, c1, c0 = rearranged_frame_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        out[i] = sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
+
+
+def resolve_undecided(a, b, out):
+    """Replace every UNDECIDED entry of `out` by the exact relation (rational arithmetic)."""
+    sa, sb = int(len(a) > 1), int(len(b) > 1)
+    for i in np.flatnonzero(out == UNDECIDED):
+        ia, ib = i * sa, i * sb
+        out[i] = exact.relation(
+            a.centers[ia], a.rotations[ia], a.radii[ia], b.centers[ib], b.rotations[ib], b.radii[ib]
+        )
+    return out
+
+
+def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", parallel=None):
+    """Relation of each pair (a[i], b[i]) as int8 codes of `Relation`.
+
+    a, b : Ellipsoids; a batch of length 1 broadcasts against the other.
+    method : "exact" (default; certified, right on every float64 input), or the thesis's
+        uncertified "sturm" (4.2.1) and "descartes" (4.2.2), which exist to be measured.
+    setup : "rearranged" (4.1.3) or "cofactor" (4.1.2), for "sturm" and "descartes" only.
+    dtype : "float64" or "float32" working precision, for "sturm" and "descartes" only.
+    parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
+    returns : (n,) int8
+    """
+    n = check_pair(a, b)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if setup not in SETUPS:
+        raise ValueError(f"setup must be one of {SETUPS}, got {setup!r}")
+    try:
+        dtype = np.dtype(dtype).name
+    except TypeError:
+        pass
+    if dtype not in DTYPES:
+        raise ValueError(f"dtype must be one of {DTYPES}, got {dtype!r}")
+    if method == "exact" and (setup != "rearranged" or dtype != "float64"):
+        raise ValueError("setup and dtype apply to the 'sturm' and 'descartes' methods; 'exact' has neither")
+    if parallel is None:
+        parallel = n >= PARALLEL_MIN_PAIRS
+    if method == "exact":
+        return resolve_undecided(a, b, certify(a, b, n, parallel))
+    arrays = [a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii]
+    if dtype == "float32":
+        arrays = [x.astype(np.float32) for x in arrays]
+    out = np.empty(n, dtype=np.int8)
+    kernel = _classify_float if parallel else _classify_float_serial
+    kernel(*arrays, setup == "cofactor", method == "sturm", out)
+    return out

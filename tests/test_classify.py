@@ -1,0 +1,179 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import reference
+import strategies as S
+from ellipsim import Ellipsoids, Relation, classify, contact_scale
+from ellipsim.certified import UNDECIDED, certify
+
+SEP, TOUCH, OVER = Relation.SEPARATED, Relation.TOUCHING, Relation.OVERLAPPING
+I = np.eye(3)
+
+
+def exact(a, b):
+    return int(classify(a, b)[0])
+
+
+def ref(a, b):
+    return reference.relations(a, b)[0]
+
+
+def test_relation_codes():
+    assert [int(r) for r in Relation] == [0, 1, 2]
+    assert classify(S.one([0, 0, 0], I, [1, 1, 1]), S.one([3, 0, 0], I, [1, 1, 1])).dtype == np.int8
+
+
+@pytest.mark.parametrize(
+    "cb, rb, expected",
+    [
+        ([2, 0, 0], [1, 1, 1], TOUCH),  # unit spheres 2 apart
+        ([2 + 2**-51, 0, 0], [1, 1, 1], SEP),  # one ulp apart
+        ([2 - 2**-52, 0, 0], [1, 1, 1], OVER),
+        ([0, 0, 0], [1, 1, 1], OVER),  # identical
+        ([0.5, 0, 0], [0.5, 0.5, 0.5], OVER),  # internally tangent: interiors meet
+        ([0, 0, 0], [0.5, 0.5, 0.5], OVER),  # contained
+        ([1.5, 0, 0], [0.5, 2, 0.25], TOUCH),  # axis-aligned, dyadic, meeting at x = 1
+        ([0, 0, 1.25], [3, 3, 0.25], TOUCH),
+    ],
+)
+def test_hand_picked_cases(cb, rb, expected):
+    a, b = S.one([0, 0, 0], I, [1, 1, 1]), S.one(cb, I, rb)
+    assert exact(a, b) == expected == ref(a, b)
+    assert exact(b, a) == expected
+
+
+@given(S.random_pair())
+def test_exact_matches_reference_on_random_pairs(pair):
+    a, b = pair
+    assert exact(a, b) == ref(a, b)
+
+
+@given(S.hard_pair)
+def test_exact_matches_reference_on_hard_pairs(pair):
+    a, b = pair
+    assert exact(a, b) == ref(a, b)
+
+
+@given(S.exact_tangent_pair())
+def test_exactly_tangent_pairs_touch(pair):
+    assert exact(*pair) == TOUCH
+
+
+@given(S.pythagorean_spheres())
+def test_pythagorean_spheres(pair):
+    a, b = pair
+    gap = np.linalg.norm(b.centers[0] - a.centers[0]) - a.radii[0, 0] - b.radii[0, 0]
+    expected = TOUCH if gap == 0 else (SEP if gap > 0 else OVER)
+    assert exact(a, b) == expected == ref(a, b)
+
+
+@given(S.hard_pair)
+def test_symmetry(pair):
+    a, b = pair
+    assert exact(a, b) == exact(b, a)
+
+
+@given(S.hard_pair, st.integers(-30, 30))
+def test_invariant_under_dyadic_scaling(pair, k):
+    a, b = pair
+    f = 2.0**k
+
+    def scale(e):
+        return Ellipsoids(e.centers * f, e.rotations, e.radii * f)
+
+    assert exact(scale(a), scale(b)) == exact(a, b)
+
+
+@given(S.exact_tangent_pair() | S.spheroid_pair() | S.pythagorean_spheres(), st.integers(0, 47), st.integers(-64, 64))
+def test_invariant_under_exact_rigid_motions(pair, p, t):
+    """Signed permutations and dyadic translations are exact in floats: the relation cannot change."""
+    a, b = pair
+    P = S.SIGNED_PERMUTATIONS[p]
+    shift = np.array([t, -t, 2 * t]) / 4.0
+
+    def move(e):
+        return Ellipsoids(e.centers @ P.T + shift, P @ e.rotations, e.radii)
+
+    assert exact(move(a), move(b)) == exact(a, b)
+
+
+@given(S.random_pair(), S.quaternions, S.centers)
+def test_invariant_under_rigid_motions_away_from_tangency(pair, q, shift):
+    a, b = pair
+    if abs(contact_scale(a, b)[0] - 1) < 1e-6:
+        return
+    R = Ellipsoids.from_quaternions(shift, q, [1, 1, 1]).rotations[0]
+
+    def move(e):
+        return Ellipsoids(e.centers @ R.T + shift, R @ e.rotations, e.radii)
+
+    assert exact(move(a), move(b)) == exact(a, b)
+
+
+@given(S.near_tangent_pair(gaps=(1e-3, 1e-6, 1e-9)))
+def test_certified_path_decides_pairs_a_billionth_from_touching(pair):
+    """Escalation is for the last few digits only: a 1e-9 relative gap is decided in float64."""
+    a, b = pair
+    assert certify(a, b, 1, False)[0] != UNDECIDED
+
+
+def test_broadcasting_and_parallel_agree_with_serial():
+    rng = np.random.default_rng(1)
+    n = 3000
+    a = Ellipsoids.from_quaternions(rng.uniform(-2, 2, (n, 3)), rng.normal(size=(n, 4)), rng.uniform(0.1, 1, (n, 3)))
+    b = Ellipsoids.from_quaternions(rng.uniform(-2, 2, (n, 3)), rng.normal(size=(n, 4)), rng.uniform(0.1, 1, (n, 3)))
+    serial = classify(a, b, parallel=False)
+    np.testing.assert_array_equal(classify(a, b, parallel=True), serial)
+    assert set(np.unique(serial)) == {0, 2}
+    one = classify(a[0], b)
+    np.testing.assert_array_equal(one[::300], [classify(a[0], b[i])[0] for i in range(0, n, 300)])
+    np.testing.assert_array_equal(classify(b, a[0]), one)
+    assert classify(a[:0], b[:0]).shape == (0,)
+
+
+def _generic(pair):
+    """Pencil roots 1% apart (spheres, spheroids and parallel twins have repeated roots), 5% from touching."""
+    a, b = pair
+    A = reference.quadric(a.centers[0], a.rotations[0], a.radii[0])
+    B = reference.quadric(b.centers[0], b.rotations[0], b.radii[0])
+    roots = np.roots([float(c) for c in reference.pencil(A, B)])
+    gaps = np.abs(roots[:, None] - roots[None, :])[np.triu_indices(4, 1)]
+    return gaps.min() > 1e-2 * np.abs(roots).max() and abs(contact_scale(a, b)[0] - 1) > 0.05
+
+
+easy_pair = S.random_pair().filter(_generic)
+
+
+@pytest.mark.parametrize("method", ["sturm", "descartes"])
+@pytest.mark.parametrize("setup", ["rearranged", "cofactor"])
+@given(pair=easy_pair)
+def test_thesis_methods_agree_with_exact_on_generic_pairs(method, setup, pair):
+    """Generic pairs in float64 (the thesis methods' weak cases are measured in bench/, not here)."""
+    a, b = pair
+    assert classify(a, b, method=method, setup=setup)[0] == exact(a, b)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(method="gjk"), r"method must be one of \('exact', 'sturm', 'descartes'\), got 'gjk'"),
+        (dict(method="sturm", setup="direct"), r"setup must be one of \('rearranged', 'cofactor'\), got 'direct'"),
+        (dict(method="sturm", dtype="float16"), r"dtype must be one of \('float64', 'float32'\), got 'float16'"),
+        (dict(setup="cofactor"), "setup and dtype apply to the 'sturm' and 'descartes' methods"),
+    ],
+)
+def test_bad_arguments(kwargs, message):
+    a = S.one([0, 0, 0], I, [1, 1, 1])
+    with pytest.raises(ValueError, match=message):
+        classify(a, a, **kwargs)
+
+
+def test_bad_batches():
+    a = Ellipsoids(np.zeros((2, 3)), np.stack([I, I]), np.ones((2, 3)))
+    b = Ellipsoids(np.zeros((3, 3)), np.stack([I, I, I]), np.ones((3, 3)))
+    with pytest.raises(ValueError, match="same length or one of them length 1, got 2 and 3"):
+        classify(a, b)
+    with pytest.raises(ValueError, match="b must be an ellipsim.Ellipsoids batch, got ndarray"):
+        classify(a, np.zeros(3))

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
-from .frame import invariants, load, matvec, norm2, offset, shape
+from .frame import invariants, load, matvec, norm2, offset, reciprocal, shape
 from .tolerances import PW_MAX_ITER, PW_RTOL
 
 
@@ -27,7 +27,7 @@ def initial_mu(ee, qb, alpha):
 
 @stage
 def log_slope(mu, inv, alpha):
-    """G = d log F / d log mu = 1 + mu N'/N - mu / (mu + alpha) - mu P'/P, and dG/dmu.
+    """G = d log F / d log mu = 1 + mu N'/N - mu / (mu + alpha) - mu P'/P, dG/dmu, and F(mu).
 
     G falls from +1 (mu -> 0) to -1 (mu -> inf) through its one root mu*; each term is O(1), so G
     is accurate to a few ulps and Newton on it converges in ~4 steps from initial_mu.
@@ -42,19 +42,22 @@ def log_slope(mu, inv, alpha):
     b = dp * i_p
     g = 1.0 + mu * (a - i_m - b)
     dg = a - b - alpha * i_m * i_m + mu * (2.0 * p1 * i_n - a * a - (6.0 * mu + 2.0 * t1) * i_p + b * b)
-    return g, dg
+    return g, dg, mu * n * i_p * i_m
 
 
 @stage
 def pw_step(mu, inv, alpha, lo, hi):
-    """One safeguarded Newton step on G; (lo, hi) brackets mu* (G > 0 left of it, G < 0 right)."""
-    g, dg = log_slope(mu, inv, alpha)
+    """One safeguarded Newton step on G from mu: (next mu, lo, hi, F(mu)).
+
+    (lo, hi) brackets mu* (G > 0 left of it, G < 0 right of it).
+    """
+    g, dg, value = log_slope(mu, inv, alpha)
     if g > 0.0:
         lo = mu
     elif g < 0.0:
         hi = mu
     else:
-        return mu, mu, mu
+        return mu, mu, mu, value
     new = mu - g / dg
     if not (lo < new < hi):  # also catches dg == 0 and NaN: bisect (geometrically) instead
         if hi == math.inf:
@@ -63,7 +66,7 @@ def pw_step(mu, inv, alpha, lo, hi):
             new = 0.25 * mu
         else:
             new = math.sqrt(lo * hi)
-    return new, lo, hi
+    return new, lo, hi, value
 
 
 @stage
@@ -71,7 +74,7 @@ def pw_maximize(inv, alpha, mu, rtol):
     """mu* maximising F(mu) = mu N / ((mu + alpha) P) on (0, inf), to relative step `rtol`."""
     lo, hi = 0.0, math.inf
     for _ in range(PW_MAX_ITER):
-        new, lo, hi = pw_step(mu, inv, alpha, lo, hi)
+        new, lo, hi, _ = pw_step(mu, inv, alpha, lo, hi)
         if abs(new - mu) <= rtol * mu:
             return new
         mu = new
@@ -94,7 +97,7 @@ def contact_scale_pair(A, B):
     ee = norm2(e)
     if ee == 0.0:
         return 0.0
-    W, mW, alpha, _ = shape(Ra, ra, Rb, rb, True)
+    W, mW, alpha, _ = shape(Ra, ra, Rb, reciprocal(rb), True)
     v = matvec(W, e)
     inv, _ = invariants(W, mW, e, me, v, v)
     mu = pw_maximize(inv, alpha, initial_mu(ee, inv[3] / alpha, alpha), PW_RTOL)

@@ -120,36 +120,48 @@ def _inverse_transpose_numerator(Ra, exact_inverse):
     return C, mC, det * det, mdet * mdet
 
 
+@jit
+def rotate_t(R, d):
+    """R^T d for a row-major rotation tuple [depth of d + 3]."""
+    return (
+        R[0] * d[0] + R[3] * d[1] + R[6] * d[2],
+        R[1] * d[0] + R[4] * d[1] + R[7] * d[2],
+        R[2] * d[0] + R[5] * d[1] + R[8] * d[2],
+    )
+
+
+@jit
+def rotate_t_mag(R, md):
+    """mag of rotate_t: |R|^T md."""
+    return (
+        abs(R[0]) * md[0] + abs(R[3]) * md[1] + abs(R[6]) * md[2],
+        abs(R[1]) * md[0] + abs(R[4]) * md[1] + abs(R[7]) * md[2],
+        abs(R[2]) * md[0] + abs(R[5]) * md[1] + abs(R[8]) * md[2],
+    )
+
+
+@jit
+def reciprocal(r):
+    one = type(r[0])(1.0)
+    return one / r[0], one / r[1], one / r[2]
+
+
 @stage
 def offset(ca, Ra, ra, cb):
-    """e = D_a^{-1} R_a^T (c_b - c_a) [5] and its mag.
-
-    e_i = sum_k R_a[k, i] * (d_k / r_a,i): the ratios d_k / r_a,i keep every product at the
-    scale of the answer, so nothing underflows that the answer would notice.
-    """
-    one = type(ra[0])(1.0)
-    d0, d1, d2 = cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]  # [1]
-    i0, i1, i2 = one / ra[0], one / ra[1], one / ra[2]  # [1]
-    e = (
-        Ra[0] * (d0 * i0) + Ra[3] * (d1 * i0) + Ra[6] * (d2 * i0),
-        Ra[1] * (d0 * i1) + Ra[4] * (d1 * i1) + Ra[7] * (d2 * i1),
-        Ra[2] * (d0 * i2) + Ra[5] * (d1 * i2) + Ra[8] * (d2 * i2),
-    )
-    a0, a1, a2 = abs(d0), abs(d1), abs(d2)
-    me = (
-        abs(Ra[0]) * (a0 * i0) + abs(Ra[3]) * (a1 * i0) + abs(Ra[6]) * (a2 * i0),
-        abs(Ra[1]) * (a0 * i1) + abs(Ra[4]) * (a1 * i1) + abs(Ra[7]) * (a2 * i1),
-        abs(Ra[2]) * (a0 * i2) + abs(Ra[5]) * (a1 * i2) + abs(Ra[8]) * (a2 * i2),
-    )
-    return e, me
+    """e = D_a^{-1} R_a^T (c_b - c_a) [5] and its mag, so that q_A(c_b) = |e|^2."""
+    d = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])  # [1]
+    z, mz = rotate_t(Ra, d), rotate_t_mag(Ra, (abs(d[0]), abs(d[1]), abs(d[2])))  # [4]
+    i = reciprocal(ra)  # [1]
+    return (z[0] * i[0], z[1] * i[1], z[2] * i[2]), (mz[0] * i[0], mz[1] * i[1], mz[2] * i[2])
 
 
 @stage
-def shape(Ra, ra, Rb, rb, exact_inverse):
-    """W_c = D_b^{-1} R_b^T C D_a [6] (row-major 9-tuple), its mag, alpha [6] and its mag."""
-    one = type(ra[0])(1.0)
+def shape(Ra, ra, Rb, ib, exact_inverse):
+    """W_c = D_b^{-1} R_b^T C D_a [6] (row-major 9-tuple), its mag, alpha [6] and its mag.
+
+    ib = 1 / r_b, rounded once [1].
+    """
     C, mC, alpha, malpha = _inverse_transpose_numerator(Ra, exact_inverse)
-    ib = (one / rb[0], one / rb[1], one / rb[2])  # [1]
     W = (
         dot3(Rb[0], Rb[3], Rb[6], C[0], C[3], C[6]) * (ra[0] * ib[0]),
         dot3(Rb[0], Rb[3], Rb[6], C[1], C[4], C[7]) * (ra[1] * ib[0]),

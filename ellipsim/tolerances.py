@@ -22,15 +22,18 @@ ORTHONORMAL_TOL = 1e-6
 #: ||R^T R - I||_2 <= 3e-6 and 1 / sigma_min(R) <= 1 + 1.6e-6 < 1 + 2^-16.
 BOUNDING_INFLATION = 1.0 + 2.0**-16
 
-#: The float path only runs when max/min over the six semi-axes of a pair is at most this.
-#: It bounds every intermediate of the frame computation within 2^±600 so that an underflowed
-#: product adds less than TAU to any certified value (see TAU); wider pairs go to exact arithmetic.
+#: The float path only runs when max/min over the six semi-axes of a pair is at most RATIO_MAX and
+#: the largest semi-axis lies in [SCALE_MIN, SCALE_MAX]; other pairs go to exact arithmetic.
+#: Together with |c_b - c_a| <= 2 r_max (else the bounding spheres decide) this keeps every
+#: intermediate below 2^700 and bounds what an underflow can do (see TAU).
 RATIO_MAX = 2.0**40
+SCALE_MIN = 2.0**-500
+SCALE_MAX = 2.0**500
 
-#: Absolute slack added to every certified comparison.  In the normalised frame (semi-axis ratio
-#: <= 2^40, |e| <= 2^42, mu within [2^-120, 2^120]) an underflowing multiplication errs by at most
-#: 2^-1075 and is amplified by at most 2^600 on its way to the result; a few thousand operations
-#: stay far below 2^-400.
+#: Absolute slack added to every certified comparison.  An underflowing multiplication errs by at
+#: most 2^-1075 (additions are exact there); on its way to a certified value it is amplified at most
+#: by 2^540 (1 / r in q(c)) or 2^600 (in A's frame, with mu in [MU_MIN, MU_MAX]); a few thousand
+#: operations stay far below 2^-400.
 TAU = 2.0**-400
 
 #: Relative error coefficients for the certified signs: an expression evaluated with at most n
@@ -56,9 +59,9 @@ SUPPORT_SLACK = 5e-6
 PW_MAX_ITER = 60
 PW_RTOL = 1e-13
 
-#: The certified filter tries its certificates when Newton's relative step falls below each of
-#: these in turn: most pairs are decided after the first (~2 steps), near-tangent ones need more.
-PW_STAGES = (1e-3, 1e-8, 1e-13)
+#: The certified filter tries f(mu) > 0 as soon as F(mu) exceeds 1 by this (F is accurate to a few
+#: ulps, so below it the certificate would fail on its error bound anyway).
+PW_TRY_SEPARATED = 1e-12
 
 # --- Dispatch -------------------------------------------------------------------------------
 

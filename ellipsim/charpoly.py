@@ -12,7 +12,7 @@ det(lambda A + B).  Both assume R^{-1} = R^T, as the thesis does.
 import numpy as np
 
 from ._jit import jit, prange, stage
-from .frame import coefficients, invariants, load, matvec, offset, shape
+from .frame import coefficients, invariants, load, matvec, offset, reciprocal, shape
 
 SETUPS = ("rearranged", "cofactor")
 
@@ -36,22 +36,33 @@ def _world_quadric(E):
     return q00, q01, q02, g0, q11, q12, g1, q22, g2, k
 
 
-@jit
+@stage
 def _full(u):
     """4x4 symmetric matrix as a 16-tuple (row-major) from its upper triangle."""
     q00, q01, q02, g0, q11, q12, g1, q22, g2, k = u
     return (q00, q01, q02, g0, q01, q11, q12, g1, q02, q12, q22, g2, g0, g1, g2, k)
 
 
-@jit
-def _minor_pencil(X, Y, ca, cb, i, j):
-    """2x2 minor on rows (i, j), columns (ca, cb) of lambda X + Y, as (lambda^2, lambda, 1) coefficients."""
-    xa_i, xa_j, xb_i, xb_j = X[4 * i + ca], X[4 * j + ca], X[4 * i + cb], X[4 * j + cb]
-    ya_i, ya_j, yb_i, yb_j = Y[4 * i + ca], Y[4 * j + ca], Y[4 * i + cb], Y[4 * j + cb]
-    m2 = xa_i * xb_j - xa_j * xb_i
-    m1 = (xa_i * yb_j - xa_j * yb_i) + (ya_i * xb_j - ya_j * xb_i)
-    m0 = ya_i * yb_j - ya_j * yb_i
-    return m2, m1, m0
+@stage
+def _pencil_minor(xai, xbj, xaj, xbi, yai, ybj, yaj, ybi):
+    """2x2 minor (rows i, j; columns a, b) of lambda X + Y as (lambda^2, lambda, 1) coefficients."""
+    return (
+        xai * xbj - xaj * xbi,
+        (xai * ybj - xaj * ybi) + (yai * xbj - yaj * xbi),
+        yai * ybj - yaj * ybi,
+    )
+
+
+@stage
+def _product(a, b):
+    """(a2 l^2 + a1 l + a0)(b2 l^2 + b1 l + b0) as 5 coefficients."""
+    return (
+        a[0] * b[0],
+        a[0] * b[1] + a[1] * b[0],
+        a[0] * b[2] + a[1] * b[1] + a[2] * b[0],
+        a[1] * b[2] + a[2] * b[1],
+        a[2] * b[2],
+    )
 
 
 @jit
@@ -59,24 +70,33 @@ def cofactor_coefficients(A, B):
     """Coefficients (lambda^4 ... 1) of det(lambda A + B) by Laplace expansion on column pairs (0,1), (2,3).
 
     det M = sum over row pairs (i<j) of sign * M[ij; 01] * M[kl; 23], (k, l) the complementary rows,
-    sign = (-1)^(i + j + 1); each pencil minor is a quadratic in lambda (thesis 4.1.2.2).
+    sign = (-1)^(i + j + 1) (taken into the minor by swapping k and l); each of the 12 pencil
+    minors is a quadratic in lambda computed once (thesis 4.1.2.2).  Literal indices only: numba
+    lowers a tuple index it cannot see at compile time to a jump table.
     """
-    zero = type(A[2][0])(0.0)
-    A = _full(_world_quadric(A))
-    B = _full(_world_quadric(B))
-    c4, c3, c2, c1, c0 = zero, zero, zero, zero, zero
-    for i, j, k, l, sign in ((0, 1, 2, 3, 1), (0, 2, 1, 3, -1), (0, 3, 1, 2, 1),
-                             (1, 2, 0, 3, 1), (1, 3, 0, 2, -1), (2, 3, 0, 1, 1)):  # fmt: skip
-        a2, a1, a0 = _minor_pencil(A, B, 0, 1, i, j)
-        b2, b1, b0 = _minor_pencil(A, B, 2, 3, k, l)
-        if sign < 0:
-            a2, a1, a0 = -a2, -a1, -a0
-        c4 += a2 * b2
-        c3 += a2 * b1 + a1 * b2
-        c2 += a2 * b0 + a1 * b1 + a0 * b2
-        c1 += a1 * b0 + a0 * b1
-        c0 += a0 * b0
-    return c4, c3, c2, c1, c0
+    X = _full(_world_quadric(A))
+    Y = _full(_world_quadric(B))
+    a0 = _pencil_minor(X[0], X[5], X[4], X[1], Y[0], Y[5], Y[4], Y[1])
+    b0 = _pencil_minor(X[10], X[15], X[14], X[11], Y[10], Y[15], Y[14], Y[11])
+    a1 = _pencil_minor(X[0], X[9], X[8], X[1], Y[0], Y[9], Y[8], Y[1])
+    b1 = _pencil_minor(X[14], X[7], X[6], X[15], Y[14], Y[7], Y[6], Y[15])
+    a2 = _pencil_minor(X[0], X[13], X[12], X[1], Y[0], Y[13], Y[12], Y[1])
+    b2 = _pencil_minor(X[6], X[11], X[10], X[7], Y[6], Y[11], Y[10], Y[7])
+    a3 = _pencil_minor(X[4], X[9], X[8], X[5], Y[4], Y[9], Y[8], Y[5])
+    b3 = _pencil_minor(X[2], X[15], X[14], X[3], Y[2], Y[15], Y[14], Y[3])
+    a4 = _pencil_minor(X[4], X[13], X[12], X[5], Y[4], Y[13], Y[12], Y[5])
+    b4 = _pencil_minor(X[10], X[3], X[2], X[11], Y[10], Y[3], Y[2], Y[11])
+    a5 = _pencil_minor(X[8], X[13], X[12], X[9], Y[8], Y[13], Y[12], Y[9])
+    b5 = _pencil_minor(X[2], X[7], X[6], X[3], Y[2], Y[7], Y[6], Y[3])
+    p0, p1, p2 = _product(a0, b0), _product(a1, b1), _product(a2, b2)
+    p3, p4, p5 = _product(a3, b3), _product(a4, b4), _product(a5, b5)
+    return (
+        p0[0] + p1[0] + p2[0] + p3[0] + p4[0] + p5[0],
+        p0[1] + p1[1] + p2[1] + p3[1] + p4[1] + p5[1],
+        p0[2] + p1[2] + p2[2] + p3[2] + p4[2] + p5[2],
+        p0[3] + p1[3] + p2[3] + p3[3] + p4[3] + p5[3],
+        p0[4] + p1[4] + p2[4] + p3[4] + p4[4] + p5[4],
+    )
 
 
 @jit
@@ -84,7 +104,7 @@ def rearranged_frame_coefficients(A, B):
     """Coefficients of det(lambda A_y + B_y) in A's frame (frame.py), assuming R_a^{-1} = R_a^T."""
     (ca, Ra, ra), (cb, Rb, rb) = A, B
     e, me = offset(ca, Ra, ra, cb)
-    W, mW, alpha, malpha = shape(Ra, ra, Rb, rb, False)
+    W, mW, alpha, malpha = shape(Ra, ra, Rb, reciprocal(rb), False)
     v, mv = matvec(W, e), matvec(mW, me)
     inv, _ = invariants(W, mW, e, me, v, mv)
     return coefficients(inv, alpha)

@@ -113,6 +113,20 @@ class Ellipsoids:
             return cls(centers, rot[0], radii)
         return cls(centers, rot, radii)
 
+    @classmethod
+    def concatenate(cls, batches):
+        """One batch holding the ellipsoids of `batches` in order (validated already, so not again)."""
+        batches = list(batches)
+        if not all(isinstance(b, Ellipsoids) for b in batches):
+            raise ValueError("batches must all be ellipsim.Ellipsoids")
+        new = object.__new__(cls)
+        for name in cls.__slots__:
+            parts = [getattr(b, name) for b in batches]
+            arr = np.concatenate(parts) if parts else np.zeros((0,) + getattr(_EMPTY, name).shape[1:])
+            arr.flags.writeable = False
+            object.__setattr__(new, name, arr)
+        return new
+
     def __setattr__(self, name, value):
         raise AttributeError("Ellipsoids is immutable")
 
@@ -140,3 +154,6 @@ class Ellipsoids:
                 f"Ellipsoids(centers={self.centers.tolist()}, rotations={self.rotations.tolist()}, "
                 f"radii={self.radii.tolist()})"
             )
+
+
+_EMPTY = Ellipsoids(np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros((0, 3)))

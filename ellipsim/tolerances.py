@@ -68,3 +68,13 @@ PW_TRY_SEPARATED = 1e-12
 #: Batches at least this long run the parallel kernels (measured in bench/bench_classify.py:
 #: below ~2e4 pairs thread start-up costs more than it saves on 2 cores).
 PARALLEL_MIN_PAIRS = 20_000
+
+# --- MuJoCo contact filter (ellipsim/plugin.py) ----------------------------------------------
+
+#: The filter grows each body by half of margin + gap + FILTER_CCD_FACTOR * ccd_tolerance.  MuJoCo's
+#: GJK declares the margin-grown bodies in contact once its iterate is within ccd_tolerance of the
+#: origin (engine_collision_gjk.c, min_norm), so pairs closer than that must reach MuJoCo.
+FILTER_CCD_FACTOR = 2.0
+
+#: And by this fraction of the pair's largest semi-axis, against rounding in the growth itself.
+FILTER_RELATIVE_SLACK = 1e-12

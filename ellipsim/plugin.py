@@ -1,0 +1,357 @@
+"""MuJoCo integration: the certified ellipsoid test inside mj_step, and a pair-by-pair validation.
+
+    with ellipsim.plugin.attach(model, data) as att:      # mode="filter"
+        for _ in range(1000):
+            mujoco.mj_step(model, data)
+    att.counters  # {'seen': ..., 'discarded': ..., 'passed': ...}
+
+Filter mode installs a compiled contact filter (mjcb_contactfilter, a numba cfunc).  MuJoCo calls
+it for every candidate geom pair after its broad phase, in place of the contype/conaffinity test
+(engine_collision_driver.c, filterCollisionPair), so the callback first repeats that test exactly.
+Ellipsoid-ellipsoid and sphere-ellipsoid pairs are then tested on ellipsoids that enclose the
+bodies MuJoCo collides (each grown by half of margin + gap + 2 ccd_tolerance: GJK reports contact
+once the margin-grown bodies are within ccd_tolerance), and discarded only when certified
+separated (certified.py).  No contact MuJoCo would make is lost, so trajectories are bit-identical.
+
+The callback is process-global and may run on several threads (mujoco.rollout); it reads geom
+arrays of whatever (model, data) it is given through struct offsets found at run time (mjstruct.py)
+and keeps no shared mutable state: counters live in per-data arrays of a registry.
+"""
+
+import dataclasses
+import threading
+
+import mujoco
+import numba
+import numpy as np
+from numba import carray, types
+
+from . import mjstruct
+from ._jit import jit
+from .certified import SEPARATED, certify_pair
+from .classify import Relation, classify
+from .contact import contact_scale
+from .ellipsoids import Ellipsoids
+from .tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
+
+MODES = ("filter",)
+_SPHERE, _ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+_OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
+
+# Registry of attached datas, read by the callback through its address.  Row 0: [number of rows
+# in use, ...]; rows 1..: [mjData address, counters address, mode, pair buffer address, capacity].
+MAX_ATTACHED = 256
+_FILTER, _RECORD = 1, 2
+_REGISTRY = np.zeros((MAX_ATTACHED + 1, 5), dtype=np.int64)
+_NCOUNTERS = 4  # seen, discarded, passed, recorded
+_lock = threading.Lock()
+_state = {"callback": None, "previous": None, "attached": []}
+
+
+@jit
+def _word(addr):
+    return carray(mjstruct.i64_pointer(addr), (1,))[0]
+
+
+@jit
+def _ellipsoid(xpos, xmat, size, gtype, g, grow):
+    """Geom g as an ellipsoid tuple (frame.load layout), grown to enclose its `grow`-offset body."""
+    c = (xpos[3 * g], xpos[3 * g + 1], xpos[3 * g + 2])
+    k = 9 * g
+    R = (xmat[k], xmat[k + 1], xmat[k + 2], xmat[k + 3], xmat[k + 4], xmat[k + 5], xmat[k + 6], xmat[k + 7], xmat[k + 8])
+    if gtype == _SPHERE:
+        r = size[3 * g] + grow
+        return c, R, (r, r, r)
+    r0, r1, r2 = size[3 * g], size[3 * g + 1], size[3 * g + 2]
+    s = 1.0 + grow / min(r0, r1, r2)  # E + ball(grow) lies inside E scaled by s about its centre
+    return c, R, (r0 * s, r1 * s, r2 * s)
+
+
+def _compile_callback():
+    """The contact filter cfunc, compiled once per process with this build's struct offsets."""
+    lay = mjstruct.layout()
+    om, od = lay["model"], lay["data"]
+    o_type, o_contype, o_conaff = om["geom_type"], om["geom_contype"], om["geom_conaffinity"]
+    o_size, o_margin, o_gap = om["geom_size"], om["geom_margin"], om["geom_gap"]
+    o_ccd, o_omargin, o_enable = om["opt.ccd_tolerance"], om["opt.o_margin"], om["opt.enableflags"]
+    o_xpos, o_xmat = od["geom_xpos"], od["geom_xmat"]
+    reg_addr, reg_rows = int(_REGISTRY.ctypes.data), _REGISTRY.shape[0]
+
+    @numba.cfunc(types.intc(types.voidptr, types.voidptr, types.intc, types.intc), error_model="numpy")
+    def contact_filter(m, d, g1, g2):
+        ma, da = mjstruct.address(m), mjstruct.address(d)
+        n = max(g1, g2) + 1
+        contype = carray(mjstruct.i32_pointer(_word(ma + o_contype)), (n,))
+        conaff = carray(mjstruct.i32_pointer(_word(ma + o_conaff)), (n,))
+        if (contype[g1] & conaff[g2]) == 0 and (contype[g2] & conaff[g1]) == 0:
+            return 1  # MuJoCo's own bitmask test, which this callback replaces
+        gtype = carray(mjstruct.i32_pointer(_word(ma + o_type)), (n,))
+        t1, t2 = gtype[g1], gtype[g2]
+        if not ((t1 == _ELLIPSOID and (t2 == _ELLIPSOID or t2 == _SPHERE)) or (t1 == _SPHERE and t2 == _ELLIPSOID)):
+            return 0
+        reg = carray(mjstruct.i64_pointer(reg_addr), (reg_rows, 5))
+        slot = 0
+        for k in range(1, reg[0, 0] + 1):
+            if reg[k, 0] == da:
+                slot = k
+                break
+        if slot and reg[slot, 2] == _RECORD:
+            counters = carray(mjstruct.i64_pointer(reg[slot, 1]), (_NCOUNTERS,))
+            i = counters[3]
+            if i < reg[slot, 4]:
+                pairs = carray(mjstruct.i32_pointer(reg[slot, 3]), (reg[slot, 4], 2))
+                pairs[i, 0] = g1
+                pairs[i, 1] = g2
+            counters[3] = i + 1
+            return 0
+        size = carray(mjstruct.f64_pointer(_word(ma + o_size)), (3 * n,))
+        margin = carray(mjstruct.f64_pointer(_word(ma + o_margin)), (n,))
+        gap = carray(mjstruct.f64_pointer(_word(ma + o_gap)), (n,))
+        enable = carray(mjstruct.i32_pointer(ma + o_enable), (1,))[0]
+        if enable & _OVERRIDE:
+            total = carray(mjstruct.f64_pointer(ma + o_omargin), (1,))[0]
+        else:
+            total = margin[g1] + margin[g2]
+        total = max(total + gap[g1] + gap[g2], 0.0)
+        total += FILTER_CCD_FACTOR * carray(mjstruct.f64_pointer(ma + o_ccd), (1,))[0]
+        xpos = carray(mjstruct.f64_pointer(_word(da + o_xpos)), (3 * n,))
+        xmat = carray(mjstruct.f64_pointer(_word(da + o_xmat)), (9 * n,))
+        scale = max(size[3 * g1], size[3 * g1 + 1], size[3 * g1 + 2], size[3 * g2], size[3 * g2 + 1], size[3 * g2 + 2])
+        grow = 0.5 * total + FILTER_RELATIVE_SLACK * scale
+        A = _ellipsoid(xpos, xmat, size, t1, g1, grow)
+        B = _ellipsoid(xpos, xmat, size, t2, g2, grow)
+        discard = certify_pair(A, B) == SEPARATED
+        if slot:
+            counters = carray(mjstruct.i64_pointer(reg[slot, 1]), (_NCOUNTERS,))
+            counters[0] += 1
+            counters[1 if discard else 2] += 1
+        return 1 if discard else 0
+
+    return contact_filter
+
+
+def callback():
+    """The compiled contact filter (compiled on first use, ~2 s)."""
+    if _state["callback"] is None:
+        _state["callback"] = _compile_callback()
+    return _state["callback"]
+
+
+def ellipsoid_pair_possible(model):
+    """True when the model has a geom pair the filter would test (ellipsoid with ellipsoid or sphere)."""
+    t = model.geom_type
+    collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    n_ell = int(np.count_nonzero((t == _ELLIPSOID) & collides))
+    n_sph = int(np.count_nonzero((t == _SPHERE) & collides))
+    return n_ell >= 2 or (n_ell >= 1 and n_sph >= 1)
+
+
+def _check(model, data):
+    if not isinstance(model, mujoco.MjModel):
+        raise ValueError(f"model must be a mujoco.MjModel, got {type(model).__name__}")
+    if not isinstance(data, mujoco.MjData):
+        raise ValueError(f"data must be a mujoco.MjData, got {type(data).__name__}")
+    if data.signature != model.signature:
+        raise ValueError(
+            f"data belongs to another model: data.signature {data.signature} != model.signature {model.signature}"
+        )
+
+
+class Attachment:
+    """ellipsim attached to one (model, data) while the `with` block runs; see attach()."""
+
+    def __init__(self, model, data, mode, capacity=0):
+        self.model, self.data, self.mode = model, data, mode
+        self.installed = False
+        self._counters = np.zeros(_NCOUNTERS, dtype=np.int64)
+        self._pairs = np.zeros((max(capacity, 1), 2), dtype=np.int32)
+        self._record = capacity > 0
+
+    @property
+    def counters(self):
+        """Candidate ellipsoid pairs this data's steps sent to the filter: seen = discarded + passed."""
+        seen, discarded, passed, _ = (int(x) for x in self._counters)
+        return {"seen": seen, "discarded": discarded, "passed": passed}
+
+    def __enter__(self):
+        if not (self._record or ellipsoid_pair_possible(self.model)):
+            return self  # skip what the scene does not need: no callback at all
+        with _lock:
+            attached = _state["attached"]
+            if any(a.data is self.data for a in attached):
+                raise ValueError("data is already attached to ellipsim; leave the other `with` block first")
+            if len(attached) >= MAX_ATTACHED:
+                raise ValueError(f"at most {MAX_ATTACHED} datas can be attached at once")
+            if not attached:
+                current = mujoco.get_mjcb_contactfilter()
+                if current is not None:
+                    raise ValueError(
+                        f"a contact filter callback is already installed ({current!r}); "
+                        "ellipsim's filter would replace it"
+                    )
+                cb = callback()
+                mujoco.set_mjcb_contactfilter(cb.ctypes)
+                _state["previous"] = current
+            row = len(attached) + 1
+            _REGISTRY[row] = (
+                self.data._address, self._counters.ctypes.data, _RECORD if self._record else _FILTER,
+                self._pairs.ctypes.data, len(self._pairs) if self._record else 0,
+            )  # fmt: skip
+            _REGISTRY[0, 0] = row
+            attached.append(self)
+            self.installed = True
+        return self
+
+    def __exit__(self, *exc):
+        if not self.installed:
+            return False
+        with _lock:
+            attached = _state["attached"]
+            attached.remove(self)
+            for row, a in enumerate(attached, start=1):  # compact the registry
+                _REGISTRY[row] = (
+                    a.data._address, a._counters.ctypes.data, _RECORD if a._record else _FILTER,
+                    a._pairs.ctypes.data, len(a._pairs) if a._record else 0,
+                )  # fmt: skip
+            _REGISTRY[0, 0] = len(attached)
+            if not attached:
+                mujoco.set_mjcb_contactfilter(_state["previous"])
+                _state["previous"] = None
+            self.installed = False
+        return False
+
+
+def attach(model, data, *, mode="filter"):
+    """Attach ellipsim to mj_step of (model, data) for the duration of a `with` block.
+
+    mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs.  A model
+    without such pairs installs nothing.  Per-data counters are on the returned object.
+    """
+    _check(model, data)
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    return Attachment(model, data, mode)
+
+
+# --- validation ----------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class Disagreement:
+    """A candidate pair on which MuJoCo's contact and ellipsim's verdict differ."""
+
+    step: int
+    geom1: int
+    geom2: int
+    names: tuple
+    mujoco_contact: bool  # MuJoCo has a contact with dist < margin
+    mujoco_dist: float  # that contact's dist (nan if none)
+    relation: str  # ellipsim's exact relation of the margin-enclosing ellipsoids
+    contact_scale: float  # Perram-Wertheim scale of the margin-enclosing ellipsoids
+    geom_distance: float  # mujoco.mj_geomDistance (signed; capped at 1)
+    right: str  # "ellipsim", "mujoco" or "undetermined", per the exact test
+    reason: str
+
+
+@dataclasses.dataclass
+class Validation:
+    """Per-step agreement of MuJoCo's contacts with ellipsim's exact verdicts.
+
+    counts : (steps, 4) int64, columns COLUMNS: candidate ellipsoid pairs per step
+    """
+
+    COLUMNS = ("both", "neither", "mujoco_only", "ellipsim_only")
+    steps: int
+    counts: np.ndarray
+    mujoco_contacts: np.ndarray  # (steps,) all contacts MuJoCo made (every geom type)
+    disagreements: list
+
+    def totals(self):
+        return {name: int(self.counts[:, k].sum()) for k, name in enumerate(self.COLUMNS)}
+
+
+def _pair_margin(model, g1, g2):
+    if model.opt.enableflags & _OVERRIDE:
+        return float(model.opt.o_margin)
+    return float(model.geom_margin[g1] + model.geom_margin[g2])
+
+
+def _enclosing(model, data, geoms, grow):
+    """Ellipsoids (k,) of geoms, each grown to enclose its body offset by grow (k,)."""
+    size = model.geom_size[geoms].copy()
+    sphere = model.geom_type[geoms] == _SPHERE
+    size[sphere] = size[sphere, :1]
+    scale = 1.0 + grow / size.min(axis=1)
+    radii = np.where(sphere[:, None], size + grow[:, None], size * scale[:, None])
+    return Ellipsoids(data.geom_xpos[geoms], data.geom_xmat[geoms].reshape(-1, 3, 3), radii)
+
+
+def validate(model, data, nstep, *, progress=None):
+    """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
+
+    At each step, before mj_step, mj_forward runs collision; every candidate ellipsoid pair MuJoCo's
+    broad phase produced (recorded by the callback, which otherwise behaves exactly like MuJoCo) is
+    classified: MuJoCo says contact when it made one with dist < margin; ellipsim says contact when
+    the ellipsoids grown by margin/2 each (enclosing the margin bodies; exact when margin = 0)
+    overlap.  Disagreements carry contact_scale, mj_geomDistance and who is right by the exact test.
+
+    progress : optional callable(step, nstep), called after each step
+    """
+    _check(model, data)
+    if not isinstance(nstep, (int, np.integer)) or nstep < 1:
+        raise ValueError(f"nstep must be a positive integer, got {nstep!r}")
+    ell = np.flatnonzero((model.geom_type == _ELLIPSOID) | (model.geom_type == _SPHERE))
+    capacity = max(len(ell) * (len(ell) - 1) // 2, 1)
+    att = Attachment(model, data, "validate", capacity=capacity)
+    counts = np.zeros((nstep, 4), dtype=np.int64)
+    ncon = np.zeros(nstep, dtype=np.int64)
+    disagreements = []
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
+    with att:
+        for step in range(nstep):
+            att._counters[3] = 0
+            mujoco.mj_forward(model, data)
+            k = int(att._counters[3])
+            pairs = np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
+            ncon[step] = data.ncon
+            contact_dist = {}
+            for c in data.contact[: data.ncon] if data.ncon else []:
+                key = (min(c.geom[0], c.geom[1]), max(c.geom[0], c.geom[1]))
+                contact_dist[key] = min(contact_dist.get(key, np.inf), float(c.dist))
+            if len(pairs):
+                margin = np.array([_pair_margin(model, g1, g2) for g1, g2 in pairs])
+                a = _enclosing(model, data, pairs[:, 0], np.maximum(margin, 0) / 2)
+                b = _enclosing(model, data, pairs[:, 1], np.maximum(margin, 0) / 2)
+                relation = classify(a, b)
+                for i, (g1, g2) in enumerate(pairs):
+                    dist = contact_dist.get((int(g1), int(g2)), np.nan)
+                    mj = bool(dist < margin[i])
+                    el = relation[i] == Relation.OVERLAPPING
+                    counts[step, (0 if el else 2) if mj else (3 if el else 1)] += 1
+                    if mj != el:
+                        disagreements.append(_explain(model, data, step, int(g1), int(g2), names, mj, dist, relation[i], margin[i], a[i], b[i]))
+            mujoco.mj_step(model, data)
+            if progress is not None:
+                progress(step + 1, nstep)
+    return Validation(nstep, counts, ncon, disagreements)
+
+
+def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, a, b):
+    geom_distance = float(mujoco.mj_geomDistance(model, data, g1, g2, 1.0, None))
+    scale = float(contact_scale(a, b)[0])
+    rel = Relation(int(relation)).name.lower()
+    if mj:  # MuJoCo made a contact the exact test rules out
+        right, reason = "ellipsim", f"exact: {rel} at margin {margin:g}; MuJoCo's contact is within its ccd tolerance"
+    elif margin <= 0 or _bare_overlap(model, data, g1, g2):
+        right, reason = "ellipsim", "exact: overlapping; MuJoCo made no contact"
+    else:
+        right = "undetermined"
+        reason = f"ellipsim tested an ellipsoid enclosing the margin body; mj_geomDistance {geom_distance:.3g} vs margin {margin:g}"
+    return Disagreement(step, g1, g2, (names[g1], names[g2]), mj, float(dist), rel, scale, geom_distance, right, reason)
+
+
+def _bare_overlap(model, data, g1, g2):
+    zero = np.zeros(1)
+    a = _enclosing(model, data, np.array([g1]), zero)
+    b = _enclosing(model, data, np.array([g2]), zero)
+    return classify(a, b)[0] == Relation.OVERLAPPING

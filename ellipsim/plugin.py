@@ -28,7 +28,7 @@ from numba import carray, types
 
 from . import mjstruct
 from ._jit import jit
-from .certified import SEPARATED, certify_pair
+from .certified import separated_by_axes
 from .classify import Relation, classify
 from .contact import contact_scale
 from .ellipsoids import Ellipsoids
@@ -120,7 +120,7 @@ def _compile_callback():
         grow = 0.5 * total + FILTER_RELATIVE_SLACK * scale
         A = _ellipsoid(xpos, xmat, size, t1, g1, grow)
         B = _ellipsoid(xpos, xmat, size, t2, g2, grow)
-        discard = certify_pair(A, B) == SEPARATED
+        discard = separated_by_axes(A, B)
         if slot:
             counters = carray(mjstruct.i64_pointer(reg[slot, 1]), (_NCOUNTERS,))
             counters[0] += 1
@@ -284,6 +284,17 @@ def _enclosing(model, data, geoms, grow):
     scale = 1.0 + grow / size.min(axis=1)
     radii = np.where(sphere[:, None], size + grow[:, None], size * scale[:, None])
     return Ellipsoids(data.geom_xpos[geoms], data.geom_xmat[geoms].reshape(-1, 3, 3), radii)
+
+
+def candidate_pairs(model, data):
+    """(k, 2) int32: the ellipsoid and sphere-ellipsoid geom pairs MuJoCo's broad phase sends to
+    collision at the current state (runs mj_forward; contacts and state as plain MuJoCo leaves them)."""
+    _check(model, data)
+    ell = np.count_nonzero((model.geom_type == _ELLIPSOID) | (model.geom_type == _SPHERE))
+    with Attachment(model, data, "record", capacity=max(ell * (ell - 1) // 2, 1)) as att:
+        mujoco.mj_forward(model, data)
+        k = int(att._counters[3])
+        return np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
 
 
 def validate(model, data, nstep, *, progress=None):

@@ -95,3 +95,33 @@ f64_pointer = _pointer_intrinsic(types.float64)
 i32_pointer = _pointer_intrinsic(types.int32)
 i64_pointer = _pointer_intrinsic(types.int64)
 
+
+
+@intrinsic
+def atomic_add(typingctx, addr, value):
+    """*(int64*)addr += value, atomically (MuJoCo may run one data's narrow phase on several threads)."""
+
+    def codegen(context, builder, signature, args):
+        from llvmlite import ir
+
+        ptr = builder.inttoptr(args[0], ir.PointerType(ir.IntType(64)))
+        return builder.atomic_rmw("add", ptr, args[1], "monotonic")
+
+    return types.int64(types.intp, types.int64), codegen
+
+
+def mujoco_library():
+    """The libmujoco the bindings loaded (dlopen of the same path returns the same handle)."""
+    import glob
+    import os
+
+    paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
+    if not paths:
+        raise RuntimeError(f"libmujoco not found next to {mujoco.__file__}")
+    return ctypes.CDLL(paths[0])
+
+
+def collision_table():
+    """MuJoCo's mjCOLLISIONFUNC[type1][type2] as a flat ctypes array of function pointers."""
+    n = int(mujoco.mjtGeom.mjNGEOMTYPES)
+    return (ctypes.c_void_p * (n * n)).in_dll(mujoco_library(), "mjCOLLISIONFUNC"), n

@@ -1,23 +1,33 @@
-"""MuJoCo integration: the certified ellipsoid test inside mj_step, and a pair-by-pair validation.
+"""MuJoCo integration: ellipsim inside mj_step, and a pair-by-pair validation.
 
-    with ellipsim.plugin.attach(model, data) as att:      # mode="filter"
+    with ellipsim.plugin.attach(model, data, mode="filter") as att:   # or mode="narrowphase"
         for _ in range(1000):
             mujoco.mj_step(model, data)
-    att.counters  # {'seen': ..., 'discarded': ..., 'passed': ...}
+    att.counters
 
-Filter mode installs a compiled contact filter (mjcb_contactfilter, a numba cfunc).  MuJoCo calls
+mode "filter" installs a compiled contact filter (mjcb_contactfilter, a numba cfunc).  MuJoCo calls
 it for every candidate geom pair after its broad phase, in place of the contype/conaffinity test
 (engine_collision_driver.c, filterCollisionPair), so the callback first repeats that test exactly.
 Ellipsoid-ellipsoid and sphere-ellipsoid pairs are then tested on ellipsoids that enclose the
 bodies MuJoCo collides (each grown by half of margin + gap + 2 ccd_tolerance: GJK reports contact
-once the margin-grown bodies are within ccd_tolerance), and discarded only when certified
-separated (certified.py).  No contact MuJoCo would make is lost, so trajectories are bit-identical.
+once the margin-grown bodies are within ccd_tolerance), and discarded only when a separating axis
+is certified (certified.separated_by_axes).  No contact MuJoCo would make is lost, so trajectories
+are bit-identical.
+
+mode "narrowphase" writes a compiled mjfCollision into MuJoCo's table mjCOLLISIONFUNC for
+ellipsoid x ellipsoid and sphere x ellipsoid (where MuJoCo has mjc_Convex: GJK, then EPA), and puts
+the originals back on exit.  It returns no contact for pairs certified separated beyond the margin,
+else the signed distance, normal and contact point of narrowphase.signed_distance, filling the
+mjPreContact as mjc_Convex does (dist, pos, normal; tangent zero: mj_setContact completes the
+frame).  A pair whose Newton run does not converge goes to MuJoCo's original function, and is
+counted.
 
 The callback is process-global and may run on several threads (mujoco.rollout); it reads geom
 arrays of whatever (model, data) it is given through struct offsets found at run time (mjstruct.py)
 and keeps no shared mutable state: counters live in per-data arrays of a registry.
 """
 
+import ctypes
 import dataclasses
 import threading
 
@@ -29,23 +39,29 @@ from numba import carray, types
 from . import mjstruct
 from ._jit import jit
 from .certified import separated_by_axes
+from .narrowphase import CONVERGED, signed_distance
 from .classify import Relation, classify
 from .contact import contact_scale
 from .ellipsoids import Ellipsoids
 from .tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 
-MODES = ("filter",)
+MODES = ("filter", "narrowphase")
 _SPHERE, _ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 
-# Registry of attached datas, read by the callback through its address.  Row 0: [number of rows
+# Registry of attached datas, read by the callbacks through its address.  Row 0: [number of rows
 # in use, ...]; rows 1..: [mjData address, counters address, mode, pair buffer address, capacity].
 MAX_ATTACHED = 256
-_FILTER, _RECORD = 1, 2
+_FILTER, _RECORD, _NARROW = 1, 2, 3
 _REGISTRY = np.zeros((MAX_ATTACHED + 1, 5), dtype=np.int64)
-_NCOUNTERS = 4  # seen, discarded, passed, recorded
+# Per-data counters: filter: seen, discarded, passed; narrowphase: calls, separated, contacts,
+# fallbacks; record: the number of recorded pairs in slot 3.
+_NCOUNTERS = 6
 _lock = threading.Lock()
-_state = {"callback": None, "previous": None, "attached": []}
+_state = {"callback": None, "narrow": None, "previous": None, "filter_installed": False, "table": None, "attached": []}
+_NARROW_FN = ctypes.CFUNCTYPE(
+    ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
+)
 
 
 @jit
@@ -121,7 +137,7 @@ def _compile_callback():
         A = _ellipsoid(xpos, xmat, size, t1, g1, grow)
         B = _ellipsoid(xpos, xmat, size, t2, g2, grow)
         discard = separated_by_axes(A, B)
-        if slot:
+        if slot and reg[slot, 2] == _FILTER:
             counters = carray(mjstruct.i64_pointer(reg[slot, 1]), (_NCOUNTERS,))
             counters[0] += 1
             counters[1 if discard else 2] += 1
@@ -135,6 +151,79 @@ def callback():
     if _state["callback"] is None:
         _state["callback"] = _compile_callback()
     return _state["callback"]
+
+
+@jit
+def _slot(reg, da):
+    """Registry row of the data at address da, 0 when it is not attached."""
+    for k in range(1, reg[0, 0] + 1):
+        if reg[k, 0] == da:
+            return k
+    return 0
+
+
+def _compile_narrowphase():
+    """The mjfCollision cfunc, compiled once per process with this build's struct offsets and
+    MuJoCo's original ellipsoid functions (the fallbacks)."""
+    lay = mjstruct.layout()
+    om, od = lay["model"], lay["data"]
+    o_type, o_size = om["geom_type"], om["geom_size"]
+    o_xpos, o_xmat = od["geom_xpos"], od["geom_xmat"]
+    reg_addr, reg_rows = int(_REGISTRY.ctypes.data), _REGISTRY.shape[0]
+    table, ntypes = mjstruct.collision_table()
+    fallback_ee = _NARROW_FN(table[_ELLIPSOID * ntypes + _ELLIPSOID])
+    fallback_se = _NARROW_FN(table[_SPHERE * ntypes + _ELLIPSOID])
+
+    @numba.cfunc(
+        types.intc(types.voidptr, types.voidptr, types.voidptr, types.intc, types.intc, types.float64),
+        error_model="numpy",
+    )
+    def narrowphase(m, d, con, g1, g2, margin):
+        ma, da = mjstruct.address(m), mjstruct.address(d)
+        n = max(g1, g2) + 1
+        gtype = carray(mjstruct.i32_pointer(_word(ma + o_type)), (n,))
+        size = carray(mjstruct.f64_pointer(_word(ma + o_size)), (3 * n,))
+        xpos = carray(mjstruct.f64_pointer(_word(da + o_xpos)), (3 * n,))
+        xmat = carray(mjstruct.f64_pointer(_word(da + o_xmat)), (9 * n,))
+        reg = carray(mjstruct.i64_pointer(reg_addr), (reg_rows, 5))
+        slot = _slot(reg, da)
+        counters = reg[slot, 1] if slot else 0
+        if counters:
+            mjstruct.atomic_add(counters, 1)
+        grow = 0.5 * max(margin, 0.0)
+        t1, t2 = gtype[g1], gtype[g2]
+        if separated_by_axes(_ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)):
+            if counters:
+                mjstruct.atomic_add(counters + 8, 1)
+            return 0
+        status, dist, normal, pos, _ = signed_distance(
+            _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
+        )
+        if status != CONVERGED:
+            if counters:
+                mjstruct.atomic_add(counters + 32, 1)
+            if t1 == _SPHERE:
+                return fallback_se(m, d, con, g1, g2, margin)
+            return fallback_ee(m, d, con, g1, g2, margin)
+        if dist >= margin:
+            return 0
+        c = carray(mjstruct.f64_pointer(mjstruct.address(con)), (10,))  # mjPreContact
+        c[0] = dist
+        c[1], c[2], c[3] = pos
+        c[4], c[5], c[6] = normal
+        c[7], c[8], c[9] = 0.0, 0.0, 0.0
+        if counters:
+            mjstruct.atomic_add(counters + 16, 1)
+        return 1
+
+    return narrowphase
+
+
+def narrowphase_function():
+    """The compiled narrow-phase function (compiled on first use, ~2 s)."""
+    if _state["narrow"] is None:
+        _state["narrow"] = _compile_narrowphase()
+    return _state["narrow"]
 
 
 def ellipsoid_pair_possible(model):
@@ -157,6 +246,55 @@ def _check(model, data):
         )
 
 
+_MODE_CODE = {"filter": _FILTER, "record": _RECORD, "narrowphase": _NARROW}
+
+
+def _write_registry():
+    """Rewrite the registry rows from the attachment list (under _lock)."""
+    attached = _state["attached"]
+    for row, a in enumerate(attached, start=1):
+        _REGISTRY[row] = (
+            a.data._address, a._counters.ctypes.data, _MODE_CODE[a.mode],
+            a._pairs.ctypes.data, len(a._pairs) if a.mode == "record" else 0,
+        )  # fmt: skip
+    _REGISTRY[0, 0] = len(attached)
+
+
+def _uses_filter(attached):
+    return any(a.mode in ("filter", "record") for a in attached)
+
+
+def _install(attached_before, attachment):
+    """Install what `attachment` needs and no attachment before it installed (under _lock)."""
+    if attachment.mode in ("filter", "record") and not _uses_filter(attached_before):
+        current = mujoco.get_mjcb_contactfilter()
+        if current is not None:
+            raise ValueError(
+                f"a contact filter callback is already installed ({current!r}); ellipsim's filter would replace it"
+            )
+        mujoco.set_mjcb_contactfilter(callback().ctypes)
+        _state["previous"], _state["filter_installed"] = current, True
+    if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
+        fn = narrowphase_function()
+        table, ntypes = mjstruct.collision_table()
+        entries = (_ELLIPSOID * ntypes + _ELLIPSOID, _SPHERE * ntypes + _ELLIPSOID)
+        _state["table"] = {k: table[k] for k in entries}
+        for k in entries:
+            table[k] = fn.address
+
+
+def _uninstall(attached_after):
+    """Remove what no remaining attachment needs (under _lock)."""
+    if _state["filter_installed"] and not _uses_filter(attached_after):
+        mujoco.set_mjcb_contactfilter(_state["previous"])
+        _state["previous"], _state["filter_installed"] = None, False
+    if _state["table"] and not any(a.mode == "narrowphase" for a in attached_after):
+        table, _ = mjstruct.collision_table()
+        for k, original in _state["table"].items():
+            table[k] = original
+        _state["table"] = None
+
+
 class Attachment:
     """ellipsim attached to one (model, data) while the `with` block runs; see attach()."""
 
@@ -165,40 +303,31 @@ class Attachment:
         self.installed = False
         self._counters = np.zeros(_NCOUNTERS, dtype=np.int64)
         self._pairs = np.zeros((max(capacity, 1), 2), dtype=np.int32)
-        self._record = capacity > 0
 
     @property
     def counters(self):
-        """Candidate ellipsoid pairs this data's steps sent to the filter: seen = discarded + passed."""
-        seen, discarded, passed, _ = (int(x) for x in self._counters)
-        return {"seen": seen, "discarded": discarded, "passed": passed}
+        """Per-data counts of the ellipsoid pairs ellipsim handled while attached.
+
+        filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (certified,
+        no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured apart beyond the margin.
+        """
+        c = [int(x) for x in self._counters]
+        if self.mode == "narrowphase":
+            return {"calls": c[0], "separated": c[1], "contacts": c[2], "fallbacks": c[4]}
+        return {"seen": c[0], "discarded": c[1], "passed": c[2]}
 
     def __enter__(self):
-        if not (self._record or ellipsoid_pair_possible(self.model)):
-            return self  # skip what the scene does not need: no callback at all
+        if self.mode != "record" and not ellipsoid_pair_possible(self.model):
+            return self  # skip what the scene does not need: nothing is installed
         with _lock:
             attached = _state["attached"]
             if any(a.data is self.data for a in attached):
                 raise ValueError("data is already attached to ellipsim; leave the other `with` block first")
             if len(attached) >= MAX_ATTACHED:
                 raise ValueError(f"at most {MAX_ATTACHED} datas can be attached at once")
-            if not attached:
-                current = mujoco.get_mjcb_contactfilter()
-                if current is not None:
-                    raise ValueError(
-                        f"a contact filter callback is already installed ({current!r}); "
-                        "ellipsim's filter would replace it"
-                    )
-                cb = callback()
-                mujoco.set_mjcb_contactfilter(cb.ctypes)
-                _state["previous"] = current
-            row = len(attached) + 1
-            _REGISTRY[row] = (
-                self.data._address, self._counters.ctypes.data, _RECORD if self._record else _FILTER,
-                self._pairs.ctypes.data, len(self._pairs) if self._record else 0,
-            )  # fmt: skip
-            _REGISTRY[0, 0] = row
+            _install(attached, self)
             attached.append(self)
+            _write_registry()
             self.installed = True
         return self
 
@@ -208,15 +337,8 @@ class Attachment:
         with _lock:
             attached = _state["attached"]
             attached.remove(self)
-            for row, a in enumerate(attached, start=1):  # compact the registry
-                _REGISTRY[row] = (
-                    a.data._address, a._counters.ctypes.data, _RECORD if a._record else _FILTER,
-                    a._pairs.ctypes.data, len(a._pairs) if a._record else 0,
-                )  # fmt: skip
-            _REGISTRY[0, 0] = len(attached)
-            if not attached:
-                mujoco.set_mjcb_contactfilter(_state["previous"])
-                _state["previous"] = None
+            _write_registry()
+            _uninstall(attached)
             self.installed = False
         return False
 
@@ -224,8 +346,9 @@ class Attachment:
 def attach(model, data, *, mode="filter"):
     """Attach ellipsim to mj_step of (model, data) for the duration of a `with` block.
 
-    mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs.  A model
-    without such pairs installs nothing.  Per-data counters are on the returned object.
+    mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs;
+    mode "narrowphase": ellipsim computes the contacts of those pairs in place of GJK/EPA.
+    A model without such pairs installs nothing.  Per-data counters are on the returned object.
     """
     _check(model, data)
     if mode not in MODES:
@@ -313,7 +436,7 @@ def validate(model, data, nstep, *, progress=None):
         raise ValueError(f"nstep must be a positive integer, got {nstep!r}")
     ell = np.flatnonzero((model.geom_type == _ELLIPSOID) | (model.geom_type == _SPHERE))
     capacity = max(len(ell) * (len(ell) - 1) // 2, 1)
-    att = Attachment(model, data, "validate", capacity=capacity)
+    att = Attachment(model, data, "record", capacity=capacity)
     counts = np.zeros((nstep, 4), dtype=np.int64)
     ncon = np.zeros(nstep, dtype=np.int64)
     disagreements = []

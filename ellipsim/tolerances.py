@@ -1,5 +1,7 @@
 """Every tolerance and threshold of ellipsim, each with where its number comes from."""
 
+import math
+
 #: Unit roundoff of float64 (round to nearest): |fl(x op y) - x op y| <= U |x op y|.
 U = 2.0**-53
 
@@ -78,3 +80,16 @@ FILTER_CCD_FACTOR = 2.0
 
 #: And by this fraction of the pair's largest semi-axis, against rounding in the growth itself.
 FILTER_RELATIVE_SLACK = 1e-12
+
+# --- Narrow phase (ellipsim/narrowphase.py) ------------------------------------------------------
+
+#: Newton on the unit sphere: at most this many steps per run (most pairs need 3-6) ...
+NEWTON_MAX_ITER = 40
+#: ... and converged once a negative definite Newton step is below this many radians: Newton is
+#: quadratic there, so the point it lands on is ~1e-12 rad from the maximiser and sigma (flat there)
+#: is exact to rounding (checked against 40-digit mpmath in tests/test_narrowphase.py).
+NEWTON_STEP_TOL = 1e-5
+
+#: A secondary seed within 30 degrees of the maximum the first run found is skipped: on the random
+#: penetrating pairs of bench/bench_narrowphase.py no second local maximum lay that close to the first.
+SAME_BASIN_COS = math.cos(math.radians(30.0))

@@ -92,16 +92,20 @@ def pw_value(mu, inv, alpha):
 
 @jit
 def contact_scale_pair(A, B):
+    """F is quadratic in the centre offset d, so it is computed for d / max|d_i| and scaled back:
+    offsets of 1e-200 or 1e200 neither underflow nor overflow."""
     (ca, Ra, ra), (cb, Rb, rb) = A, B
-    e, me = offset(ca, Ra, ra, cb)
-    ee = norm2(e)
-    if ee == 0.0:
+    d = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
+    k = max(abs(d[0]), abs(d[1]), abs(d[2]))
+    if k == 0.0:
         return 0.0
+    e, me = offset((0.0, 0.0, 0.0), Ra, ra, (d[0] / k, d[1] / k, d[2] / k))
+    ee = norm2(e)
     W, mW, alpha, _ = shape(Ra, ra, Rb, reciprocal(rb), True)
     v = matvec(W, e)
     inv, _ = invariants(W, mW, e, me, v, v)
     mu = pw_maximize(inv, alpha, initial_mu(ee, inv[3] / alpha, alpha), PW_RTOL)
-    return math.sqrt(pw_value(mu, inv, alpha))
+    return k * math.sqrt(pw_value(mu, inv, alpha))
 
 
 @jit(parallel=True)

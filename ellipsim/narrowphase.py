@@ -30,7 +30,11 @@ from ._jit import jit, prange, stage
 from .frame import load, matvec, norm2, rotate_t
 from .tolerances import NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
 
-CONVERGED, NOT_CONVERGED, ABANDONED = 0, 1, 2
+#: Newton run statuses, and what pair_signed_distance reports: CERTIFIED (a converged local maximum
+#: that is provably global), MULTISTART (the best of converged runs from several seeds, deep
+#: penetrations only), NOT_CONVERGED (a run did not converge: the MuJoCo glue falls back).
+CONVERGED, NOT_CONVERGED, ABANDONED, MULTISTART = 0, 1, 2, 3
+CERTIFIED = CONVERGED
 
 
 @stage
@@ -143,12 +147,15 @@ def newton(n, e, a2, M, scale, target):
                 return n, value, ABANDONED, it + 1
         else:
             top = 0.5 * (h11 + h22) + math.sqrt(0.25 * (h11 - h22) ** 2 + h12 * h12)
+            if gg <= (1e-14 * scale) ** 2 and top <= 1e-10 * scale:
+                return n, value, CONVERGED, it + 1  # a flat maximum (concentric spheres): any n is optimal
             if gg < 1e-4 * top * top:
                 # near a saddle or a minimum: leave along the direction of positive curvature,
                 # 0.3 rad to the side where sigma is larger (gradient steps would stall here)
-                if abs(h12) > 1e-300:
-                    v1, v2 = top - h22, h12
-                else:
+                v1, v2 = top - h22, h12  # eigenvector of top: the larger of its two forms
+                if v1 * v1 + v2 * v2 < h12 * h12 + (top - h11) ** 2:
+                    v1, v2 = h12, top - h11
+                if not v1 * v1 + v2 * v2 > 0.0:  # underflow: h is diagonal to rounding
                     v1, v2 = (1.0, 0.0) if h11 >= h22 else (0.0, 1.0)
                 vs = 0.3 / math.sqrt(v1 * v1 + v2 * v2)
                 v1, v2 = v1 * vs, v2 * vs
@@ -257,13 +264,12 @@ def rolling_radius(r):
 
 
 @jit
-def signed_distance(A, B):
+def pair_signed_distance(A, B):
     """(status, dist, normal (3,), pos (3,), newton steps) of two ellipsoids in world coordinates.
 
     A, B as from frame.load.  dist > 0: distance; < 0: minus the penetration depth.  normal: unit,
     from A to B.  pos: midpoint of the two support points (MuJoCo's contact position).
-    status: CONVERGED, or NOT_CONVERGED when a Newton run did not converge (the result is then the
-    best found, uncertified).
+    status: CERTIFIED, MULTISTART or NOT_CONVERGED (then the result is the best found).
 
     One Newton run from bisector_seed.  Its local maximum is the global one when sigma > 0 (concave
     problem) or when the depth -sigma < rho = rolling_radius(A) + rolling_radius(B): A + (-B) is a
@@ -274,8 +280,9 @@ def signed_distance(A, B):
     e, a2, M, U = a_frame(A, B)
     rb2 = (rb[0] * rb[0], rb[1] * rb[1], rb[2] * rb[2])
     scale = max(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2])
+    rho = rolling_radius(ra) + rolling_radius(rb)
     n, value, status, steps = newton(bisector_seed(e, a2, U, rb2), e, a2, M, scale, -math.inf)
-    if status == CONVERGED and value < -(rolling_radius(ra) + rolling_radius(rb)):
+    if status == CONVERGED and value < -rho:
         # deep: the global maximum may lie elsewhere; try the three best of 15 seeds
         for _, cand in seeds(e, a2, M, U, rb2):
             if cand[0] * n[0] + cand[1] * n[1] + cand[2] * n[2] > SAME_BASIN_COS:
@@ -286,6 +293,8 @@ def signed_distance(A, B):
                 status = st
             elif st == CONVERGED and v > value:
                 n, value = m, v
+        if status == CONVERGED and value < -rho:
+            status = MULTISTART  # no certificate for the best of several local maxima
     # sigma and the support points at n, in A's frame, then world
     a = (a2[0] * n[0], a2[1] * n[1], a2[2] * n[2])
     b = matvec(M, n)
@@ -309,19 +318,20 @@ def signed_distance(A, B):
 def _distances(Ca, Ra, ra, Cb, Rb, rb, dist, normal, pos, status):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
     for i in prange(dist.shape[0]):
-        st, v, nrm, p, _ = signed_distance(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
+        st, v, nrm, p, _ = pair_signed_distance(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
         dist[i], status[i] = v, st
         for k in range(3):
             normal[i, k] = nrm[k]
             pos[i, k] = p[k]
 
 
-def signed_distances(a, b):
-    """Signed distance, normal and contact point for the pairs (a[i], b[i]).
+def signed_distance(a, b):
+    """Signed distance, contact normal and contact point for the pairs (a[i], b[i]).
 
     a, b : Ellipsoids (a batch of length 1 broadcasts)
-    returns : dist (n,) metres (< 0: penetration depth), normal (n, 3) unit from a to b, pos (n, 3)
-        metres (midpoint of the support points), converged (n,) bool
+    returns : dist (n,) metres (> 0 distance, < 0 minus the penetration depth), normal (n, 3) unit,
+        from a to b, pos (n, 3) metres (midpoint of the support points, as MuJoCo reports contacts),
+        status (n,) int8: CERTIFIED, MULTISTART or NOT_CONVERGED (see the module docstring)
     """
     from .classify import check_pair
 
@@ -329,4 +339,4 @@ def signed_distances(a, b):
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     _distances(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, dist, normal, pos, status)
-    return dist, normal, pos, status == CONVERGED
+    return dist, normal, pos, status

@@ -27,6 +27,7 @@ arrays of whatever (model, data) it is given through struct offsets found at run
 and keeps no shared mutable state: counters live in per-data arrays of a registry.
 """
 
+import copy
 import ctypes
 import dataclasses
 import threading
@@ -39,11 +40,20 @@ from numba import carray, types
 from . import mjstruct
 from ._jit import jit
 from .certified import separated_by_axes
-from .narrowphase import CONVERGED, signed_distance
+from .narrowphase import CERTIFIED, NOT_CONVERGED, pair_signed_distance, signed_distance
 from .classify import Relation, classify
 from .contact import contact_scale
 from .ellipsoids import Ellipsoids
-from .tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
+from .tolerances import (
+    ANGLE_TOL,
+    DIST_TOL,
+    FILTER_CCD_FACTOR,
+    FILTER_RELATIVE_SLACK,
+    NEAR_TANGENT,
+    POS_TOL,
+    TIGHT_CCD_ITERATIONS,
+    TIGHT_CCD_TOLERANCE,
+)
 
 MODES = ("filter", "narrowphase")
 _SPHERE, _ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
@@ -196,10 +206,10 @@ def _compile_narrowphase():
             if counters:
                 mjstruct.atomic_add(counters + 8, 1)
             return 0
-        status, dist, normal, pos, _ = signed_distance(
+        status, dist, normal, pos, _ = pair_signed_distance(
             _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
         )
-        if status != CONVERGED:
+        if status == NOT_CONVERGED:
             if counters:
                 mjstruct.atomic_add(counters + 32, 1)
             if t1 == _SPHERE:
@@ -489,3 +499,165 @@ def _bare_overlap(model, data, g1, g2):
     a = _enclosing(model, data, np.array([g1]), zero)
     b = _enclosing(model, data, np.array([g2]), zero)
     return classify(a, b)[0] == Relation.OVERLAPPING
+
+
+# --- narrow-phase comparison ---------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class ContactDifference:
+    """An ellipsoid pair whose contact differs between MuJoCo and ellipsim beyond the bounds."""
+
+    step: int
+    geom1: int
+    geom2: int
+    names: tuple
+    mujoco: tuple  # (dist, normal (3,), pos (3,)) or None: no contact
+    ellipsim: tuple  # likewise
+    ddist: float
+    angle: float  # radians between the normals (nan if one side has no contact)
+    dpos: float
+    sigma_mujoco: float  # sigma(n) at MuJoCo's normal: the signed distance is the maximum of sigma
+    sigma_ellipsim: float  # ... and at ellipsim's
+    certified: bool  # ellipsim's maximum is provably the global one
+    right: str  # "ellipsim", "mujoco" or "undetermined"
+    reason: str
+
+
+@dataclasses.dataclass
+class NarrowphaseComparison:
+    """Contacts of MuJoCo's GJK/EPA and of ellipsim's narrow phase on the same states."""
+
+    steps: int
+    matched: int  # ellipsoid pairs in contact on both sides
+    near_tangent: int  # pairs in contact on one side only, with |dist| < NEAR_TANGENT
+    max_ddist: float  # over matched pairs
+    max_angle: float
+    max_dpos: float
+    differences: list  # ContactDifference beyond DIST_TOL / ANGLE_TOL / POS_TOL, or unmatched
+
+
+def _ellipsoid_contacts(model, data):
+    """{(g1, g2): (dist, normal, pos)} of the ellipsoid and sphere-ellipsoid contacts in data."""
+    out = {}
+    kinds = (_ELLIPSOID, _SPHERE)
+    for c in data.contact[: data.ncon] if data.ncon else []:
+        g1, g2 = int(c.geom[0]), int(c.geom[1])
+        t1, t2 = model.geom_type[g1], model.geom_type[g2]
+        if t1 in kinds and t2 in kinds and _ELLIPSOID in (t1, t2):
+            out[(g1, g2)] = (float(c.dist), c.frame[:3].copy(), c.pos.copy())
+    return out
+
+
+def _sigma(model, data, g1, g2, n):
+    """sigma(n) = n . (c2 - c1) - h1(n) - h2(-n) for the geoms' ellipsoids, n normalised."""
+    n = np.asarray(n, float) / np.linalg.norm(n)
+
+    def h(g, v):
+        r = model.geom_size[g] if model.geom_type[g] == _ELLIPSOID else np.repeat(model.geom_size[g, 0], 3)
+        return float(np.linalg.norm(r * (data.geom_xmat[g].reshape(3, 3).T @ v)))
+
+    return float(n @ (data.geom_xpos[g2] - data.geom_xpos[g1]) - h(g1, n) - h(g2, -n))
+
+
+def compare_narrowphase(model, data, nstep, *, progress=None):
+    """Step plain MuJoCo nstep times; at each state compare MuJoCo's ellipsoid contacts with ellipsim's.
+
+    At every step the same state is collided twice (mj_forward): with MuJoCo's functions and with
+    mode="narrowphase"; then plain mj_step advances.  Pairs in contact on both sides are compared
+    (dist, normal angle, position); a difference beyond the bounds in tolerances.py, or a contact on
+    one side only with |dist| >= NEAR_TANGENT, is reported with the referee: the signed distance is
+    the maximum over n of sigma(n), so sigma at each side's normal shows whose is better, and when
+    ellipsim's maximum is certified global it is the exact answer to rounding.  Deep penetrations that
+    sigma cannot settle are re-collided by MuJoCo at ccd_tolerance TIGHT_CCD_TOLERANCE.
+    """
+    _check(model, data)
+    if not isinstance(nstep, (int, np.integer)) or nstep < 1:
+        raise ValueError(f"nstep must be a positive integer, got {nstep!r}")
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
+    matched = near = 0
+    worst = [0.0, 0.0, 0.0]
+    differences = []
+    tight = copy.copy(model)  # a third opinion for what sigma cannot settle: GJK/EPA run to 1e-11
+    tight.opt.ccd_tolerance, tight.opt.ccd_iterations = TIGHT_CCD_TOLERANCE, TIGHT_CCD_ITERATIONS
+    tight_data = mujoco.MjData(tight)
+    for step in range(nstep):
+        mujoco.mj_getState(model, data, state, spec)
+        mujoco.mj_forward(model, data)
+        theirs = _ellipsoid_contacts(model, data)
+        with Attachment(model, data, "narrowphase"):
+            mujoco.mj_setState(model, data, state, spec)
+            mujoco.mj_forward(model, data)
+            ours = _ellipsoid_contacts(model, data)
+        mujoco.mj_setState(model, data, state, spec)
+        mujoco.mj_forward(model, data)
+        for key in sorted(set(theirs) | set(ours)):
+            mj, el = theirs.get(key), ours.get(key)
+            if mj and el:
+                matched += 1
+                ddist = abs(mj[0] - el[0])
+                angle = float(np.arccos(np.clip(mj[1] @ el[1], -1.0, 1.0)))
+                dpos = float(np.linalg.norm(mj[2] - el[2]))
+                worst = [max(worst[0], ddist), max(worst[1], angle), max(worst[2], dpos)]
+                if ddist <= DIST_TOL and angle <= ANGLE_TOL and dpos <= POS_TOL:
+                    continue
+            elif abs((mj or el)[0]) < NEAR_TANGENT:
+                near += 1
+                continue
+            differences.append(_referee(model, data, step, key, names, mj, el))
+        undetermined = [x for x in differences if x.step == step and x.right == "undetermined"]
+        if undetermined:
+            mujoco.mj_setState(tight, tight_data, state, spec)
+            mujoco.mj_forward(tight, tight_data)
+            third = _ellipsoid_contacts(tight, tight_data)
+            for x in undetermined:
+                t = third.get((x.geom1, x.geom2))
+                if t is not None and x.mujoco and x.ellipsim:
+                    el_err, mj_err = abs(t[0] - x.ellipsim[0]), abs(t[0] - x.mujoco[0])
+                    x.right = "ellipsim" if el_err < mj_err else "mujoco"
+                    x.reason += (
+                        f"; MuJoCo at ccd_tolerance {TIGHT_CCD_TOLERANCE:g} gives {t[0]:.12g}: "
+                        f"{el_err:.2g} from ellipsim, {mj_err:.2g} from MuJoCo's default"
+                    )
+        mujoco.mj_step(model, data)
+        if progress is not None:
+            progress(step + 1, nstep)
+    return NarrowphaseComparison(nstep, matched, near, *worst, differences)
+
+
+def _referee(model, data, step, key, names, mj, el):
+    g1, g2 = key
+    zero = np.zeros(1)
+    a = _enclosing(model, data, np.array([g1]), zero)
+    b = _enclosing(model, data, np.array([g2]), zero)
+    dist, normal, pos, status = signed_distance(a, b)
+    certified = bool(status[0] == CERTIFIED)
+    s_el = _sigma(model, data, g1, g2, normal[0])
+    s_mj = _sigma(model, data, g1, g2, mj[1]) if mj else float("nan")
+    ddist = abs(mj[0] - el[0]) if mj and el else float("nan")
+    angle = float(np.arccos(np.clip(mj[1] @ el[1], -1, 1))) if mj and el else float("nan")
+    dpos = float(np.linalg.norm(mj[2] - el[2])) if mj and el else float("nan")
+    eps = 1e-12 * float(np.abs(model.geom_size[[g1, g2]]).max())
+    if mj and s_mj > s_el + eps:
+        right, reason = "mujoco", f"MuJoCo's normal reaches sigma {s_mj:.9g} > ellipsim's {s_el:.9g}"
+    elif certified:
+        right = "ellipsim"
+        if mj and el:
+            reason = (
+                f"ellipsim's maximum is certified: signed distance {s_el:.9g}; MuJoCo reports {mj[0]:.9g} "
+                f"and its normal reaches only sigma {s_mj:.9g} (ccd_tolerance {model.opt.ccd_tolerance:g})"
+            )
+        else:
+            side = "MuJoCo only" if mj else "ellipsim only"
+            reason = f"contact on {side}; certified signed distance {s_el:.9g}"
+    elif mj and mj[0] < s_el - eps:
+        right = "ellipsim"
+        reason = (
+            f"deep penetration (multi-start, not certified global): MuJoCo's depth {-mj[0]:.9g} exceeds the "
+            f"depth {-s_el:.9g} along ellipsim's normal, so it is too deep by at least the difference"
+        )
+    else:
+        right, reason = "undetermined", f"deep penetration, best of a multi-start: sigma {s_el:.9g}"
+    return ContactDifference(step, g1, g2, (names[g1], names[g2]), mj, el, ddist, angle, dpos, s_mj, s_el, certified, right, reason)

@@ -93,3 +93,17 @@ NEWTON_STEP_TOL = 1e-5
 #: A secondary seed within 30 degrees of the maximum the first run found is skipped: on the random
 #: penetrating pairs of bench/bench_narrowphase.py no second local maximum lay that close to the first.
 SAME_BASIN_COS = math.cos(math.radians(30.0))
+
+# --- Narrow-phase validation against MuJoCo (plugin.compare_narrowphase) --------------------------
+# The acceptance bounds of issue 4: MuJoCo's GJK/EPA works to ccd_tolerance (1e-6 by default), so
+# contacts within 2e-6 of touching may exist on one side only, and per contact the two may differ
+# by these much before a difference is reported.
+NEAR_TANGENT = 2e-6  # metres: |dist| below this, a contact on one side only is not a difference
+DIST_TOL = 2e-6  # metres
+ANGLE_TOL = 1e-3  # radians between the normals
+POS_TOL = 1e-3  # metres between the contact points
+
+#: The third opinion of compare_narrowphase for deep penetrations: MuJoCo's GJK/EPA run to this
+#: tolerance (its default is 1e-6; at 1e-11 its contacts agree with ellipsim's to ~1e-11).
+TIGHT_CCD_TOLERANCE = 1e-11
+TIGHT_CCD_ITERATIONS = 1000

@@ -81,6 +81,14 @@ def test_contact_scale_agrees_with_exact_classify(pair):
         assert relation == 2
 
 
+def test_contact_scale_at_extreme_offsets():
+    """Linear in the centre offset down to 1e-200 and up to 1e200 (no underflow of |e|^2)."""
+    a = S.one([0, 0, 0], np.diag([1.0, -1.0, -1.0]), [1, 2, 3])
+    for k in (1e-200, 1e-100, 1.0, 1e100, 1e200):
+        b = S.one([0, 0, 2.0 * k], np.eye(3), [1, 1, 1])
+        assert contact_scale(a, b)[0] == pytest.approx(2.0 * k / 4.0, rel=1e-14)
+
+
 def test_contact_scale_of_spheres_and_concentric_pairs():
     I = np.eye(3)
     a = S.one([0, 0, 0], I, [1, 1, 1])

@@ -242,8 +242,8 @@ def main(argv=None):
     tested, multistart, misses, worst = global_optimum(args.pairs)
     lines += [
         "",
-        "Angles beyond 1e-3 rad at ccd_tolerance 1e-10 are contacts within 2e-6 of touching, where EPA returns "
-        "an arbitrary normal (sigma along it shows the depth it implies).",
+        "At the default tolerance the largest angles (up to radians) are contacts within ~1e-7 of touching, "
+        "where EPA returns an arbitrary normal: sigma along it implies a depth of centimetres.",
         "",
         "## Global optimum on deep crossings",
         "",

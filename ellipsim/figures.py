@@ -29,7 +29,7 @@ LIMBS = (
     "thigh_l", "shin_l", "foot_l", "thigh_r", "shin_r", "foot_r",
 )  # fmt: skip
 
-LAYOUTS = ("grid", "line", "pile")
+LAYOUTS = ("grid", "line", "facing", "pile")
 
 #: Attributes that hold a name or refer to a named element, in bodies and in the top-level
 #: sections listed in _FIGURE_SECTIONS (MJCF reference: actuator, sensor, contact, equality, tendon).
@@ -182,6 +182,22 @@ def _layout_poses(n, layout, spacing, seed, drop_height):
     lo, hi = _placed_extents(root_quat)
     lo, hi = lo.min(axis=0), hi.max(axis=0)  # box of the standing figure about its root
     stand_z = drop_height - lo[2]  # root height that puts the lowest point drop_height above z = 0
+    if layout == "facing":
+        # two rows along y facing each other across x: figure 2k faces +x with its root at
+        # x = -spacing/2, figure 2k+1 faces -x at x = +spacing/2; pairs a figure's width apart along y
+        front, width = max(hi[0], -lo[0]), hi[1] - lo[1]
+        if spacing <= 2 * front:
+            raise ValueError(
+                f"spacing must exceed {2 * front:.3f} m (twice the figure's reach in front of its root) "
+                f"for layout 'facing', got {spacing!r}"
+            )
+        turn = np.array([0.0, 0.0, 0.0, 1.0])  # 180 degrees about z
+        pos, quats = np.empty((n, 3)), np.empty((n, 4))
+        for i in range(n):
+            y = (i // 2 - (math.ceil(n / 2) - 1) / 2) * (width + 0.1)
+            pos[i] = (spacing / 2 if i % 2 else -spacing / 2, y, stand_z)
+            quats[i] = _quat_mul(turn, root_quat) if i % 2 else root_quat
+        return pos, quats
     if layout in ("grid", "line"):
         depth, width = hi[0] - lo[0], hi[1] - lo[1]
         need = max(depth, width) if layout == "grid" else width
@@ -221,7 +237,7 @@ def _layout_poses(n, layout, spacing, seed, drop_height):
     return pos, quats
 
 
-def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0, floor=True):
+def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0, floor=True, fixed_roots=False):
     """MJCF text of one model with `n_figures` copies of the figure, names prefixed "f{i}_".
 
     layout : "grid" standing on a square grid `spacing` metres apart (x rows, y columns);
@@ -232,6 +248,10 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
     drop_height : clearance in metres between the floor (z = 0) and the lowest point of the
         standing figures ("grid", "line") or of the lowest figure ("pile"); 0 = touching.
     floor : keep the floor plane of figure.xml (the light is always kept).
+    fixed_roots : weld each figure's root (pelvis) to the world instead of a free joint; MuJoCo does
+        not filter collisions between a world-welded body and its children, so the pelvis is
+        excluded from colliding with the bodies attached to it.
+    layout "facing": two rows facing each other across `spacing` metres (figures 0, 2, ... face +x).
     Figures start with no two of their limbs overlapping.
     """
     n = _check_count("n_figures", n_figures)
@@ -242,6 +262,8 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
     drop_height = _check_real("drop_height", drop_height, positive=False)
     if not isinstance(floor, bool):
         raise ValueError(f"floor must be True or False, got {floor!r}")
+    if not isinstance(fixed_roots, bool):
+        raise ValueError(f"fixed_roots must be True or False, got {fixed_roots!r}")
     pos, quats = _layout_poses(n, layout, spacing, seed, drop_height)
 
     root = ET.fromstring(figure_xml())
@@ -266,6 +288,13 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
             body.attrib.pop(attr, None)
         body.set("pos", _fmt(pos[i]))
         body.set("quat", _fmt(quats[i]))
+        if fixed_roots:
+            body.remove(body.find("freejoint"))
+            contact = root.find("contact")
+            if contact is None:
+                contact = ET.SubElement(root, "contact")
+            for child in body.findall("body"):
+                ET.SubElement(contact, "exclude", body1=body.get("name"), body2=child.get("name"))
         world.append(body)
         for tag, items in sections:
             for el in items:

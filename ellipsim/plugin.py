@@ -430,7 +430,7 @@ def candidate_pairs(model, data):
         return np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
 
 
-def validate(model, data, nstep, *, progress=None):
+def validate(model, data, nstep, *, control=None, advance=True, progress=None):
     """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
 
     At each step, before mj_step, mj_forward runs collision; every candidate ellipsoid pair MuJoCo's
@@ -439,6 +439,8 @@ def validate(model, data, nstep, *, progress=None):
     the ellipsoids grown by margin/2 each (enclosing the margin bodies; exact when margin = 0)
     overlap.  Disagreements carry contact_scale, mj_geomDistance and who is right by the exact test.
 
+    control : optional callable(model, data, step) run before each mj_forward (set ctrl, or a pose)
+    advance : mj_step after each comparison (False for kinematic replays that set every pose)
     progress : optional callable(step, nstep), called after each step
     """
     _check(model, data)
@@ -454,6 +456,8 @@ def validate(model, data, nstep, *, progress=None):
     with att:
         for step in range(nstep):
             att._counters[3] = 0
+            if control is not None:
+                control(model, data, step)
             mujoco.mj_forward(model, data)
             k = int(att._counters[3])
             pairs = np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
@@ -474,7 +478,8 @@ def validate(model, data, nstep, *, progress=None):
                     counts[step, (0 if el else 2) if mj else (3 if el else 1)] += 1
                     if mj != el:
                         disagreements.append(_explain(model, data, step, int(g1), int(g2), names, mj, dist, relation[i], margin[i], a[i], b[i]))
-            mujoco.mj_step(model, data)
+            if advance:
+                mujoco.mj_step(model, data)
             if progress is not None:
                 progress(step + 1, nstep)
     return Validation(nstep, counts, ncon, disagreements)

@@ -1,0 +1,1 @@
+"""Scenario files shipped with ellipsim (installed as the ellipsim.scenarios package)."""

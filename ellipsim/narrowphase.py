@@ -28,7 +28,7 @@ import numpy as np
 
 from ._jit import jit, prange, stage
 from .frame import load, matvec, norm2, rotate_t
-from .tolerances import NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
+from .tolerances import FIRST_RUN_ITER, NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
 
 #: Newton run statuses, and what pair_signed_distance reports: CERTIFIED (a converged local maximum
 #: that is provably global), MULTISTART (the best of converged runs from several seeds, deep
@@ -99,7 +99,7 @@ def _tangent_basis(n):
 
 
 @stage
-def newton(n, e, a2, M, scale, target):
+def newton(n, e, a2, M, scale, target, max_iter):
     """Maximise sigma on the unit sphere from the unit vector n: (n*, sigma before the last step,
     status, steps); the last step is below NEWTON_STEP_TOL, so sigma(n*) differs by O(tol^2).
 
@@ -113,7 +113,7 @@ def newton(n, e, a2, M, scale, target):
     sigma + |g|^2 / (2 lam); a run whose bound stays below target is ABANDONED (-inf for none).
     """
     value = 0.0
-    for it in range(NEWTON_MAX_ITER):
+    for it in range(max_iter):
         a = (a2[0] * n[0], a2[1] * n[1], a2[2] * n[2])
         b = matvec(M, n)
         ha = math.sqrt(a[0] * n[0] + a[1] * n[1] + a[2] * n[2])
@@ -184,7 +184,7 @@ def newton(n, e, a2, M, scale, target):
         n = (m[0] * s, m[1] * s, m[2] * s)
         if step2 <= NEWTON_STEP_TOL * NEWTON_STEP_TOL and shift == 0.0:
             return n, value, CONVERGED, it + 1
-    return n, value, NOT_CONVERGED, NEWTON_MAX_ITER
+    return n, value, NOT_CONVERGED, max_iter
 
 
 @stage
@@ -264,7 +264,7 @@ def rolling_radius(r):
 
 
 @jit
-def pair_signed_distance(A, B):
+def pair_signed_distance(A, B, max_iter=NEWTON_MAX_ITER):
     """(status, dist, normal (3,), pos (3,), newton steps) of two ellipsoids in world coordinates.
 
     A, B as from frame.load.  dist > 0: distance; < 0: minus the penetration depth.  normal: unit,
@@ -281,19 +281,28 @@ def pair_signed_distance(A, B):
     rb2 = (rb[0] * rb[0], rb[1] * rb[1], rb[2] * rb[2])
     scale = max(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2])
     rho = rolling_radius(ra) + rolling_radius(rb)
-    n, value, status, steps = newton(bisector_seed(e, a2, U, rb2), e, a2, M, scale, -math.inf)
-    if status == CONVERGED and value < -rho:
-        # deep: the global maximum may lie elsewhere; try the three best of 15 seeds
+    n, value, status, steps = newton(bisector_seed(e, a2, U, rb2), e, a2, M, scale, -math.inf, min(max_iter, FIRST_RUN_ITER))
+    if status != CONVERGED or value < -rho:
+        # Deep (the global maximum may lie elsewhere), or the first run stalled (a needle seen along its
+        # length puts sigma on a sharp ridge): climb from the three best of 15 seeds.
+        found = status == CONVERGED
+        stalled = False
+        if not found:
+            value = -math.inf
         for _, cand in seeds(e, a2, M, U, rb2):
-            if cand[0] * n[0] + cand[1] * n[1] + cand[2] * n[2] > SAME_BASIN_COS:
+            if found and cand[0] * n[0] + cand[1] * n[1] + cand[2] * n[2] > SAME_BASIN_COS:
                 continue  # starts next to a maximum already found: it would climb into it again
-            m, v, st, k = newton(cand, e, a2, M, scale, value + 1e-12 * scale)
+            m, v, st, k = newton(cand, e, a2, M, scale, value + 1e-12 * scale if found else -math.inf, max_iter)
             steps += k
             if st == NOT_CONVERGED:
-                status = st
+                stalled = True
             elif st == CONVERGED and v > value:
-                n, value = m, v
-        if status == CONVERGED and value < -rho:
+                n, value, found = m, v, True
+        if found and (value > 0.0 or value > -rho):
+            status = CERTIFIED  # a converged local maximum inside the certificate is the global one
+        elif not found or stalled:
+            status = NOT_CONVERGED
+        else:
             status = MULTISTART  # no certificate for the best of several local maxima
     # sigma and the support points at n, in A's frame, then world
     a = (a2[0] * n[0], a2[1] * n[1], a2[2] * n[2])
@@ -315,20 +324,22 @@ def pair_signed_distance(A, B):
 
 
 @jit(parallel=True)
-def _distances(Ca, Ra, ra, Cb, Rb, rb, dist, normal, pos, status):
+def _distances(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
     for i in prange(dist.shape[0]):
-        st, v, nrm, p, _ = pair_signed_distance(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
+        st, v, nrm, p, _ = pair_signed_distance(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), max_iter)
         dist[i], status[i] = v, st
         for k in range(3):
             normal[i, k] = nrm[k]
             pos[i, k] = p[k]
 
 
-def signed_distance(a, b):
+def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER):
     """Signed distance, contact normal and contact point for the pairs (a[i], b[i]).
 
     a, b : Ellipsoids (a batch of length 1 broadcasts)
+    max_iter : Newton steps allowed per run (the default converges; smaller caps trade accuracy
+        for time, see `ellipsim bench`)
     returns : dist (n,) metres (> 0 distance, < 0 minus the penetration depth), normal (n, 3) unit,
         from a to b, pos (n, 3) metres (midpoint of the support points, as MuJoCo reports contacts),
         status (n,) int8: CERTIFIED, MULTISTART or NOT_CONVERGED (see the module docstring)
@@ -336,7 +347,9 @@ def signed_distance(a, b):
     from .classify import check_pair
 
     n = check_pair(a, b)
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
-    _distances(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, dist, normal, pos, status)
+    _distances(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, int(max_iter), dist, normal, pos, status)
     return dist, normal, pos, status

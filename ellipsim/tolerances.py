@@ -90,6 +90,10 @@ NEWTON_MAX_ITER = 40
 #: is exact to rounding (checked against 40-digit mpmath in tests/test_narrowphase.py).
 NEWTON_STEP_TOL = 1e-5
 
+#: The first Newton run (from the bisector seed) gets this many steps before the multi-start takes
+#: over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
+FIRST_RUN_ITER = 10
+
 #: A secondary seed within 30 degrees of the maximum the first run found is skipped: on the random
 #: penetrating pairs of bench/bench_narrowphase.py no second local maximum lay that close to the first.
 SAME_BASIN_COS = math.cos(math.radians(30.0))

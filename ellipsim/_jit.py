@@ -4,7 +4,15 @@ fastmath stays off: the certified kernels rely on IEEE round-to-nearest for ever
 (no reassociation, no contraction that the error analysis did not count).
 """
 
+import os
+
 import numba
+
+# numba's OpenMP threading layer cost ~8 ms per parallel call on the 2-core VM ellipsim is
+# benchmarked on (a parallel classify of 1e5 pairs was no faster than one thread); numba's own
+# workqueue layer costs ~0.06 ms.  A layer the user chose (NUMBA_THREADING_LAYER) is respected.
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    numba.config.THREADING_LAYER = "workqueue"
 
 _OPTIONS = dict(cache=True, error_model="numpy", fastmath=False, nogil=True)
 

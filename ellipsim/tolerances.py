@@ -67,9 +67,10 @@ PW_TRY_SEPARATED = 1e-12
 
 # --- Dispatch -------------------------------------------------------------------------------
 
-#: Batches at least this long run the parallel kernels (measured in bench/bench_classify.py:
-#: below ~2e4 pairs thread start-up costs more than it saves on 2 cores).
-PARALLEL_MIN_PAIRS = 20_000
+#: Batches at least this long run the parallel kernels: on the 2-core VM, with numba's workqueue
+#: layer, one thread was faster up to ~3e4 generic pairs per call and two only pulled ahead from
+#: ~1e5 (ellipsim bench, "classify: batch size").
+PARALLEL_MIN_PAIRS = 100_000
 
 # --- MuJoCo contact filter (ellipsim/plugin.py) ----------------------------------------------
 

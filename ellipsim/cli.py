@@ -3,6 +3,7 @@
     ellipsim run SCENARIO [--steps N] [--mode builtin|filter|narrowphase] [--record FILE.rrd]
     ellipsim compare SCENARIO [--steps N] [--json FILE] [--plot FILE.png]
     ellipsim view FILE.rrd
+    ellipsim bench [--quick] [--out DIR]
     ellipsim list
     ellipsim demo [--pairs N] [--seed S]
 
@@ -289,6 +290,25 @@ def _plot_compare(path, s, builtin, ours, disagree, near):
     plt.close(fig)
 
 
+def bench(args):
+    """The benchmark suite (ellipsim/bench.py): writes DIR/report.md and PNG plots."""
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise UserError(f"--out {args.out!r} exists and is not a directory")
+    if not os.path.isdir(os.path.dirname(os.path.abspath(args.out))):
+        raise UserError(f"--out: parent directory of {args.out!r} does not exist")
+    try:
+        from ellipsim import bench as suite
+
+        suite._plt()
+        __import__("mpmath")
+    except ImportError:
+        raise UserError("ellipsim bench needs matplotlib and mpmath: pip install 'ellipsim[bench]'") from None
+    print(f"ellipsim bench{' --quick' if args.quick else ''}: writing {args.out}/report.md and plots", flush=True)
+    path, seconds = suite.run(args.out, quick=args.quick)
+    print(f"  done in {seconds:.0f} s: {path}")
+    return 0
+
+
 def view(args):
     from ellipsim import record
 
@@ -327,6 +347,11 @@ def main(argv=None):
     p = sub.add_parser("view", help="open a recording in the rerun viewer (or say how)")
     p.add_argument("file", metavar="FILE.rrd")
     p.set_defaults(run=view)
+
+    p = sub.add_parser("bench", help="time against error, numerical stress, scaling, thesis Table 1: report + plots")
+    p.add_argument("--quick", action="store_true", help="smaller sets: under 5 minutes on 2 cores")
+    p.add_argument("--out", default="bench-report", metavar="DIR", help="output directory (default bench-report)")
+    p.set_defaults(run=bench)
 
     p = sub.add_parser("list", help="list the scenarios shipped with ellipsim")
     p.set_defaults(run=list_scenarios)

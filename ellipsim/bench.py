@@ -1,0 +1,568 @@
+"""`ellipsim bench`: run time against error for every method, numerical stress, scaling, thesis Table 1.
+
+    ellipsim bench [--quick] [--out DIR]
+
+Writes DIR/report.md and PNG plots (matplotlib, Agg; the 'bench' extra).  Every number compared
+in a table is measured in the same run.  Sections:
+
+1. Time vs error: every classify method and set-up (exact; sturm and descartes x cofactor and
+   rearranged x float64 and float32), contact_scale, the narrow phase at several Newton caps,
+   MuJoCo's mj_geomDistance at ccd_tolerance 1e-2 ... 1e-10 and a few ccd_iterations, and coal's
+   GJK/EPA when the 'peers' extra is installed.  Error: misclassification rate against the exact
+   relation, and distance error against a 40-digit reference (mpmath).
+2. Numerical stress: samples.STRESS categories, misclassifications per method and for MuJoCo.
+3. Scaling: ns/pair against batch size; mj_step against the number of figures for builtin,
+   filter and narrowphase; the kinematic replay against the number of figures.
+4. The thesis's Table 1 re-run: 5000 colliding and 5000 separated generic pairs, the four
+   set-up x root-test combinations, next to the thesis's SGI Onyx (195 MHz R10000) timings.
+"""
+
+import ctypes
+import datetime
+import math
+import os
+import platform
+import sys
+import time
+
+import mujoco
+import numba
+import numpy as np
+
+from . import figures, mjstruct, plugin, scenario
+from ._jit import jit
+from .certified import UNDECIDED, certify
+from .classify import _classify_float_serial, classify
+from .contact import contact_scale
+from .ellipsoids import Ellipsoids
+from .frame import load
+from .narrowphase import pair_signed_distance
+from .samples import STRESS, generic_pairs, near_contact_pairs, stress_pairs
+
+SIZES = {
+    "quick": dict(generic=100_000, near=20_000, mujoco=4_000, stress=600, reference=40, batch_max=100_000,
+                  figures=(1, 4, 16), replay_figures=(1, 4, 16), rounds=5, steps=100, coal=1_000),
+    "full": dict(generic=1_000_000, near=100_000, mujoco=20_000, stress=5_000, reference=200, batch_max=1_000_000,
+                 figures=(1, 4, 16, 64), replay_figures=(1, 4, 16, 64), rounds=15, steps=200, coal=5_000),
+}  # fmt: skip
+FLOAT_METHODS = [(m, s, d) for m in ("descartes", "sturm") for s in ("rearranged", "cofactor") for d in ("float64", "float32")]
+NEWTON_CAPS = (1, 2, 3, 5, 40)
+MUJOCO_SETTINGS = [(1e-2, 35), (1e-4, 35), (1e-6, 35), (1e-8, 35), (1e-10, 35), (1e-6, 5), (1e-6, 10), (1e-10, 1000)]
+# The thesis's Table 1 (5.1.2): average microseconds per pair on an SGI Onyx, 195 MHz R10000.
+THESIS_TABLE1 = {
+    ("cofactor", "sturm"): (23.3385, 22.3892), ("cofactor", "descartes"): (19.7987, 20.9842),
+    ("rearranged", "sturm"): (22.1682, 20.0594), ("rearranged", "descartes"): (18.6665, 16.557),
+}  # (without collision, with collision)  # fmt: skip
+
+
+def _plt():
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise ImportError("ellipsim bench needs matplotlib and mpmath: pip install 'ellipsim[bench]'") from None
+    return plt
+
+
+def _say(text):
+    print(text, file=sys.stderr, flush=True)
+
+
+def _median_time(fn, rounds):
+    times = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+# --- the methods on a batch of pairs -------------------------------------------------------------
+
+
+def _float_runner(a, b, method, setup, dtype):
+    arrays = [np.ascontiguousarray(x, dtype=dtype) for x in (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)]
+    out = np.empty(max(len(a), len(b)), dtype=np.int8)
+
+    def run():
+        _classify_float_serial(*arrays, setup == "cofactor", method == "sturm", out)
+        return out
+
+    return run
+
+
+@jit
+def _distances_serial(Ca, Ra, ra, Cb, Rb, rb, max_iter, out):
+    for i in range(out.shape[0]):
+        out[i] = pair_signed_distance(load(Ca, Ra, ra, i), load(Cb, Rb, rb, i), max_iter)[1]
+
+
+def _narrow_runner(a, b, cap):
+    out = np.empty(len(a))
+
+    def run():
+        _distances_serial(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, cap, out)
+        return out
+
+    return run
+
+
+def _verdict(dist):
+    """Relation codes from signed distances: > 0 separated, == 0 touching, < 0 overlapping."""
+    return np.where(dist > 0, 0, np.where(dist < 0, 2, 1)).astype(np.int8)
+
+
+class MujocoPairs:
+    """MuJoCo's mj_geomDistance on given pairs: static world geoms whose poses are then set to the
+    pairs' exact float64 values, called through ctypes in a compiled loop."""
+
+    _FN = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_int64)
+
+    def __init__(self, a, b):
+        n = len(a)
+        geoms = []
+        for e in (a, b):
+            for c, r in zip(e.centers.tolist(), e.radii.tolist()):
+                pos, size = " ".join(map(repr, c)), " ".join(map(repr, r))
+                geoms.append(f'<geom type="ellipsoid" contype="0" conaffinity="0" pos="{pos}" size="{size}"/>')
+        self.model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{''.join(geoms)}</worldbody></mujoco>")
+        self.data = mujoco.MjData(self.model)
+        mujoco.mj_forward(self.model, self.data)
+        self.data.geom_xpos[:n], self.data.geom_xpos[n:] = a.centers, b.centers
+        self.data.geom_xmat[:n], self.data.geom_xmat[n:] = a.rotations.reshape(n, 9), b.rotations.reshape(n, 9)
+        self.pairs = np.column_stack([np.arange(n), np.arange(n) + n]).astype(np.int64)
+        self.distmax = 10.0 * float(max(a.radii.max(), b.radii.max()) + np.abs(b.centers - a.centers).max())
+        fn = self._FN(ctypes.cast(mjstruct.mujoco_library().mj_geomDistance, ctypes.c_void_p).value)
+
+        @numba.njit
+        def loop(m, d, pairs, distmax, out):
+            for k in range(pairs.shape[0]):
+                out[k] = fn(m, d, pairs[k, 0], pairs[k, 1], distmax, 0)
+
+        self._loop = loop
+
+    def run(self, tolerance, iterations):
+        self.model.opt.ccd_tolerance, self.model.opt.ccd_iterations = tolerance, iterations
+        out = np.empty(len(self.pairs))
+        self._loop(self.model._address, self.data._address, self.pairs, self.distmax, out)
+        return out
+
+
+def _coal():
+    try:
+        import coal
+    except ImportError:
+        return None
+    return coal
+
+
+def _coal_distances(coal, a, b):
+    """coal's signed distance (GJK/EPA) through its Python binding, one call per pair."""
+    out = np.empty(len(a))
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    req.enable_signed_distance = True
+    for k in range(len(a)):
+        ea, eb = coal.Ellipsoid(*a.radii[k]), coal.Ellipsoid(*b.radii[k])
+        ta, tb = coal.Transform3s(a.rotations[k], a.centers[k]), coal.Transform3s(b.rotations[k], b.centers[k])
+        res.clear()
+        out[k] = coal.distance(ea, ta, eb, tb, req, res)
+    return out
+
+
+# --- the 40-digit distance reference -----------------------------------------------------------------
+
+
+def reference_distances(a, b, seeds):
+    """Signed distances to ~30 digits: sigma(n) polished by Newton in mpmath from each seed normal
+    (k, 3) per pair (the best local maximum among them is kept)."""
+    import mpmath
+
+    mpmath.mp.dps = 40
+    out = np.empty(len(a))
+    for k in range(len(a)):
+        d = [mpmath.mpf(float(x)) for x in b.centers[k] - a.centers[k]]
+        Ma = mpmath.matrix((a.rotations[k] * a.radii[k] ** 2 @ a.rotations[k].T).tolist())
+        Mb = mpmath.matrix((b.rotations[k] * b.radii[k] ** 2 @ b.rotations[k].T).tolist())
+        out[k] = max(float(_polish(d, Ma, Mb, s[k])) for s in seeds if np.all(np.isfinite(s[k])))
+    return out
+
+
+def _polish(d, Ma, Mb, n0):
+    mp = __import__("mpmath")
+    n0 = mp.matrix([mp.mpf(float(x)) for x in n0])
+    n0 /= mp.norm(n0)
+    t1 = mp.matrix([0, n0[2], -n0[1]]) if abs(n0[0]) < 0.6 else mp.matrix([-n0[2], 0, n0[0]])
+    t1 /= mp.norm(t1)
+    t2 = mp.matrix([n0[1] * t1[2] - n0[2] * t1[1], n0[2] * t1[0] - n0[0] * t1[2], n0[0] * t1[1] - n0[1] * t1[0]])
+
+    def f(u, v):
+        n = n0 + u * t1 + v * t2
+        n /= mp.norm(n)
+        return sum(n[i] * d[i] for i in range(3)) - mp.sqrt((n.T * Ma * n)[0]) - mp.sqrt((n.T * Mb * n)[0])
+
+    u = v = mp.mpf(0)
+    for _ in range(30):
+        gu, gv = mp.diff(lambda x: f(x, v), u), mp.diff(lambda y: f(u, y), v)
+        huu, hvv = mp.diff(lambda x: f(x, v), u, 2), mp.diff(lambda y: f(u, y), v, 2)
+        huv = mp.diff(lambda x: mp.diff(lambda y: f(x, y), v), u)
+        det = huu * hvv - huv**2
+        if det == 0:
+            break
+        du, dv = -(hvv * gu - huv * gv) / det, -(huu * gv - huv * gu) / det
+        u, v = u + du, v + dv
+        if abs(du) + abs(dv) < mp.mpf(10) ** -28:
+            break
+    return f(u, v)
+
+
+# --- 1. time against error ----------------------------------------------------------------------------
+
+
+def pareto(size):
+    """Rows (name, family, ns/pair, misclassification rate, median and max distance error / r_min)."""
+    _say("time vs error: pairs and exact relations ...")
+    a, b = near_contact_pairs(size["near"], seed=11)
+    truth = classify(a, b)
+    n = len(truth)
+    rows = []
+    exact_ns = _median_time(lambda: classify(a, b, parallel=False), size["rounds"]) / n * 1e9
+    rows.append(("exact (certified)", "ellipsim classify", exact_ns, 0.0, None, None))
+    for m, s, d in FLOAT_METHODS:
+        run = _float_runner(a, b, m, s, d)
+        wrong = np.count_nonzero(run() != truth) / n
+        rows.append((f"{m} {s} {d}", "thesis tests", _median_time(run, size["rounds"]) / n * 1e9, wrong, None, None))
+    cs = contact_scale(a, b)
+    cs_ns = _median_time(lambda: contact_scale(a, b), size["rounds"]) / n * 1e9  # parallel kernel
+    rows.append(("contact_scale > 1 (2 threads)", "ellipsim contact_scale", cs_ns, np.count_nonzero(_verdict(cs - 1) != truth) / n, None, None))
+    # distances: a subset with a 40-digit reference
+    m_a, m_b = a[: size["mujoco"]], b[: size["mujoco"]]
+    m_truth = truth[: size["mujoco"]]
+    ref_n = size["reference"]
+    full = _narrow_runner(m_a, m_b, 40)()
+    mj = MujocoPairs(m_a, m_b)
+    tight = mj.run(1e-12, 1000)
+    _say(f"time vs error: 40-digit reference for {ref_n} pairs ...")
+    seeds = [_normals(m_a[:ref_n], m_b[:ref_n])]
+    ref = reference_distances(m_a[:ref_n], m_b[:ref_n], seeds)
+    rmin = np.minimum(m_a.radii[:ref_n].min(1), m_b.radii[:ref_n].min(1))
+    err = lambda dist: np.abs(dist[:ref_n] - ref) / rmin  # noqa: E731
+    for cap in NEWTON_CAPS:
+        run = _narrow_runner(m_a, m_b, cap)
+        dist = run()
+        e = err(dist)
+        rows.append((f"narrow phase, {cap} Newton step{'s' if cap > 1 else ''}", "ellipsim narrow phase",
+                     _median_time(run, size["rounds"]) / len(m_a) * 1e9,
+                     np.count_nonzero(_verdict(dist) != m_truth) / len(m_a), np.median(e), e.max()))  # fmt: skip
+    _say("time vs error: MuJoCo ...")
+    for tol, it in MUJOCO_SETTINGS:
+        dist = mj.run(tol, it)
+        e = err(dist)
+        ns = _median_time(lambda: mj.run(tol, it), max(3, size["rounds"] // 2)) / len(m_a) * 1e9
+        rows.append((f"MuJoCo tol {tol:g}, {it} it", "MuJoCo mj_geomDistance", ns,
+                     np.count_nonzero(_verdict(dist) != m_truth) / len(m_a), np.median(e), e.max()))  # fmt: skip
+    coal = _coal()
+    if coal is not None:
+        _say("time vs error: coal ...")
+        k = size["coal"]
+        t0 = time.perf_counter()
+        dist = _coal_distances(coal, m_a[:k], m_b[:k])
+        ns = (time.perf_counter() - t0) / k * 1e9
+        e = np.abs(dist[:ref_n] - ref) / rmin if k >= ref_n else np.array([np.nan])
+        rows.append(("coal GJK/EPA (Python calls)", "coal", ns, np.count_nonzero(_verdict(dist) != m_truth[:k]) / k, np.median(e), e.max()))
+    notes = {
+        "pairs": n, "mujoco_pairs": len(m_a), "reference": ref_n, "coal": coal is not None,
+        "full_vs_ref": float(err(full).max()), "tight_vs_ref": float(err(tight).max()),
+    }  # fmt: skip
+    return rows, notes
+
+
+def _normals(a, b):
+    """ellipsim's converged normals as seeds for the reference polish."""
+    out = np.empty((len(a), 3))
+    for k in range(len(a)):
+        _, _, normal, _, _ = pair_signed_distance(load(a.centers, a.rotations, a.radii, k), load(b.centers, b.rotations, b.radii, k))
+        out[k] = normal
+    return out
+
+
+# --- 2. numerical stress -----------------------------------------------------------------------------
+
+
+def stress(size):
+    """{category: {method: misclassified}}, exact's escalation share and time per pair per category."""
+    table, exact_info = {}, {}
+    methods = [f"{m} {s} {d}" for m, s, d in FLOAT_METHODS] + ["contact_scale", "narrow phase", "MuJoCo (default tol)"]
+    for cat in STRESS:
+        _say(f"stress: {cat} ...")
+        a, b = stress_pairs(cat, size["stress"], seed=5)
+        n = len(a)
+        t0 = time.perf_counter()
+        truth = classify(a, b, parallel=False)
+        exact_info[cat] = (np.count_nonzero(certify(a, b, n, False) == UNDECIDED) / n, (time.perf_counter() - t0) / n * 1e9, n)
+        row = {}
+        for m, s, d in FLOAT_METHODS:
+            row[f"{m} {s} {d}"] = int(np.count_nonzero(_float_runner(a, b, m, s, d)() != truth))
+        row["contact_scale"] = int(np.count_nonzero(_verdict(contact_scale(a, b) - 1) != truth))
+        row["narrow phase"] = int(np.count_nonzero(_verdict(_narrow_runner(a, b, 40)()) != truth))
+        row["MuJoCo (default tol)"] = int(np.count_nonzero(_verdict(MujocoPairs(a, b).run(1e-6, 35)) != truth))
+        table[cat] = row
+    return table, exact_info, methods
+
+
+# --- 3. scaling -----------------------------------------------------------------------------------------
+
+
+def scaling(size):
+    _say("scaling: batch sizes ...")
+    a, b = generic_pairs(size["batch_max"], seed=3)
+    batches = [int(x) for x in 10.0 ** np.arange(0, int(math.log10(size["batch_max"])) + 1)]
+    batch_rows = []
+    for n in batches:
+        x, y = a[:n], b[:n]
+        reps = max(1, min(size["rounds"], 200_000 // n))
+        exact_s = _median_time(lambda: classify(x, y, parallel=False), reps) / n * 1e9
+        exact_p = _median_time(lambda: classify(x, y, parallel=True), reps) / n * 1e9
+        plain = _float_runner(x, y, "descartes", "rearranged", "float64")
+        plain_ns = _median_time(plain, reps) / n * 1e9
+        batch_rows.append((n, exact_s, exact_p, plain_ns))
+    step_rows = []
+    for nf in size["figures"]:
+        _say(f"scaling: mj_step with {nf} figures ...")
+        xml = figures.scene_xml(nf, layout="pile", seed=1)
+        model = mujoco.MjModel.from_xml_string(xml)
+        data = mujoco.MjData(model)
+        for _ in range(400):
+            mujoco.mj_step(model, data)
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        state = np.empty(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, data, state, spec)
+        row = [nf]
+        for mode in ("builtin", "filter", "narrowphase"):
+
+            def steps():
+                mujoco.mj_setState(model, data, state, spec)
+                for _ in range(size["steps"]):
+                    mujoco.mj_step(model, data)
+
+            if mode == "builtin":
+                row.append(_median_time(steps, 3) / size["steps"] * 1e6)
+            else:
+                with plugin.attach(model, data, mode=mode):
+                    row.append(_median_time(steps, 3) / size["steps"] * 1e6)
+        step_rows.append(tuple(row))
+    replay_rows = []
+    base = scenario.load("replay")
+    for nf in size["replay_figures"]:
+        _say(f"scaling: kinematic replay with {nf} figures ...")
+        s = scenario.Scenario(**{**base.__dict__, "scene": {**base.scene, "figures": nf}})
+        t0 = time.perf_counter()
+        run = scenario.run(s)
+        total = time.perf_counter() - t0
+        replay_rows.append((nf, run.steps, total / run.steps * 1e3, run.frames.ellipsim_counts.sum()))
+    return batch_rows, step_rows, replay_rows
+
+
+# --- 4. the thesis's Table 1 -------------------------------------------------------------------------
+
+
+def table1(size):
+    _say("thesis Table 1 ...")
+    a, b = generic_pairs(10_000, seed=4)
+    truth = classify(a, b)
+    sep, col = np.flatnonzero(truth == 0), np.flatnonzero(truth != 0)
+    rows = []
+    for setup in ("cofactor", "rearranged"):
+        for test in ("sturm", "descartes"):
+            ours = []
+            for idx in (sep, col):
+                run = _float_runner(a[idx], b[idx], test, setup, "float64")
+                ours.append(_median_time(run, size["rounds"]) / len(idx) * 1e9)
+            thesis = THESIS_TABLE1[(setup, test)]
+            rows.append((setup, test, thesis[0], ours[0], thesis[1], ours[1]))
+    return rows, (len(sep), len(col))
+
+
+# --- report ---------------------------------------------------------------------------------------
+
+
+def _fmt_rate(x):
+    return "0" if x == 0 else f"{x:.2e}"
+
+
+def _fmt_err(x):
+    return "-" if x is None else f"{x:.1e}"
+
+
+def run(out_dir, *, quick=False):
+    """Run the suite and write out_dir/report.md and PNG plots; returns the report's path."""
+    plt = _plt()
+    __import__("mpmath")
+    os.makedirs(out_dir, exist_ok=True)
+    size = SIZES["quick" if quick else "full"]
+    t_start = time.perf_counter()
+    prows, pnotes = pareto(size)
+    stable, sinfo, smethods = stress(size)
+    batch_rows, step_rows, replay_rows = scaling(size)
+    t1rows, t1n = table1(size)
+    _plots(plt, out_dir, prows, stable, smethods, batch_rows, step_rows, replay_rows, t1rows)
+    seconds = time.perf_counter() - t_start
+    text = _report(quick, size, seconds, prows, pnotes, stable, sinfo, smethods, batch_rows, step_rows, replay_rows, t1rows, t1n)
+    path = os.path.join(out_dir, "report.md")
+    with open(path, "w") as f:
+        f.write(text)
+    return path, seconds
+
+
+def _machine():
+    cpu = platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numba {numba.__version__}, mujoco {mujoco.__version__}"
+
+
+def _report(quick, size, seconds, prows, pnotes, stable, sinfo, smethods, batch_rows, step_rows, replay_rows, t1rows, t1n):
+    L = [
+        f"# ellipsim bench{' --quick' if quick else ''}",
+        "",
+        f"{datetime.date.today()}, {_machine()}; {seconds:.0f} s.",
+        "",
+        "## 1. Time against error",
+        "",
+        f"{pnotes['pairs']} random pairs with |contact_scale - 1| < 0.1 (where no shortcut decides); distances on the "
+        f"first {pnotes['mujoco_pairs']}, their error against a 40-digit mpmath reference on the first {pnotes['reference']} "
+        "(in units of the smaller ellipsoid's shortest semi-axis).  Single-threaded unless noted; MuJoCo is called "
+        "through ctypes in a compiled loop" + ("; coal through its Python binding (per-call overhead included)." if pnotes["coal"] else
+        "; coal is not installed (pip install 'ellipsim[peers]' adds it)."),
+        "",
+        "![time against error](pareto.png)",
+        "",
+        "| method | ns/pair | misclassified | distance error, median | distance error, max |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for name, _, ns, wrong, med, mx in prows:
+        L.append(f"| {name} | {ns:.0f} | {_fmt_rate(wrong)} | {_fmt_err(med)} | {_fmt_err(mx)} |")
+    L += [
+        "",
+        f"The converged narrow phase is within {pnotes['full_vs_ref']:.1e} of the reference; MuJoCo at ccd_tolerance "
+        f"1e-12 within {pnotes['tight_vs_ref']:.1e}.",
+        "",
+        "## 2. Numerical stress",
+        "",
+        f"Misclassified pairs out of {size['stress']} per category (samples.stress_pairs); exact's share escalated to "
+        "rational arithmetic and its time per pair.  MuJoCo: the sign of mj_geomDistance at ccd_tolerance 1e-6.",
+        "",
+        "![misclassification per category](stress.png)",
+        "",
+        "| category | exact: escalated | exact: µs/pair | " + " | ".join(smethods) + " |",
+        "|---|---:|---:|" + "---:|" * len(smethods),
+    ]
+    for cat, row in stable.items():
+        share, ns, _ = sinfo[cat]
+        L.append(f"| {cat} | {share:.0%} | {ns / 1e3:.2f} | " + " | ".join(str(row[m]) for m in smethods) + " |")
+    L += [
+        "",
+        "exact misclassified 0 pairs in every category (it defines the truth; tests/test_classify.py checks it against "
+        "an independent rational reference).",
+        "",
+        "## 3. Scaling",
+        "",
+        "![scaling](scaling.png)",
+        "",
+        "| pairs per call | exact, ns/pair | exact, 2 threads | plain descartes, ns/pair |",
+        "|---:|---:|---:|---:|",
+    ]
+    L += [f"| {n} | {s:.0f} | {p:.0f} | {q:.0f} |" for n, s, p, q in batch_rows]
+    L += ["", "| figures (heap) | builtin µs/step | filter µs/step | narrowphase µs/step |", "|---:|---:|---:|---:|"]
+    L += [f"| {nf} | {b:.0f} | {f:.0f} | {n:.0f} |" for nf, b, f, n in step_rows]
+    L += ["", "| figures (kinematic replay) | frames | ms/frame (kinematics + broad phase + batched classify) | overlapping pairs |", "|---:|---:|---:|---:|"]
+    L += [f"| {nf} | {k} | {ms:.2f} | {c} |" for nf, k, ms, c in replay_rows]
+    L += [
+        "",
+        "## 4. The thesis's Table 1, re-run",
+        "",
+        f"{t1n[0]} separated and {t1n[1]} colliding generic pairs (thesis 5.1.1), float64, single-threaded; the thesis's "
+        "averages were measured on an SGI Onyx (195 MHz R10000).",
+        "",
+        "![Table 1](table1.png)",
+        "",
+        "| set-up | root test | thesis µs, separated | ours ns, separated | speed-up | thesis µs, colliding | ours ns, colliding | speed-up |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for setup, test, ts, os_, tc, oc in t1rows:
+        L.append(f"| {setup} | {test} | {ts:.2f} | {os_:.0f} | {ts * 1e3 / os_:.0f}x | {tc:.2f} | {oc:.0f} | {tc * 1e3 / oc:.0f}x |")
+    L += ["", f"Run time {seconds:.0f} s."]
+    return "\n".join(L) + "\n"
+
+
+def _plots(plt, out, prows, stable, smethods, batch_rows, step_rows, replay_rows, t1rows):
+    colours = {"ellipsim classify": "C3", "thesis tests": "C0", "ellipsim contact_scale": "C5",
+               "ellipsim narrow phase": "C2", "MuJoCo mj_geomDistance": "C1", "coal": "C4"}  # fmt: skip
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 5), constrained_layout=True)
+    floor = 1e-7
+    for name, family, ns, wrong, med, mx in prows:
+        ax1.scatter(ns, max(wrong, floor), color=colours[family], s=30)
+        ax1.annotate(name, (ns, max(wrong, floor)), fontsize=6, xytext=(3, 2), textcoords="offset points")
+        if mx is not None:
+            ax2.scatter(ns, max(mx, 1e-17), color=colours[family], s=30)
+            ax2.annotate(name, (ns, max(mx, 1e-17)), fontsize=6, xytext=(3, 2), textcoords="offset points")
+    for family, c in colours.items():
+        ax1.scatter([], [], color=c, label=family)
+    ax1.set(xscale="log", yscale="log", xlabel="time per pair [ns]", ylabel=f"misclassified share (0 drawn at {floor:g})",
+            title="classification: time against error")  # fmt: skip
+    ax1.legend(fontsize=7)
+    ax2.set(xscale="log", yscale="log", xlabel="time per pair [ns]", ylabel="max |distance error| / shortest semi-axis",
+            title="signed distance: time against error")  # fmt: skip
+    fig.savefig(os.path.join(out, "pareto.png"), dpi=110)
+    plt.close(fig)
+
+    cats = list(stable)
+    grid = np.array([[stable[c][m] for m in smethods] for c in cats], dtype=float)
+    n = max(1, max(sum(stable[c].values()) for c in cats))
+    fig, ax = plt.subplots(figsize=(12, 6.5), constrained_layout=True)
+    im = ax.imshow(np.log10(grid + 1), cmap="Reds", aspect="auto")
+    for i in range(len(cats)):
+        for j in range(len(smethods)):
+            if grid[i, j]:
+                ax.text(j, i, f"{int(grid[i, j])}", ha="center", va="center", fontsize=6)
+    ax.set_xticks(range(len(smethods)), smethods, rotation=60, ha="right", fontsize=7)
+    ax.set_yticks(range(len(cats)), cats, fontsize=7)
+    ax.set_title("misclassified pairs per stress category (exact: 0 everywhere)")
+    fig.colorbar(im, ax=ax, label="log10(misclassified + 1)")
+    fig.savefig(os.path.join(out, "stress.png"), dpi=110)
+    plt.close(fig)
+
+    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 4.5), constrained_layout=True)
+    b = np.array(batch_rows, dtype=float)
+    a1.plot(b[:, 0], b[:, 1], "o-", label="exact, 1 thread")
+    a1.plot(b[:, 0], b[:, 2], "o-", label="exact, 2 threads")
+    a1.plot(b[:, 0], b[:, 3], "o--", label="plain descartes, 1 thread")
+    a1.set(xscale="log", yscale="log", xlabel="pairs per call", ylabel="time per pair [ns]", title="classify: batch size")
+    a1.legend(fontsize=8)
+    s = np.array(step_rows, dtype=float)
+    for k, mode in enumerate(("builtin", "filter", "narrowphase")):
+        a2.plot(s[:, 0], s[:, 1 + k], "o-", label=mode)
+    a2.set(xscale="log", yscale="log", xlabel="figures in a heap", ylabel="mj_step time [µs]", title="mj_step against figures")
+    a2.legend(fontsize=8)
+    r = np.array(replay_rows, dtype=float)
+    a3.plot(r[:, 0], r[:, 2], "o-")
+    a3.set(xscale="log", yscale="log", xlabel="figures", ylabel="time per frame [ms]", title="kinematic replay")
+    fig.savefig(os.path.join(out, "scaling.png"), dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
+    labels = [f"{s}\n{t}" for s, t, *_ in t1rows]
+    x = np.arange(len(labels))
+    ax.bar(x - 0.3, [r[2] * 1e3 for r in t1rows], 0.2, label="thesis, separated")
+    ax.bar(x - 0.1, [r[4] * 1e3 for r in t1rows], 0.2, label="thesis, colliding")
+    ax.bar(x + 0.1, [r[3] for r in t1rows], 0.2, label="ellipsim, separated")
+    ax.bar(x + 0.3, [r[5] for r in t1rows], 0.2, label="ellipsim, colliding")
+    ax.set_xticks(x, labels)
+    ax.set(yscale="log", ylabel="time per pair [ns]", title="thesis Table 1: SGI Onyx 195 MHz vs this machine")
+    ax.legend(fontsize=8)
+    fig.savefig(os.path.join(out, "table1.png"), dpi=110)
+    plt.close(fig)

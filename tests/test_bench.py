@@ -1,0 +1,59 @@
+"""The benchmark suite's building blocks, and one quick run of `ellipsim bench`."""
+
+import os
+
+import numpy as np
+import pytest
+
+from ellipsim import Relation, bench, classify, signed_distance
+from ellipsim.cli import main
+from ellipsim.samples import STRESS, stress_pairs
+
+
+@pytest.mark.parametrize("category", STRESS)
+def test_stress_categories_are_what_they_say(category):
+    a, b = stress_pairs(category, 60, seed=2)
+    rel = classify(a, b)
+    counts = np.bincount(rel, minlength=3)
+    if category == "exactly tangent":
+        assert counts[Relation.TOUCHING] == 60
+    elif category in ("spheres", "coaxial spheroids"):
+        assert counts.tolist() == [20, 20, 20]  # touching, 2^-40 apart, 2^-40 overlapping
+    elif category == "identical and contained":
+        assert counts[Relation.OVERLAPPING] == 60
+    else:  # alternately just separated and just overlapping
+        np.testing.assert_array_equal(rel, np.where(np.arange(60) % 2 == 0, 0, 2))
+
+
+def test_stress_bad_category():
+    with pytest.raises(ValueError, match="category must be one of"):
+        stress_pairs("wobbly", 10)
+
+
+def test_mujoco_pairs_measure_the_same_geometry():
+    """MuJoCo's mj_geomDistance on the pairs' exact poses agrees with the narrow phase to its tolerance."""
+    a, b = stress_pairs("near-tangent 1e-1", 40, seed=3)
+    mj = bench.MujocoPairs(a, b)
+    ours = signed_distance(a, b)[0]
+    np.testing.assert_allclose(mj.run(1e-12, 1000), ours, rtol=0, atol=1e-9)
+
+
+def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
+    small = dict(bench.SIZES["quick"], generic=2_000, near=1_000, mujoco=300, stress=30, reference=4,
+                 batch_max=1_000, figures=(1, 2), replay_figures=(1, 2), rounds=1, steps=10, coal=20)  # fmt: skip
+    monkeypatch.setitem(bench.SIZES, "quick", small)
+    assert main(["bench", "--quick", "--out", str(tmp_path)]) == 0
+    report = (tmp_path / "report.md").read_text()
+    for section in ("1. Time against error", "2. Numerical stress", "3. Scaling", "4. The thesis's Table 1"):
+        assert section in report
+    for png in ("pareto.png", "stress.png", "scaling.png", "table1.png"):
+        assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "| exact (certified) |" in report and "MuJoCo tol 1e-06, 35 it" in report
+
+
+def test_bench_out_must_be_a_directory(tmp_path, capsys):
+    path = tmp_path / "file.txt"
+    path.write_text("x")
+    assert main(["bench", "--quick", "--out", str(path)]) == 2
+    assert "exists and is not a directory" in capsys.readouterr().err
+    assert not os.path.exists(tmp_path / "nope" / "report.md")

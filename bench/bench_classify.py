@@ -13,14 +13,13 @@ inputs already in their dtype.  Errors count disagreements with "exact" on the s
 import argparse
 import datetime
 import os
-import platform
 import sys
 import time
 
-import numba
 import numpy as np
 
 import ellipsim as es
+from ellipsim.bench import machine_description
 from ellipsim.certified import UNDECIDED, certify
 from ellipsim.classify import _classify_float, _classify_float_serial
 from ellipsim.samples import generic_pairs, near_contact_pairs
@@ -75,22 +74,12 @@ def measure(a, b, rounds):
     return ns, errors, escalated, truth, ratio
 
 
-def machine():
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numba {numba.__version__}"
-
-
 def report(results, n_generic, n_near, rounds, seconds):
     lines = [
         "# classify: time per pair",
         "",
         f"`python bench/bench_classify.py --pairs {n_generic} --rounds {rounds}`, {datetime.date.today()}, "
-        f"{machine()}; {seconds:.0f} s.",
+        f"{machine_description()}; {seconds:.0f} s.",
         f"Sets: generic ({n_generic} pairs, half colliding, thesis 5.1.1) and near-contact ({n_near} pairs, "
         "|contact_scale - 1| < 0.1). Median over rounds, each timing every configuration in random order; "
         "exact through `classify`, the others as bare kernels on inputs already in their dtype; errors = "

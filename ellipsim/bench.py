@@ -182,15 +182,21 @@ def reference_distances(a, b, seeds):
     mpmath.mp.dps = 40
     out = np.empty(len(a))
     for k in range(len(a)):
-        d = [mpmath.mpf(float(x)) for x in b.centers[k] - a.centers[k]]
-        Ma = mpmath.matrix((a.rotations[k] * a.radii[k] ** 2 @ a.rotations[k].T).tolist())
-        Mb = mpmath.matrix((b.rotations[k] * b.radii[k] ** 2 @ b.rotations[k].T).tolist())
-        out[k] = max(float(_polish(d, Ma, Mb, s[k])) for s in seeds if np.all(np.isfinite(s[k])))
+        d = b.centers[k] - a.centers[k]
+        Ma = a.rotations[k] * a.radii[k] ** 2 @ a.rotations[k].T
+        Mb = b.rotations[k] * b.radii[k] ** 2 @ b.rotations[k].T
+        out[k] = max(float(polish_sigma(d, Ma, Mb, s[k])) for s in seeds if np.all(np.isfinite(s[k])))
     return out
 
 
-def _polish(d, Ma, Mb, n0):
-    mp = __import__("mpmath")
+def polish_sigma(d, Ma, Mb, n0, iterations=40):
+    """sigma(n) = n.d - sqrt(n'Ma n) - sqrt(n'Mb n) at the local maximum nearest the unit normal n0,
+    by Newton in the tangent plane in the current mpmath precision (d, Ma, Mb, n0 are float arrays;
+    Ma = R diag(r^2) R' is the support-function matrix of an ellipsoid, Eberly GTCG 10.5.2)."""
+    import mpmath as mp
+
+    d = [mp.mpf(float(x)) for x in d]
+    Ma, Mb = mp.matrix(np.asarray(Ma).tolist()), mp.matrix(np.asarray(Mb).tolist())
     n0 = mp.matrix([mp.mpf(float(x)) for x in n0])
     n0 /= mp.norm(n0)
     t1 = mp.matrix([0, n0[2], -n0[1]]) if abs(n0[0]) < 0.6 else mp.matrix([-n0[2], 0, n0[0]])
@@ -203,7 +209,7 @@ def _polish(d, Ma, Mb, n0):
         return sum(n[i] * d[i] for i in range(3)) - mp.sqrt((n.T * Ma * n)[0]) - mp.sqrt((n.T * Mb * n)[0])
 
     u = v = mp.mpf(0)
-    for _ in range(30):
+    for _ in range(iterations):
         gu, gv = mp.diff(lambda x: f(x, v), u), mp.diff(lambda y: f(u, y), v)
         huu, hvv = mp.diff(lambda x: f(x, v), u, 2), mp.diff(lambda y: f(u, y), v, 2)
         huv = mp.diff(lambda x: mp.diff(lambda y: f(x, y), v), u)
@@ -212,7 +218,7 @@ def _polish(d, Ma, Mb, n0):
             break
         du, dv = -(hvv * gu - huv * gv) / det, -(huu * gv - huv * gu) / det
         u, v = u + du, v + dv
-        if abs(du) + abs(dv) < mp.mpf(10) ** -28:
+        if abs(du) + abs(dv) < mp.mpf(10) ** (10 - mp.mp.dps):
             break
     return f(u, v)
 
@@ -415,7 +421,8 @@ def run(out_dir, *, quick=False):
     return path, seconds
 
 
-def _machine():
+def machine_description():
+    """CPU model, cores and the versions that decide the timings, for a report's first lines."""
     cpu = platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
@@ -429,7 +436,7 @@ def _report(quick, size, seconds, prows, pnotes, stable, sinfo, smethods, batch_
     L = [
         f"# ellipsim bench{' --quick' if quick else ''}",
         "",
-        f"{datetime.date.today()}, {_machine()}; {seconds:.0f} s.",
+        f"{datetime.date.today()}, {machine_description()}; {seconds:.0f} s.",
         "",
         "## 1. Time against error",
         "",

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 import strategies as S
 from ellipsim import Ellipsoids, figures, mjstruct, plugin, signed_distance
+from ellipsim.bench import polish_sigma
 from ellipsim.narrowphase import CERTIFIED, MULTISTART
 
 mpmath.mp.dps = 40
@@ -23,9 +24,9 @@ def fibonacci_sphere(k):
 
 
 def reference(a, b, starts=fibonacci_sphere(300)):
-    """max over unit n of n.d - |D_a R_a^T n| - |D_b R_b^T n|, independently of ellipsim: projected
+    """max over unit n of n.d - |D_a R_a^T n| - |D_b R_b^T n|, independently of the narrow phase: projected
     gradient ascent in float from 300 directions, then the three best distinct local maxima polished
-    by Newton in 40-digit mpmath; returns the best value."""
+    by Newton in 40-digit mpmath (ellipsim.bench.polish_sigma); returns the best value."""
     d = b.centers[0] - a.centers[0]
     Ma = a.rotations[0] * a.radii[0] ** 2 @ a.rotations[0].T
     Mb = b.rotations[0] * b.radii[0] ** 2 @ b.rotations[0].T
@@ -43,36 +44,7 @@ def reference(a, b, starts=fibonacci_sphere(300)):
             maxima.append(n[i])
         if len(maxima) == 3:
             break
-    return max(float(_polish(d, Ma, Mb, m)) for m in maxima)
-
-
-def _polish(d, Ma, Mb, n0):
-    mp = mpmath
-    d = [mp.mpf(float(x)) for x in d]
-    Ma = mp.matrix(Ma.tolist())
-    Mb = mp.matrix(Mb.tolist())
-    n0 = mp.matrix([mp.mpf(float(x)) for x in n0])
-    n0 /= mp.norm(n0)
-    t1 = mp.matrix([0, n0[2], -n0[1]]) if abs(n0[0]) < 0.6 else mp.matrix([-n0[2], 0, n0[0]])
-    t1 /= mp.norm(t1)
-    t2 = mp.matrix([n0[1] * t1[2] - n0[2] * t1[1], n0[2] * t1[0] - n0[0] * t1[2], n0[0] * t1[1] - n0[1] * t1[0]])
-
-    def f(u, v):
-        n = n0 + u * t1 + v * t2
-        n /= mp.norm(n)
-        return sum(n[i] * d[i] for i in range(3)) - mp.sqrt((n.T * Ma * n)[0]) - mp.sqrt((n.T * Mb * n)[0])
-
-    u = v = mp.mpf(0)
-    for _ in range(40):
-        gu, gv = mp.diff(lambda x: f(x, v), u), mp.diff(lambda y: f(u, y), v)
-        huu, hvv = mp.diff(lambda x: f(x, v), u, 2), mp.diff(lambda y: f(u, y), v, 2)
-        huv = mp.diff(lambda x: mp.diff(lambda y: f(x, y), v), u)
-        det = huu * hvv - huv**2
-        du, dv = -(hvv * gu - huv * gv) / det, -(huu * gv - huv * gu) / det
-        u, v = u + du, v + dv
-        if abs(du) + abs(dv) < mp.mpf(10) ** -30:
-            break
-    return f(u, v)
+    return max(float(polish_sigma(d, Ma, Mb, m)) for m in maxima)
 
 
 def assert_matches_reference(a, b):
@@ -83,7 +55,7 @@ def assert_matches_reference(a, b):
     rmin = min(a.radii.min(), b.radii.min())
     Ma = a.rotations[0] * a.radii[0] ** 2 @ a.rotations[0].T
     Mb = b.rotations[0] * b.radii[0] ** 2 @ b.rotations[0].T
-    local = float(_polish(b.centers[0] - a.centers[0], Ma, Mb, normal[0]))
+    local = float(polish_sigma(b.centers[0] - a.centers[0], Ma, Mb, normal[0]))
     assert abs(dist[0] - local) <= 1e-9 * rmin, (dist[0], local)
     assert dist[0] >= reference(a, b) - 1e-9 * rmin
     return dist[0], status[0]

@@ -12,7 +12,6 @@ Lengths in metres, angles in degrees inside the MJCF (compiler angle="degree").
 
 import copy
 import functools
-import importlib.resources
 import math
 import numbers
 import xml.etree.ElementTree as ET
@@ -20,6 +19,7 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
+from . import shipped
 from .ellipsoids import quaternions_to_rotations
 
 #: Limb bodies of one figure, in the body order of models/figure.xml (one ellipsoid geom each).
@@ -114,7 +114,7 @@ def _check_real(name, value, *, positive):
 
 def figure_xml():
     """The MJCF text of models/figure.xml (one figure, unprefixed names, floor and light)."""
-    return (importlib.resources.files("ellipsim.models") / "figure.xml").read_text(encoding="utf-8")
+    return (shipped.folder("models") / "figure.xml").read_text(encoding="utf-8")
 
 
 @functools.lru_cache(maxsize=1)

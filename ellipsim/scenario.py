@@ -9,7 +9,6 @@ CLI summarises.
 """
 
 import dataclasses
-import importlib.resources
 import math
 import os
 import time
@@ -18,7 +17,7 @@ import tomllib
 import mujoco
 import numpy as np
 
-from . import figures, plugin
+from . import figures, plugin, shipped
 from ._jit import jit
 from .classify import Relation, classify
 from .ellipsoids import Ellipsoids
@@ -56,7 +55,7 @@ class Scenario:
 
 
 def _directory():
-    return importlib.resources.files("ellipsim.scenarios")
+    return shipped.folder("scenarios")
 
 
 def available():

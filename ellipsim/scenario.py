@@ -16,6 +16,7 @@ import tomllib
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from . import figures, plugin, shipped
 from ._jit import jit
@@ -352,7 +353,8 @@ def _geoms(model):
 
 @jit
 def sweep_and_prune(centers, rho, allowed):
-    """Pairs (frame, i, j), i < j, whose bounding spheres overlap in each frame: sort by x - rho, sweep.
+    """Pairs (frame, i, j), i < j, whose bounding spheres overlap in each frame: sort by c - rho along
+    the frame's axis of widest spread (figures in a line along y must not be swept along x), sweep.
 
     centers : (F, g, 3), rho : (g,) bounding radii, allowed : (g, g) bool.  Returns (P, 3) int64.
     """
@@ -361,11 +363,16 @@ def sweep_and_prune(centers, rho, allowed):
     out = np.empty((cap, 3), dtype=np.int64)
     n = 0
     for f in range(F):
-        lo = centers[f, :, 0] - rho
+        axis, widest = 0, -1.0
+        for k in range(3):
+            spread = centers[f, :, k].max() - centers[f, :, k].min() if g else 0.0
+            if spread > widest:
+                axis, widest = k, spread
+        lo = centers[f, :, axis] - rho
         order = np.argsort(lo)
         for a in range(g):
             i = order[a]
-            hi = centers[f, i, 0] + rho[i]
+            hi = centers[f, i, axis] + rho[i]
             for b in range(a + 1, g):
                 j = order[b]
                 if lo[j] > hi:
@@ -420,11 +427,10 @@ class Run:
 
 def _quaternions(mats):
     """Unit quaternions (..., 4) w x y z of rotation matrices (..., 3, 3)."""
-    flat = mats.reshape(-1, 9)
-    out = np.empty((len(flat), 4))
-    for k in range(len(flat)):
-        mujoco.mju_mat2Quat(out[k], flat[k])
-    return out.reshape(mats.shape[:-2] + (4,))
+    if mats.size == 0:
+        return np.zeros(mats.shape[:-2] + (4,))
+    xyzw = Rotation.from_matrix(mats.reshape(-1, 3, 3)).as_quat()
+    return np.roll(xyzw, 1, axis=-1).reshape(mats.shape[:-2] + (4,))
 
 
 def _frames(s, model, ids, radii, allowed, times, centers, rotations, contacts, builtin):

@@ -49,6 +49,11 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
     for png in ("pareto.png", "stress.png", "scaling.png", "table1.png"):
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "| exact (certified) |" in report and "MuJoCo tol 1e-06, 35 it" in report
+    # each reference is timed against itself in the same rounds
+    assert "| descartes rearranged float64 |" in report.split("### Signed distance")[0]
+    narrow = next(line for line in report.splitlines() if line.startswith("| narrow phase (certified) |"))
+    assert narrow.split("|")[3].strip() == "1.00"
+    assert "| one Newton run, 6 steps |" in report and "speed-up |" in report
 
 
 def test_bench_out_must_be_a_directory(tmp_path, capsys):

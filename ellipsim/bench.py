@@ -661,7 +661,8 @@ def _plots(plt, out, prows, stable, smethods, batch_rows, step_rows, replay_rows
     for i in range(len(cats)):
         for j in range(len(smethods)):
             if grid[i, j]:
-                ax.text(j, i, f"{int(grid[i, j])}", ha="center", va="center", fontsize=6)
+                dark = np.log10(grid[i, j] + 1) > 0.6 * np.log10(grid.max() + 1)
+                ax.text(j, i, f"{int(grid[i, j])}", ha="center", va="center", fontsize=6, color="white" if dark else "black")
     ax.set_xticks(range(len(smethods)), smethods, rotation=60, ha="right", fontsize=7)
     ax.set_yticks(range(len(cats)), cats, fontsize=7)
     ax.set_title("misclassified pairs per stress category (exact: 0 everywhere)")

@@ -134,24 +134,19 @@ def _newton_runs(Ca, Ra, ra, Cb, Rb, rb, max_iter, out):
         out[i] = sigma(n, e, a2, M)
 
 
-def _newton_runner(a, b, steps):
+def _pair_runner(kernel, a, b, max_iter):
+    """A function filling and returning one float per pair with kernel(pairs..., max_iter, out)."""
     out = np.empty(len(a))
 
     def run():
-        _newton_runs(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, steps, out)
+        kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, max_iter, out)
         return out
 
     return run
 
 
 def _narrow_runner(a, b, cap):
-    out = np.empty(len(a))
-
-    def run():
-        _distances_serial(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, cap, out)
-        return out
-
-    return run
+    return _pair_runner(_distances_serial, a, b, cap)
 
 
 def _verdict(dist):
@@ -309,7 +304,7 @@ def pareto(size):
     family = {NARROW: "ellipsim narrow phase"}
     for k in NEWTON_STEPS:
         name = f"one Newton run, {k} step{'s' if k > 1 else ''}"
-        fns[name], family[name] = _newton_runner(m_a, m_b, k), "ellipsim narrow phase"
+        fns[name], family[name] = _pair_runner(_newton_runs, m_a, m_b, k), "ellipsim narrow phase"
     for tol, it in MUJOCO_SETTINGS:
         name = f"MuJoCo tol {tol:g}, {it} it"
         fns[name], family[name] = (lambda tol=tol, it=it: mj.run(tol, it)), "MuJoCo mj_geomDistance"

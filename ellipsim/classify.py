@@ -12,7 +12,7 @@ from enum import IntEnum
 import numpy as np
 
 from . import exact
-from ._jit import jit, prange
+from ._jit import jit, prange, stage
 from .certified import UNDECIDED, certify
 from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
 from .ellipsoids import Ellipsoids
@@ -44,28 +44,28 @@ def check_pair(a, b):
     return 0 if na == 0 or nb == 0 else max(na, nb)
 
 
+@stage
+def _float_relation(A, B, cofactor, sturm):
+    """One pair by a thesis test: the chosen set-up's quartic, then Sturm or Descartes."""
+    if cofactor:
+        c4, c3, c2, c1, c0 = cofactor_coefficients(A, B)
+    else:
+        c4, c3, c2, c1, c0 = rearranged_frame_coefficients(A, B)
+    return sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
+
+
 @jit(parallel=True)
 def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
     for i in prange(out.shape[0]):
-        ia, ib = i * sa, i * sb
-        if cofactor:
-            c4, c3, c2, c1, c0 = cofactor_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
-        else:
-            c4, c3, c2, c1, c0 = rearranged_frame_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
-        out[i] = sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
+        out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
 
 
 @jit
 def _classify_float_serial(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
     for i in range(out.shape[0]):
-        ia, ib = i * sa, i * sb
-        if cofactor:
-            c4, c3, c2, c1, c0 = cofactor_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
-        else:
-            c4, c3, c2, c1, c0 = rearranged_frame_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
-        out[i] = sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
+        out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
 
 
 def resolve_undecided(a, b, out):

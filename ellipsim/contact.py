@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
-from .frame import invariants, load, matvec, norm2, offset, reciprocal, shape
+from .frame import invariants, load, matvec, norm2, offset, reciprocal, scaled, shape, unit_scale
 from .tolerances import PW_MAX_ITER, PW_RTOL
 
 
@@ -93,9 +93,12 @@ def pw_value(mu, inv, alpha):
 @jit
 def contact_scale_pair(A, B):
     """F is quadratic in the centre offset d, so it is computed for d / max|d_i| and scaled back:
-    offsets of 1e-200 or 1e200 neither underflow nor overflow."""
+    offsets of 1e-200 or 1e200 neither underflow nor overflow; the pair is first scaled by
+    frame.unit_scale, so neither do semi-axes of 1e-200 or 1e200."""
     (ca, Ra, ra), (cb, Rb, rb) = A, B
-    d = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
+    p = unit_scale(ra, rb)  # s is scale-free: semi-axes of 1e160 must not overflow |e|^2
+    ra, rb = scaled(ra, p), scaled(rb, p)
+    d = ((cb[0] - ca[0]) * p, (cb[1] - ca[1]) * p, (cb[2] - ca[2]) * p)
     k = max(abs(d[0]), abs(d[1]), abs(d[2]))
     if k == 0.0:
         return 0.0

@@ -31,6 +31,8 @@ ch. 3; leaf roundings such as 1/r and c_b - c_a are counted).  The depth of each
 as [n].  Kernels that need only the values leave the mags unused and LLVM drops them.
 """
 
+import math
+
 from ._jit import jit, stage
 
 # Pair kernels take ellipsoids as flat tuples: centre (3,), rotation (9,) row-major, radii (3,).
@@ -144,6 +146,26 @@ def rotate_t_mag(R, md):
 def reciprocal(r):
     one = type(r[0])(1.0)
     return one / r[0], one / r[1], one / r[2]
+
+
+_UNIT_LO, _UNIT_HI = 2.0**-51, 2.0**50  # frexp exponents -50 ... 50
+
+
+@jit
+def unit_scale(ra, rb):
+    """1.0, or for a pair whose largest semi-axis is beyond 2^+-50 the power of two that brings it
+    into [0.5, 1): scaling a pair by a power of two is exact, and keeps products such as r^10 (the
+    narrow phase's bisector seed) and q(x)^2 inside float64's normal range.  1.0 (semi-axes from
+    1e-15 to 1e15) leaves results bit-identical."""
+    m = max(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2])
+    if _UNIT_LO <= m < _UNIT_HI:
+        return 1.0
+    return math.ldexp(1.0, -math.frexp(m)[1])
+
+
+@jit
+def scaled(r, p):
+    return r[0] * p, r[1] * p, r[2] * p
 
 
 @stage

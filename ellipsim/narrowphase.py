@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
-from .frame import load, matvec, norm2, rotate_t
+from .frame import load, matvec, norm2, rotate_t, scaled, unit_scale
 from .tolerances import FIRST_RUN_ITER, NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
 
 #: Newton run statuses, and what pair_signed_distance reports: CERTIFIED (a converged local maximum
@@ -277,7 +277,11 @@ def pair_signed_distance(A, B, max_iter=NEWTON_MAX_ITER):
     to a convex set, which has one local extremum.  Deeper penetrations get the multi-start.
     """
     (ca, Ra, ra), (cb, Rb, rb) = A, B
-    e, a2, M, U = a_frame(A, B)
+    # the pair in units of frame.unit_scale (1.0 unless a semi-axis is beyond 2^+-50): A at the origin
+    u = unit_scale(ra, rb)
+    ra, rb = scaled(ra, u), scaled(rb, u)
+    d = ((cb[0] - ca[0]) * u, (cb[1] - ca[1]) * u, (cb[2] - ca[2]) * u)
+    e, a2, M, U = a_frame(((0.0, 0.0, 0.0), Ra, ra), (d, Rb, rb))
     rb2 = (rb[0] * rb[0], rb[1] * rb[1], rb[2] * rb[2])
     scale = max(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2])
     rho = rolling_radius(ra) + rolling_radius(rb)
@@ -319,8 +323,9 @@ def pair_signed_distance(A, B, max_iter=NEWTON_MAX_ITER):
     )
     normal = matvec(Ra, n)
     p = matvec(Ra, mid)
-    pos = (ca[0] + p[0], ca[1] + p[1], ca[2] + p[2])
-    return status, value, normal, pos, steps
+    iu = 1.0 / u  # exact: u is a power of two
+    pos = (ca[0] + p[0] * iu, ca[1] + p[1] * iu, ca[2] + p[2] * iu)
+    return status, value * iu, normal, pos, steps
 
 
 @jit(parallel=True)

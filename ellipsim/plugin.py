@@ -403,10 +403,26 @@ class Validation:
         return {name: int(self.counts[:, k].sum()) for k, name in enumerate(self.COLUMNS)}
 
 
-def _pair_margin(model, g1, g2):
+def _pair_margins(model, pairs):
+    """(k,) margin of each geom pair (k, 2): opt.o_margin under mjENBL_OVERRIDE, else the geoms' sum."""
     if model.opt.enableflags & _OVERRIDE:
-        return float(model.opt.o_margin)
-    return float(model.geom_margin[g1] + model.geom_margin[g2])
+        return np.full(len(pairs), float(model.opt.o_margin))
+    return model.geom_margin[pairs[:, 0]] + model.geom_margin[pairs[:, 1]]
+
+
+def _pair_contact_dist(model, data, pairs):
+    """(k,) smallest dist of data's contacts on each geom pair (k, 2) sorted by (g1, g2), g1 < g2,
+    whichever order the contact names them in; nan for a pair without contact."""
+    geom = data.contact.geom[: data.ncon].astype(np.int64)
+    key = np.minimum(geom[:, 0], geom[:, 1]) * model.ngeom + np.maximum(geom[:, 0], geom[:, 1])
+    pair_key = pairs[:, 0].astype(np.int64) * model.ngeom + pairs[:, 1]
+    i = np.minimum(np.searchsorted(pair_key, key), len(pairs) - 1)
+    on_pair = pair_key[i] == key
+    smallest = np.full(len(pairs), np.inf)
+    np.fmin.at(smallest, i[on_pair], data.contact.dist[: data.ncon][on_pair])  # fmin: as Python's min(...)
+    touched = np.zeros(len(pairs), dtype=bool)
+    touched[i[on_pair]] = True
+    return np.where(touched, smallest, np.nan)
 
 
 def _enclosing(model, data, geoms, grow):
@@ -462,22 +478,18 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None):
             k = int(att._counters[3])
             pairs = np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
             ncon[step] = data.ncon
-            contact_dist = {}
-            for c in data.contact[: data.ncon] if data.ncon else []:
-                key = (min(c.geom[0], c.geom[1]), max(c.geom[0], c.geom[1]))
-                contact_dist[key] = min(contact_dist.get(key, np.inf), float(c.dist))
             if len(pairs):
-                margin = np.array([_pair_margin(model, g1, g2) for g1, g2 in pairs])
+                margin = _pair_margins(model, pairs)
                 a = _enclosing(model, data, pairs[:, 0], np.maximum(margin, 0) / 2)
                 b = _enclosing(model, data, pairs[:, 1], np.maximum(margin, 0) / 2)
                 relation = classify(a, b)
-                for i, (g1, g2) in enumerate(pairs):
-                    dist = contact_dist.get((int(g1), int(g2)), np.nan)
-                    mj = bool(dist < margin[i])
-                    el = relation[i] == Relation.OVERLAPPING
-                    counts[step, (0 if el else 2) if mj else (3 if el else 1)] += 1
-                    if mj != el:
-                        disagreements.append(_explain(model, data, step, int(g1), int(g2), names, mj, dist, relation[i], margin[i], a[i], b[i]))
+                dist = _pair_contact_dist(model, data, pairs)
+                mj = dist < margin
+                el = relation == Relation.OVERLAPPING
+                counts[step] = np.bincount(np.where(mj, np.where(el, 0, 2), np.where(el, 3, 1)), minlength=4)
+                for i in np.flatnonzero(mj != el):
+                    g1, g2 = int(pairs[i, 0]), int(pairs[i, 1])
+                    disagreements.append(_explain(model, data, step, g1, g2, names, bool(mj[i]), dist[i], relation[i], margin[i], a[i], b[i]))
             if advance:
                 mujoco.mj_step(model, data)
             if progress is not None:

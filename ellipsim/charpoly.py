@@ -12,6 +12,7 @@ det(lambda A + B).  Both assume R^{-1} = R^T, as the thesis does.
 import numpy as np
 
 from ._jit import jit, prange, stage
+from .ellipsoids import check_choice, check_pair
 from .frame import coefficients, invariants, load, matvec, offset, reciprocal, shape
 
 SETUPS = ("rearranged", "cofactor")
@@ -141,11 +142,8 @@ def characteristic_polynomial(a, b, *, setup="rearranged"):
     setup : "rearranged" (thesis 4.1.3) or "cofactor" (thesis 4.1.2)
     returns : (n, 5) float64, columns lambda^4, lambda^3, lambda^2, lambda, 1
     """
-    from .classify import check_pair
-
     n = check_pair(a, b)
-    if setup not in SETUPS:
-        raise ValueError(f"setup must be one of {SETUPS}, got {setup!r}")
+    check_choice("setup", setup, SETUPS)
     out = np.empty((n, 5))
     _polynomials(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, setup == "cofactor", out)
     return out

@@ -15,7 +15,7 @@ from . import exact
 from ._jit import jit, prange, stage
 from .certified import UNDECIDED, certify
 from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
-from .ellipsoids import Ellipsoids
+from .ellipsoids import check_choice, check_pair
 from .frame import load
 from .roots import descartes_relation, sturm_relation
 from .tolerances import PARALLEL_MIN_PAIRS
@@ -31,17 +31,6 @@ class Relation(IntEnum):
 
 METHODS = ("exact", "sturm", "descartes")
 DTYPES = ("float64", "float32")
-
-
-def check_pair(a, b):
-    """Validate two batches for a pairwise query; return the broadcast length."""
-    for name, value in (("a", a), ("b", b)):
-        if not isinstance(value, Ellipsoids):
-            raise ValueError(f"{name} must be an ellipsim.Ellipsoids batch, got {type(value).__name__}")
-    na, nb = len(a), len(b)
-    if na != nb and na != 1 and nb != 1:
-        raise ValueError(f"a and b must have the same length or one of them length 1, got {na} and {nb}")
-    return 0 if na == 0 or nb == 0 else max(na, nb)
 
 
 @stage
@@ -91,18 +80,15 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
     returns : (n,) int8
     """
     n = check_pair(a, b)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if setup not in SETUPS:
-        raise ValueError(f"setup must be one of {SETUPS}, got {setup!r}")
-    try:
-        dtype = np.dtype(dtype).name
-    except TypeError:
-        pass
-    if dtype not in DTYPES:
-        raise ValueError(f"dtype must be one of {DTYPES}, got {dtype!r}")
+    check_choice("method", method, METHODS)
+    check_choice("setup", setup, SETUPS)
+    if isinstance(dtype, type) or isinstance(dtype, np.dtype):
+        dtype = np.dtype(dtype).name  # np.float32, np.dtype("float32")
+    check_choice("dtype", dtype, DTYPES)
     if method == "exact" and (setup != "rearranged" or dtype != "float64"):
         raise ValueError("setup and dtype apply to the 'sturm' and 'descartes' methods; 'exact' has neither")
+    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+        raise ValueError(f"parallel must be True, False or None, got {parallel!r}")
     if parallel is None:
         parallel = n >= PARALLEL_MIN_PAIRS
     if method == "exact":

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
+from .ellipsoids import check_pair
 from .frame import invariants, load, matvec, norm2, offset, reciprocal, scaled, shape, unit_scale
 from .tolerances import PW_MAX_ITER, PW_RTOL
 
@@ -129,8 +130,6 @@ def contact_scale(a, b):
     a, b : Ellipsoids (a batch of length 1 broadcasts)
     returns : (n,) float64
     """
-    from .classify import check_pair
-
     n = check_pair(a, b)
     out = np.empty(n)
     _contact_scales(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)

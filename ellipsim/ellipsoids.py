@@ -14,12 +14,23 @@ import numpy as np
 from .tolerances import ORTHONORMAL_TOL
 
 
-def _as_real_array(name, value, tail):
-    """`value` as a C-contiguous float64 array of shape (n, *tail); ValueError naming `name`."""
+def _is_single(centers):
+    """True for one unbatched centre (3,); a ragged value is left for _as_real_array to name."""
+    try:
+        return np.ndim(centers) == 1
+    except Exception:
+        return False
+
+
+def _as_real_array(name, value, tail, single=False):
+    """`value` (with a leading axis added when `single`) as a C-contiguous float64 array of shape
+    (n, *tail); ValueError naming `name`."""
     try:
         arr = np.asarray(value)
     except Exception as exc:  # ragged nested lists and the like
         raise ValueError(f"{name} must be an array of shape (n, {', '.join(map(str, tail))}): {exc}") from None
+    if single and arr.ndim == len(tail):
+        arr = arr[None]
     if arr.dtype == bool or arr.dtype.kind not in "iuf":
         raise ValueError(f"{name} must hold real numbers, got dtype {arr.dtype}")
     if arr.ndim != 1 + len(tail) or arr.shape[1:] != tail:
@@ -69,12 +80,10 @@ class Ellipsoids:
     __slots__ = ("centers", "rotations", "radii")
 
     def __init__(self, centers, rotations, radii):
-        single = np.ndim(centers) == 1
-        if single:
-            centers, rotations, radii = (np.asarray(v)[None] for v in (centers, rotations, radii))
-        c = _as_real_array("centers", centers, (3,))
-        rot = _as_real_array("rotations", rotations, (3, 3))
-        r = _as_real_array("radii", radii, (3,))
+        single = _is_single(centers)
+        c = _as_real_array("centers", centers, (3,), single)
+        rot = _as_real_array("rotations", rotations, (3, 3), single)
+        r = _as_real_array("radii", radii, (3,), single)
         if not len(c) == len(rot) == len(r):
             raise ValueError(
                 f"centers, rotations and radii must have the same length, got {len(c)}, {len(rot)} and {len(r)}"
@@ -100,10 +109,8 @@ class Ellipsoids:
     @classmethod
     def from_quaternions(cls, centers, quaternions_wxyz, radii):
         """Build from unit quaternions (n, 4) in MuJoCo's (w, x, y, z) order; they are normalised."""
-        single = np.ndim(centers) == 1
-        q = np.asarray(quaternions_wxyz)
-        q = q[None] if single and q.ndim == 1 else q
-        q = _as_real_array("quaternions_wxyz", q, (4,))
+        single = _is_single(centers)
+        q = _as_real_array("quaternions_wxyz", quaternions_wxyz, (4,), single)
         norm = np.linalg.norm(q, axis=1)
         zero = np.flatnonzero(norm == 0)
         if len(zero):
@@ -157,3 +164,20 @@ class Ellipsoids:
 
 
 _EMPTY = Ellipsoids(np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros((0, 3)))
+
+
+def check_pair(a, b):
+    """Validate two batches for a pairwise query; return the broadcast length."""
+    for name, value in (("a", a), ("b", b)):
+        if not isinstance(value, Ellipsoids):
+            raise ValueError(f"{name} must be an ellipsim.Ellipsoids batch, got {type(value).__name__}")
+    na, nb = len(a), len(b)
+    if na != nb and na != 1 and nb != 1:
+        raise ValueError(f"a and b must have the same length or one of them length 1, got {na} and {nb}")
+    return 0 if na == 0 or nb == 0 else max(na, nb)
+
+
+def check_choice(name, value, options):
+    """`value` must be one of the strings `options`; ValueError naming `name` otherwise."""
+    if not isinstance(value, str) or value not in options:
+        raise ValueError(f"{name} must be one of {options}, got {value!r}")

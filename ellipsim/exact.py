@@ -43,7 +43,8 @@ def pencil_coefficients(ca, Ra, ra, cb, Rb, rb):
     t2 = (K[0][0] * K[1][1] - K[0][1] * K[1][0]) + (K[0][0] * K[2][2] - K[0][2] * K[2][0]) + (
         K[1][1] * K[2][2] - K[1][2] * K[2][1]
     )
-    t3 = sum(K[0][k] * _cofactor(K)[0][k] for k in range(3))
+    cK = _cofactor(K)
+    t3 = sum(K[0][k] * cK[0][k] for k in range(3))
     Ke = [sum(K[i][j] * e[j] for j in range(3)) for i in range(3)]
     p1 = sum(e[i] * Ke[i] for i in range(3))
     q = t1 * p1 - sum(x * x for x in Ke)

@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
+from .ellipsoids import check_pair
 from .frame import load, matvec, norm2, rotate_t, scaled, unit_scale
 from .tolerances import FIRST_RUN_ITER, NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
 
@@ -349,11 +350,9 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER):
         from a to b, pos (n, 3) metres (midpoint of the support points, as MuJoCo reports contacts),
         status (n,) int8: CERTIFIED, MULTISTART or NOT_CONVERGED (see the module docstring)
     """
-    from .classify import check_pair
-
     n = check_pair(a, b)
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000:
+        raise ValueError(f"max_iter must be an integer from 1 to 1000000, got {max_iter!r}")
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     _distances(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, int(max_iter), dist, normal, pos, status)

@@ -5,6 +5,8 @@ positions, half of the pairs colliding and half separated.  `near_contact_pairs`
 whose Perram-Wertheim scale is within a band around 1, where no shortcut applies.
 """
 
+import math
+
 import numpy as np
 
 from .classify import classify
@@ -32,6 +34,8 @@ def generic_pairs(n, *, seed=0):
 
 def near_contact_pairs(n, *, band=0.1, seed=0):
     """n random pairs with |contact_scale - 1| < band: the pairs that need the full test."""
+    if not (isinstance(band, (int, float, np.floating, np.integer)) and not isinstance(band, bool) and 0 < band < math.inf):
+        raise ValueError(f"band must be a positive finite number, got {band!r}")
     rng = np.random.default_rng(seed)
     keep_a, keep_b, total = [], [], 0
     while total < n:

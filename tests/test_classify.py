@@ -5,7 +5,8 @@ from hypothesis import strategies as st
 
 import reference
 import strategies as S
-from ellipsim import Ellipsoids, Relation, classify, contact_scale
+from ellipsim import Ellipsoids, Relation, characteristic_polynomial, classify, contact_scale, signed_distance
+from ellipsim.samples import near_contact_pairs
 from ellipsim.certified import UNDECIDED, certify
 
 SEP, TOUCH, OVER = Relation.SEPARATED, Relation.TOUCHING, Relation.OVERLAPPING
@@ -162,12 +163,35 @@ def test_thesis_methods_agree_with_exact_on_generic_pairs(method, setup, pair):
         (dict(method="sturm", setup="direct"), r"setup must be one of \('rearranged', 'cofactor'\), got 'direct'"),
         (dict(method="sturm", dtype="float16"), r"dtype must be one of \('float64', 'float32'\), got 'float16'"),
         (dict(setup="cofactor"), "setup and dtype apply to the 'sturm' and 'descartes' methods"),
+        (dict(method=np.array(["exact"])), r"method must be one of .*, got array\(\['exact'\]"),
+        (dict(method="sturm", dtype=None), r"dtype must be one of .*, got None"),
+        (dict(parallel="no"), r"parallel must be True, False or None, got 'no'"),
+        (dict(parallel=0.5), r"parallel must be True, False or None, got 0.5"),
     ],
 )
 def test_bad_arguments(kwargs, message):
     a = S.one([0, 0, 0], I, [1, 1, 1])
     with pytest.raises(ValueError, match=message):
         classify(a, a, **kwargs)
+
+
+def test_dtype_accepts_numpy_types():
+    a = S.one([0, 0, 0], I, [1, 1, 1])
+    b = S.one([3, 0, 0], I, [1, 1, 1])
+    for dtype in (np.float32, np.dtype("float32"), "float32"):
+        assert classify(a, b, method="sturm", dtype=dtype)[0] == Relation.SEPARATED
+
+
+def test_other_queries_name_their_bad_arguments():
+    a = S.one([0, 0, 0], I, [1, 1, 1])
+    with pytest.raises(ValueError, match=r"setup must be one of .*, got array"):
+        characteristic_polynomial(a, a, setup=np.array(["cofactor"]))
+    with pytest.raises(ValueError, match=r"max_iter must be an integer from 1 to 1000000, got 1180591620717411303424"):
+        signed_distance(a, a, max_iter=2**70)
+    with pytest.raises(ValueError, match=r"band must be a positive finite number, got 0"):
+        near_contact_pairs(5, band=0)
+    with pytest.raises(ValueError, match=r"band must be a positive finite number, got nan"):
+        near_contact_pairs(5, band=float("nan"))
 
 
 def test_bad_batches():

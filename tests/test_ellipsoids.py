@@ -62,6 +62,21 @@ def test_bad_input_names_the_argument_index_and_value(kwargs, message):
         Ellipsoids(**args)
 
 
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (([0, 0, 0], [[1, 0, 0], [0, 1], [0, 0, 1]], [1, 1, 1]), r"rotations must be an array of shape \(n, 3, 3\)"),
+        (([[0, 0, 0], [1]], [I, I], [[1, 1, 1]] * 2), r"centers must be an array of shape \(n, 3\)"),
+        (([0, 0, 0], I, [1, 1]), r"radii must have shape \(n, 3\), got \(1, 2\)"),
+    ],
+)
+def test_ragged_or_misshapen_single_ellipsoid_names_the_argument(args, message):
+    with pytest.raises(ValueError, match=message):
+        Ellipsoids(*args)
+    with pytest.raises(ValueError, match=r"quaternions_wxyz must be an array of shape \(n, 4\)"):
+        Ellipsoids.from_quaternions([0, 0, 0], [1, 0, [0], 0], [1, 1, 1])
+
+
 def test_rotation_tolerance_is_1e_6():
     near = I + np.diag([4e-7, 0, 0])
     Ellipsoids([[0, 0, 0]], [near], [[1, 1, 1]])

@@ -15,10 +15,9 @@ from . import exact
 from ._jit import jit, prange, stage
 from .certified import UNDECIDED, certify
 from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
-from .ellipsoids import check_choice, check_pair
+from .ellipsoids import check_choice, check_pair, check_parallel
 from .frame import load
 from .roots import descartes_relation, sturm_relation
-from .tolerances import PARALLEL_MIN_PAIRS
 
 
 class Relation(IntEnum):
@@ -87,10 +86,7 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
     check_choice("dtype", dtype, DTYPES)
     if method == "exact" and (setup != "rearranged" or dtype != "float64"):
         raise ValueError("setup and dtype apply to the 'sturm' and 'descartes' methods; 'exact' has neither")
-    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
-        raise ValueError(f"parallel must be True, False or None, got {parallel!r}")
-    if parallel is None:
-        parallel = n >= PARALLEL_MIN_PAIRS
+    parallel = check_parallel(parallel, n)
     if method == "exact":
         return resolve_undecided(a, b, certify(a, b, n, parallel))
     arrays = [a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii]

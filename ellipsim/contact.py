@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
-from .ellipsoids import check_pair
+from .ellipsoids import check_pair, check_parallel
 from .frame import invariants, load, matvec, norm2, offset, reciprocal, scaled, shape, unit_scale
 from .tolerances import PW_MAX_ITER, PW_RTOL
 
@@ -116,11 +116,17 @@ def contact_scale_pair(A, B):
 def _contact_scales(Ca, Ra, ra, Cb, Rb, rb, out):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
     for i in prange(out.shape[0]):
-        ia, ib = i * sa, i * sb
-        out[i] = contact_scale_pair(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
+        out[i] = contact_scale_pair(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
 
 
-def contact_scale(a, b):
+@jit
+def _contact_scales_serial(Ca, Ra, ra, Cb, Rb, rb, out):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
+    for i in range(out.shape[0]):
+        out[i] = contact_scale_pair(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
+
+
+def contact_scale(a, b, *, parallel=None):
     """Perram-Wertheim factor s for the pairs (a[i], b[i]).
 
     Scaling both ellipsoids about their centres by s makes them touch: s > 1 separated, s = 1
@@ -128,9 +134,11 @@ def contact_scale(a, b):
     classify for decisions); relative error ~1e-15 for well-conditioned pairs.
 
     a, b : Ellipsoids (a batch of length 1 broadcasts)
+    parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
     returns : (n,) float64
     """
     n = check_pair(a, b)
+    kernel = _contact_scales if check_parallel(parallel, n) else _contact_scales_serial
     out = np.empty(n)
-    _contact_scales(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
+    kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
     return out

@@ -11,7 +11,7 @@ rotation that is orthonormal only to rounding still defines one precise ellipsoi
 
 import numpy as np
 
-from .tolerances import ORTHONORMAL_TOL
+from .tolerances import ORTHONORMAL_TOL, PARALLEL_MIN_PAIRS
 
 
 def _is_single(centers):
@@ -181,3 +181,13 @@ def check_choice(name, value, options):
     """`value` must be one of the strings `options`; ValueError naming `name` otherwise."""
     if not isinstance(value, str) or value not in options:
         raise ValueError(f"{name} must be one of {options}, got {value!r}")
+
+
+def check_parallel(parallel, n):
+    """Whether a query on n pairs runs on all cores: `parallel` if True or False, and for None
+    (the default) from PARALLEL_MIN_PAIRS pairs on, where threading starts to pay on 2 cores."""
+    if parallel is None:
+        return n >= PARALLEL_MIN_PAIRS
+    if not isinstance(parallel, (bool, np.bool_)):
+        raise ValueError(f"parallel must be True, False or None, got {parallel!r}")
+    return bool(parallel)

@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from ._jit import jit, prange, stage
-from .ellipsoids import check_pair
+from .ellipsoids import check_pair, check_parallel
 from .frame import load, matvec, norm2, rotate_t, scaled, unit_scale
 from .tolerances import FIRST_RUN_ITER, NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
 
@@ -329,23 +329,35 @@ def pair_signed_distance(A, B, max_iter=NEWTON_MAX_ITER):
     return status, value * iu, normal, pos, steps
 
 
+@stage
+def _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, i):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    st, v, nrm, p, _ = pair_signed_distance(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), max_iter)
+    dist[i], status[i] = v, st
+    for k in range(3):
+        normal[i, k] = nrm[k]
+        pos[i, k] = p[k]
+
+
 @jit(parallel=True)
 def _distances(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
     for i in prange(dist.shape[0]):
-        st, v, nrm, p, _ = pair_signed_distance(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), max_iter)
-        dist[i], status[i] = v, st
-        for k in range(3):
-            normal[i, k] = nrm[k]
-            pos[i, k] = p[k]
+        _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, i)
 
 
-def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER):
+@jit
+def _distances_serial(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status):
+    for i in range(dist.shape[0]):
+        _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, i)
+
+
+def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
     """Signed distance, contact normal and contact point for the pairs (a[i], b[i]).
 
     a, b : Ellipsoids (a batch of length 1 broadcasts)
     max_iter : Newton steps allowed per run (the default converges; smaller caps trade accuracy
         for time, see `ellipsim bench`)
+    parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
     returns : dist (n,) metres (> 0 distance, < 0 minus the penetration depth), normal (n, 3) unit,
         from a to b, pos (n, 3) metres (midpoint of the support points, as MuJoCo reports contacts),
         status (n,) int8: CERTIFIED, MULTISTART or NOT_CONVERGED (see the module docstring)
@@ -353,7 +365,8 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER):
     n = check_pair(a, b)
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000:
         raise ValueError(f"max_iter must be an integer from 1 to 1000000, got {max_iter!r}")
+    kernel = _distances if check_parallel(parallel, n) else _distances_serial
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
-    _distances(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, int(max_iter), dist, normal, pos, status)
+    kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, int(max_iter), dist, normal, pos, status)
     return dist, normal, pos, status

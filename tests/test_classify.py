@@ -194,6 +194,15 @@ def test_other_queries_name_their_bad_arguments():
         near_contact_pairs(5, band=float("nan"))
 
 
+def test_serial_and_parallel_queries_agree():
+    a, b = near_contact_pairs(300, seed=4)
+    np.testing.assert_array_equal(contact_scale(a, b, parallel=True), contact_scale(a, b, parallel=False))
+    for x, y in zip(signed_distance(a, b, parallel=True), signed_distance(a, b, parallel=False)):
+        np.testing.assert_array_equal(x, y)
+    with pytest.raises(ValueError, match="parallel must be True, False or None, got 'yes'"):
+        contact_scale(a, b, parallel="yes")
+
+
 def test_bad_batches():
     a = Ellipsoids(np.zeros((2, 3)), np.stack([I, I]), np.ones((2, 3)))
     b = Ellipsoids(np.zeros((3, 3)), np.stack([I, I, I]), np.ones((3, 3)))

@@ -554,16 +554,35 @@ class NarrowphaseComparison:
     differences: list  # ContactDifference beyond DIST_TOL / ANGLE_TOL / POS_TOL, or unmatched
 
 
+@dataclasses.dataclass
+class _Contacts:
+    """The ellipsoid and sphere-ellipsoid contacts of a data, one per (geom1, geom2) as the contacts
+    name them (the last, when MuJoCo made several), sorted by key = geom1 * ngeom + geom2."""
+
+    key: np.ndarray  # (k,) int64
+    dist: np.ndarray  # (k,)
+    normal: np.ndarray  # (k, 3)
+    pos: np.ndarray  # (k, 3)
+
+    def at(self, j):
+        """Contact j as (dist, normal (3,), pos (3,))."""
+        return float(self.dist[j]), self.normal[j].copy(), self.pos[j].copy()
+
+    def get(self, key):
+        """The contact with `key`, or None."""
+        j = int(np.searchsorted(self.key, key))
+        return self.at(j) if j < len(self.key) and self.key[j] == key else None
+
+
 def _ellipsoid_contacts(model, data):
-    """{(g1, g2): (dist, normal, pos)} of the ellipsoid and sphere-ellipsoid contacts in data."""
-    out = {}
-    kinds = (_ELLIPSOID, _SPHERE)
-    for c in data.contact[: data.ncon] if data.ncon else []:
-        g1, g2 = int(c.geom[0]), int(c.geom[1])
-        t1, t2 = model.geom_type[g1], model.geom_type[g2]
-        if t1 in kinds and t2 in kinds and _ELLIPSOID in (t1, t2):
-            out[(g1, g2)] = (float(c.dist), c.frame[:3].copy(), c.pos.copy())
-    return out
+    """_Contacts of the ellipsoid and sphere-ellipsoid contacts in data."""
+    con, n = data.contact, data.ncon
+    geom = con.geom[:n].astype(np.int64)
+    t = model.geom_type[geom]
+    kept = np.flatnonzero(((t == _ELLIPSOID) | (t == _SPHERE)).all(axis=1) & (t == _ELLIPSOID).any(axis=1))
+    key, first_from_end = np.unique((geom[kept, 0] * model.ngeom + geom[kept, 1])[::-1], return_index=True)
+    last = kept[::-1][first_from_end]
+    return _Contacts(key, con.dist[:n][last], con.frame[:n][last, :3], con.pos[:n][last])
 
 
 def _sigma(model, data, g1, g2, n):
@@ -610,27 +629,35 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
             ours = _ellipsoid_contacts(model, data)
         mujoco.mj_setState(model, data, state, spec)
         mujoco.mj_forward(model, data)
-        for key in sorted(set(theirs) | set(ours)):
-            mj, el = theirs.get(key), ours.get(key)
-            if mj and el:
-                matched += 1
-                ddist = abs(mj[0] - el[0])
-                angle = float(np.arccos(np.clip(mj[1] @ el[1], -1.0, 1.0)))
-                dpos = float(np.linalg.norm(mj[2] - el[2]))
-                worst = [max(worst[0], ddist), max(worst[1], angle), max(worst[2], dpos)]
-                if ddist <= DIST_TOL and angle <= ANGLE_TOL and dpos <= POS_TOL:
-                    continue
-            elif abs((mj or el)[0]) < NEAR_TANGENT:
-                near += 1
-                continue
-            differences.append(_referee(model, data, step, key, names, mj, el))
+        keys = np.union1d(theirs.key, ours.key)
+        i_mj, i_el = np.searchsorted(theirs.key, keys), np.searchsorted(ours.key, keys)
+        on_mj, on_el = np.isin(keys, theirs.key), np.isin(keys, ours.key)
+        both = on_mj & on_el
+        m, e = i_mj[both], i_el[both]
+        ddist = np.abs(theirs.dist[m] - ours.dist[e])
+        # vecdot and sqrt(vecdot) are the per-vector a @ b and np.linalg.norm, to the bit
+        angle = np.arccos(np.clip(np.vecdot(theirs.normal[m], ours.normal[e]), -1.0, 1.0))
+        dp = theirs.pos[m] - ours.pos[e]
+        dpos = np.sqrt(np.vecdot(dp, dp))
+        matched += int(both.sum())
+        worst = [float(np.fmax.reduce(x, initial=w)) for w, x in zip(worst, (ddist, angle, dpos))]  # fmax: as max()
+        within = np.zeros(len(keys), dtype=bool)
+        within[both] = (ddist <= DIST_TOL) & (angle <= ANGLE_TOL) & (dpos <= POS_TOL)
+        one_dist = np.empty(len(keys))  # the dist of the one side in contact
+        one_dist[on_el], one_dist[on_mj] = ours.dist[i_el[on_el]], theirs.dist[i_mj[on_mj]]
+        tangent = ~both & (np.abs(one_dist) < NEAR_TANGENT)
+        near += int(tangent.sum())
+        for j in np.flatnonzero(~(within | tangent)):
+            mj = theirs.at(i_mj[j]) if on_mj[j] else None
+            el = ours.at(i_el[j]) if on_el[j] else None
+            differences.append(_referee(model, data, step, divmod(int(keys[j]), model.ngeom), names, mj, el))
         undetermined = [x for x in differences if x.step == step and x.right == "undetermined"]
         if undetermined:
             mujoco.mj_setState(tight, tight_data, state, spec)
             mujoco.mj_forward(tight, tight_data)
             third = _ellipsoid_contacts(tight, tight_data)
             for x in undetermined:
-                t = third.get((x.geom1, x.geom2))
+                t = third.get(x.geom1 * model.ngeom + x.geom2)
                 if t is not None and x.mujoco and x.ellipsim:
                     el_err, mj_err = abs(t[0] - x.ellipsim[0]), abs(t[0] - x.mujoco[0])
                     x.right = "ellipsim" if el_err < mj_err else "mujoco"

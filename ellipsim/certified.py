@@ -36,7 +36,6 @@ from .frame import (
     rotate_t,
     rotate_t_mag,
     shape,
-    tmatvec,
 )
 from .roots import OVERLAPPING, SEPARATED
 from .tolerances import (
@@ -133,8 +132,8 @@ def witness(mu, W, e, v, inv):
     Only a candidate point: whether it is inside both is checked rigorously afterwards.
     """
     t1, t2, t3 = inv[0], inv[1], inv[2]
-    g1 = tmatvec(W, v)
-    g2 = tmatvec(W, matvec(W, g1))
+    g1 = rotate_t(W, v)  # W^T v
+    g2 = rotate_t(W, matvec(W, g1))
     ip = 1.0 / (((mu + t1) * mu + t2) * mu + t3)
     y0 = (mu * mu * g1[0] + mu * (t1 * g1[0] - g2[0]) + t3 * e[0]) * ip
     y1 = (mu * mu * g1[1] + mu * (t1 * g1[1] - g2[1]) + t3 * e[1]) * ip

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._jit import jit, prange, stage
 from .ellipsoids import check_choice, check_pair
-from .frame import coefficients, invariants, load, matvec, offset, reciprocal, shape
+from .frame import coefficients, invariants, load, matvec, offset, reciprocal, sandwich, shape
 
 SETUPS = ("rearranged", "cofactor")
 
@@ -24,12 +24,7 @@ def _world_quadric(E):
     c, R, r = E
     one = type(r[0])(1.0)
     w0, w1, w2 = one / (r[0] * r[0]), one / (r[1] * r[1]), one / (r[2] * r[2])
-    q00 = R[0] * R[0] * w0 + R[1] * R[1] * w1 + R[2] * R[2] * w2
-    q01 = R[0] * R[3] * w0 + R[1] * R[4] * w1 + R[2] * R[5] * w2
-    q02 = R[0] * R[6] * w0 + R[1] * R[7] * w1 + R[2] * R[8] * w2
-    q11 = R[3] * R[3] * w0 + R[4] * R[4] * w1 + R[5] * R[5] * w2
-    q12 = R[3] * R[6] * w0 + R[4] * R[7] * w1 + R[5] * R[8] * w2
-    q22 = R[6] * R[6] * w0 + R[7] * R[7] * w1 + R[8] * R[8] * w2
+    q00, q01, q02, q11, q12, q22 = sandwich(R, w0, w1, w2)
     g0 = -(q00 * c[0] + q01 * c[1] + q02 * c[2])
     g1 = -(q01 * c[0] + q11 * c[1] + q12 * c[2])
     g2 = -(q02 * c[0] + q12 * c[1] + q22 * c[2])

@@ -83,15 +83,6 @@ def matvec(M, x):
     )
 
 
-@jit
-def tmatvec(M, x):
-    return (
-        M[0] * x[0] + M[3] * x[1] + M[6] * x[2],
-        M[1] * x[0] + M[4] * x[1] + M[7] * x[2],
-        M[2] * x[0] + M[5] * x[1] + M[8] * x[2],
-    )
-
-
 @stage
 def _inverse_transpose_numerator(Ra, exact_inverse):
     """C with R_a^{-T} = C / det(R_a), its mag, alpha = det(R_a)^2 and its mag.
@@ -122,9 +113,22 @@ def _inverse_transpose_numerator(Ra, exact_inverse):
     return C, mC, det * det, mdet * mdet
 
 
+@stage
+def sandwich(R, w0, w1, w2):
+    """R diag(w) R^T for a row-major 3x3 tuple R: its upper triangle (s00, s01, s02, s11, s12, s22)."""
+    return (
+        R[0] * R[0] * w0 + R[1] * R[1] * w1 + R[2] * R[2] * w2,
+        R[0] * R[3] * w0 + R[1] * R[4] * w1 + R[2] * R[5] * w2,
+        R[0] * R[6] * w0 + R[1] * R[7] * w1 + R[2] * R[8] * w2,
+        R[3] * R[3] * w0 + R[4] * R[4] * w1 + R[5] * R[5] * w2,
+        R[3] * R[6] * w0 + R[4] * R[7] * w1 + R[5] * R[8] * w2,
+        R[6] * R[6] * w0 + R[7] * R[7] * w1 + R[8] * R[8] * w2,
+    )
+
+
 @jit
 def rotate_t(R, d):
-    """R^T d for a row-major rotation tuple [depth of d + 3]."""
+    """R^T d for a row-major 3x3 tuple, a rotation or not [depth of d + 3]."""
     return (
         R[0] * d[0] + R[3] * d[1] + R[6] * d[2],
         R[1] * d[0] + R[4] * d[1] + R[7] * d[2],

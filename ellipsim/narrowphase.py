@@ -28,7 +28,7 @@ import numpy as np
 
 from ._jit import jit, prange, stage
 from .ellipsoids import check_pair, check_parallel
-from .frame import load, matvec, norm2, rotate_t, scaled, unit_scale
+from .frame import load, matvec, norm2, rotate_t, sandwich, scaled, unit_scale
 from .tolerances import FIRST_RUN_ITER, NEWTON_MAX_ITER, NEWTON_STEP_TOL, SAME_BASIN_COS
 
 #: Newton run statuses, and what pair_signed_distance reports: CERTIFIED (a converged local maximum
@@ -56,12 +56,7 @@ def a_frame(A, B):
     e = rotate_t(Ra, (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]))
     U = _tmatmul(Ra, Rb)
     b0, b1, b2 = rb[0] * rb[0], rb[1] * rb[1], rb[2] * rb[2]
-    m00 = U[0] * U[0] * b0 + U[1] * U[1] * b1 + U[2] * U[2] * b2
-    m01 = U[0] * U[3] * b0 + U[1] * U[4] * b1 + U[2] * U[5] * b2
-    m02 = U[0] * U[6] * b0 + U[1] * U[7] * b1 + U[2] * U[8] * b2
-    m11 = U[3] * U[3] * b0 + U[4] * U[4] * b1 + U[5] * U[5] * b2
-    m12 = U[3] * U[6] * b0 + U[4] * U[7] * b1 + U[5] * U[8] * b2
-    m22 = U[6] * U[6] * b0 + U[7] * U[7] * b1 + U[8] * U[8] * b2
+    m00, m01, m02, m11, m12, m22 = sandwich(U, b0, b1, b2)
     M = (m00, m01, m02, m01, m11, m12, m02, m12, m22)
     return e, (ra[0] * ra[0], ra[1] * ra[1], ra[2] * ra[2]), M, U
 

@@ -157,8 +157,8 @@ def _quat_mul(p, q):
     )
 
 
-def _fmt(values):
-    """Numbers as an MJCF attribute value, to float64 round-trip precision."""
+def mjcf_numbers(values):
+    """Numbers as an MJCF attribute value, to float64 round-trip precision (shortest repr)."""
     return " ".join(repr(float(v)) for v in values)
 
 
@@ -286,8 +286,8 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
         _prefix(body, f"f{i}_", names)
         for attr in ("euler", "axisangle", "xyaxes", "zaxis"):
             body.attrib.pop(attr, None)
-        body.set("pos", _fmt(pos[i]))
-        body.set("quat", _fmt(quats[i]))
+        body.set("pos", mjcf_numbers(pos[i]))
+        body.set("quat", mjcf_numbers(quats[i]))
         if fixed_roots:
             body.remove(body.find("freejoint"))
             contact = root.find("contact")
@@ -379,16 +379,16 @@ def pile_xml(n_ellipsoids, *, seed=0, bin_half_width=0.5, radii=(0.03, 0.12)):
         ("wall_-y", (0, -outer), (half_width + t, t / 2)),
     ):
         ET.SubElement(
-            world, "geom", name=name, type="box", pos=_fmt((x, y, wall_height / 2)),
-            size=_fmt((sx, sy, wall_height / 2)), rgba="0.6 0.6 0.65 0.4",
+            world, "geom", name=name, type="box", pos=mjcf_numbers((x, y, wall_height / 2)),
+            size=mjcf_numbers((sx, sy, wall_height / 2)), rgba="0.6 0.6 0.65 0.4",
         )  # fmt: skip
     for i in range(n):
-        body = ET.SubElement(world, "body", name=f"e{i}", pos=_fmt(centres[i]), quat=_fmt(quats[i]))
+        body = ET.SubElement(world, "body", name=f"e{i}", pos=mjcf_numbers(centres[i]), quat=mjcf_numbers(quats[i]))
         ET.SubElement(body, "freejoint", name=f"e{i}")
         hue = (0.35 + 0.5 * (i % 7) / 6, 0.5, 0.85 - 0.5 * (i % 7) / 6)
         ET.SubElement(
-            body, "geom", name=f"e{i}", type="ellipsoid", size=_fmt(sizes[i]), contype="1",
-            conaffinity="1", rgba=_fmt((*hue, 1.0)),
+            body, "geom", name=f"e{i}", type="ellipsoid", size=mjcf_numbers(sizes[i]), contype="1",
+            conaffinity="1", rgba=mjcf_numbers((*hue, 1.0)),
         )  # fmt: skip
     ET.indent(root)
     return ET.tostring(root, encoding="unicode")
@@ -430,7 +430,7 @@ def _coil_frames(rng, n):
     return frames, joints
 
 
-def _mat_to_quat(rot):
+def mat_to_quat(rot):
     """Unit quaternion (4,) w x y z of a rotation matrix (3, 3) (MuJoCo's mju_mat2Quat)."""
     quat = np.empty(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rot).reshape(9))
@@ -457,20 +457,20 @@ def chain_xml(n_links, *, seed=0):
 
     root, world = _world_root(f"ellipsoid_chain_{n}")
     default = ET.SubElement(ET.SubElement(root, "default"), "default", attrib={"class": "link"})
-    ET.SubElement(default, "geom", type="ellipsoid", size=_fmt(_LINK_RADII), contype="1", conaffinity="1",
+    ET.SubElement(default, "geom", type="ellipsoid", size=mjcf_numbers(_LINK_RADII), contype="1", conaffinity="1",
                   rgba="0.45 0.6 0.8 1")  # fmt: skip
     ET.SubElement(default, "joint", type="hinge", limited="true", range=f"{-_LINK_RANGE} {_LINK_RANGE}",
                   damping=repr(_LINK_DAMPING), armature=repr(_LINK_ARMATURE))  # fmt: skip
-    parent = ET.SubElement(world, "body", name="link0", pos=_fmt(joints[0]), quat=_fmt(_mat_to_quat(frames[0])),
+    parent = ET.SubElement(world, "body", name="link0", pos=mjcf_numbers(joints[0]), quat=mjcf_numbers(mat_to_quat(frames[0])),
                            childclass="link")  # fmt: skip
     ET.SubElement(parent, "freejoint", name="root")
-    ET.SubElement(parent, "geom", name="link0", pos=_fmt((0, 0, -a)))
+    ET.SubElement(parent, "geom", name="link0", pos=mjcf_numbers((0, 0, -a)))
     for i in range(1, n):
         relative = frames[i - 1].T @ frames[i]
         parent = ET.SubElement(
-            parent, "body", name=f"link{i}", pos=_fmt((0, 0, -2 * a)), quat=_fmt(_mat_to_quat(relative))
+            parent, "body", name=f"link{i}", pos=mjcf_numbers((0, 0, -2 * a)), quat=mjcf_numbers(mat_to_quat(relative))
         )
         ET.SubElement(parent, "joint", name=f"hinge{i}", axis="1 0 0" if i % 2 else "0 1 0")
-        ET.SubElement(parent, "geom", name=f"link{i}", pos=_fmt((0, 0, -a)))
+        ET.SubElement(parent, "geom", name=f"link{i}", pos=mjcf_numbers((0, 0, -a)))
     ET.indent(root)
     return ET.tostring(root, encoding="unicode")

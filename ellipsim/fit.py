@@ -31,12 +31,12 @@ import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
-import mujoco
 import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
 from .ellipsoids import Ellipsoids
+from .figures import mat_to_quat, mjcf_numbers
 
 #: The fitting methods of `bounding_ellipsoid`.
 METHODS = ("thesis", "mvee")
@@ -163,25 +163,19 @@ def limb_geom_xml(name, ellipsoid):
     if not isinstance(ellipsoid, Ellipsoids) or len(ellipsoid) != 1:
         got = f"a batch of {len(ellipsoid)}" if isinstance(ellipsoid, Ellipsoids) else type(ellipsoid).__name__
         raise ValueError(f"ellipsoid must be an ellipsim.Ellipsoids of length 1, got {got}")
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(ellipsoid.rotations[0]).reshape(9))
+    quat = mat_to_quat(ellipsoid.rotations[0])
     geom = ET.Element(
         "geom",
         name=name,
         type="ellipsoid",
-        pos=_fmt(ellipsoid.centers[0]),
-        quat=_fmt(quat),
-        size=_fmt(ellipsoid.radii[0]),
+        pos=mjcf_numbers(ellipsoid.centers[0]),
+        quat=mjcf_numbers(quat),
+        size=mjcf_numbers(ellipsoid.radii[0]),
     )
     return ET.tostring(geom, encoding="unicode", short_empty_elements=True)
 
 
 # --- Input checks ----------------------------------------------------------------------------
-
-
-def _fmt(values):
-    """Space-separated shortest round-trip reprs of the floats in `values`."""
-    return " ".join(repr(float(v)) for v in values)
 
 
 def _check_method(method):

@@ -116,11 +116,7 @@ def _compile_callback():
         if not ((t1 == _ELLIPSOID and (t2 == _ELLIPSOID or t2 == _SPHERE)) or (t1 == _SPHERE and t2 == _ELLIPSOID)):
             return 0
         reg = carray(mjstruct.i64_pointer(reg_addr), (reg_rows, 5))
-        slot = 0
-        for k in range(1, reg[0, 0] + 1):
-            if reg[k, 0] == da:
-                slot = k
-                break
+        slot = _slot(reg, da)
         if slot and reg[slot, 2] == _RECORD:
             counters = carray(mjstruct.i64_pointer(reg[slot, 1]), (_NCOUNTERS,))
             i = counters[3]

@@ -41,6 +41,16 @@ def _positive_int(text):
     return value
 
 
+def _non_negative_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
+
+
 def _time(fn):
     t0 = time.perf_counter()
     out = fn()
@@ -126,13 +136,34 @@ def _load(name):
         raise UserError(str(exc)) from None
 
 
+def _simulated(fn, *args, **kwargs):
+    """fn(*args, **kwargs), a scenario's run or validation: a scene the model builder refuses
+    (ScenarioError, raised before any step) is a user mistake."""
+    from ellipsim import scenario
+
+    try:
+        return fn(*args, **kwargs)
+    except scenario.ScenarioError as exc:
+        raise UserError(str(exc)) from None
+
+
 def _check_output(path, suffix, option):
-    """The output file's directory must exist and its name end in `suffix`: checked before running."""
+    """The output file's name must end in `suffix`, not be a directory, and its directory must exist
+    and be writable: checked before running."""
     if not path.endswith(suffix):
         raise UserError(f"{option} must name a {suffix} file, got {path!r}")
+    if os.path.isdir(path):
+        raise UserError(f"{option}: {path!r} is a directory, not a {suffix} file")
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise UserError(f"{option}: directory {folder!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise UserError(f"{option}: cannot write {path!r} (permission denied)")
+
+
+def _write_error(option, path, exc):
+    """UserError of an output file that could not be written after all."""
+    return UserError(f"{option}: cannot write {path!r}: {exc.strerror or exc}")
 
 
 def list_scenarios(args):
@@ -157,7 +188,7 @@ def run(args):
     what = "kinematic replay" if s.kinematic else f"mode {mode}"
     print(f"{s.name}: {s.description}")
     print(f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}", flush=True)
-    result = scenario.run(s, steps=steps, mode=mode, progress=Progress(f"  {s.name}", steps))
+    result = _simulated(scenario.run, s, steps=steps, mode=mode, progress=Progress(f"  {s.name}", steps))
     tr = result.frames
     rate = steps / max(result.seconds, 1e-9)
     print(f"  wall time {result.seconds:.2f} s: {rate:,.0f} steps/s ({rate * s.timestep:.2f}x real time)")
@@ -183,9 +214,15 @@ def run(args):
 
         try:
             record.save(args.record, tr)
+            size = os.path.getsize(args.record)
         except ValueError as exc:
             raise UserError(str(exc)) from None
-        size = os.path.getsize(args.record)
+        except OSError as exc:
+            raise _write_error("--record", args.record, exc) from None
+        except RuntimeError as exc:  # rerun reports a file it cannot create as a RuntimeError
+            if "Failed to create file" not in str(exc):
+                raise
+            raise UserError(f"--record: cannot write {args.record!r}: {exc}") from None
         print(f"  recording: {args.record} ({len(tr.times)} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
     return 0
 
@@ -211,6 +248,7 @@ def _compare_summary(validation):
 def compare(args):
     """MuJoCo's built-in contacts against ellipsim's exact verdicts, per frame and in total."""
     from ellipsim import scenario
+    from ellipsim.tolerances import NEAR_TANGENT
 
     s = _load(args.scenario)
     if args.json:
@@ -221,7 +259,7 @@ def compare(args):
     steps = args.steps or s.steps
     print(f"{s.name}: {s.description}")
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
-    v, model = scenario.validation(s, steps, progress=Progress(f"  {s.name}", steps))
+    v, model = _simulated(scenario.validation, s, steps, progress=Progress(f"  {s.name}", steps))
     builtin, ours, missed, extra, near = _compare_summary(v)
     agree = int(v.counts[:, 0].sum() + v.counts[:, 1].sum())
     pairs = int(v.counts.sum())
@@ -230,7 +268,7 @@ def compare(args):
     print(f"  totals: MuJoCo {builtin.sum()}, ellipsim {ours.sum()}")
     print(
         f"  disagreements: {len(missed)} missed (MuJoCo contact, ellipsim separated), {len(extra)} extra "
-        f"(ellipsim overlapping, no MuJoCo contact), {len(near)} within {2e-6:g} m of touching"
+        f"(ellipsim overlapping, no MuJoCo contact), {len(near)} within {NEAR_TANGENT:g} m of touching"
     )
     for d in (missed + extra + near)[: args.show]:
         print(
@@ -253,8 +291,11 @@ def compare(args):
                 for kind, ds in (("missed", missed), ("extra", extra), ("near_tangent", near)) for d in ds
             ],
         }  # fmt: skip
-        with open(args.json, "w") as f:
-            json.dump(report, f, indent=1)
+        try:
+            with open(args.json, "w") as f:
+                json.dump(report, f, indent=1)
+        except OSError as exc:
+            raise _write_error("--json", args.json, exc) from None
         print(f"  report: {args.json}")
     if args.plot:
         _plot_compare(args.plot, s, builtin, ours, missed + extra, near)
@@ -286,8 +327,12 @@ def _plot_compare(path, s, builtin, ours, disagree, near):
     ax.set_ylabel("ellipsoid pairs in contact")
     ax.set_title(f"{s.name}: MuJoCo vs ellipsim, per step")
     ax.legend(loc="best", fontsize=8)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=120)
+    except OSError as exc:
+        raise _write_error("--plot", path, exc) from None
+    finally:
+        plt.close(fig)
 
 
 def bench(args):
@@ -341,7 +386,7 @@ def main(argv=None):
     p.add_argument("--steps", type=_positive_int, help="steps to compare (default: the scenario's duration)")
     p.add_argument("--json", metavar="FILE.json", help="write the counts and every disagreement as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="plot the per-frame counts (needs the 'plot' extra)")
-    p.add_argument("--show", type=int, default=10, help="disagreements to print (default 10)")
+    p.add_argument("--show", type=_non_negative_int, default=10, help="disagreements to print (default 10)")
     p.set_defaults(run=compare)
 
     p = sub.add_parser("view", help="open a recording in the rerun viewer (or say how)")

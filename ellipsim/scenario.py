@@ -8,7 +8,9 @@ naming the file and the key; `run` simulates and returns the Trajectory that rec
 CLI summarises.
 """
 
+import contextlib
 import dataclasses
+import functools
 import math
 import os
 import time
@@ -130,6 +132,8 @@ def load(name_or_path):
             table = tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text: {exc}") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
     top = _Checker(path, table)
@@ -144,7 +148,9 @@ def load(name_or_path):
     if gravity and (len(gravity) != 3 or not all(isinstance(g, (int, float)) and not isinstance(g, bool) for g in gravity)):
         raise top.error("gravity", "must be a list of three numbers (m/s^2)", gravity)
     scene = _scene(top.table_of("scene"))
-    control = _control(top.table_of("control"), kinematic)
+    if scene["kind"] == "pile" and kinematic:
+        raise top.error("kinematic", "must be false for a pile scene (free ellipsoids have no joints to pose)", kinematic)
+    control = _control(top.table_of("control"), kinematic, scene["kind"])
     top.done()
     name = os.path.basename(path)[:-5] if path.endswith(".toml") else os.path.basename(path)
     return Scenario(name, path, description, duration, timestep, mode, kinematic, tuple(float(g) for g in gravity), scene, control)
@@ -169,10 +175,12 @@ def _scene(c):
     return out
 
 
-def _control(c, kinematic):
+def _control(c, kinematic, scene_kind):
     kind = c.get("kind", str, "hold", choices=CONTROLS)
     if kinematic and kind != "keyframes":
         raise c.error("kind", "must be 'keyframes' for a kinematic scenario", kind)
+    if scene_kind == "pile" and kind != "hold":
+        raise c.error("kind", "must be 'hold' for a pile scene (free ellipsoids have no joints to drive)", kind)
     out = {"kind": kind}
     if kind in ("sway", "walk", "dance", "flail"):
         out["amplitude"] = c.get("amplitude", float, 20.0 if kind != "flail" else 0.5, positive=True)
@@ -204,6 +212,12 @@ def _control(c, kinematic):
             unknown = set(k) - {"t", "joints"}
             if unknown:
                 raise c.error(f"keys[{i}]", f"has unknown key {sorted(unknown)[0]!r}", k)
+            for j in joints:
+                if j not in _figure_joints():
+                    raise ScenarioError(
+                        f"{c.path}: key '{c.prefix}keys[{i}].joints' names unknown joint {j!r}; "
+                        f"the figure's joints are {', '.join(_figure_joints())}"
+                    )
             frames.append((float(t), {str(j): float(v) for j, v in joints.items()}))
         if len(frames) < 2 or any(b[0] <= a[0] for a, b in zip(frames, frames[1:])):
             raise c.error("keys", "must be at least two keyframes with increasing times", [f[0] for f in frames])
@@ -215,16 +229,30 @@ def _control(c, kinematic):
 # --- models --------------------------------------------------------------------------------------
 
 
+@functools.cache
+def _figure_joints():
+    """Names of the figure's actuated joints, in actuator order (what keyframes may name)."""
+    model = mujoco.MjModel.from_xml_string(figures.figure_xml())
+    return tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, model.actuator_trnid[a, 0]) for a in range(model.nu))
+
+
 def build(s):
-    """(model, data) of a scenario, with its timestep and gravity, at the initial state."""
+    """(model, data) of a scenario, with its timestep and gravity, at the initial state.
+
+    A scene the figures module refuses (e.g. a spacing too small for the layout) raises
+    ScenarioError naming the file.
+    """
     sc = s.scene
-    if sc["kind"] == "figures":
-        xml = figures.scene_xml(
-            sc["figures"], layout=sc["layout"], spacing=sc["spacing"], seed=sc["seed"],
-            drop_height=sc["drop_height"], floor=sc["floor"], fixed_roots=sc["fixed_roots"],
-        )  # fmt: skip
-    else:
-        xml = figures.pile_xml(sc["ellipsoids"], seed=sc["seed"], bin_half_width=sc["bin_half_width"])
+    try:
+        if sc["kind"] == "figures":
+            xml = figures.scene_xml(
+                sc["figures"], layout=sc["layout"], spacing=sc["spacing"], seed=sc["seed"],
+                drop_height=sc["drop_height"], floor=sc["floor"], fixed_roots=sc["fixed_roots"],
+            )  # fmt: skip
+        else:
+            xml = figures.pile_xml(sc["ellipsoids"], seed=sc["seed"], bin_half_width=sc["bin_half_width"])
+    except ValueError as exc:
+        raise ScenarioError(f"{s.path}: [scene] {exc}") from None
     model = mujoco.MjModel.from_xml_string(xml)
     model.opt.timestep = s.timestep
     if s.gravity:
@@ -274,6 +302,7 @@ class Controller:
     def __init__(self, model, control):
         self.kind, self.c = control["kind"], control
         self.joints = _actuated_joints(model)
+        self.qadr = np.array([adr for _, _, adr in self.joints], dtype=np.intp)  # qpos address per actuator
         nu = len(self.joints)
         self.lo, self.hi = model.actuator_ctrlrange[:, 0].copy(), model.actuator_ctrlrange[:, 1].copy()
         deg = math.pi / 180
@@ -434,6 +463,7 @@ def _quaternions(mats):
 
 
 def _frames(s, model, ids, radii, allowed, times, centers, rotations, contacts, builtin):
+    """contacts: (frame (N,) int64, pos (N, 3), normal (N, 3)) of the recorded ellipsoid contacts."""
     pairs, relation = classify_frames(centers, rotations, radii, allowed)
     F, g = centers.shape[:2]
     state = np.zeros((F, g), dtype=np.int8)
@@ -444,26 +474,21 @@ def _frames(s, model, ids, radii, allowed, times, centers, rotations, contacts, 
     overlaps = np.bincount(pairs[relation == Relation.OVERLAPPING, 0], minlength=F) if len(pairs) else np.zeros(F, int)
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, int(k)) or f"geom{k}" for k in ids]
     figure = np.array([int(n.split("_")[0][1:]) if n.startswith("f") and n.split("_")[0][1:].isdigit() else -1 for n in names])
-    cf = np.array([c[0] for c in contacts], dtype=np.int64)
+    cf, pos, normal = contacts
     return Trajectory(
         scenario=s.name, times=np.asarray(times), geom_names=names, geom_figure=figure, half_sizes=radii,
         centers=centers, quaternions=_quaternions(rotations), state=state,
-        contact_frame=cf, contact_pos=np.array([c[1] for c in contacts]).reshape(-1, 3),
-        contact_normal=np.array([c[2] for c in contacts]).reshape(-1, 3),
+        contact_frame=cf, contact_pos=pos, contact_normal=normal,
         builtin_counts=np.asarray(builtin, dtype=np.int64), ellipsim_counts=overlaps.astype(np.int64),
     )  # fmt: skip
 
 
-def _ellipsoid_contacts(model, data, ids):
-    """[(pos, normal)] of MuJoCo's contacts between the geoms `ids` in data."""
-    keep = np.zeros(model.ngeom, dtype=bool)
-    keep[ids] = True
-    out = []
-    for k in range(data.ncon):
-        c = data.contact[k]
-        if keep[c.geom[0]] and keep[c.geom[1]]:
-            out.append((c.pos.copy(), c.frame[:3].copy()))
-    return out
+def _ellipsoid_contacts(data, keep):
+    """Positions (m, 3) and normals (m, 3) of MuJoCo's contacts in data between two geoms marked
+    in `keep` (ngeom,) bool, in MuJoCo's order; the normal is the first row of the contact frame."""
+    con = data.contact
+    both = keep[con.geom].all(axis=1)
+    return con.pos[both], con.frame[both, :3]
 
 
 def run(s, *, steps=None, mode=None, progress=None):
@@ -481,20 +506,20 @@ def run(s, *, steps=None, mode=None, progress=None):
     model, data = build(s)
     ids, radii, allowed = _geoms(model)
     control = Controller(model, s.control)
-    joints = control.joints
+    keep = np.zeros(model.ngeom, dtype=bool)
+    keep[ids] = True
     every = 1 if s.kinematic else max(1, int(round(1.0 / (RECORD_FPS * s.timestep))))
-    times, centers, rotations, contacts, builtin = [], [], [], [], []
+    times, centers, rotations, builtin = [], [], [], []
+    contact_frame, contact_pos, contact_normal = [], [], []
     ncon = np.zeros(steps, dtype=np.int64)
     counters = {}
     att = plugin.attach(model, data, mode=mode) if mode != "builtin" and not s.kinematic else None
-    with att if att else _Nothing():
+    with att if att else contextlib.nullcontext():
         t0 = time.perf_counter()  # after attaching: the first attach compiles the callback
         for k in range(steps):
             if s.kinematic:  # pose from the keyframes, then forward kinematics and MuJoCo's collision
                 t = k * s.timestep
-                target = control(t)
-                for a, (_, _, adr) in enumerate(joints):
-                    data.qpos[adr] = target[a]
+                data.qpos[control.qadr] = control(t)
                 data.time = t
                 mujoco.mj_forward(model, data)
             else:
@@ -506,24 +531,19 @@ def run(s, *, steps=None, mode=None, progress=None):
                 times.append(data.time)
                 centers.append(data.geom_xpos[ids].copy())
                 rotations.append(data.geom_xmat[ids].reshape(-1, 3, 3).copy())
-                found = _ellipsoid_contacts(model, data, ids)
-                contacts += [(frame, p, n) for p, n in found]
-                builtin.append(len(found))
+                pos, normal = _ellipsoid_contacts(data, keep)
+                contact_frame.append(np.full(len(pos), frame, dtype=np.int64))
+                contact_pos.append(pos)
+                contact_normal.append(normal)
+                builtin.append(len(pos))
             if progress is not None:
                 progress(k + 1, steps)
         seconds = time.perf_counter() - t0
     if att:
         counters = att.counters
+    contacts = (np.concatenate(contact_frame), np.concatenate(contact_pos), np.concatenate(contact_normal))
     frames = _frames(s, model, ids, radii, allowed, times, np.array(centers), np.array(rotations), contacts, builtin)
     return Run(s, mode, steps, seconds, frames, counters, ncon)
-
-
-class _Nothing:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
 
 
 def validation(s, steps=None, progress=None):
@@ -535,9 +555,7 @@ def validation(s, steps=None, progress=None):
 
         def pose(m, d, k):
             d.time = k * s.timestep
-            target = control(d.time)
-            for a, (_, _, adr) in enumerate(control.joints):
-                d.qpos[adr] = target[a]
+            d.qpos[control.qadr] = control(d.time)
 
         return plugin.validate(model, data, steps, control=pose, advance=False, progress=progress), model
 

@@ -63,6 +63,72 @@ def test_malformed_files_name_the_file_and_key(tmp_path, text, message):
         scenario.load(write(tmp_path, text))
 
 
+PILE = """
+duration = 0.02
+timestep = 0.002
+[scene]
+kind = "pile"
+ellipsoids = 6
+[control]
+kind = "hold"
+"""
+
+KEYFRAMES = """
+duration = 0.2
+timestep = 0.02
+kinematic = true
+[scene]
+figures = 1
+[control]
+kind = "keyframes"
+keys = [{ t = 0.0, joints = {} }, { t = 1.0, joints = { elbow_l = 30, nosuch = 10 } }]
+"""
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (PILE.replace('kind = "hold"', 'kind = "sway"'), r"s\.toml: key 'control\.kind' must be 'hold' for a pile scene .*, got 'sway'"),
+        (PILE.replace('kind = "hold"', 'kind = "dance"'), r"key 'control\.kind' must be 'hold' for a pile scene .*, got 'dance'"),
+        (PILE.replace('kind = "hold"', 'kind = "keyframes"\nkeys = [{t = 0}, {t = 1}]'), r"key 'control\.kind' must be 'hold' for a pile scene"),
+        (PILE.replace("[scene]", "kinematic = true\n[scene]"), r"key 'kinematic' must be false for a pile scene .*, got True"),
+        (KEYFRAMES, r"s\.toml: key 'control\.keys\[1\]\.joints' names unknown joint 'nosuch'; the figure's joints are waist_flex, .*elbow_l"),
+    ],
+)
+def test_controls_that_cannot_apply_are_refused(tmp_path, text, message):
+    with pytest.raises(scenario.ScenarioError, match=message):
+        scenario.load(write(tmp_path, text))
+
+
+def test_pile_scene_holds(tmp_path):
+    """A pile of free ellipsoids with the default control runs (no actuators, nothing to drive)."""
+    s = scenario.load(write(tmp_path, PILE))
+    model, _ = scenario.build(s)
+    assert model.nu == 0 and scenario.Controller(model, s.control)(0.5).shape == (0,)
+    assert scenario.run(s).steps == 10
+
+
+def test_file_that_is_not_utf8(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_bytes(GOOD.replace("test", "caf\xe9").encode("latin-1"))
+    with pytest.raises(scenario.ScenarioError, match=r"s\.toml: not UTF-8 text: .*can't decode byte 0xe9"):
+        scenario.load(str(path))
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (GOOD.replace("spacing = 0.8", "spacing = 0.1"), r"s\.toml: \[scene\] spacing must exceed .* for layout 'line'.*, got 0\.1"),
+        (GOOD.replace("spacing = 0.8", "drop_height = -1"), r"s\.toml: \[scene\] drop_height must be non-negative, got -1\.0"),
+        (PILE.replace("ellipsoids = 6", "ellipsoids = 6\nbin_half_width = 0.05"), r"s\.toml: \[scene\] bin_half_width must be at least .*, got 0\.05"),
+    ],
+)
+def test_scenes_the_model_builder_refuses_name_the_file(tmp_path, text, message):
+    s = scenario.load(write(tmp_path, text))
+    with pytest.raises(scenario.ScenarioError, match=message):
+        scenario.build(s)
+
+
 def test_unknown_scenario_lists_the_available_ones():
     with pytest.raises(scenario.ScenarioError, match=r"unknown scenario 'dance-party'; available: crowd, handshake"):
         scenario.load("dance-party")
@@ -93,6 +159,34 @@ def test_pile_and_replay_make_contacts():
     # Without physics MuJoCo's contacts and the exact verdicts agree frame by frame except within
     # MuJoCo's tolerance of touching.
     assert np.abs(tr.builtin_counts - tr.ellipsim_counts).max() <= 1
+
+
+def test_ellipsoid_contacts_are_mujocos_in_order():
+    """The vectorised read of data.contact: MuJoCo's contacts between two ellipsoids, in MuJoCo's
+    order, positions and normals (first row of the frame) as a per-contact loop reads them."""
+    model, data = scenario.build(scenario.load("pile"))
+    ids, _, _ = scenario._geoms(model)
+    keep = np.zeros(model.ngeom, dtype=bool)
+    keep[ids] = True
+    for _ in range(700):
+        mujoco.mj_step(model, data)
+    want = [(c.pos.copy(), c.frame[:3].copy()) for c in (data.contact[k] for k in range(data.ncon))
+            if keep[c.geom[0]] and keep[c.geom[1]]]  # fmt: skip
+    assert 0 < len(want) < data.ncon  # ellipsoid pairs kept, floor contacts left out
+    pos, normal = scenario._ellipsoid_contacts(data, keep)
+    assert pos.shape == normal.shape == (len(want), 3)
+    np.testing.assert_array_equal(pos, [p for p, _ in want])
+    np.testing.assert_array_equal(normal, [n for _, n in want])
+
+
+def test_controller_qpos_addresses():
+    replay = scenario.load("replay")
+    model, data = scenario.build(replay)
+    c = scenario.Controller(model, replay.control)
+    np.testing.assert_array_equal(c.qadr, [model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
+    data.qpos[c.qadr] = c(1.3)
+    for a, (_, _, adr) in enumerate(c.joints):
+        assert data.qpos[adr] == c(1.3)[a]
 
 
 def test_controls_stay_in_range_and_reach_their_targets():
@@ -190,6 +284,24 @@ def test_user_mistakes_exit_2_with_one_line(args, message):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0] and "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("command", ["run", "compare"])
+def test_refused_scene_on_the_command_line(tmp_path, command):
+    proc = cli(command, write(tmp_path, GOOD.replace("spacing = 0.8", "spacing = 0.1")))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "s.toml: [scene] spacing must exceed" in lines[0] and "got 0.1" in lines[0]
+
+
+@pytest.mark.parametrize("option, name", [("--json", "d.json"), ("--plot", "d.png"), ("--record", "d.rrd")])
+def test_output_that_is_a_directory_is_refused_before_running(tmp_path, option, name):
+    (tmp_path / name).mkdir()
+    command = "run" if option == "--record" else "compare"
+    proc = cli(command, "pile", option, str(tmp_path / name))
+    assert proc.returncode == 2 and proc.stdout == "" and "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"{option}: '{tmp_path / name}' is a directory" in lines[0]
 
 
 def test_malformed_scenario_file_on_the_command_line(tmp_path):

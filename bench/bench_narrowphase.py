@@ -15,6 +15,7 @@
 """
 
 import argparse
+import contextlib
 import datetime
 import os
 import sys
@@ -27,6 +28,7 @@ sys.path.insert(0, os.path.dirname(__file__))
 from bench_plugin import _NARROW_FN, _loop_narrow  # noqa: E402
 
 from ellipsim import Ellipsoids, classify, figures, mjstruct, plugin, signed_distance  # noqa: E402
+from ellipsim.bench import timed_steps  # noqa: E402
 from ellipsim.narrowphase import MULTISTART  # noqa: E402
 
 SCENES = {
@@ -83,15 +85,8 @@ def paired_steps(model, data, state, rounds, steps=100):
     for r in range(rounds):
         for narrow in (r % 2 == 0, r % 2 == 1):
             mujoco.mj_setState(model, data, state, SPEC)
-            att = plugin.attach(model, data, mode="narrowphase") if narrow else None
-            if att:
-                att.__enter__()
-            t0 = time.perf_counter()
-            for _ in range(steps):
-                mujoco.mj_step(model, data)
-            (ours if narrow else plain).append(time.perf_counter() - t0)
-            if att:
-                att.__exit__(None, None, None)
+            seconds, _ = timed_steps(model, data, steps, "narrowphase" if narrow else "builtin")
+            (ours if narrow else plain).append(seconds)
     plain, ours = np.array(plain), np.array(ours)
     speedup = plain / ours
     return np.median(plain) / steps, np.median(ours) / steps, np.median(speedup), np.percentile(speedup, [25, 75])
@@ -151,21 +146,18 @@ def long_run(make, seconds):
         data = mujoco.MjData(model)
         steps = int(seconds / model.opt.timestep)
         att = plugin.attach(model, data, mode="narrowphase") if mode == "narrowphase" else None
-        if att:
-            att.__enter__()
         energy, depth = [], 0.0
-        t0 = time.perf_counter()
-        for k in range(steps):
-            mujoco.mj_step(model, data)
-            if k % 10 == 0:
-                mujoco.mj_energyPos(model, data)
-                mujoco.mj_energyVel(model, data)
-                energy.append(data.energy[1])
-                if data.ncon:
-                    depth = max(depth, -data.contact.dist[: data.ncon].min())
-        wall = time.perf_counter() - t0
-        if att:
-            att.__exit__(None, None, None)
+        with att or contextlib.nullcontext():
+            t0 = time.perf_counter()
+            for k in range(steps):
+                mujoco.mj_step(model, data)
+                if k % 10 == 0:
+                    mujoco.mj_energyPos(model, data)
+                    mujoco.mj_energyVel(model, data)
+                    energy.append(data.energy[1])
+                    if data.ncon:
+                        depth = max(depth, -data.contact.dist[: data.ncon].min())
+            wall = time.perf_counter() - t0
         pos = data.xpos[1:]
         out = int(np.count_nonzero((np.abs(pos[:, :2]) > 5).any(axis=1) | (pos[:, 2] < -0.05)))
         last = np.array(energy[-int(len(energy) * 0.1):])

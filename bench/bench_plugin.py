@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from ellipsim import Ellipsoids, classify, figures, plugin
+from ellipsim.bench import timed_steps
 
 SCENES = {
     "pile of 40 ellipsoids": (lambda: figures.pile_xml(40, seed=1), 1500),
@@ -108,15 +109,7 @@ def per_pair_costs(model, data, pairs, reps=200):
 def _segment(model, data, state, steps, filtered):
     """Seconds for `steps` mj_step calls from `state`, with or without the filter attached."""
     mujoco.mj_setState(model, data, state, SPEC)
-    att = plugin.attach(model, data) if filtered else None
-    if att:
-        att.__enter__()
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(model, data)
-    seconds = time.perf_counter() - t0
-    if att:
-        att.__exit__(None, None, None)
+    seconds, att = timed_steps(model, data, steps, "filter" if filtered else "builtin")
     return seconds, att.counters if att else None
 
 

@@ -17,6 +17,7 @@ in a table is measured in the same run.  Sections:
    set-up x root-test combinations, next to the thesis's SGI Onyx (195 MHz R10000) timings.
 """
 
+import contextlib
 import ctypes
 import datetime
 import math
@@ -373,19 +374,25 @@ def stress(size):
 # --- 3. scaling -----------------------------------------------------------------------------------------
 
 
+def timed_steps(model, data, steps, mode):
+    """(seconds, attachment) of `steps` mj_step calls from data's state, ellipsim attached in `mode`
+    ("builtin": not attached, attachment None).  Only the steps are timed; the attachment is inside
+    a `with` block, so a step that raises leaves MuJoCo's callback and collision table restored."""
+    attachment = None if mode == "builtin" else plugin.attach(model, data, mode=mode)
+    with attachment or contextlib.nullcontext():
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+        seconds = time.perf_counter() - t0
+    return seconds, attachment
+
+
 def _step_segment(model, data, state, steps, mode):
     """A function returning the seconds of `steps` mj_step calls from `state`, ellipsim attached in `mode`."""
 
     def run():
         mujoco.mj_setState(model, data, state, STEP_STATE)
-        attachment = None if mode == "builtin" else plugin.attach(model, data, mode=mode).__enter__()
-        t0 = time.perf_counter()
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-        seconds = time.perf_counter() - t0
-        if attachment is not None:
-            attachment.__exit__(None, None, None)
-        return seconds
+        return timed_steps(model, data, steps, mode)[0]
 
     return run
 

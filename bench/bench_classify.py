@@ -12,14 +12,13 @@ inputs already in their dtype.  Errors count disagreements with "exact" on the s
 
 import argparse
 import datetime
-import os
 import sys
 import time
 
 import numpy as np
 
 import ellipsim as es
-from ellipsim.bench import machine_description
+from ellipsim.bench import machine_description, publish
 from ellipsim.certified import UNDECIDED, certify
 from ellipsim.classify import _classify_float, _classify_float_serial
 from ellipsim.samples import generic_pairs, near_contact_pairs
@@ -127,10 +126,7 @@ def main(argv=None):
         print(f"{name}: {max(len(a), len(b))} pairs ...", file=sys.stderr, flush=True)
         results[name] = measure(a, b, args.rounds)
     text = report(results, args.pairs, n_near, args.rounds, time.perf_counter() - t0)
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
+    publish(text, args.out)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.dirname(__file__))
 from bench_plugin import _NARROW_FN, _loop_narrow  # noqa: E402
 
 from ellipsim import Ellipsoids, classify, figures, mjstruct, plugin, signed_distance  # noqa: E402
-from ellipsim.bench import timed_steps  # noqa: E402
+from ellipsim.bench import machine_description, publish, timed_steps  # noqa: E402
 from ellipsim.narrowphase import MULTISTART  # noqa: E402
 
 SCENES = {
@@ -182,7 +182,7 @@ def main(argv=None):
         "# ellipsim's narrow phase against MuJoCo's GJK/EPA",
         "",
         f"`python bench/bench_narrowphase.py --rounds {args.rounds} --pairs {args.pairs} --seconds {args.seconds:g}`, "
-        f"{datetime.date.today()}, mujoco {mujoco.__version__}, {os.cpu_count()} cores.",
+        f"{datetime.date.today()}, {machine_description()}.",
         "",
         "## Time per pair and per step",
         "",
@@ -275,10 +275,7 @@ def main(argv=None):
         f"Run time {time.perf_counter() - t_start:.0f} s.",
     ]
     text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
+    publish(text, args.out)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from ellipsim import Ellipsoids, classify, figures, plugin
-from ellipsim.bench import timed_steps
+from ellipsim.bench import machine_description, publish, timed_steps
 
 SCENES = {
     "pile of 40 ellipsoids": (lambda: figures.pile_xml(40, seed=1), 1500),
@@ -149,7 +149,7 @@ def report(rows, args, seconds):
         "# mj_step with the ellipsim contact pre-filter",
         "",
         f"`python bench/bench_plugin.py --steps {args.steps} --rounds {args.rounds}`, {datetime.date.today()}, "
-        f"mujoco {mujoco.__version__}, {os.cpu_count()} cores; {seconds:.0f} s.",
+        f"{machine_description()}; {seconds:.0f} s.",
         f"Each scene settled with plain MuJoCo; then {args.rounds} rounds, each timing {args.steps} steps plain and "
         f"{args.steps} steps filtered from that same state (order alternating); median times and the median "
         "(interquartile range) of the per-round ratio filter / plain.",
@@ -191,10 +191,7 @@ def main(argv=None):
         print(f"{name} ...", file=sys.stderr, flush=True)
         rows.append(measure(name, make, settle, args.steps, args.rounds))
     text = report(rows, args, time.perf_counter() - t0)
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
+    publish(text, args.out)
 
 
 if __name__ == "__main__":

@@ -502,6 +502,14 @@ def run(out_dir, *, quick=False):
     return path, seconds
 
 
+def publish(text, path=None):
+    """Print a benchmark's markdown report and, given a path, write it there too."""
+    print(text)
+    if path:
+        with open(path, "w") as f:
+            f.write(text)
+
+
 def machine_description():
     """CPU model, cores and the versions that decide the timings, for a report's first lines."""
     cpu = platform.machine()

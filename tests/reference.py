@@ -1,4 +1,4 @@
-"""A slow, obvious exact reference: world-frame 4x4 quadrics in rationals, Sturm count.
+"""Slow, obvious references: exact relations (rationals) and signed distances (mpmath).
 
 Independent of the library: it builds A = [[Q, -Q c], [-c^T Q, c^T Q c - 1]] with
 Q = R diag(1/r^2) R^T straight from the definition |diag(1/r) R^T (x - c)| <= 1, gets det(lambda A + B)
@@ -7,6 +7,8 @@ positive roots with a textbook Sturm chain.
 """
 
 from fractions import Fraction
+
+import numpy as np
 
 
 def quadric(c, R, r):
@@ -95,3 +97,43 @@ def relations(a, b):
         relation(a.centers[ia(i)], a.rotations[ia(i)], a.radii[ia(i)], b.centers[ib(i)], b.rotations[ib(i)], b.radii[ib(i)])
         for i in range(n)
     ]
+
+
+def sigma_stationary(d, Ma, Mb, n0, iterations=60):
+    """sigma(n) = n.d - sqrt(n'Ma n) - sqrt(n'Mb n) at the stationary point on the unit sphere nearest
+    the unit n0, in the current mpmath precision: Newton on the Lagrange system
+    F(n, lam) = (d - Ma n / h_a - Mb n / h_b - lam n, |n|^2 - 1) = 0 with its analytic Jacobian.
+    Independent of the library's and the benchmark's parametrisations (both work in a tangent
+    plane); Ma = R diag(r^2) R' is an ellipsoid's support-function matrix (h(n) = sqrt(n'Ma n))."""
+    import mpmath as mp
+
+    d = mp.matrix([mp.mpf(float(x)) for x in d])
+    A = mp.matrix(np.asarray(Ma, dtype=float).tolist())
+    B = mp.matrix(np.asarray(Mb, dtype=float).tolist())
+    n = mp.matrix([mp.mpf(float(x)) for x in np.asarray(n0, dtype=float) / np.linalg.norm(n0)])
+
+    def parts(n):
+        an, bn = A * n, B * n
+        return an, bn, mp.sqrt((n.T * an)[0]), mp.sqrt((n.T * bn)[0])
+
+    an, bn, ha, hb = parts(n)
+    lam = (n.T * (d - an / ha - bn / hb))[0]
+    for _ in range(iterations):
+        an, bn, ha, hb = parts(n)
+        g = d - an / ha - bn / hb - lam * n
+        F = mp.matrix([g[0], g[1], g[2], (n.T * n)[0] - 1])
+        H = -(A / ha - an * an.T / ha**3) - (B / hb - bn * bn.T / hb**3) - lam * mp.eye(3)
+        J = mp.matrix(4, 4)
+        for i in range(3):
+            for j in range(3):
+                J[i, j] = H[i, j]
+            J[i, 3] = -n[i]
+            J[3, i] = 2 * n[i]
+        step = mp.lu_solve(J, -F)
+        n = n + step[0:3]
+        lam += step[3]
+        if mp.norm(step) < mp.mpf(10) ** (6 - mp.mp.dps):
+            break
+    n /= mp.norm(n)
+    _, _, ha, hb = parts(n)
+    return (n.T * d)[0] - ha - hb

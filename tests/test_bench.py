@@ -5,9 +5,10 @@ import os
 import numpy as np
 import pytest
 
-from ellipsim import Relation, bench, classify, signed_distance
-from ellipsim.cli import main
-from ellipsim.samples import STRESS, stress_pairs
+from ellipsim import Relation, classify, signed_distance
+from ellipsim.app.bench import common as bench
+from ellipsim.app.cli import main
+from ellipsim.core.samples import STRESS, stress_pairs
 
 
 @pytest.mark.parametrize("category", STRESS)
@@ -38,22 +39,35 @@ def test_mujoco_pairs_measure_the_same_geometry():
     np.testing.assert_allclose(mj.run(1e-12, 1000), ours, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
     small = dict(bench.SIZES["quick"], generic=2_000, near=1_000, mujoco=300, stress=30, reference=4,
-                 batch_max=1_000, figures=(1, 2), replay_figures=(1, 2), rounds=1, steps=10, coal=20)  # fmt: skip
+                 batch_max=1_000, figures=(1, 2), replay_figures=(1, 2), rounds=1, steps=10, coal=20,
+                 scenes=("1 figure",), step_rounds=1, compare_steps=2, deep_pairs=3, long_seconds=0.05)  # fmt: skip
     monkeypatch.setitem(bench.SIZES, "quick", small)
     assert main(["bench", "--quick", "--out", str(tmp_path)]) == 0
     report = (tmp_path / "report.md").read_text()
-    for section in ("1. Time against error", "2. Numerical stress", "3. Scaling", "4. The thesis's Table 1"):
+    for section in ("1. Time against error", "2. Numerical stress", "3. Scaling", "4. The thesis's Table 1", "5. Inside MuJoCo"):
         assert section in report
-    for png in ("pareto.png", "stress.png", "scaling.png", "table1.png"):
+    for png in ("pareto.png", "stress.png", "scaling.png", "table1.png", "mujoco.png"):
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "| exact (certified) |" in report and "MuJoCo tol 1e-06, 35 it" in report
+    assert "| exact |" in report and "MuJoCo tol 1e-06, 35 it" in report
     # each reference is timed against itself in the same rounds
     assert "| descartes rearranged float64 |" in report.split("### Signed distance")[0]
-    narrow = next(line for line in report.splitlines() if line.startswith("| narrow phase (certified) |"))
+    narrow = next(line for line in report.splitlines() if line.startswith("| narrow phase signed distance |"))
     assert narrow.split("|")[3].strip() == "1.00"
-    assert "| one Newton run, 6 steps |" in report and "speed-up |" in report
+    assert "| one Newton run, 6 steps |" in report and "| 1 figure |" in report
+
+
+@pytest.mark.slow
+def test_bench_only_runs_the_sections_named(tmp_path, monkeypatch):
+    small = dict(bench.SIZES["quick"], stress=10)
+    monkeypatch.setitem(bench.SIZES, "quick", small)
+    monkeypatch.setattr("ellipsim.app.bench.stress.STRESS", ("spheres",))
+    assert main(["bench", "--quick", "--only", "stress", "--out", str(tmp_path)]) == 0
+    report = (tmp_path / "report.md").read_text()
+    assert report.startswith("# ellipsim bench --quick --only stress") and "| spheres |" in report
+    assert "1. Time against error" not in report and not (tmp_path / "pareto.png").exists()
 
 
 def test_bench_out_must_be_a_directory(tmp_path, capsys):

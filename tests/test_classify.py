@@ -6,8 +6,9 @@ from hypothesis import strategies as st
 import reference
 import strategies as S
 from ellipsim import Ellipsoids, Relation, characteristic_polynomial, classify, contact_scale, signed_distance
-from ellipsim.samples import near_contact_pairs
-from ellipsim.certified import UNDECIDED, certify
+from ellipsim.core.samples import near_contact_pairs
+from ellipsim.core.certified import certify
+from ellipsim.core.relation import UNDECIDED
 
 SEP, TOUCH, OVER = Relation.SEPARATED, Relation.TOUCHING, Relation.OVERLAPPING
 I = np.eye(3)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from ellipsim import classify
-from ellipsim.cli import main
+from ellipsim.app.cli import main
 from ellipsim import contact_scale
-from ellipsim.samples import generic_pairs, near_contact_pairs
+from ellipsim.core.samples import generic_pairs, near_contact_pairs
 
 
 def test_demo_prints_the_table(capsys):
@@ -22,7 +22,7 @@ def test_demo_prints_the_table(capsys):
 
 def test_bad_arguments_exit_2_with_one_line():
     for args in (["demo", "--pairs", "0"], ["demo", "--pairs", "many"], ["frobnicate"], []):
-        proc = subprocess.run([sys.executable, "-m", "ellipsim.cli", *args], capture_output=True, text=True)
+        proc = subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True)
         assert proc.returncode == 2
         assert proc.stdout == "" and len(proc.stderr.strip().splitlines()) == 1
         assert "Traceback" not in proc.stderr
@@ -37,14 +37,14 @@ def test_sample_sets():
 
 
 def test_show_must_not_be_negative():
-    proc = subprocess.run([sys.executable, "-m", "ellipsim.cli", "compare", "replay", "--show", "-1"], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-m", "ellipsim", "compare", "replay", "--show", "-1"], capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stdout == "" and "Traceback" not in proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "--show: expected a non-negative integer, got -1" in lines[0]
 
 
 def test_compare_quotes_the_near_tangent_band(monkeypatch, capsys):
-    monkeypatch.setattr("ellipsim.tolerances.NEAR_TANGENT", 3e-6)
+    monkeypatch.setattr("ellipsim.app.cli.NEAR_TANGENT", 3e-6)
     assert main(["compare", "replay", "--steps", "5", "--show", "0"]) == 0
     assert "within 3e-06 m of touching" in capsys.readouterr().out
 
@@ -56,9 +56,9 @@ def _unwritable(*args, **kwargs):
 @pytest.mark.parametrize(
     "args, patch",
     [
-        (["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"], ("ellipsim.cli.open", _unwritable)),
+        (["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"], ("ellipsim.app.cli.open", _unwritable)),
         (["compare", "replay", "--steps", "5", "--plot", "{dir}/c.png"], ("matplotlib.figure.Figure.savefig", _unwritable)),
-        (["run", "replay", "--steps", "5", "--record", "{dir}/c.rrd"], ("ellipsim.record.save", _unwritable)),
+        (["run", "replay", "--steps", "5", "--record", "{dir}/c.rrd"], ("ellipsim.app.record.save", _unwritable)),
     ],
 )
 def test_output_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys, args, patch):

@@ -34,8 +34,8 @@ from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from ellipsim import Ellipsoids
-from ellipsim import fit
-from ellipsim.fit import bounding_ellipsoid, limb_geom_xml, limbs_from_meshes
+from ellipsim.app import fit
+from ellipsim.app.fit import bounding_ellipsoid, limb_geom_xml, limbs_from_meshes
 
 EPS = fit.MVEE_TOL
 DELTA = (1 + 4 * EPS / 3) ** 1.5 - 1  # volume excess bound of an mvee fit (module docstring)

@@ -14,8 +14,8 @@ import pytest
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
-from ellipsim import record
-from ellipsim.trajectory import Trajectory
+from ellipsim.app import record
+from ellipsim.app.trajectory import Trajectory
 
 F = 7
 # Two figures of 4 geoms and 3 free ellipsoids, interleaved so that selecting by figure matters.
@@ -269,7 +269,7 @@ def test_bad_path_directory(tmp_path):
 
 
 def test_bad_trajectory(tmp_path):
-    with pytest.raises(ValueError, match="trajectory must be an ellipsim.trajectory.Trajectory, got dict"):
+    with pytest.raises(ValueError, match="trajectory must be an ellipsim.app.trajectory.Trajectory, got dict"):
         record.save(tmp_path / "x.rrd", {"times": np.zeros(3)})
     t = make_trajectory()
     t.state[4, 6] = 3

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import ellipsim as es
-from ellipsim.samples import generic_pairs, near_contact_pairs
+from ellipsim.core.samples import generic_pairs, near_contact_pairs
 
 SCALES = [2.0**-530, 2.0**-333, 2.0**-101, 2.0**-49, 2.0**-7, 2.0**11, 2.0**49, 2.0**101, 2.0**333, 2.0**530]
 

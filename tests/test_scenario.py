@@ -10,8 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ellipsim import scenario
-from ellipsim.cli import main
+from ellipsim.app import scenario, simulate
+from ellipsim.app.control import Controller
+from ellipsim.core.broadphase import sweep_and_prune
+from ellipsim.mujoco.geoms import ellipsoid_geoms
+from ellipsim.app.cli import main
 
 GOOD = """
 description = "test"
@@ -103,9 +106,9 @@ def test_controls_that_cannot_apply_are_refused(tmp_path, text, message):
 def test_pile_scene_holds(tmp_path):
     """A pile of free ellipsoids with the default control runs (no actuators, nothing to drive)."""
     s = scenario.load(write(tmp_path, PILE))
-    model, _ = scenario.build(s)
-    assert model.nu == 0 and scenario.Controller(model, s.control)(0.5).shape == (0,)
-    assert scenario.run(s).steps == 10
+    model, _ = simulate.build(s)
+    assert model.nu == 0 and Controller(model, s.control)(0.5).shape == (0,)
+    assert simulate.run(s).steps == 10
 
 
 def test_file_that_is_not_utf8(tmp_path):
@@ -126,7 +129,7 @@ def test_file_that_is_not_utf8(tmp_path):
 def test_scenes_the_model_builder_refuses_name_the_file(tmp_path, text, message):
     s = scenario.load(write(tmp_path, text))
     with pytest.raises(scenario.ScenarioError, match=message):
-        scenario.build(s)
+        simulate.build(s)
 
 
 def test_unknown_scenario_lists_the_available_ones():
@@ -134,25 +137,28 @@ def test_unknown_scenario_lists_the_available_ones():
         scenario.load("dance-party")
 
 
+@pytest.mark.slow
 def test_handshake_hands_meet():
-    tr = scenario.run(scenario.load("handshake")).frames
+    tr = simulate.run(scenario.load("handshake")).frames
     h0, h1 = tr.geom_names.index("f0_hand_r"), tr.geom_names.index("f1_hand_r")
     assert tr.state[0, h0] == 0 and tr.state[-1, h0] == 2 and tr.state[-1, h1] == 2
     assert np.linalg.norm(tr.centers[-1, h0] - tr.centers[-1, h1]) < 0.2
 
 
+@pytest.mark.slow
 def test_crowd_neighbours_brush_and_tumble_hits_itself():
-    crowd = scenario.run(scenario.load("crowd"), steps=1000).frames
+    crowd = simulate.run(scenario.load("crowd"), steps=1000).frames
     assert crowd.ellipsim_counts.max() >= 5
-    tumble = scenario.run(scenario.load("tumble")).frames
+    tumble = simulate.run(scenario.load("tumble")).frames
     assert (tumble.geom_figure == 0).all()
     assert tumble.ellipsim_counts.max() >= 1  # one figure alone: every contact is a self-collision
 
 
+@pytest.mark.slow
 def test_pile_and_replay_make_contacts():
-    pile = scenario.run(scenario.load("pile"), steps=600)
+    pile = simulate.run(scenario.load("pile"), steps=600)
     assert pile.frames.ellipsim_counts.max() > 10 and pile.counters["contacts"] > 0
-    replay = scenario.run(scenario.load("replay"))
+    replay = simulate.run(scenario.load("replay"))
     tr = replay.frames
     assert len(tr.times) == replay.steps and replay.counters == {}  # kinematic: every frame kept
     assert tr.ellipsim_counts.max() > 0
@@ -164,8 +170,8 @@ def test_pile_and_replay_make_contacts():
 def test_ellipsoid_contacts_are_mujocos_in_order():
     """The vectorised read of data.contact: MuJoCo's contacts between two ellipsoids, in MuJoCo's
     order, positions and normals (first row of the frame) as a per-contact loop reads them."""
-    model, data = scenario.build(scenario.load("pile"))
-    ids, _, _ = scenario._geoms(model)
+    model, data = simulate.build(scenario.load("pile"))
+    ids, _, _ = ellipsoid_geoms(model)
     keep = np.zeros(model.ngeom, dtype=bool)
     keep[ids] = True
     for _ in range(700):
@@ -173,7 +179,7 @@ def test_ellipsoid_contacts_are_mujocos_in_order():
     want = [(c.pos.copy(), c.frame[:3].copy()) for c in (data.contact[k] for k in range(data.ncon))
             if keep[c.geom[0]] and keep[c.geom[1]]]  # fmt: skip
     assert 0 < len(want) < data.ncon  # ellipsoid pairs kept, floor contacts left out
-    pos, normal = scenario._ellipsoid_contacts(data, keep)
+    pos, normal = simulate._ellipsoid_contacts(data, keep)
     assert pos.shape == normal.shape == (len(want), 3)
     np.testing.assert_array_equal(pos, [p for p, _ in want])
     np.testing.assert_array_equal(normal, [n for _, n in want])
@@ -181,8 +187,8 @@ def test_ellipsoid_contacts_are_mujocos_in_order():
 
 def test_controller_qpos_addresses():
     replay = scenario.load("replay")
-    model, data = scenario.build(replay)
-    c = scenario.Controller(model, replay.control)
+    model, data = simulate.build(replay)
+    c = Controller(model, replay.control)
     np.testing.assert_array_equal(c.qadr, [model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
     data.qpos[c.qadr] = c(1.3)
     for a, (_, _, adr) in enumerate(c.joints):
@@ -190,16 +196,16 @@ def test_controller_qpos_addresses():
 
 
 def test_controls_stay_in_range_and_reach_their_targets():
-    model, _ = scenario.build(scenario.load("handshake"))
-    c = scenario.Controller(model, scenario.load("handshake").control)
+    model, _ = simulate.build(scenario.load("handshake"))
+    c = Controller(model, scenario.load("handshake").control)
     for t in np.linspace(0, 3, 31):
         u = c(t)
         assert np.all(u >= model.actuator_ctrlrange[:, 0]) and np.all(u <= model.actuator_ctrlrange[:, 1])
     idx = [k for k, (_, j, _) in enumerate(c.joints) if j == "elbow_r"]
     np.testing.assert_allclose(c(10.0)[idx], np.radians(30.0))
     replay = scenario.load("replay")
-    model, _ = scenario.build(replay)
-    c = scenario.Controller(model, replay.control)
+    model, _ = simulate.build(replay)
+    c = Controller(model, replay.control)
     t1, keys = replay.control["keys"][1]
     k = [i for i, (f, j, _) in enumerate(c.joints) if f == 0 and j == "shoulder_abd_l"]
     np.testing.assert_allclose(c(t1)[k], np.radians(keys["shoulder_abd_l"]))
@@ -214,7 +220,7 @@ def test_sweep_and_prune_finds_every_overlapping_pair(n, seed):
     allowed = rng.random((n, n)) < 0.8
     allowed = allowed & allowed.T
     np.fill_diagonal(allowed, False)
-    got = {tuple(p) for p in scenario.sweep_and_prune(centers, rho, allowed)}
+    got = {tuple(p) for p in sweep_and_prune(centers, rho, allowed)}
     d = np.linalg.norm(centers[:, :, None] - centers[:, None, :], axis=-1)
     want = {(f, i, j) for f in range(3) for i in range(n) for j in range(i + 1, n)
             if allowed[i, j] and d[f, i, j] <= rho[i] + rho[j]}  # fmt: skip
@@ -224,8 +230,8 @@ def test_sweep_and_prune_finds_every_overlapping_pair(n, seed):
 def test_candidate_rules_follow_mujoco():
     """Every contact MuJoCo makes between ellipsoids is an allowed pair; parent-child pairs are not."""
     s = scenario.load("pile")
-    model, data = scenario.build(s)
-    ids, radii, allowed = scenario._geoms(model)
+    model, data = simulate.build(s)
+    ids, radii, allowed = ellipsoid_geoms(model)
     for _ in range(800):
         mujoco.mj_step(model, data)
     pos = {g: k for k, g in enumerate(ids)}
@@ -241,15 +247,17 @@ def test_candidate_rules_follow_mujoco():
 
 
 def cli(*args):
-    return subprocess.run([sys.executable, "-m", "ellipsim.cli", *args], capture_output=True, text=True)
+    return subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_run_prints_a_summary(capsys):
     assert main(["run", "pile", "--steps", "300", "--mode", "filter"]) == 0
     out = capsys.readouterr().out
     assert "steps/s" in out and "filter:" in out and "pairs tested" in out
 
 
+@pytest.mark.slow
 def test_compare_writes_json(tmp_path, capsys):
     path = tmp_path / "c.json"
     assert main(["compare", "crowd", "--steps", "300", "--json", str(path)]) == 0
@@ -261,6 +269,7 @@ def test_compare_writes_json(tmp_path, capsys):
     assert "agreement" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_compare_plot(tmp_path):
     path = tmp_path / "c.png"
     assert main(["compare", "replay", "--steps", "50", "--plot", str(path)]) == 0

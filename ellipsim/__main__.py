@@ -1,0 +1,7 @@
+"""`python -m ellipsim ...`: the command line, as the `ellipsim` script."""
+
+import sys
+
+from .app.cli import main
+
+sys.exit(main())

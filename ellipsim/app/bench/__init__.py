@@ -1,0 +1,52 @@
+"""`ellipsim bench`: the one place that times things.
+
+    ellipsim bench [--quick] [--only SECTION ...] [--out DIR]
+
+Writes DIR/report.md and PNG plots (matplotlib, Agg; the 'bench' extra).  Sections, one module
+each:
+
+1. accuracy: time against error for every method (classify, contact_scale, the narrow phase,
+   MuJoCo's mj_geomDistance at several tolerances, coal with the 'peers' extra)
+2. stress: misclassified pairs per numerically hard category and method
+3. scaling: classify against batch size; the kinematic replay against the number of figures
+4. table1: the thesis's Table 1 re-run
+5. inside_mujoco: mj_step per mode, cost per pair, contacts against MuJoCo's, long runs
+
+Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
+"""
+
+import datetime
+import os
+import time
+
+from . import accuracy, inside_mujoco, scaling, stress, table1
+from .common import SIZES, machine_description, plt
+
+SECTIONS = {"accuracy": accuracy, "stress": stress, "scaling": scaling, "table1": table1, "mujoco": inside_mujoco}
+
+
+def run(out_dir, *, quick=False, only=None):
+    """Run the suite (or the sections named in `only`) and write out_dir/report.md and its plots.
+
+    Returns (path of the report, seconds).
+    """
+    pyplot = plt()
+    __import__("mpmath")
+    names = list(SECTIONS) if not only else [n for n in SECTIONS if n in only]
+    unknown = sorted(set(only or ()) - set(SECTIONS))
+    if unknown:
+        raise ValueError(f"only must name sections of {tuple(SECTIONS)}, got {unknown[0]!r}")
+    os.makedirs(out_dir, exist_ok=True)
+    size = SIZES["quick" if quick else "full"]
+    t_start = time.perf_counter()
+    body = []
+    for name in names:
+        module = SECTIONS[name]
+        body += module.write(module.measure(size), size, out_dir, pyplot)
+    seconds = time.perf_counter() - t_start
+    command = "ellipsim bench" + (" --quick" if quick else "") + (f" --only {' '.join(names)}" if only else "")
+    head = [f"# {command}", "", f"{datetime.date.today()}, {machine_description()}; {seconds:.0f} s.", ""]
+    path = os.path.join(out_dir, "report.md")
+    with open(path, "w") as f:
+        f.write("\n".join(head + body + [f"Run time {seconds:.0f} s."]) + "\n")
+    return path, seconds

@@ -1,0 +1,336 @@
+"""Section 5: ellipsim inside mj_step: speed per mode, cost per pair, contacts against MuJoCo's own.
+
+1. mj_step on settled scenes (piles of free ellipsoids in a bin, heaps of oval-limb figures):
+   builtin, filter and narrowphase timed in the same interleaved rounds from one state.
+2. Cost per pair: the compiled callbacks and MuJoCo's own table function (GJK/EPA) called in a
+   compiled loop over the ellipsoid pairs MuJoCo's broad phase produced at the settled state, split
+   by the exact relation.
+3. Contacts on the same states: mujoco.compare_narrowphase at MuJoCo's default ccd_tolerance and at
+   1e-10.
+4. Deep crossings of elongated ellipsoids: the narrow phase's maximum against the best of 300
+   gradient-ascent starts.
+5. Long runs: plain and narrowphase from the same drop; kinetic energy, depth, bodies leaving.
+"""
+
+import contextlib
+import ctypes
+import os
+import time
+
+import mujoco
+import numba
+import numpy as np
+
+from ...core.classify import classify
+from ...core.distance import BEST_OF_SEEDS, signed_distance
+from ...core.ellipsoids import Ellipsoids
+from ...mujoco import scenes, structs
+from ...mujoco.attachment import attach
+from ...mujoco.callbacks import callback, narrowphase_function
+from ...mujoco.compare import compare_narrowphase
+from ...mujoco.geoms import candidate_pairs
+from .common import STEP_MODES, STEP_STATE, interleaved, relative, say, settled, step_segment, timed_steps
+
+SCENES = {
+    "pile of 40 ellipsoids": (lambda: scenes.pile_xml(40, seed=1), 1500),
+    "pile of 100 ellipsoids": (lambda: scenes.pile_xml(100, seed=1), 1500),
+    "1 figure": (lambda: scenes.scene_xml(1, layout="pile", seed=1), 1000),
+    "4 figures in a heap": (lambda: scenes.scene_xml(4, layout="pile", seed=1), 1000),
+    "16 figures in a heap": (lambda: scenes.scene_xml(16, layout="pile", seed=1), 1000),
+    "64 figures in a heap": (lambda: scenes.scene_xml(64, layout="pile", seed=1), 1000),
+}
+COMPARED = ("pile of 40 ellipsoids", "pile of 100 ellipsoids", "4 figures in a heap", "16 figures in a heap")
+LONG_RUNS = ("pile of 40 ellipsoids", "16 figures in a heap")
+ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+
+_FILTER_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int)
+_NARROW_FN = ctypes.CFUNCTYPE(
+    ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double
+)
+
+
+def _filter_loop(fn):
+    @numba.njit
+    def loop(m, d, pairs, reps):
+        total = 0
+        for _ in range(reps):
+            for k in range(pairs.shape[0]):
+                total += fn(m, d, pairs[k, 0], pairs[k, 1])
+        return total
+
+    return loop
+
+
+def _narrow_loop(fn):
+    @numba.njit
+    def loop(m, d, con, pairs, margins, reps):
+        total = 0
+        for _ in range(reps):
+            for k in range(pairs.shape[0]):
+                total += fn(m, d, con, pairs[k, 0], pairs[k, 1], margins[k])
+        return total
+
+    return loop
+
+
+def per_pair(model, data, reps=100):
+    """ns per call at data's state over the ellipsoid-ellipsoid candidate pairs, split by the exact
+    relation: {"touching"|"separated": (ellipsim narrowphase, MuJoCo GJK/EPA, filter, pairs)}."""
+    table, n = structs.collision_table()
+    theirs = _narrow_loop(_NARROW_FN(table[ELL * n + ELL]))
+    ours = _narrow_loop(_NARROW_FN(narrowphase_function().address))
+    filt = _filter_loop(_FILTER_FN(callback().address))
+    pairs = candidate_pairs(model, data)
+    pairs = np.ascontiguousarray(pairs[(model.geom_type[pairs] == ELL).all(axis=1)].astype(np.int64))
+    geoms = lambda g: Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(-1, 3, 3), model.geom_size[g])  # noqa: E731
+    touching = classify(geoms(pairs[:, 0]), geoms(pairs[:, 1])) != 0 if len(pairs) else np.zeros(0, bool)
+    margins = model.geom_margin[pairs].sum(axis=1) + model.geom_gap[pairs].sum(axis=1)
+    con = np.zeros(640)
+    m, d = model._address, data._address
+    out = {}
+    for name, sel in (("touching", touching), ("separated", ~touching)):
+        p, mg = np.ascontiguousarray(pairs[sel]), np.ascontiguousarray(margins[sel])
+        if len(p) == 0:
+            out[name] = (np.nan, np.nan, np.nan, 0)
+            continue
+        runs = {
+            "ellipsim": lambda: ours(m, d, con.ctypes.data, p, mg, reps),
+            "mujoco": lambda: theirs(m, d, con.ctypes.data, p, mg, reps),
+            "filter": lambda: filt(m, d, p, reps),
+        }
+        for fn in runs.values():
+            fn()
+        t = interleaved(runs, 5)
+        out[name] = (*(np.min(t[k]) / (len(p) * reps) * 1e9 for k in runs), len(p))
+    return out
+
+
+def steps(model, data, state, size):
+    """Per mode: median µs/step and (median, q1, q3) of the per-round speed-up over builtin, plus the
+    counters per step of the last filter and narrowphase segments."""
+    fns = {mode: step_segment(model, data, state, size["steps"], mode) for mode in STEP_MODES}
+    for fn in fns.values():
+        fn()  # compile the callbacks, warm the caches
+    t = interleaved(fns, size["step_rounds"], self_timed=True)
+    us = {mode: float(np.median(t[mode])) / size["steps"] * 1e6 for mode in STEP_MODES}
+    speed = {}
+    for mode in STEP_MODES[1:]:
+        ratio = t["builtin"] / t[mode]
+        speed[mode] = (relative(t, "builtin", mode), *np.percentile(ratio, [25, 75]))
+    counters = {}
+    for mode in STEP_MODES[1:]:
+        mujoco.mj_setState(model, data, state, STEP_STATE)
+        _, att = timed_steps(model, data, size["steps"], mode)
+        counters[mode] = {k: v / size["steps"] for k, v in att.counters.items()}
+    return us, speed, counters
+
+
+def contacts(model, data, state, nstep):
+    """compare_narrowphase at MuJoCo's default ccd_tolerance and at 1e-10 (500 iterations)."""
+    mujoco.mj_setState(model, data, state, STEP_STATE)
+    default = compare_narrowphase(model, data, nstep)
+    saved = model.opt.ccd_tolerance, model.opt.ccd_iterations
+    model.opt.ccd_tolerance, model.opt.ccd_iterations = 1e-10, 500
+    mujoco.mj_setState(model, data, state, STEP_STATE)
+    tight = compare_narrowphase(model, data, nstep)
+    model.opt.ccd_tolerance, model.opt.ccd_iterations = saved
+    return default, tight
+
+
+def deep_crossings(n_pairs, seed=0):
+    """Random deep crossings of elongated ellipsoids: how often ellipsim's maximum falls short of the
+    best of 300 projected-gradient starts (float), and how often it needed the multi-start."""
+    rng = np.random.default_rng(seed)
+    i = np.arange(300) + 0.5
+    phi, th = np.arccos(1 - 2 * i / 300), np.pi * (1 + 5**0.5) * i
+    starts = np.stack([np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)], 1)
+    misses = multistart = tested = 0
+    worst = 0.0
+    while tested < n_pairs:
+        ra, rb = rng.uniform(0.02, 0.06, 3), rng.uniform(0.02, 0.06, 3)
+        ra[0], rb[0] = rng.uniform(0.15, 0.4), rng.uniform(0.15, 0.4)
+        a = Ellipsoids.from_quaternions([0, 0, 0], rng.normal(size=4), ra)
+        b = Ellipsoids.from_quaternions(rng.normal(size=3) * 0.04, rng.normal(size=4), rb)
+        dist, _, _, status = signed_distance(a, b)
+        if dist[0] >= 0:
+            continue
+        tested += 1
+        multistart += status[0] == BEST_OF_SEEDS
+        d = b.centers[0] - a.centers[0]
+        Ma, Mb = a.rotations[0] * ra**2 @ a.rotations[0].T, b.rotations[0] * rb**2 @ b.rotations[0].T
+        n = starts.copy()
+        step = 0.2 / np.sqrt(np.linalg.eigvalsh(Ma + Mb).max())
+        for _ in range(600):
+            ga, gb = n @ Ma, n @ Mb
+            g = d - ga / np.sqrt(np.sum(n * ga, 1))[:, None] - gb / np.sqrt(np.sum(n * gb, 1))[:, None]
+            n = n + step * (g - np.sum(g * n, 1)[:, None] * n)
+            n /= np.linalg.norm(n, axis=1)[:, None]
+        best = (n @ d - np.sqrt(np.sum(n * (n @ Ma), 1)) - np.sqrt(np.sum(n * (n @ Mb), 1))).max()
+        short = best - dist[0]
+        worst = max(worst, short)
+        misses += short > 1e-9 * min(ra.min(), rb.min())
+    return tested, multistart, misses, worst
+
+
+def long_run(xml, seconds):
+    """Plain and narrowphase runs of `seconds` simulated time from the same start."""
+    rows = {}
+    for mode in ("builtin", "narrowphase"):
+        model = mujoco.MjModel.from_xml_string(xml)
+        data = mujoco.MjData(model)
+        nstep = int(seconds / model.opt.timestep)
+        att = attach(model, data, mode="narrowphase") if mode == "narrowphase" else None
+        energy, depth = [], 0.0
+        with att or contextlib.nullcontext():
+            t0 = time.perf_counter()
+            for k in range(nstep):
+                mujoco.mj_step(model, data)
+                if k % 10 == 0:
+                    mujoco.mj_energyPos(model, data)
+                    mujoco.mj_energyVel(model, data)
+                    energy.append(data.energy[1])
+                    if data.ncon:
+                        depth = max(depth, -data.contact.dist[: data.ncon].min())
+            wall = time.perf_counter() - t0
+        pos = data.xpos[1:]
+        out = int(np.count_nonzero((np.abs(pos[:, :2]) > 5).any(axis=1) | (pos[:, 2] < -0.05)))
+        last = np.array(energy[-max(1, int(len(energy) * 0.1)):])
+        rows[mode] = dict(
+            kinetic_max=max(energy), kinetic_last=float(last.mean()), depth=depth, out=out,
+            badqacc=int(data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number), wall=wall,
+            fallbacks=att.counters["fallbacks"] if att else 0,
+        )  # fmt: skip
+    return rows
+
+
+def measure(size):
+    names = size["scenes"] or tuple(SCENES)
+    rows, compared, longs = {}, {}, {}
+    for name in names:
+        make, settle_steps = SCENES[name]
+        say(f"inside MuJoCo: {name}: settle, mj_step in {size['step_rounds']} interleaved rounds ...")
+        model, data, state = settled(make(), settle_steps)
+        mujoco.mj_setState(model, data, state, STEP_STATE)
+        mujoco.mj_forward(model, data)
+        pp = per_pair(model, data)
+        rows[name] = (model.ngeom, pp, *steps(model, data, state, size))
+        if name in COMPARED:
+            say(f"inside MuJoCo: {name}: contacts against MuJoCo's ...")
+            compared[name] = contacts(model, data, state, size["compare_steps"])
+    say("inside MuJoCo: deep crossings ...")
+    deep = deep_crossings(size["deep_pairs"])
+    for name in LONG_RUNS:
+        if name in names:
+            say(f"inside MuJoCo: long runs of {name} ...")
+            longs[name] = long_run(SCENES[name][0](), size["long_seconds"])
+    return rows, compared, deep, longs
+
+
+def write(result, size, out, plt):
+    """The section's markdown, and mujoco.png in `out`."""
+    rows, compared, deep, longs = result
+    _plot(plt, out, rows)
+    L = [
+        "## 5. Inside MuJoCo",
+        "",
+        "![inside MuJoCo](mujoco.png)",
+        "",
+        f"Each scene settled with plain MuJoCo; then {size['steps']} steps from that state per segment, builtin, "
+        f"filter and narrowphase interleaved over {size['step_rounds']} rounds.  Speed-up = median per-round builtin "
+        "time / mode time (interquartile range in brackets).",
+        "",
+        "| scene | geoms | builtin µs/step | filter µs/step | narrowphase µs/step | filter speed-up | narrowphase speed-up "
+        "| candidate pairs/step | discarded/step | fallbacks/step |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for name, (ngeom, pp, us, speed, counters) in rows.items():
+        f, n = speed["filter"], speed["narrowphase"]
+        L.append(
+            f"| {name} | {ngeom} | {us['builtin']:.0f} | {us['filter']:.0f} | {us['narrowphase']:.0f} "
+            f"| {f[0]:.2f} ({f[1]:.2f}-{f[2]:.2f}) | **{n[0]:.2f}** ({n[1]:.2f}-{n[2]:.2f}) "
+            f"| {counters['filter']['seen']:.0f} | {counters['filter']['discarded']:.0f} | {counters['narrowphase']['fallbacks']:.2g} |"
+        )
+    L += [
+        "",
+        "Cost per call: each function in a compiled loop over the ellipsoid-ellipsoid candidate pairs of the settled "
+        "state (in brackets: how many), split by the exact relation; minimum of 5 interleaved rounds.",
+        "",
+        "| scene | ellipsim ns/touching pair | MuJoCo ns/touching pair | ellipsim ns/separated pair "
+        "| MuJoCo ns/separated pair | filter ns/pair |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for name, (ngeom, pp, *_rest) in rows.items():
+        t, s = pp["touching"], pp["separated"]
+        L.append(f"| {name} | {t[0]:.0f} ({t[3]}) | {t[1]:.0f} | {s[0]:.0f} ({s[3]}) | {s[1]:.0f} | {s[2]:.0f} |")
+    L += [
+        "",
+        f"Contacts on the same states (`mujoco.compare_narrowphase` over {size['compare_steps']} steps from the settled "
+        "state).  Bounds: same pairs in contact except |dist| < 2e-6, |Δdist| <= 2e-6, normal angle <= 1e-3 rad, "
+        "position <= 1e-3 m.  A difference beyond them is refereed: sigma at each side's normal (the signed distance "
+        "is the maximum of sigma), whether ellipsim's maximum is proven global, and for deep penetrations MuJoCo at "
+        "ccd_tolerance 1e-11.",
+        "",
+        "| scene | MuJoCo ccd_tolerance | contacts compared | max Δdist | max angle rad | max Δpos "
+        "| beyond bounds | ellipsim right | MuJoCo right | undetermined |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for name, (default, tight) in compared.items():
+        for label, c in (("1e-6 (default)", default), ("1e-10", tight)):
+            right = [d.right for d in c.differences]
+            L.append(
+                f"| {name} | {label} | {c.matched} | {c.max_ddist:.1e} | {c.max_angle:.1e} | {c.max_dpos:.1e} "
+                f"| {len(c.differences)} | {right.count('ellipsim')} | {right.count('mujoco')} | {right.count('undetermined')} |"
+            )
+    tested, multistart, misses, worst = deep
+    L += [
+        "",
+        f"Deep crossings: {tested} random penetrating pairs of elongated ellipsoids (long semi-axis 0.15-0.4, others "
+        f"0.02-0.06, centres within ~7 cm): {multistart} beyond the rolling-radius proof (best of seeds); ellipsim's "
+        f"maximum fell short of the best of 300 gradient-ascent starts by more than 1e-9 r_min in **{misses}** "
+        f"(largest shortfall {max(worst, 0.0):.1e}).",
+        "",
+    ]
+    if longs:
+        L += [
+            f"Long runs: {size['long_seconds']:g} s of simulated time from the initial drop, plain and with the narrow "
+            "phase (trajectories differ: the contacts differ by MuJoCo's tolerance).",
+            "",
+            "| scene | mode | max kinetic J | mean kinetic J, last 10% | deepest penetration m | bodies out "
+            "| bad-acceleration warnings | fallbacks | wall s |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for name, modes in longs.items():
+            for mode, r in modes.items():
+                L.append(
+                    f"| {name} | {mode} | {r['kinetic_max']:.3g} | {r['kinetic_last']:.3g} | {r['depth']:.2g} "
+                    f"| {r['out']} | {r['badqacc']} | {r['fallbacks']} | {r['wall']:.1f} |"
+                )
+        L.append("")
+    return L
+
+
+def _plot(plt, out, rows):
+    names = list(rows)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5), constrained_layout=True)
+    x = np.arange(len(names))
+    for k, mode in enumerate(STEP_MODES[1:]):
+        med = np.array([rows[n][3][mode][0] for n in names])
+        err = np.array([[med[i] - rows[n][3][mode][1], rows[n][3][mode][2] - med[i]] for i, n in enumerate(names)]).T
+        a1.bar(x + (k - 0.5) * 0.35, med, 0.35, yerr=err, label=mode, color=f"C{k + 1}")
+    a1.axhline(1.0, color="grey", lw=0.8)
+    a1.set_xticks(x, names, rotation=20, ha="right", fontsize=8)
+    a1.set(ylabel="mj_step speed-up over builtin", title="mj_step: speed-up per scene (IQR)")
+    a1.legend(fontsize=8)
+    shown = []
+    for k, (label, j, kind) in enumerate((("ellipsim, touching", 0, "touching"), ("MuJoCo, touching", 1, "touching"),
+                                          ("ellipsim, separated", 0, "separated"), ("MuJoCo, separated", 1, "separated"))):
+        ns = [rows[n][1][kind][j] for n in names]  # nan where a scene has no such pair
+        shown += ns
+        a2.bar(x + (k - 1.5) * 0.2, ns, 0.2, label=label, color=f"C{k}")
+    a2.set_xticks(x, names, rotation=20, ha="right", fontsize=8)
+    a2.set(ylabel="ns per call", title="cost per ellipsoid pair")
+    if np.nanmax(np.asarray(shown + [0.0])) > 0:
+        a2.set_yscale("log")
+    a2.legend(fontsize=8)
+    fig.savefig(os.path.join(out, "mujoco.png"), dpi=110)
+    plt.close(fig)

@@ -1,0 +1,94 @@
+"""Section 3: scaling with batch size (classify) and with the number of figures (kinematic replay)."""
+
+import math
+import os
+import time
+
+import numpy as np
+
+from ...core.classify import classify
+from ...core.samples import generic_pairs
+from .. import scenario, simulate
+from .common import float_runner, interleaved, say
+
+
+def measure(size):
+    """Batch rows (pairs, exact 1 thread, exact 2 threads, plain descartes: ns/pair) and replay rows
+    (figures, frames, ms/frame total, ms/frame in the mj_forward loop, overlapping pairs)."""
+    say("scaling: batch sizes ...")
+    a, b = generic_pairs(size["batch_max"], seed=3)
+    batches = [int(x) for x in 10.0 ** np.arange(0, int(math.log10(size["batch_max"])) + 1)]
+    batch_rows = []
+    for n in batches:
+        x, y = a[:n], b[:n]
+        fns = {
+            "serial": lambda: classify(x, y, parallel=False),
+            "parallel": lambda: classify(x, y, parallel=True),
+            "plain": float_runner(x, y, "descartes", "rearranged", "float64"),
+        }
+        for fn in fns.values():
+            fn()  # compile and warm
+        t = interleaved(fns, max(3, min(size["rounds"], 200_000 // n)))
+        batch_rows.append((n, *(np.median(t[k]) / n * 1e9 for k in fns)))
+    replay_rows = []
+    base = scenario.load("replay")
+    for nf in size["replay_figures"]:
+        say(f"scaling: kinematic replay with {nf} figures ...")
+        # figure i starts `stagger` s late; shrink it so that every figure dances within the routine
+        stagger = min(base.control["stagger"], base.duration / nf)
+        s = scenario.Scenario(**{**base.__dict__, "scene": {**base.scene, "figures": nf},
+                                 "control": {**base.control, "stagger": stagger}})  # fmt: skip
+        simulate.run(s, steps=5)  # compile and warm
+        t0 = time.perf_counter()
+        run = simulate.run(s)
+        total = time.perf_counter() - t0
+        replay_rows.append((nf, run.steps, total / run.steps * 1e3, run.seconds / run.steps * 1e3,
+                            int(run.frames.ellipsim_counts.sum())))  # fmt: skip
+    return batch_rows, replay_rows
+
+
+def write(result, size, out, plt):
+    """The section's markdown, and scaling.png in `out`."""
+    batch_rows, replay_rows = result
+    _plot(plt, out, batch_rows, replay_rows)
+    L = [
+        "## 3. Scaling",
+        "",
+        "![scaling](scaling.png)",
+        "",
+        "Batches of generic pairs; the three functions timed in the same interleaved rounds.  Below ~10 pairs a "
+        "call's Python overhead (input checks) dominates: batch your pairs.",
+        "",
+        "| pairs per call | exact, ns/pair | exact, 2 threads | plain descartes, ns/pair |",
+        "|---:|---:|---:|---:|",
+    ]
+    L += [f"| {n} | {s:.0f} | {p:.0f} | {q:.0f} |" for n, s, p, q in batch_rows]
+    L += [
+        "",
+        "The kinematic replay scenario with more figures in a line (all dancing: the stagger is at most the routine's "
+        "length / figures).  Per frame: keyframe poses, mj_forward (MuJoCo's kinematics and its own collision, kept "
+        "for comparison), then ellipsim's broad phase and one batched exact classify of all frames.",
+        "",
+        "| figures (kinematic replay) | frames | ms/frame, total | of which mj_forward loop | overlapping pairs, all frames |",
+        "|---:|---:|---:|---:|---:|",
+    ]
+    L += [f"| {nf} | {k} | {ms:.2f} | {fw:.2f} | {c} |" for nf, k, ms, fw, c in replay_rows]
+    L.append("")
+    return L
+
+
+def _plot(plt, out, batch_rows, replay_rows):
+    fig, (a1, a3) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    b = np.array(batch_rows, dtype=float)
+    a1.plot(b[:, 0], b[:, 1], "o-", label="exact, 1 thread")
+    a1.plot(b[:, 0], b[:, 2], "o-", label="exact, 2 threads")
+    a1.plot(b[:, 0], b[:, 3], "o--", label="plain descartes, 1 thread")
+    a1.set(xscale="log", yscale="log", xlabel="pairs per call", ylabel="time per pair [ns]", title="classify: batch size")
+    a1.legend(fontsize=8)
+    r = np.array(replay_rows, dtype=float)
+    a3.plot(r[:, 0], r[:, 2], "o-", label="total")
+    a3.plot(r[:, 0], r[:, 3], "o--", label="of which mj_forward loop")
+    a3.legend(fontsize=8)
+    a3.set(xscale="log", yscale="log", xlabel="figures", ylabel="time per frame [ms]", title="kinematic replay")
+    fig.savefig(os.path.join(out, "scaling.png"), dpi=110)
+    plt.close(fig)

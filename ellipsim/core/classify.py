@@ -1,0 +1,89 @@
+"""Relation of two ellipsoids: separated, touching or overlapping.
+
+Two ellipsoids X^T A X <= 0 and X^T B X <= 0 are separated iff det(lambda A + B) = 0 has two
+distinct positive roots and externally touching iff it has a positive double root (Wang, Wang &
+Kim; thesis ch. 4, Theorem 1).  "exact" decides this on the float64 inputs with a certified float
+path (certified.py) and exact rationals where that path is unsure (rational.py); "sturm" and
+"descartes" are the thesis's uncertified tests (roots.py) on either set-up (charpoly.py).
+"""
+
+import numpy as np
+
+from . import rational
+from ._jit import jit, prange, stage
+from .certified import certify
+from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
+from .ellipsoids import check_choice, check_pair, check_parallel
+from .relation import UNDECIDED, Relation
+from .roots import descartes_relation, sturm_relation
+from .vec3 import load
+
+
+METHODS = ("exact", "sturm", "descartes")
+DTYPES = ("float64", "float32")
+
+
+@stage
+def _float_relation(A, B, cofactor, sturm):
+    """One pair by a thesis test: the chosen set-up's quartic, then Sturm or Descartes."""
+    if cofactor:
+        c4, c3, c2, c1, c0 = cofactor_coefficients(A, B)
+    else:
+        c4, c3, c2, c1, c0 = rearranged_frame_coefficients(A, B)
+    return sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
+
+
+@jit(parallel=True)
+def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    for i in prange(out.shape[0]):
+        out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
+
+
+@jit
+def _classify_float_serial(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
+    for i in range(out.shape[0]):
+        out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
+
+
+def resolve_undecided(a, b, out):
+    """Replace every UNDECIDED entry of `out` by the exact relation (rational arithmetic)."""
+    sa, sb = int(len(a) > 1), int(len(b) > 1)
+    for i in np.flatnonzero(out == UNDECIDED):
+        ia, ib = i * sa, i * sb
+        out[i] = rational.relation(
+            a.centers[ia], a.rotations[ia], a.radii[ia], b.centers[ib], b.rotations[ib], b.radii[ib]
+        )
+    return out
+
+
+def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", parallel=None):
+    """Relation of each pair (a[i], b[i]) as int8 codes of `Relation`.
+
+    a, b : Ellipsoids; a batch of length 1 broadcasts against the other.
+    method : "exact" (default; certified, right on every float64 input), or the thesis's
+        uncertified "sturm" (4.2.1) and "descartes" (4.2.2), which exist to be measured.
+    setup : "rearranged" (4.1.3) or "cofactor" (4.1.2), for "sturm" and "descartes" only.
+    dtype : "float64" or "float32" working precision, for "sturm" and "descartes" only.
+    parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
+    returns : (n,) int8
+    """
+    n = check_pair(a, b)
+    check_choice("method", method, METHODS)
+    check_choice("setup", setup, SETUPS)
+    if isinstance(dtype, type) or isinstance(dtype, np.dtype):
+        dtype = np.dtype(dtype).name  # np.float32, np.dtype("float32")
+    check_choice("dtype", dtype, DTYPES)
+    if method == "exact" and (setup != "rearranged" or dtype != "float64"):
+        raise ValueError("setup and dtype apply to the 'sturm' and 'descartes' methods; 'exact' has neither")
+    parallel = check_parallel(parallel, n)
+    if method == "exact":
+        return resolve_undecided(a, b, certify(a, b, n, parallel))
+    arrays = [a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii]
+    if dtype == "float32":
+        arrays = [x.astype(np.float32) for x in arrays]
+    out = np.empty(n, dtype=np.int8)
+    kernel = _classify_float if parallel else _classify_float_serial
+    kernel(*arrays, setup == "cofactor", method == "sturm", out)
+    return out

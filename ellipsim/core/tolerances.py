@@ -1,0 +1,114 @@
+"""Every tolerance and threshold of ellipsim, each with where its number comes from."""
+
+import math
+
+#: Unit roundoff of float64 (round to nearest): |fl(x op y) - x op y| <= U |x op y|.
+U = 2.0**-53
+
+
+def gamma(n):
+    """Higham's gamma_n = n u / (1 - n u): bound on the relative error of n roundings."""
+    return n * U / (1.0 - n * U)
+
+
+# --- Input validation ------------------------------------------------------------------------
+
+#: A rotation is accepted when max_ij |(R^T R - I)_ij| <= this.  MuJoCo's geom_xmat comes from
+#: normalised quaternions and sits near 1e-16; 1e-6 admits float32-built rotations too.
+ORTHONORMAL_TOL = 1e-6
+
+# --- Certified filter (ellipsim/core/certified.py) -------------------------------------------------
+
+#: Inflation of the bounding-sphere radius max(r).  A point of E is c + R^{-T} D u with |u| <= 1,
+#: so |x - c| <= r_max / sigma_min(R).  With the validated |(R^T R - I)_ij| <= 1e-6,
+#: ||R^T R - I||_2 <= 3e-6 and 1 / sigma_min(R) <= 1 + 1.6e-6 < 1 + 2^-16.
+BOUNDING_INFLATION = 1.0 + 2.0**-16
+
+#: The float path only runs when max/min over the six semi-axes of a pair is at most RATIO_MAX and
+#: the largest semi-axis lies in [SCALE_MIN, SCALE_MAX]; other pairs go to exact arithmetic.
+#: Together with |c_b - c_a| <= 2 r_max (else the bounding spheres decide) this keeps every
+#: intermediate below 2^700 and bounds what an underflow can do (see TAU).
+RATIO_MAX = 2.0**40
+SCALE_MIN = 2.0**-500
+SCALE_MAX = 2.0**500
+
+#: Absolute slack added to every certified comparison.  An underflowing multiplication errs by at
+#: most 2^-1075 (additions are exact there); on its way to a certified value it is amplified at most
+#: by 2^540 (1 / r in q(c)) or 2^600 (in A's frame, with mu in [MU_MIN, MU_MAX]); a few thousand
+#: operations stay far below 2^-400.
+TAU = 2.0**-400
+
+#: Relative error coefficients for the certified signs: an expression evaluated with at most n
+#: roundings on any path (leaf roundings included) errs by at most gamma_n times its absolute
+#: polynomial ("mag", evaluated alongside with |leaves|).  The constants cover the depth counted in
+#: certified.py with a margin for the rounding of the bound itself.
+ERR_SHORT = gamma(16) * 1.01  # the bounding-sphere and centre-inside tests (depth <= 13)
+ERR_POLY = gamma(48) * 1.01  # f(mu) = mu N(mu) - (mu + alpha) P(mu) (depth <= 32)
+ERR_WITNESS = gamma(16) * 1.01  # |y|^2 < 1 and |W (y - e)|^2 < alpha (depth <= 13)
+
+#: mu (the pencil parameter in A's frame) is clamped to this range on the float path.
+MU_MIN = 2.0**-120
+MU_MAX = 2.0**120
+
+#: The centre-axis separation test uses |D R^T d| for the support |D R^{-1} d|.  For a validated
+#: rotation ||R^{-1} - R^T||_2 <= ||E|| (1 + ||E||) / (1 - ||E||) < 3.1e-6 (E = R^T R - I,
+#: ||E||_2 <= ||E||_F <= 3e-6), and the float evaluation adds < 1e-14 r_max |d|: 5e-6 covers both.
+SUPPORT_SLACK = 5e-6
+
+#: Perram-Wertheim maximisation (perram_wertheim.py): Newton steps at most, and the relative step that
+#: ends it.  mu* is only determined to ~1e-9 by float64 (F is flat there); F(mu) is then exact to
+#: ~1e-16, which is what contact_scale reports.
+PW_MAX_ITER = 60
+PW_RTOL = 1e-13
+
+#: The certified filter tries f(mu) > 0 as soon as F(mu) exceeds 1 by this (F is accurate to a few
+#: ulps, so below it the certificate would fail on its error bound anyway).
+PW_TRY_SEPARATED = 1e-12
+
+# --- Dispatch -------------------------------------------------------------------------------
+
+#: Batches at least this long run the parallel kernels: on the 2-core VM, with numba's workqueue
+#: layer, one thread was faster up to ~3e4 generic pairs per call and two only pulled ahead from
+#: ~1e5 (ellipsim bench, "classify: batch size").
+PARALLEL_MIN_PAIRS = 100_000
+
+# --- MuJoCo contact filter (ellipsim/mujoco/callbacks.py) ----------------------------------------------
+
+#: The filter grows each body by half of margin + gap + FILTER_CCD_FACTOR * ccd_tolerance.  MuJoCo's
+#: GJK declares the margin-grown bodies in contact once its iterate is within ccd_tolerance of the
+#: origin (engine_collision_gjk.c, min_norm), so pairs closer than that must reach MuJoCo.
+FILTER_CCD_FACTOR = 2.0
+
+#: And by this fraction of the pair's largest semi-axis, against rounding in the growth itself.
+FILTER_RELATIVE_SLACK = 1e-12
+
+# --- Narrow phase (ellipsim/core/distance.py) ------------------------------------------------------
+
+#: Newton on the unit sphere: at most this many steps per run (most pairs need 3-6) ...
+NEWTON_MAX_ITER = 40
+#: ... and converged once a negative definite Newton step is below this many radians: Newton is
+#: quadratic there, so the point it lands on is ~1e-12 rad from the maximiser and sigma (flat there)
+#: is exact to rounding (checked against 40-digit mpmath in tests/test_narrowphase.py).
+NEWTON_STEP_TOL = 1e-5
+
+#: The first Newton run (from the bisector seed) gets this many steps before the multi-start takes
+#: over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
+FIRST_RUN_ITER = 10
+
+#: A secondary seed within 30 degrees of the maximum the first run found is skipped: on the random
+#: penetrating pairs of the first release's narrow-phase benchmark no second local maximum lay that close to the first.
+SAME_BASIN_COS = math.cos(math.radians(30.0))
+
+# --- Narrow-phase validation against MuJoCo (mujoco/compare.py) --------------------------
+# The acceptance bounds of issue 4: MuJoCo's GJK/EPA works to ccd_tolerance (1e-6 by default), so
+# contacts within 2e-6 of touching may exist on one side only, and per contact the two may differ
+# by these much before a difference is reported.
+NEAR_TANGENT = 2e-6  # metres: |dist| below this, a contact on one side only is not a difference
+DIST_TOL = 2e-6  # metres
+ANGLE_TOL = 1e-3  # radians between the normals
+POS_TOL = 1e-3  # metres between the contact points
+
+#: The third opinion of compare_narrowphase for deep penetrations: MuJoCo's GJK/EPA run to this
+#: tolerance (its default is 1e-6; at 1e-11 its contacts agree with ellipsim's to ~1e-11).
+TIGHT_CCD_TOLERANCE = 1e-11
+TIGHT_CCD_ITERATIONS = 1000

@@ -1,0 +1,164 @@
+"""Attach ellipsim to mj_step of one (model, data) for the duration of a `with` block.
+
+    with ellipsim.mujoco.attach(model, data, mode="filter") as att:   # or mode="narrowphase"
+        for _ in range(1000):
+            mujoco.mj_step(model, data)
+    att.counters
+
+The callbacks themselves are in callbacks.py; this module installs them in MuJoCo's process-global
+hooks (mjcb_contactfilter, the mjCOLLISIONFUNC table) while at least one data needs them, writes
+the registry rows they read, and puts MuJoCo's originals back when the last attachment ends.
+"""
+
+import threading
+
+import mujoco
+import numpy as np
+
+from . import structs
+from .callbacks import (
+    ELLIPSOID,
+    FILTER,
+    MAX_ATTACHED,
+    NARROW,
+    NCOUNTERS,
+    RECORD,
+    REGISTRY,
+    SPHERE,
+    callback,
+    narrowphase_function,
+)
+
+MODES = ("filter", "narrowphase")
+_lock = threading.Lock()
+_state = {"previous": None, "filter_installed": False, "table": None, "attached": []}
+
+
+def ellipsoid_pair_possible(model):
+    """True when the model has a geom pair the filter would test (ellipsoid with ellipsoid or sphere)."""
+    t = model.geom_type
+    collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    n_ell = int(np.count_nonzero((t == ELLIPSOID) & collides))
+    n_sph = int(np.count_nonzero((t == SPHERE) & collides))
+    return n_ell >= 2 or (n_ell >= 1 and n_sph >= 1)
+
+
+def check_model_data(model, data):
+    if not isinstance(model, mujoco.MjModel):
+        raise ValueError(f"model must be a mujoco.MjModel, got {type(model).__name__}")
+    if not isinstance(data, mujoco.MjData):
+        raise ValueError(f"data must be a mujoco.MjData, got {type(data).__name__}")
+    if data.signature != model.signature:
+        raise ValueError(
+            f"data belongs to another model: data.signature {data.signature} != model.signature {model.signature}"
+        )
+
+
+_MODE_CODE = {"filter": FILTER, "record": RECORD, "narrowphase": NARROW}
+
+
+def _write_registry():
+    """Rewrite the registry rows from the attachment list (under _lock)."""
+    attached = _state["attached"]
+    for row, a in enumerate(attached, start=1):
+        REGISTRY[row] = (
+            a.data._address, a._counters.ctypes.data, _MODE_CODE[a.mode],
+            a._pairs.ctypes.data, len(a._pairs) if a.mode == "record" else 0,
+        )  # fmt: skip
+    REGISTRY[0, 0] = len(attached)
+
+
+def _uses_filter(attached):
+    return any(a.mode in ("filter", "record") for a in attached)
+
+
+def _install(attached_before, attachment):
+    """Install what `attachment` needs and no attachment before it installed (under _lock)."""
+    if attachment.mode in ("filter", "record") and not _uses_filter(attached_before):
+        current = mujoco.get_mjcb_contactfilter()
+        if current is not None:
+            raise ValueError(
+                f"a contact filter callback is already installed ({current!r}); ellipsim's filter would replace it"
+            )
+        mujoco.set_mjcb_contactfilter(callback().ctypes)
+        _state["previous"], _state["filter_installed"] = current, True
+    if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
+        fn = narrowphase_function()
+        table, ntypes = structs.collision_table()
+        entries = (ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID)
+        _state["table"] = {k: table[k] for k in entries}
+        for k in entries:
+            table[k] = fn.address
+
+
+def _uninstall(attached_after):
+    """Remove what no remaining attachment needs (under _lock)."""
+    if _state["filter_installed"] and not _uses_filter(attached_after):
+        mujoco.set_mjcb_contactfilter(_state["previous"])
+        _state["previous"], _state["filter_installed"] = None, False
+    if _state["table"] and not any(a.mode == "narrowphase" for a in attached_after):
+        table, _ = structs.collision_table()
+        for k, original in _state["table"].items():
+            table[k] = original
+        _state["table"] = None
+
+
+class Attachment:
+    """ellipsim attached to one (model, data) while the `with` block runs; see attach()."""
+
+    def __init__(self, model, data, mode, capacity=0):
+        self.model, self.data, self.mode = model, data, mode
+        self.installed = False
+        self._counters = np.zeros(NCOUNTERS, dtype=np.int64)
+        self._pairs = np.zeros((max(capacity, 1), 2), dtype=np.int32)
+
+    @property
+    def counters(self):
+        """Per-data counts of the ellipsoid pairs ellipsim handled while attached.
+
+        filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (certified,
+        no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured apart beyond the margin.
+        """
+        c = [int(x) for x in self._counters]
+        if self.mode == "narrowphase":
+            return {"calls": c[0], "separated": c[1], "contacts": c[2], "fallbacks": c[4]}
+        return {"seen": c[0], "discarded": c[1], "passed": c[2]}
+
+    def __enter__(self):
+        if self.mode != "record" and not ellipsoid_pair_possible(self.model):
+            return self  # skip what the scene does not need: nothing is installed
+        with _lock:
+            attached = _state["attached"]
+            if any(a.data is self.data for a in attached):
+                raise ValueError("data is already attached to ellipsim; leave the other `with` block first")
+            if len(attached) >= MAX_ATTACHED:
+                raise ValueError(f"at most {MAX_ATTACHED} datas can be attached at once")
+            _install(attached, self)
+            attached.append(self)
+            _write_registry()
+            self.installed = True
+        return self
+
+    def __exit__(self, *exc):
+        if not self.installed:
+            return False
+        with _lock:
+            attached = _state["attached"]
+            attached.remove(self)
+            _write_registry()
+            _uninstall(attached)
+            self.installed = False
+        return False
+
+
+def attach(model, data, *, mode="filter"):
+    """Attach ellipsim to mj_step of (model, data) for the duration of a `with` block.
+
+    mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs;
+    mode "narrowphase": ellipsim computes the contacts of those pairs in place of GJK/EPA.
+    A model without such pairs installs nothing.  Per-data counters are on the returned object.
+    """
+    check_model_data(model, data)
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    return Attachment(model, data, mode)

@@ -57,15 +57,24 @@ def check_model_data(model, data):
 _MODE_CODE = {"filter": FILTER, "record": RECORD, "narrowphase": NARROW}
 
 
-def _write_registry():
-    """Rewrite the registry rows from the attachment list (under _lock)."""
-    attached = _state["attached"]
-    for row, a in enumerate(attached, start=1):
-        REGISTRY[row] = (
-            a.data._address, a._counters.ctypes.data, _MODE_CODE[a.mode],
-            a._pairs.ctypes.data, len(a._pairs) if a.mode == "record" else 0,
-        )  # fmt: skip
-    REGISTRY[0, 0] = len(attached)
+def _claim_slot(attachment):
+    """Write `attachment` into a free registry slot, its data address last (under _lock)."""
+    free = np.flatnonzero(REGISTRY[1:, 0] == 0)
+    if len(free) == 0:
+        raise ValueError(f"at most {MAX_ATTACHED} datas can be attached at once")
+    slot = int(free[0]) + 1
+    a = attachment
+    REGISTRY[slot, 1:] = (
+        a._counters.ctypes.data, _MODE_CODE[a.mode], a._pairs.ctypes.data, len(a._pairs) if a.mode == "record" else 0
+    )  # fmt: skip
+    REGISTRY[slot, 0] = a.data._address
+    REGISTRY[0, 0] = max(REGISTRY[0, 0], slot)
+    return slot
+
+
+def _release_slot(slot):
+    """Free a registry slot: its data address first, so no callback matches it any more (under _lock)."""
+    REGISTRY[slot, 0] = 0
 
 
 def _uses_filter(attached):
@@ -116,8 +125,9 @@ class Attachment:
     def counters(self):
         """Per-data counts of the ellipsoid pairs ellipsim handled while attached.
 
-        filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (certified,
-        no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured apart beyond the margin.
+        filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (proven apart
+        beyond the margin, no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured
+        apart beyond the margin.
         """
         c = [int(x) for x in self._counters]
         if self.mode == "narrowphase":
@@ -129,13 +139,13 @@ class Attachment:
             return self  # skip what the scene does not need: nothing is installed
         with _lock:
             attached = _state["attached"]
-            if any(a.data is self.data for a in attached):
+            if any(a.data._address == self.data._address for a in attached):
                 raise ValueError("data is already attached to ellipsim; leave the other `with` block first")
             if len(attached) >= MAX_ATTACHED:
                 raise ValueError(f"at most {MAX_ATTACHED} datas can be attached at once")
             _install(attached, self)
+            self._slot = _claim_slot(self)
             attached.append(self)
-            _write_registry()
             self.installed = True
         return self
 
@@ -145,7 +155,7 @@ class Attachment:
         with _lock:
             attached = _state["attached"]
             attached.remove(self)
-            _write_registry()
+            _release_slot(self._slot)
             _uninstall(attached)
             self.installed = False
         return False

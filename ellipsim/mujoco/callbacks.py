@@ -35,8 +35,11 @@ from . import structs
 SPHERE, ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 
-# Registry of attached datas, read by the callbacks through its address.  Row 0: [number of rows
-# in use, ...]; rows 1..: [mjData address, counters address, mode, pair buffer address, capacity].
+# Registry of attached datas, read by the callbacks through its address.  Row 0: [highest slot ever
+# used, ...]; slots 1..: [mjData address (0: free), counters address, mode, pair buffer address,
+# capacity].  A slot's other fields are written before its address and only change while that data
+# is detached, and slots never move, so a callback stepping one data never sees another's fields
+# half-written (attachment.py writes them under a lock).
 MAX_ATTACHED = 256
 FILTER, RECORD, NARROW = 1, 2, 3
 REGISTRY = np.zeros((MAX_ATTACHED + 1, 5), dtype=np.int64)
@@ -92,14 +95,15 @@ def _compile_callback():
             return 0
         reg = carray(structs.i64_pointer(reg_addr), (reg_rows, 5))
         slot = _slot(reg, da)
-        if slot and reg[slot, 2] == RECORD:
-            counters = carray(structs.i64_pointer(reg[slot, 1]), (NCOUNTERS,))
-            i = counters[3]
+        mode = reg[slot, 2] if slot else 0
+        if mode != FILTER and mode != RECORD:
+            return 0  # a data ellipsim is not attached to in these modes: MuJoCo's own test, as above
+        if mode == RECORD:
+            i = structs.atomic_add(reg[slot, 1] + 24, 1)  # counters[3]: MuJoCo may run it on threads
             if i < reg[slot, 4]:
                 pairs = carray(structs.i32_pointer(reg[slot, 3]), (reg[slot, 4], 2))
                 pairs[i, 0] = g1
                 pairs[i, 1] = g2
-            counters[3] = i + 1
             return 0
         size = carray(structs.f64_pointer(_word(ma + o_size)), (3 * n,))
         margin = carray(structs.f64_pointer(_word(ma + o_margin)), (n,))
@@ -118,10 +122,9 @@ def _compile_callback():
         A = _ellipsoid(xpos, xmat, size, t1, g1, grow)
         B = _ellipsoid(xpos, xmat, size, t2, g2, grow)
         discard = separated_by_axes(A, B)
-        if slot and reg[slot, 2] == FILTER:
-            counters = carray(structs.i64_pointer(reg[slot, 1]), (NCOUNTERS,))
-            counters[0] += 1
-            counters[1 if discard else 2] += 1
+        counters = reg[slot, 1]
+        structs.atomic_add(counters, 1)
+        structs.atomic_add(counters + (8 if discard else 16), 1)
         return 1 if discard else 0
 
     return contact_filter
@@ -136,7 +139,7 @@ def callback():
 
 @jit
 def _slot(reg, da):
-    """Registry row of the data at address da, 0 when it is not attached."""
+    """Registry slot of the data at address da, 0 when it is not attached."""
     for k in range(1, reg[0, 0] + 1):
         if reg[k, 0] == da:
             return k
@@ -168,21 +171,22 @@ def _compile_narrowphase():
         xmat = carray(structs.f64_pointer(_word(da + o_xmat)), (9 * n,))
         reg = carray(structs.i64_pointer(reg_addr), (reg_rows, 5))
         slot = _slot(reg, da)
-        counters = reg[slot, 1] if slot else 0
-        if counters:
-            structs.atomic_add(counters, 1)
-        grow = 0.5 * max(margin, 0.0)
         t1, t2 = gtype[g1], gtype[g2]
+        if slot == 0 or reg[slot, 2] != NARROW:  # not attached in this mode: MuJoCo's own function
+            if t1 == SPHERE:
+                return fallback_se(m, d, con, g1, g2, margin)
+            return fallback_ee(m, d, con, g1, g2, margin)
+        counters = reg[slot, 1]
+        structs.atomic_add(counters, 1)
+        grow = 0.5 * max(margin, 0.0)
         if separated_by_axes(_ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)):
-            if counters:
-                structs.atomic_add(counters + 8, 1)
+            structs.atomic_add(counters + 8, 1)
             return 0
         status, dist, normal, pos, _ = pair_signed_distance(
             _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
         )
         if status == NOT_CONVERGED:
-            if counters:
-                structs.atomic_add(counters + 32, 1)
+            structs.atomic_add(counters + 32, 1)
             if t1 == SPHERE:
                 return fallback_se(m, d, con, g1, g2, margin)
             return fallback_ee(m, d, con, g1, g2, margin)
@@ -193,8 +197,7 @@ def _compile_narrowphase():
         c[1], c[2], c[3] = pos
         c[4], c[5], c[6] = normal
         c[7], c[8], c[9] = 0.0, 0.0, 0.0
-        if counters:
-            structs.atomic_add(counters + 16, 1)
+        structs.atomic_add(counters + 16, 1)
         return 1
 
     return narrowphase

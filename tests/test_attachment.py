@@ -140,13 +140,18 @@ def test_callback_decisions_pair_by_pair():
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     g = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, i): i for i in range(m.ngeom)}
-    assert call_filter(m, d, g["e1"], g["e2"]) == 1  # certified separated
-    assert call_filter(m, d, g["e1"], g["e3"]) == 0  # overlapping: MuJoCo must see it
-    assert call_filter(m, d, g["e1"], g["s1"]) == 1  # sphere-ellipsoid, separated
-    assert call_filter(m, d, g["e1"], g["box"]) == 0  # not ours: passes untouched
-    assert call_filter(m, d, g["s1"], g["s2"]) == 0  # sphere-sphere: MuJoCo's own
-    assert call_filter(m, d, g["e1"], g["off"]) == 1  # contype/conaffinity mismatch
-    assert call_filter(m, d, g["box"], g["off"]) == 1  # ... for any geom types
+    with plugin.attach(m, d, mode="filter") as att:
+        assert call_filter(m, d, g["e1"], g["e2"]) == 1  # proven separated
+        assert call_filter(m, d, g["e1"], g["e3"]) == 0  # overlapping: MuJoCo must see it
+        assert call_filter(m, d, g["e1"], g["s1"]) == 1  # sphere-ellipsoid, separated
+        assert call_filter(m, d, g["e1"], g["box"]) == 0  # not ours: passes untouched
+        assert call_filter(m, d, g["s1"], g["s2"]) == 0  # sphere-sphere: MuJoCo's own
+        assert call_filter(m, d, g["e1"], g["off"]) == 1  # contype/conaffinity mismatch
+        assert call_filter(m, d, g["box"], g["off"]) == 1  # ... for any geom types
+    assert att.counters == {"seen": 3, "discarded": 2, "passed": 1}
+    other = mujoco.MjData(m)  # not attached: MuJoCo's bitmask test only, nothing discarded or counted
+    mujoco.mj_forward(m, other)
+    assert call_filter(m, other, g["e1"], g["e2"]) == 0 and call_filter(m, other, g["e1"], g["off"]) == 1
 
 
 def test_attach_detach_restores_mujoco_state():

@@ -1,0 +1,43 @@
+"""The installed package, run from outside the checkout: its data folders and its command line.
+
+`python -m pytest` in the repository imports the checkout's ellipsim/ (the current directory comes
+first on sys.path), where models/ and scenarios/ are plain folders next to the package.  These
+tests start a fresh interpreter in an empty directory instead, so they import what pip installed:
+a wheel that misses models/ or scenarios/ fails here.
+"""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+
+def installed(*args, tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    return subprocess.run([sys.executable, *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+
+
+def test_shipped_data_is_installed_with_the_package(tmp_path):
+    code = (
+        "import importlib.resources as r, ellipsim\n"
+        "models = sorted(p.name for p in r.files('ellipsim.models').iterdir() if p.name.endswith('.xml'))\n"
+        "scenarios = sorted(p.name for p in r.files('ellipsim.scenarios').iterdir() if p.name.endswith('.toml'))\n"
+        "print(ellipsim.__file__); print(','.join(models)); print(','.join(scenarios))\n"
+    )
+    proc = installed("-c", code, tmp_path=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    where, models, scenarios = proc.stdout.splitlines()
+    assert not where.startswith(str(tmp_path))
+    assert "figure.xml" in models.split(",")
+    assert {"crowd.toml", "handshake.toml", "pile.toml", "replay.toml", "tumble.toml"} <= set(scenarios.split(","))
+
+
+@pytest.mark.slow
+def test_command_line_from_outside_the_checkout(tmp_path):
+    proc = installed("-m", "ellipsim", "list", tmp_path=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert {line.split()[0] for line in proc.stdout.splitlines()} >= {"crowd", "handshake", "pile", "replay", "tumble"}
+    proc = installed("-m", "ellipsim", "run", "handshake", "--steps", "20", "--record", "h.rrd", tmp_path=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "narrow phase:" in proc.stdout and (tmp_path / "h.rrd").stat().st_size > 1000

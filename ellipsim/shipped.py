@@ -19,3 +19,15 @@ def folder(name):
         if not path.is_dir():
             raise FileNotFoundError(f"ellipsim's {name}/ folder is missing (looked for {path})") from None
         return path
+
+
+def source_checkout():
+    """The root of the source checkout this ellipsim runs from (a folder with ellipsim's
+    pyproject.toml next to the package: an editable install, or `python -m` in the checkout), or
+    None for an installed copy."""
+    root = pathlib.Path(__file__).resolve().parent.parent
+    try:
+        text = (root / "pyproject.toml").read_text(encoding="utf-8")
+    except OSError:
+        return None
+    return root if 'name = "ellipsim"' in text else None

@@ -1,14 +1,34 @@
 import errno
+import io
+import os
+import re
+import signal
 import subprocess
 import sys
+import time
 
+import mujoco
 import numpy as np
 import pytest
+import trimesh
 
-from ellipsim import classify
-from ellipsim.app.cli import main
-from ellipsim import contact_scale
+import ellipsim
+from ellipsim import classify, contact_scale
+from ellipsim.app import cli as cli_module
+from ellipsim.app import fit as fitting
+from ellipsim.app.cli import Progress, main
 from ellipsim.core.samples import generic_pairs, near_contact_pairs
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def one_line_error(proc):
+    assert proc.returncode == 2 and proc.stdout == "" and "Traceback" not in proc.stderr, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1
+    return lines[0]
 
 
 def test_demo_prints_the_table(capsys):
@@ -20,12 +40,47 @@ def test_demo_prints_the_table(capsys):
     assert (sep, touch + over, wrong) == (1000, 1000, 0)
 
 
-def test_bad_arguments_exit_2_with_one_line():
-    for args in (["demo", "--pairs", "0"], ["demo", "--pairs", "many"], ["frobnicate"], []):
-        proc = subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True)
-        assert proc.returncode == 2
-        assert proc.stdout == "" and len(proc.stderr.strip().splitlines()) == 1
-        assert "Traceback" not in proc.stderr
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["demo", "--pairs", "0"], "--pairs: expected a positive integer, got 0"),
+        (["demo", "--pairs", "many"], "--pairs: expected a positive integer, got 'many'"),
+        (["demo", "--pairs", "1.5"], "--pairs: expected a positive integer, got '1.5'"),
+        (["demo", "--seed", "-1"], "--seed: expected a non-negative integer, got -1"),
+        (["demo", "--pairs", "1e9"], "--pairs 1000000000 needs 1e+03 GB, more than the"),
+        (["run", "crowd", "--steps", "1e15"], "--steps 1000000000000000: 1000000000000000 steps (125000000000000 recorded frames of counts) needs 5e+06 GB"),
+        (["compare", "crowd", "--steps", "1e15"], "--steps 1000000000000000: 1000000000000000 steps of pair counts needs 4e+07 GB"),
+        (["frobnicate"], "invalid choice: 'frobnicate'"),
+        ([], "the following arguments are required: command"),
+    ],
+)
+def test_bad_arguments_exit_2_with_one_line(args, message):
+    assert message in one_line_error(cli(*args))
+
+
+def test_counts_take_float_notation_of_whole_numbers():
+    assert cli_module._count("1e3") == 1000 and cli_module._count("2_000") == 2000 and cli_module._count("0", allow_zero=True) == 0
+
+
+def test_version():
+    proc = cli("--version")
+    assert proc.returncode == 0 and proc.stdout.strip() == f"ellipsim {ellipsim.__version__}"
+
+
+def test_view_refuses_a_file_that_is_not_a_recording(tmp_path):
+    fake = tmp_path / "notes.rrd"
+    fake.write_text("hello")
+    assert f"'{fake}' is not a rerun recording" in one_line_error(cli("view", str(fake)))
+
+
+def test_hints_name_the_extra_to_install_from_a_checkout(monkeypatch, capsys, tmp_path):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", "replay", "--steps", "2", "--plot", str(tmp_path / "p.png")]) == 2
+    root = os.path.dirname(os.path.dirname(os.path.abspath(ellipsim.__file__)))
+    assert capsys.readouterr().err.strip() == f"ellipsim: error: plots need matplotlib: pip install '.[plot]' (in {root})"
+    monkeypatch.setattr(cli_module.shipped, "source_checkout", lambda: None)  # an installed copy
+    assert cli_module.install_hint("plot") == "pip install 'ellipsim[plot]'"
 
 
 def test_sample_sets():
@@ -58,7 +113,7 @@ def _unwritable(*args, **kwargs):
     [
         (["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"], ("ellipsim.app.cli.open", _unwritable)),
         (["compare", "replay", "--steps", "5", "--plot", "{dir}/c.png"], ("matplotlib.figure.Figure.savefig", _unwritable)),
-        (["run", "replay", "--steps", "5", "--record", "{dir}/c.rrd"], ("ellipsim.app.record.save", _unwritable)),
+        (["run", "replay", "--steps", "5", "--record", "{dir}/c.rrd"], ("ellipsim.app.record.os.replace", _unwritable)),
     ],
 )
 def test_output_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys, args, patch):
@@ -72,3 +127,69 @@ def test_output_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys
     err = capsys.readouterr().err.strip().splitlines()  # the progress bar's lines, then the error
     assert err[-1] == f"ellipsim: error: {args[-2]}: cannot write {args[-1]!r}: Permission denied"
     assert not any("error" in line or "Traceback" in line for line in err[:-1])
+    assert os.listdir(tmp_path) == []  # no partial file left behind
+
+
+@pytest.mark.parametrize("sig, status, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig, status, word):
+    out = tmp_path / "crowd.rrd"
+    proc = subprocess.Popen([sys.executable, "-m", "ellipsim", "run", "crowd", "--steps", "200000", "--record", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        line = proc.stderr.readline()  # the progress bar's first line: stepping has begun
+        assert "crowd [" in line, line
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == status, err
+    assert err.strip().splitlines()[-1] == f"ellipsim: {word}" and "Traceback" not in err
+    assert os.listdir(tmp_path) == []  # neither the recording nor its partial file
+
+
+def test_progress_shows_a_rate_only_once_it_means_something(monkeypatch):
+    clock = iter([0.0, 0.1, 0.5, 1.5, 2.0, 2.6, 3.0])
+    monkeypatch.setattr(cli_module.time, "perf_counter", lambda: next(clock))
+    stream = io.StringIO()
+    bar = Progress("x", 100, stream=stream)
+    for done in (1, 5, 20, 30, 60, 70):
+        bar(done)
+    lines = stream.getvalue().splitlines()
+    assert not any("/s" in line or "left" in line for line in lines[:3])  # compile and warm-up: no rate
+    assert lines[-1].endswith("70/100 steps, 33/s, 1 s left")  # (70 - 20) / (3.0 - 1.5) s from the anchor
+
+
+# --- fit -------------------------------------------------------------------------------------------
+
+
+def test_fit_prints_short_numbers_and_writes_mjcf_that_encloses_the_meshes(tmp_path, capsys):
+    arm = trimesh.creation.capsule(height=0.3, radius=0.05)
+    arm.apply_transform(trimesh.transformations.rotation_matrix(0.4, [1, 2, 3], [0.1, 0.0, 0.2]))
+    arm.apply_translation([0.1, -0.05, 0.9])
+    arm.export(tmp_path / "arm.stl")
+    box = trimesh.creation.box([0.2, 0.1, 0.05])
+    box.apply_translation([1e-15, 0.3, 0.0])  # a centre with 1e-15 noise: printed as 0
+    box.export(tmp_path / "foot.obj")
+    out = tmp_path / "limbs.xml"
+    assert main(["fit", str(tmp_path / "arm.stl"), str(tmp_path / "foot.obj"), "--method", "mvee", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    rows = [line.split() for line in text.splitlines() if line.split()[:1] in (["arm"], ["foot"])]
+    assert [r[0] for r in rows] == ["arm", "foot"]
+    for row in rows:
+        numbers = row[1:11]
+        assert all(len(re.sub(r"[-.]|^0+", "", n).lstrip("0")) <= 6 for n in numbers), numbers  # <= 6 significant digits
+    assert rows[1][1:4] == ["0", "0.3", "0"]
+    model = mujoco.MjModel.from_xml_path(str(out))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    for name, mesh in (("arm", tmp_path / "arm.stl"), ("foot", tmp_path / "foot.obj")):
+        g = model.geom(name).id
+        vertices = fitting.mesh_vertices(str(mesh))
+        local = (vertices - data.geom_xpos[g]) @ data.geom_xmat[g].reshape(3, 3) / model.geom_size[g]
+        level = np.einsum("ij,ij->i", local, local)
+        assert level.max() <= 1 + 1e-6 and level.max() > 0.9  # every vertex inside (MuJoCo's float32-free numbers), tight
+
+
+def test_fit_mistakes_are_one_line(tmp_path):
+    assert "mesh file" in one_line_error(cli("fit", str(tmp_path / "none.stl")))
+    assert "--out must name a .xml file" in one_line_error(cli("fit", str(tmp_path / "none.stl"), "--out", "x.txt"))

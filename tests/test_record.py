@@ -1,7 +1,7 @@
-"""record.save writes what the Trajectory says: read the .rrd back with rerun's own reader and compare.
+"""Recordings: read every .rrd back with rerun's own reader and compare with what was recorded.
 
-rerun stores positions, sizes and quaternions as float32, so values are compared with the
-trajectory's values rounded to float32, exactly.  Colours come back packed as 0xRRGGBBAA.
+rerun stores positions, sizes and quaternions as float32, so values are compared with the recorded
+values rounded to float32, exactly.  Colours come back packed as 0xRRGGBBAA.
 """
 
 import os
@@ -9,51 +9,18 @@ import pathlib
 import subprocess
 import sys
 
+import mujoco
 import numpy as np
 import pytest
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
-from ellipsim.app import record
-from ellipsim.app.trajectory import Trajectory
+from ellipsim.app import capture, record, scenario, simulate
+from ellipsim.app.trajectory import GEOM_KINDS, Frames, SceneGeometry
+from ellipsim.core.rotations import quaternion_product, quaternions_to_rotations
 
-F = 7
-# Two figures of 4 geoms and 3 free ellipsoids, interleaved so that selecting by figure matters.
-GEOM_FIGURE = np.array([0, 1, -1, 0, 1, 1, -1, 0, 1, 0, -1])
-G = len(GEOM_FIGURE)
-CONTACTS_PER_FRAME = [2, 0, 3, 1, 4, 0, 2]  # frames 1 and 5 have none
-
-
-def make_trajectory(scenario="two figures and a pile"):
-    rng = np.random.default_rng(7)
-    q = rng.normal(size=(F, G, 4))
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    contact_frame = np.repeat(np.arange(F), CONTACTS_PER_FRAME)
-    contact_frame = contact_frame[rng.permutation(len(contact_frame))]  # not sorted by frame
-    K = len(contact_frame)
-    normal = rng.normal(size=(K, 3))
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    state = np.zeros((F, G), dtype=np.int8)
-    state[1, 0] = 1
-    state[2, [0, 3]] = 2
-    state[3, :] = 1
-    state[4, 2] = 2  # a free ellipsoid
-    state[6, :] = rng.integers(0, 3, G)
-    return Trajectory(
-        times=np.arange(F) / 60.0,  # rerun's own float -> ns conversion would truncate 1/60 s to 16666666 ns
-        geom_names=[f"geom{g}" for g in range(G)],
-        geom_figure=GEOM_FIGURE.copy(),
-        half_sizes=rng.uniform(0.01, 0.2, (G, 3)),
-        centers=rng.normal(size=(F, G, 3)),
-        quaternions=q,
-        state=state,
-        contact_frame=contact_frame,
-        contact_pos=rng.normal(size=(K, 3)),
-        contact_normal=normal,
-        builtin_counts=np.array(CONTACTS_PER_FRAME, dtype=np.int64),
-        ellipsim_counts=np.array([1, 0, 2, 0, 5, 1, 3], dtype=np.int64),
-        scenario=scenario,
-    )
+ZOO = pathlib.Path(__file__).parent / "models" / "zoo.xml"
+K = {name: k for k, name in enumerate(GEOM_KINDS)}
 
 
 def packed(rgba):
@@ -69,9 +36,8 @@ class Recording:
     """The chunks of an .rrd, with row-level access per entity and component."""
 
     def __init__(self, path):
-        reader = RrdReader(path)
-        self.reader = reader
-        self.chunks = reader.stream().to_chunks()
+        self.reader = RrdReader(path)
+        self.chunks = self.reader.stream().to_chunks()
 
     def entities(self):
         return {c.entity_path for c in self.chunks}
@@ -100,35 +66,83 @@ class Recording:
         return [frames[i] for i in order], [times[i] for i in order], [values[i] for i in order]
 
 
+# --- a synthetic model: every geom kind, a static body under a moving one, two chunks of frames ----
+
+BODIES = ["world", "base", "arm", "hand", "free ball"]  # "free ball": a name that needs escaping
+PARENT = [0, 0, 1, 2, 0]
+MOVING = [2, 4]
+GEOMS = [  # (name, body, kind)
+    ("floor", 0, "plane"), ("plinth", 1, "box"), ("upper", 2, "ellipsoid"), ("knob", 2, "sphere"),
+    ("rod", 2, "capsule"), ("drum", 3, "cylinder"), ("gem", 3, "mesh"), ("ball", 4, "ellipsoid"),
+    ("ground", 0, "hfield"),
+]  # fmt: skip
+ELLIPSOIDS = [2, 3, 7]
+F, SPLIT = 7, 4
+STATE = [[0, 0, 0], [1, 0, 0], [1, 0, 0], [2, 2, 0], [2, 2, 0], [0, 0, 2], [0, 0, 2]]
+CONTACTS_PER_FRAME = [2, 0, 3, 1, 4, 0, 2]  # frames 1 and 5 have none
+TETRA = (np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]))
+QUAD = (np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float), np.array([[0, 1, 2], [0, 2, 3]]))
+
+
+def unit(q):
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def make_geometry(rng):
+    G = len(GEOMS)
+    return SceneGeometry(
+        name="synthetic", body_names=list(BODIES), body_parent=np.array(PARENT), body_pos=rng.normal(size=(5, 3)),
+        body_quat=unit(rng.normal(size=(5, 4))), moving=np.array(MOVING), geom_names=[g[0] for g in GEOMS],
+        geom_body=np.array([g[1] for g in GEOMS]), geom_kind=np.array([K[g[2]] for g in GEOMS]),
+        geom_size=rng.uniform(0.02, 0.2, (G, 3)), geom_pos=rng.normal(size=(G, 3)), geom_quat=unit(rng.normal(size=(G, 4))),
+        geom_rgba=rng.uniform(0, 1, (G, 4)), meshes={0: QUAD, 6: TETRA, 8: QUAD}, ellipsoids=np.array(ELLIPSOIDS),
+    )  # fmt: skip
+
+
+def make_frames(rng, first, last):
+    f = last - first
+    frame = np.arange(first, last)
+    counts = CONTACTS_PER_FRAME[first:last]
+    contact_frame = np.repeat(frame, counts)
+    k = len(contact_frame)
+    return Frames(
+        frame=frame, times=frame / 60.0, body_pos=rng.normal(size=(f, 2, 3)), body_quat=unit(rng.normal(size=(f, 2, 4))),
+        state=np.array(STATE[first:last], dtype=np.int8), contact_frame=contact_frame, contact_pos=rng.normal(size=(k, 3)),
+        contact_normal=unit(rng.normal(size=(k, 3))), contact_ellipsoids=np.arange(k) % 2 == 0,
+        builtin_counts=np.array([1, 0, 2, 0, 5, 1, 3][first:last]), ellipsim_counts=np.array([1, 0, 2, 1, 5, 0, 3][first:last]),
+        touching_counts=np.array([0, 1, 1, 0, 0, 0, 0][first:last]), contact_counts=np.array(counts) + 1,
+    )  # fmt: skip
+
+
 @pytest.fixture(scope="module")
 def saved(tmp_path_factory):
-    t = make_trajectory()
+    rng = np.random.default_rng(7)
+    g = make_geometry(rng)
+    chunks = [make_frames(rng, 0, SPLIT), make_frames(rng, SPLIT, F)]
     path = tmp_path_factory.mktemp("record") / "run.rrd"
-    record.save(path, t)
-    return t, path, Recording(path)
+    rid = record.save(path, g, chunks)
+    return g, chunks, path, Recording(path), rid
 
 
-def figure_entities(t):
-    out = {}
-    for fig in np.unique(t.geom_figure):
-        entity = "/world/ellipsoids" if fig == -1 else f"/world/figures/f{fig}"
-        out[entity] = np.flatnonzero(t.geom_figure == fig)
-    return out
+BODY_PATH = {1: "/world/model/base", 2: "/world/model/base/arm", 3: "/world/model/base/arm/hand", 4: "/world/model/free\\ ball"}
 
 
-def test_entities_exist(saved):
-    t, path, rec = saved
-    expected = {"/world", "/world/figures/f0", "/world/figures/f1", "/world/ellipsoids", "/world/contacts",
-                "/world/contact_normals", "/counts/builtin", "/counts/ellipsim"}  # fmt: skip
+def test_entity_tree_follows_the_bodies(saved):
+    g, _, path, rec, rid = saved
+    expected = {
+        "/world", "/world/model/geoms/floor", "/world/model/geoms/ground", *BODY_PATH.values(),
+        "/world/model/base/geoms/boxes", "/world/model/base/arm/geoms/ellipsoids", "/world/model/base/arm/geoms/capsules",
+        "/world/model/base/arm/hand/geoms/cylinders", "/world/model/base/arm/hand/geoms/gem",
+        "/world/model/free\\ ball/geoms/ellipsoids", "/world/contacts", "/world/contact_normals",
+        "/counts/pairs/builtin", "/counts/pairs/ellipsim", "/counts/contacts/all",
+    }  # fmt: skip
     assert expected <= rec.entities()
-    assert not any(e.startswith("/world/figures/f") and e not in expected for e in rec.entities())
-    assert rec.reader.recordings()[0].recording_id == record.recording_id(t.scenario)
-    assert record.recording_id(t.scenario) == record.recording_id("two figures and a pile")
-    assert record.recording_id("a") != record.recording_id("b")
+    assert not {e for e in rec.entities() if e.startswith("/world/model")} - expected
+    assert rec.reader.recordings()[0].recording_id == rid
 
 
 def test_rrd_verify(saved):
-    _, path, _ = saved
+    path = saved[2]
     beside = pathlib.Path(sys.executable).with_name("rerun")
     command = [str(beside)] if beside.is_file() else [sys.executable, "-m", "rerun"]
     # `rrd verify` exists in 0.41 (`rerun rrd --help` lists it); exit 0 means the file loads.
@@ -137,81 +151,111 @@ def test_rrd_verify(saved):
     assert "verified without error" in done.stderr + done.stdout
 
 
-def test_static_geometry_once_per_entity(saved):
-    t, _, rec = saved
-    for entity, geoms in figure_entities(t).items():
-        half_sizes = rec.static(entity, "Ellipsoids3D:half_sizes")
-        assert len(half_sizes) == 1, entity
-        np.testing.assert_array_equal(np.array(half_sizes[0], dtype=np.float32), f32(t.half_sizes[geoms]))
-        assert rec.static(entity, "Ellipsoids3D:labels") == [[t.geom_names[g] for g in geoms]]
-        assert rec.static(entity, "Ellipsoids3D:fill_mode") == [[3]]  # rr.components.FillMode.Solid
-        # nothing static leaks into the per-frame rows and vice versa
-        assert rec.temporal(entity, "Ellipsoids3D:half_sizes")[0] == []
-        assert rec.static(entity, "Ellipsoids3D:centers") == []
+def test_static_bodies_once_moving_bodies_per_frame(saved):
+    g, chunks, _, rec, _ = saved
+    for b in (1, 3):  # not moving relative to their parents (3 hangs from the moving arm)
+        (t,) = rec.static(BODY_PATH[b], "Transform3D:translation")
+        np.testing.assert_array_equal(np.array(t, dtype=np.float32).ravel(), f32(g.body_pos[b]))
+        (q,) = rec.static(BODY_PATH[b], "Transform3D:quaternion")
+        np.testing.assert_array_equal(np.array(q, dtype=np.float32).ravel(), f32(np.roll(g.body_quat[b], -1)))
+        assert rec.temporal(BODY_PATH[b], "Transform3D:translation")[0] == []
+    pos = np.concatenate([c.body_pos for c in chunks])
+    quat = np.concatenate([c.body_quat for c in chunks])
+    for m, b in enumerate(MOVING):
+        assert rec.static(BODY_PATH[b], "Transform3D:translation") == []
+        frames, times, t = rec.temporal(BODY_PATH[b], "Transform3D:translation")
+        assert frames == list(range(F)) and times == [round(f / 60 * 1e9) for f in range(F)]  # 1/60 s rounds up
+        np.testing.assert_array_equal(np.array(t, dtype=np.float32).reshape(F, 3), f32(pos[:, m]))
+        _, _, q = rec.temporal(BODY_PATH[b], "Transform3D:quaternion")
+        np.testing.assert_array_equal(np.array(q, dtype=np.float32).reshape(F, 4), f32(np.roll(quat[:, m], -1, axis=1)))
 
 
-def test_centers_and_quaternions_per_frame(saved):
-    t, _, rec = saved
-    for entity, geoms in figure_entities(t).items():
-        frames, times, centers = rec.temporal(entity, "Ellipsoids3D:centers")
-        assert frames == list(range(F)), entity
-        assert times == [round(s * 1e9) for s in t.times]  # 1/60 s -> 16666667 ns, not 16666666
-        for f in range(F):
-            np.testing.assert_array_equal(np.array(centers[f], dtype=np.float32), f32(t.centers[f, geoms]))
-        frames, _, quats = rec.temporal(entity, "Ellipsoids3D:quaternions")
-        assert frames == list(range(F))
-        for f in range(F):
-            wxyz = t.quaternions[f, geoms]
-            xyzw = np.column_stack([wxyz[:, 1], wxyz[:, 2], wxyz[:, 3], wxyz[:, 0]])
-            np.testing.assert_array_equal(np.array(quats[f], dtype=np.float32), f32(xyzw))
+def test_every_geom_kind_is_drawn_once_in_its_body_frame(saved):
+    g, _, _, rec, _ = saved
+    colors = record.rgba8(g.geom_rgba)
+    base = "/world/model/base"
+    (half,) = rec.static(f"{base}/geoms/boxes", "Boxes3D:half_sizes")
+    np.testing.assert_array_equal(np.array(half, dtype=np.float32), f32(g.geom_size[[1]]))
+    assert rec.static(f"{base}/geoms/boxes", "Boxes3D:colors") == [[packed(colors[1])]]
+    arm = f"{base}/arm/geoms"
+    (half,) = rec.static(f"{arm}/ellipsoids", "Ellipsoids3D:half_sizes")
+    r = g.geom_size[3, 0]
+    np.testing.assert_array_equal(np.array(half, dtype=np.float32), f32([g.geom_size[2], [r, r, r]]))  # sphere: r, r, r
+    assert rec.static(f"{arm}/ellipsoids", "Ellipsoids3D:labels") == [["upper", "knob"]]
+    (centers,) = rec.static(f"{arm}/ellipsoids", "Ellipsoids3D:centers")
+    np.testing.assert_array_equal(np.array(centers, dtype=np.float32), f32(g.geom_pos[[2, 3]]))
+    assert rec.temporal(f"{arm}/ellipsoids", "Ellipsoids3D:half_sizes")[0] == []  # static only
+    # capsule: MuJoCo's is centred (half-length size[1] along z), rerun's starts at its translation
+    (length,) = rec.static(f"{arm}/capsules", "Capsules3D:lengths")
+    (start,) = rec.static(f"{arm}/capsules", "Capsules3D:translations")
+    z = quaternions_to_rotations(g.geom_quat[4])[:, 2]
+    np.testing.assert_array_equal(np.array(length, dtype=np.float32), f32([2 * g.geom_size[4, 1]]))
+    np.testing.assert_allclose(np.array(start).ravel(), g.geom_pos[4] - g.geom_size[4, 1] * z, atol=1e-6)
+    (length,) = rec.static(f"{base}/arm/hand/geoms/cylinders", "Cylinders3D:lengths")
+    np.testing.assert_array_equal(np.array(length, dtype=np.float32), f32([2 * g.geom_size[5, 1]]))
+    for entity, geom in ((f"{base}/arm/hand/geoms/gem", 6), ("/world/model/geoms/floor", 0), ("/world/model/geoms/ground", 8)):
+        (vertices,) = rec.static(entity, "Mesh3D:vertex_positions")
+        np.testing.assert_array_equal(np.array(vertices, dtype=np.float32), f32(g.meshes[geom][0]))
+        (triangles,) = rec.static(entity, "Mesh3D:triangle_indices")
+        np.testing.assert_array_equal(np.array(triangles), g.meshes[geom][1])
+        (t,) = rec.static(entity, "Transform3D:translation")
+        np.testing.assert_array_equal(np.array(t, dtype=np.float32).ravel(), f32(g.geom_pos[geom]))
+        assert rec.static(entity, "Mesh3D:albedo_factor") == [[packed(colors[geom])]]
+        (normals,) = rec.static(entity, "Mesh3D:vertex_normals")
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1, rtol=1e-6)
 
 
-def test_colors_follow_states(saved):
-    t, _, rec = saved
-    palette = [packed(c) for c in (record.FREE_COLOR, record.TOUCHING_COLOR, record.OVERLAPPING_COLOR)]
-    assert len(set(palette)) == 3
-    seen = set()
-    for entity, geoms in figure_entities(t).items():
-        frames, _, colors = rec.temporal(entity, "Ellipsoids3D:colors")
-        assert frames == list(range(F))
-        for f in range(F):
-            assert colors[f] == [palette[s] for s in t.state[f, geoms]], (entity, f)
-            seen |= set(colors[f])
-    assert seen == set(palette)  # the fixture exercises all three states
+def test_ellipsoid_colours_where_the_state_changes(saved):
+    g, _, _, rec, _ = saved
+    colors = record.rgba8(g.geom_rgba)
+
+    def palette(geom, s):
+        return packed(colors[geom] if s == 0 else record.TOUCHING_COLOR if s == 1 else record.OVERLAPPING_COLOR)
+
+    for entity, geoms, cols in (("/world/model/base/arm/geoms/ellipsoids", [2, 3], [0, 1]),
+                                ("/world/model/free\\ ball/geoms/ellipsoids", [7], [2])):  # fmt: skip
+        frames, _, got = rec.temporal(entity, "Ellipsoids3D:colors")
+        state = np.array(STATE)[:, cols]
+        changed = [0] + [f for f in range(1, F) if (state[f] != state[f - 1]).any()]
+        assert frames == changed  # arm: 0, 1, 3, 5 (not 2, nor 4 across the chunk boundary); ball: 0, 5
+        assert got == [[palette(geom, s) for geom, s in zip(geoms, state[f])] for f in changed]
+        assert rec.static(entity, "Ellipsoids3D:colors") == []  # a static colour would hide the temporal ones
 
 
-def test_contacts_per_frame(saved):
-    t, _, rec = saved
+def test_contacts_of_every_kind_per_frame(saved):
+    _, chunks, _, rec, _ = saved
     frames, _, positions = rec.temporal("/world/contacts", "Points3D:positions")
     assert frames == list(range(F))
     assert [len(p) for p in positions] == CONTACTS_PER_FRAME
-    assert positions[1] == [] and positions[5] == []
-    _, _, origins = rec.temporal("/world/contact_normals", "Arrows3D:origins")
+    _, _, colors = rec.temporal("/world/contacts", "Points3D:colors")
     _, _, vectors = rec.temporal("/world/contact_normals", "Arrows3D:vectors")
-    for f in range(F):
-        mine = np.flatnonzero(t.contact_frame == f)  # contacts keep their order within a frame
-        np.testing.assert_array_equal(np.array(positions[f], dtype=np.float32).reshape(-1, 3), f32(t.contact_pos[mine]))
-        np.testing.assert_array_equal(np.array(origins[f], dtype=np.float32).reshape(-1, 3), f32(t.contact_pos[mine]))
-        expected = f32(record.NORMAL_LENGTH * t.contact_normal[mine])
-        np.testing.assert_array_equal(np.array(vectors[f], dtype=np.float32).reshape(-1, 3), expected)
-    lengths = np.linalg.norm(np.concatenate([np.reshape(v, (-1, 3)) for v in vectors]), axis=1)
-    np.testing.assert_allclose(lengths, record.NORMAL_LENGTH, rtol=1e-6)  # unit normals, float32
-    assert len(rec.static("/world/contacts", "Points3D:radii")) == 1
+    both = {True: packed(record.CONTACT_COLOR), False: packed(record.OTHER_CONTACT_COLOR)}
+    for c in chunks:
+        for f in c.frame:
+            mine = np.flatnonzero(c.contact_frame == f)
+            np.testing.assert_array_equal(np.array(positions[f], dtype=np.float32).reshape(-1, 3), f32(c.contact_pos[mine]))
+            expected = f32(record.NORMAL_LENGTH * c.contact_normal[mine])
+            np.testing.assert_array_equal(np.array(vectors[f], dtype=np.float32).reshape(-1, 3), expected)
+            assert colors[f] == [both[bool(e)] for e in c.contact_ellipsoids[mine]]
+    assert set(colors[0] + colors[2]) == set(both.values())
 
 
-def test_count_series(saved):
-    t, _, rec = saved
-    for entity, counts in (("/counts/builtin", t.builtin_counts), ("/counts/ellipsim", t.ellipsim_counts)):
-        frames, times, scalars = rec.temporal(entity, "Scalars:scalars")
+def test_count_series_stay_distinguishable(saved):
+    _, chunks, _, rec, _ = saved
+    for entity, field in (("/counts/pairs/builtin", "builtin_counts"), ("/counts/pairs/ellipsim", "ellipsim_counts"),
+                          ("/counts/contacts/all", "contact_counts")):  # fmt: skip
+        frames, _, scalars = rec.temporal(entity, "Scalars:scalars")
         assert frames == list(range(F))
-        assert times == [round(s * 1e9) for s in t.times]
-        assert scalars == [[float(c)] for c in counts]
-        assert len(rec.static(entity, "SeriesLines:names")) == 1
-    assert rec.static("/counts/builtin", "SeriesLines:names") != rec.static("/counts/ellipsim", "SeriesLines:names")
+        assert scalars == [[float(v)] for c in chunks for v in getattr(c, field)]
+    style = {e: (rec.static(e, "SeriesLines:colors"), rec.static(e, "SeriesLines:widths")[0][0])
+             for e in ("/counts/pairs/builtin", "/counts/pairs/ellipsim")}  # fmt: skip
+    (builtin_color, builtin_width), (ours_color, ours_width) = style.values()
+    assert builtin_color != ours_color
+    assert builtin_width >= 3 * ours_width  # the thin line runs inside the wide one where they agree
 
 
 def test_blueprint(saved):
-    _, _, rec = saved
+    rec = saved[3]
     (store,) = rec.reader.blueprints()
     views, kinds = {}, []
     for c in rec.reader.stream(store=store).to_chunks():
@@ -219,31 +263,63 @@ def test_blueprint(saved):
         if "ViewBlueprint:class_identifier" in batch.schema.names:
             (kind,) = batch.column("ViewBlueprint:class_identifier").to_pylist()
             (origin,) = batch.column("ViewBlueprint:space_origin").to_pylist()
-            views[kind[0]] = origin[0]
+            views.setdefault(kind[0], []).append(origin[0])
         if "ContainerBlueprint:container_kind" in batch.schema.names:
             kinds += batch.column("ContainerBlueprint:container_kind").to_pylist()
-    assert views == {"3D": "world", "TimeSeries": "counts"}
-    assert kinds == [[rrb.components.ContainerKind.Horizontal.value]]
+    assert views["3D"] == ["world"] and sorted(views["TimeSeries"]) == ["counts/contacts", "counts/pairs"]
+    assert set(views) == {"3D", "TimeSeries"}
+    assert sorted(k[0] for k in kinds) == sorted([rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value])
 
 
-def test_free_ellipsoids_only_when_present(tmp_path):
-    t = make_trajectory("figures only")
-    keep = t.geom_figure >= 0
-    t = Trajectory(
-        times=t.times, geom_names=[n for n, k in zip(t.geom_names, keep) if k], geom_figure=t.geom_figure[keep],
-        half_sizes=t.half_sizes[keep], centers=t.centers[:, keep], quaternions=t.quaternions[:, keep],
-        state=t.state[:, keep], contact_frame=t.contact_frame[:0], contact_pos=t.contact_pos[:0],
-        contact_normal=t.contact_normal[:0], builtin_counts=0 * t.builtin_counts,
-        ellipsim_counts=t.ellipsim_counts, scenario=t.scenario,
-    )  # fmt: skip
-    path = tmp_path / "figures.rrd"
-    record.save(str(path), t)
-    rec = Recording(path)
-    assert "/world/ellipsoids" not in rec.entities()
-    frames, _, centers = rec.temporal("/world/figures/f1", "Ellipsoids3D:centers")
-    assert frames == list(range(F)) and all(len(c) == 4 for c in centers)
-    frames, _, positions = rec.temporal("/world/contacts", "Points3D:positions")
-    assert frames == list(range(F)) and positions == [[]] * F  # no contacts at all: empty partitions
+def test_every_run_gets_its_own_recording_id(tmp_path):
+    rng = np.random.default_rng(1)
+    g = make_geometry(rng)
+    ids = [record.save(tmp_path / f"{k}.rrd", g, make_frames(rng, 0, F)) for k in range(2)]
+    got = [Recording(tmp_path / f"{k}.rrd").reader.recordings()[0].recording_id for k in range(2)]
+    assert got == ids and ids[0] != ids[1]
+
+
+def test_an_interrupted_recording_leaves_nothing_behind(tmp_path):
+    rng = np.random.default_rng(2)
+    g = make_geometry(rng)
+    path = tmp_path / "run.rrd"
+    path.write_bytes(b"an older recording")
+    with pytest.raises(KeyboardInterrupt):
+        with record.Recorder(path) as recorder:
+            recorder.begin(g)
+            recorder.write(make_frames(rng, 0, SPLIT))
+            assert os.path.getsize(recorder.partial) > 0 and os.path.dirname(recorder.partial) == str(tmp_path)
+            raise KeyboardInterrupt
+    assert path.read_bytes() == b"an older recording"
+    assert sorted(os.listdir(tmp_path)) == ["run.rrd"]
+
+
+def test_frames_must_fit_the_geometry_and_continue(tmp_path):
+    rng = np.random.default_rng(3)
+    g = make_geometry(rng)
+    with record.Recorder(tmp_path / "x.rrd") as recorder:
+        recorder.begin(g)
+        bad = make_frames(rng, 0, SPLIT)
+        bad.state = bad.state[:, :2]
+        with pytest.raises(ValueError, match=r"Frames\.state must have shape \(4, 3\), got \(4, 2\)"):
+            recorder.write(bad)
+        bad = make_frames(rng, 0, SPLIT)
+        bad.body_pos[1, 0, 2] = np.nan
+        with pytest.raises(ValueError, match=r"Frames\.body_pos\[1, 0, 2\] must be finite, got nan"):
+            recorder.write(bad)
+        with pytest.raises(ValueError, match="frames must continue at frame 0, got frame 4"):
+            recorder.write(make_frames(rng, SPLIT, F))
+        recorder.write(make_frames(rng, 0, SPLIT))
+    assert Recording(tmp_path / "x.rrd").temporal("/counts/pairs/builtin", "Scalars:scalars")[0] == list(range(SPLIT))
+
+
+def test_bad_geometry_is_named():
+    rng = np.random.default_rng(4)
+    g = make_geometry(rng)
+    with pytest.raises(ValueError, match=r"SceneGeometry.geom_body\[2\] must be in \[0, 5\), got 9"):
+        SceneGeometry(**{**g.__dict__, "geom_body": np.array([0, 1, 9, 2, 2, 3, 3, 4, 0])})
+    with pytest.raises(ValueError, match=r"SceneGeometry.body_quat must have shape \(5, 4\), got \(5, 3\)"):
+        SceneGeometry(**{**g.__dict__, "body_quat": np.zeros((5, 3))})
 
 
 @pytest.mark.parametrize(
@@ -257,7 +333,7 @@ def test_free_ellipsoids_only_when_present(tmp_path):
 def test_bad_path(tmp_path, path, message):
     bad = tmp_path / path
     with pytest.raises(ValueError, match=message) as info:
-        record.save(bad, make_trajectory())
+        record.Recorder(bad)
     assert str(bad) in str(info.value)
     assert not bad.exists()
 
@@ -265,25 +341,95 @@ def test_bad_path(tmp_path, path, message):
 def test_bad_path_directory(tmp_path):
     (tmp_path / "dir.rrd").mkdir()
     with pytest.raises(ValueError, match="path must be a file"):
-        record.save(tmp_path / "dir.rrd", make_trajectory())
+        record.Recorder(tmp_path / "dir.rrd")
 
 
-def test_bad_trajectory(tmp_path):
-    with pytest.raises(ValueError, match="trajectory must be an ellipsim.app.trajectory.Trajectory, got dict"):
-        record.save(tmp_path / "x.rrd", {"times": np.zeros(3)})
-    t = make_trajectory()
-    t.state[4, 6] = 3
-    with pytest.raises(ValueError, match=r"trajectory.state\[4, 6\] must be 0, 1 or 2, got 3"):
-        record.save(tmp_path / "x.rrd", t)
-    t = make_trajectory()
-    t.geom_figure[5] = -2
-    with pytest.raises(ValueError, match=r"trajectory.geom_figure\[5\] must be >= -1, got -2"):
-        record.save(tmp_path / "x.rrd", t)
-    t = make_trajectory()
-    t.centers[2, 3, 1] = np.nan
-    with pytest.raises(ValueError, match=r"trajectory.centers\[2, 3, 1\] must be finite, got nan"):
-        record.save(tmp_path / "x.rrd", t)
-    assert not (tmp_path / "x.rrd").exists()
+# --- a real model: every geom kind, includes, a material ------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def zoo_run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("zoo") / "zoo.rrd"
+    s = scenario.load(str(ZOO))
+    with record.Recorder(path) as recorder:
+        result = simulate.run(s, steps=200, recorder=recorder, keep=True)
+    model = mujoco.MjModel.from_xml_path(str(ZOO))
+    return s, result, model, Recording(path)
+
+
+def _world_pose(rec, entity, frame):
+    """World position and (w x y z) quaternion of an entity at a frame, composing every Transform3D
+    on its path (static, or the temporal row of that frame)."""
+    parts = entity.strip("/").split("/")
+    pos, quat = np.zeros(3), np.array([1.0, 0, 0, 0])
+    for k in range(1, len(parts) + 1):
+        path = "/" + "/".join(parts[:k])
+        t = rec.static(path, "Transform3D:translation")
+        q = rec.static(path, "Transform3D:quaternion")
+        if not t:
+            frames, _, ts = rec.temporal(path, "Transform3D:translation")
+            if not frames:
+                continue
+            _, _, qs = rec.temporal(path, "Transform3D:quaternion")
+            t, q = [ts[frames.index(frame)]], [qs[frames.index(frame)]]
+        t = np.array(t[0], dtype=np.float64).ravel()
+        x, y, z, w = np.array(q[0], dtype=np.float64).ravel()
+        pos = pos + quaternions_to_rotations(quat) @ t
+        quat = quaternion_product(quat, [w, x, y, z])
+    return pos, quat
+
+
+@pytest.mark.slow
+def test_a_real_model_is_drawn_where_mujoco_puts_it(zoo_run):
+    """Composing the recorded transforms puts every ellipsoid where MuJoCo had it in that frame."""
+    _, result, model, rec = zoo_run
+    kept = result.kept
+    names = kept.geom_names
+    for frame in (0, 17, len(kept.centers) - 1):
+        for g, name in enumerate(names):
+            body = model.geom_bodyid[model.geom(name).id]
+            entity = next(e for e in rec.entities() if e.endswith(f"/{model.body(body).name}/geoms/ellipsoids"))
+            (labels,) = rec.static(entity, "Ellipsoids3D:labels")
+            (centers,) = rec.static(entity, "Ellipsoids3D:centers")
+            pos, quat = _world_pose(rec, entity, frame)
+            local = np.array(centers[labels.index(name)], dtype=np.float64)
+            world = pos + quaternions_to_rotations(quat) @ local
+            np.testing.assert_allclose(world, kept.centers[frame, g], atol=2e-6)  # float32 transforms, ~1 m
+
+
+@pytest.mark.slow
+def test_a_real_model_keeps_its_colours_and_floor_contacts(zoo_run):
+    _, result, model, rec = zoo_run
+    base = "/world/model/torso/arm_r/forearm_r/geoms"
+    steel = record.rgba8(model.mat_rgba[model.material("steel").id])
+    assert rec.static(f"{base}/cylinders", "Cylinders3D:colors") == [[packed(steel)]]  # the material's colour
+    skin = record.rgba8(model.geom_rgba[model.geom("forearm_l").id])
+    assert rec.static("/world/model/torso/arm_l/forearm_l/geoms/capsules", "Capsules3D:colors") == [[packed(skin)]]
+    frames, _, colors = rec.temporal("/world/contacts", "Points3D:colors")
+    # the figure drops onto the floor: contacts that are not between two ellipsoids are recorded too
+    assert any(packed(record.OTHER_CONTACT_COLOR) in c for c in colors)
+    assert sum(len(c) for c in colors) == int(result.frames.contact_counts.sum())
+    assert "/world/model/geoms/terrain" in rec.entities() and "/world/model/torso/arm_r/forearm_r/geoms/hand_r" in rec.entities()
+
+
+def test_geometry_of_a_model_reads_meshes_and_height_fields():
+    model = mujoco.MjModel.from_xml_path(str(ZOO))
+    g = capture.geometry(model, "zoo")
+    kinds = {GEOM_KINDS[k] for k in g.geom_kind}
+    assert kinds == set(GEOM_KINDS)
+    hand = model.geom("hand_r").id
+    vertices, triangles = g.meshes[hand]
+    assert vertices.shape == (6, 3) and triangles.shape == (8, 3)
+    np.testing.assert_allclose(np.abs(vertices).max(), 0.05, rtol=1e-6)  # the octahedron, about its centre
+    terrain = model.geom("terrain").id
+    vertices, triangles = g.meshes[terrain]
+    assert vertices.shape == (20, 3) and triangles.shape == (2 * 3 * 4, 3)
+    np.testing.assert_allclose([vertices[:, 0].min(), vertices[:, 0].max(), vertices[:, 1].max()], [-0.5, 0.5, 0.4])
+    np.testing.assert_allclose(vertices[:, 2].max(), 0.1)  # elevation 1 x size[2]
+    assert g.body_names[0] == "world" and set(g.moving) == {model.body("torso").id, model.body("ball").id,
+                                                           model.body("arm_l").id, model.body("forearm_l").id,
+                                                           model.body("arm_r").id, model.body("forearm_r").id,
+                                                           model.body("leg").id}  # fmt: skip
 
 
 def test_view_missing_file(tmp_path):
@@ -293,8 +439,16 @@ def test_view_missing_file(tmp_path):
     assert str(missing) in str(info.value)
 
 
+def test_view_refuses_a_file_that_is_not_a_recording(tmp_path, monkeypatch):
+    fake = tmp_path / "notes.rrd"
+    fake.write_text("not a recording")
+    monkeypatch.setattr(subprocess, "run", lambda *a, **k: pytest.fail("started a viewer on a non-recording"))
+    with pytest.raises(ValueError, match=r"notes\.rrd' is not a rerun recording"):
+        record.view(fake)
+
+
 def test_view_without_display(saved, monkeypatch, capsys):
-    _, path, _ = saved
+    path = saved[2]
     monkeypatch.setattr(sys, "platform", "linux")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
@@ -306,7 +460,7 @@ def test_view_without_display(saved, monkeypatch, capsys):
 
 
 def test_view_with_display_runs_the_rerun_executable(saved, monkeypatch):
-    _, path, _ = saved
+    path = saved[2]
     calls = []
 
     def fake_run(command, **kwargs):

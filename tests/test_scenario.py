@@ -1,6 +1,7 @@
 """Scenarios: loading and validation, what each shipped scenario does, the broad phase, the CLI."""
 
 import json
+import pathlib
 import subprocess
 import sys
 
@@ -10,11 +11,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ellipsim.app import scenario, simulate
+from ellipsim import Ellipsoids, Relation, classify
+from ellipsim.app import capture, scenario, simulate
+from ellipsim.app.cli import main
 from ellipsim.app.control import Controller
 from ellipsim.core.broadphase import sweep_and_prune
-from ellipsim.mujoco.geoms import ellipsoid_geoms
-from ellipsim.app.cli import main
+from ellipsim.mujoco import scenes
+from ellipsim.mujoco.geoms import candidate_pairs, ellipsoid_geoms, frame_pairs
+
+ZOO = pathlib.Path(__file__).parent / "models" / "zoo.xml"
 
 GOOD = """
 description = "test"
@@ -56,6 +61,13 @@ def test_shipped_scenarios_load():
         (GOOD.replace('layout = "line"', 'layout = "circle"'), r"key 'scene.layout' must be one of"),
         (GOOD.replace('kind = "sway"', 'kind = "jump"'), r"key 'control.kind' must be one of"),
         (GOOD + "colour = 1\n", r"unknown key 'control.colour'"),
+        ("durration = 3\n" + GOOD, r"s\.toml: unknown key 'durration' \(did you mean 'duration'\? known here: description, duration"),
+        (GOOD.replace("[scene]", "[scenery]"), r"unknown key 'scenery' \(did you mean 'scene'\?"),
+        (GOOD.replace("figures = 2", "figurs = 2"), r"unknown key 'scene.figurs' \(did you mean 'scene.figures'\?"),
+        (GOOD.replace("duration = 0.2", "duration = 1e300").replace("timestep = 0.002", "timestep = 1e-300"),
+         r"key 'duration' is inf steps of 1e-300 s; at most 9\.01e\+15, got 1e\+300"),
+        (GOOD.replace("duration = 0.2", "duration = 1e10").replace("timestep = 0.002", "timestep = 1e-9"),
+         r"key 'duration' is 1e\+19 steps of 1e-09 s; at most 9\.01e\+15, got 10000000000\.0"),
         (GOOD.replace("timestep = 0.002\n", ""), r"missing key 'timestep'"),
         (GOOD.split("[scene]")[0], r"missing table \[scene\]"),
         (GOOD.replace("timestep = 0.002", "timestep = 1.0"), r"key 'timestep' must not exceed the duration"),
@@ -139,7 +151,7 @@ def test_unknown_scenario_lists_the_available_ones():
 
 @pytest.mark.slow
 def test_handshake_hands_meet():
-    tr = simulate.run(scenario.load("handshake")).frames
+    tr = simulate.run(scenario.load("handshake"), keep=True).kept
     h0, h1 = tr.geom_names.index("f0_hand_r"), tr.geom_names.index("f1_hand_r")
     assert tr.state[0, h0] == 0 and tr.state[-1, h0] == 2 and tr.state[-1, h1] == 2
     assert np.linalg.norm(tr.centers[-1, h0] - tr.centers[-1, h1]) < 0.2
@@ -149,9 +161,9 @@ def test_handshake_hands_meet():
 def test_crowd_neighbours_brush_and_tumble_hits_itself():
     crowd = simulate.run(scenario.load("crowd"), steps=1000).frames
     assert crowd.ellipsim_counts.max() >= 5
-    tumble = simulate.run(scenario.load("tumble")).frames
-    assert (tumble.geom_figure == 0).all()
-    assert tumble.ellipsim_counts.max() >= 1  # one figure alone: every contact is a self-collision
+    tumble = simulate.run(scenario.load("tumble"), keep=True)
+    assert all(name.startswith("f0_") for name in tumble.kept.geom_names)
+    assert tumble.frames.ellipsim_counts.max() >= 1  # one figure alone: every contact is a self-collision
 
 
 @pytest.mark.slow
@@ -167,22 +179,27 @@ def test_pile_and_replay_make_contacts():
     assert np.abs(tr.builtin_counts - tr.ellipsim_counts).max() <= 1
 
 
-def test_ellipsoid_contacts_are_mujocos_in_order():
-    """The vectorised read of data.contact: MuJoCo's contacts between two ellipsoids, in MuJoCo's
-    order, positions and normals (first row of the frame) as a per-contact loop reads them."""
+def test_frame_buffer_reads_every_contact_in_order():
+    """The vectorised read of data.contact: all of MuJoCo's contacts, in MuJoCo's order, positions
+    and normals (first row of the frame) as a per-contact loop reads them, flagged when between two
+    ellipsoids; and the verdicts of the frame's pairs."""
     model, data = simulate.build(scenario.load("pile"))
     ids, _, _ = ellipsoid_geoms(model)
-    keep = np.zeros(model.ngeom, dtype=bool)
-    keep[ids] = True
     for _ in range(700):
         mujoco.mj_step(model, data)
-    want = [(c.pos.copy(), c.frame[:3].copy()) for c in (data.contact[k] for k in range(data.ncon))
-            if keep[c.geom[0]] and keep[c.geom[1]]]  # fmt: skip
-    assert 0 < len(want) < data.ncon  # ellipsoid pairs kept, floor contacts left out
-    pos, normal = simulate._ellipsoid_contacts(data, keep)
-    assert pos.shape == normal.shape == (len(want), 3)
-    np.testing.assert_array_equal(pos, [p for p, _ in want])
-    np.testing.assert_array_equal(normal, [n for _, n in want])
+    contacts = [data.contact[k] for k in range(data.ncon)]
+    both = [c.geom[0] in ids and c.geom[1] in ids for c in contacts]
+    assert 0 < sum(both) < data.ncon  # ellipsoid pairs and floor contacts
+    buffer = capture.FrameBuffer(model, record=True)
+    assert not buffer.add(data, data.time)
+    chunk = buffer.flush()
+    f = chunk.frames
+    np.testing.assert_array_equal(f.contact_pos, [c.pos for c in contacts])
+    np.testing.assert_array_equal(f.contact_normal, [c.frame[:3] for c in contacts])
+    np.testing.assert_array_equal(f.contact_ellipsoids, both)
+    assert f.contact_counts.tolist() == [data.ncon] and f.builtin_counts.tolist() == [sum(both)]
+    assert f.ellipsim_counts[0] == np.count_nonzero(chunk.relation == 2) > 0
+    assert buffer.flush() is None
 
 
 def test_controller_qpos_addresses():
@@ -231,7 +248,8 @@ def test_candidate_rules_follow_mujoco():
     """Every contact MuJoCo makes between ellipsoids is an allowed pair; parent-child pairs are not."""
     s = scenario.load("pile")
     model, data = simulate.build(s)
-    ids, radii, allowed = ellipsoid_geoms(model)
+    ids, radii, rules = ellipsoid_geoms(model)
+    allowed = rules.matrix()
     for _ in range(800):
         mujoco.mj_step(model, data)
     pos = {g: k for k, g in enumerate(ids)}
@@ -241,6 +259,72 @@ def test_candidate_rules_follow_mujoco():
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in ids]
     assert not allowed[names.index("f0_thigh_l"), names.index("f0_shin_l")]
     assert allowed[names.index("f0_hand_l"), names.index("f0_thigh_l")]
+
+
+def _reference_allowed(model, ids):
+    """The (g, g) matrix of MuJoCo's pair rules, written out pair by pair (the slow, obvious way)."""
+    out = np.zeros((len(ids), len(ids)), dtype=bool)
+    excluded = {tuple(sorted((int(sig >> 16), int(sig & 0xFFFF)))) for sig in model.exclude_signature}
+    parent_filter = not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT
+    for a, ga in enumerate(ids):
+        for b, gb in enumerate(ids):
+            ba, bb = model.geom_bodyid[ga], model.geom_bodyid[gb]
+            wa, wb = model.body_weldid[ba], model.body_weldid[bb]
+            pa, pb = model.body_weldid[model.body_parentid[wa]], model.body_weldid[model.body_parentid[wb]]
+            out[a, b] = (
+                a != b and bool(model.geom_contype[ga] & model.geom_conaffinity[gb] or model.geom_contype[gb] & model.geom_conaffinity[ga])
+                and wa != wb and not (parent_filter and wa and wb and (wa == pb or pa == wb))
+                and tuple(sorted((int(ba), int(bb)))) not in excluded
+            )  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize("scene", ["crowd", "handshake", "zoo", "no parent filter"])
+def test_pair_rules_match_the_rules_pair_by_pair(scene):
+    if scene == "zoo":
+        model = mujoco.MjModel.from_xml_path(str(ZOO))
+    elif scene == "no parent filter":
+        model = mujoco.MjModel.from_xml_string(scenes.scene_xml(2, fixed_roots=True))
+        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_FILTERPARENT
+    else:
+        model, _ = simulate.build(scenario.load(scene))
+    ids, _, rules = ellipsoid_geoms(model)
+    want = _reference_allowed(model, ids)
+    assert want.any() and not want.all()
+    np.testing.assert_array_equal(rules.matrix(), want)
+
+
+def test_pair_rules_take_memory_linear_in_the_geoms():
+    """No (g, g) matrix: 500 figures are 7500 geoms, and a matrix of them took minutes to build."""
+    model = mujoco.MjModel.from_xml_string(scenes.scene_xml(40, fixed_roots=True, spacing=0.8))
+    ids, _, rules = ellipsoid_geoms(model)
+    sizes = [v.size for v in vars(rules).values() if isinstance(v, np.ndarray)]
+    assert max(sizes) <= max(len(ids), model.nexclude) and model.nexclude == 3 * 40
+
+
+def test_frame_pairs_are_mujocos_candidates_whose_spheres_meet():
+    """At a contact-rich state of a pile of figures, the broad phase over frames finds every pair
+    MuJoCo's own broad phase sends to collision whose bounding spheres overlap; the others it finds
+    MuJoCo's tighter boxes rule out, and the exact test proves them all separated."""
+    model, data = simulate.build(scenario.load("pile"))
+    for _ in range(700):
+        mujoco.mj_step(model, data)
+    ids, radii, rules = ellipsoid_geoms(model)
+    mujocos = {tuple(p) for p in candidate_pairs(model, data)}
+    centers = data.geom_xpos[ids][None]
+    ours = {(int(ids[i]), int(ids[j])) for _, i, j in frame_pairs(centers, radii, rules)}
+    rho = radii.max(axis=1)
+    index = {g: k for k, g in enumerate(ids)}
+    meet = {(a, b) for a, b in mujocos
+            if np.linalg.norm(data.geom_xpos[a] - data.geom_xpos[b]) <= rho[index[a]] + rho[index[b]]}  # fmt: skip
+    assert len(meet) > 50 and meet <= ours
+    extra = np.array(sorted(ours - mujocos)).reshape(-1, 2)
+    assert len(extra) > 0 and rules.allowed([index[a] for a, _ in extra], [index[b] for _, b in extra]).all()
+
+    def batch(g):
+        return Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(-1, 3, 3), radii[[index[k] for k in g]])
+
+    assert (classify(batch(extra[:, 0]), batch(extra[:, 1])) == Relation.SEPARATED).all()
 
 
 # --- command line ----------------------------------------------------------------------------------

@@ -208,6 +208,17 @@ def test_scene_copies_everything_with_unique_prefixed_names(figure, n):
         assert model.jnt_type[model.joint(f"f{i}_root").id] == FREE
 
 
+def test_scene_memory_is_set_and_linear_but_for_the_broad_phase():
+    """MuJoCo's default arena grows too fast (8.6 GB at 500 figures, not allocatable at 1000):
+    scene_xml sets <size memory> to scene_memory, and a contact-rich heap runs within it."""
+    model, data = compiled(figures.scene_xml(4, layout="pile", seed=2))
+    assert model.narena == figures.scene_memory(4)
+    nbody = 4 * len(figures.LIMBS) + 1
+    assert figures.scene_memory(4) == figures.ARENA_PER_BODY_PAIR * nbody**2 + 4 * figures.ARENA_PER_FIGURE + figures.ARENA_BASE
+    simulate(model, data, 800)
+    assert data.ncon > 10 and data.maxuse_arena < model.narena / 4
+
+
 def test_scene_without_floor_and_with_drop_height():
     model, _ = compiled(figures.scene_xml(2, floor=False))
     assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor") == -1

@@ -1,25 +1,41 @@
 """The `ellipsim` command line.
 
-    ellipsim run SCENARIO [--steps N] [--mode builtin|filter|narrowphase] [--record FILE.rrd]
-    ellipsim compare SCENARIO [--steps N] [--json FILE] [--plot FILE.png]
+    ellipsim run SCENARIO|MODEL.xml [--steps N] [--mode builtin|filter|narrowphase] [--record FILE.rrd]
+                 [--key NAME|INDEX] [--ctrl hold|zero|keyframe]
+    ellipsim compare SCENARIO|MODEL.xml [--steps N] [--json FILE] [--plot FILE.png] [--key ..] [--ctrl ..]
+    ellipsim replay MODEL.xml MOTION.npy|.csv [--fps F] [--record FILE.rrd] [--json FILE]
+    ellipsim fit MESH... [--method thesis|mvee] [--out limbs.xml]
     ellipsim view FILE.rrd
     ellipsim bench [--quick] [--out DIR]
     ellipsim list
     ellipsim demo [--pairs N] [--seed S]
+    ellipsim --version
 
-SCENARIO is a name from `ellipsim list` or a path to a .toml file.  A user mistake (unknown
-scenario, malformed file, bad argument) ends with one line on stderr and exit status 2.
+SCENARIO is a name from `ellipsim list` or a path to a .toml file; MODEL.xml any MJCF file (its
+includes and assets are found relative to it, as MuJoCo does).  A user mistake (unknown scenario,
+malformed file, bad argument, a request larger than memory) ends with one line on stderr and exit
+status 2; Ctrl-C with one line and status 130, SIGTERM with status 143 (a recording being written is
+then not left behind half-written).
 """
 
 import argparse
 import json
+import math
 import os
+import signal
 import sys
 import time
 
 import numpy as np
 
-from ellipsim.core.tolerances import NEAR_TANGENT
+import ellipsim
+
+from .. import shipped
+from ..core.tolerances import NEAR_TANGENT
+
+#: Memory `demo` needs per pair: two validated batches, the generator's draws and the relations
+#: (measured: 1.16 GB peak for 1e6 pairs, 0.37 GB for 2e5: 990 bytes per pair).
+DEMO_BYTES_PER_PAIR = 1000
 
 
 class _Parser(argparse.ArgumentParser):
@@ -33,23 +49,43 @@ class UserError(Exception):
     """A mistake in what the user asked for: reported in one line, exit status 2."""
 
 
-def _positive_int(text):
+class Terminated(BaseException):
+    """SIGTERM arrived: unwinds like KeyboardInterrupt, so that partial outputs are removed."""
+
+
+def _count(text, *, allow_zero=False):
+    """An integer count from the command line: digits, or a float notation of a whole number ("1e6")."""
+    what = "a non-negative integer" if allow_zero else "a positive integer"
     try:
-        value = int(text)
+        value = int(text.replace("_", ""))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+        try:
+            real = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not math.isfinite(real) or real != int(real):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        value = int(real)
+    if value < 0 or (value == 0 and not allow_zero):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
     return value
 
 
+def _positive_int(text):
+    return _count(text)
+
+
 def _non_negative_int(text):
+    return _count(text, allow_zero=True)
+
+
+def _positive_real(text):
     try:
-        value = int(text)
+        value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
     return value
 
 
@@ -59,32 +95,72 @@ def _time(fn):
     return out, time.perf_counter() - t0
 
 
-class Progress:
-    """A progress bar on stderr: redrawn in place on a terminal, a line every 10% otherwise."""
+def install_hint(extra):
+    """How to install an extra: `pip install '.[extra]'` in a source checkout, else by package name."""
+    root = shipped.source_checkout()
+    if root is not None:
+        here = os.path.abspath(os.getcwd()) == str(root)
+        return f"pip install '.[{extra}]'" + ("" if here else f" (in {root})")
+    return f"pip install 'ellipsim[{extra}]'"
 
-    def __init__(self, label, total, stream=None):
-        self.label, self.total = label, total
+
+class Progress:
+    """A progress bar on stderr: redrawn in place on a terminal, a line every 10% otherwise.
+
+    The rate and the time left are shown only once they mean something: measured from WARMUP
+    seconds after the start (the first steps pay for compiling kernels and touching memory) over at
+    least WARMUP seconds more.
+    """
+
+    WARMUP = 1.0  # seconds
+
+    def __init__(self, label, total, stream=None, unit="steps"):
+        self.label, self.total, self.unit = label, total, unit
         self.stream = stream or sys.stderr
         self.tty = self.stream.isatty()
         self.t0 = time.perf_counter()
         self.shown = -1.0
+        self.anchor = None  # (seconds, done) from which the rate is measured
+        self.open = False  # a redrawn line is on the terminal without its newline
 
     def __call__(self, done, total=None):
         total = total or self.total
         now = time.perf_counter() - self.t0
+        if self.anchor is None and now >= self.WARMUP:
+            self.anchor = (now, done)
         frac = done / total
         if done < total and (now - self.shown < 0.2 if self.tty else frac * 10 < int(self.shown * 10) + 1):
             return
         self.shown = now if self.tty else frac
-        rate = done / max(now, 1e-9)
-        eta = (total - done) / max(rate, 1e-9)
         bar = "#" * int(30 * frac)
-        line = f"{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{total} steps, {rate:,.0f}/s, {eta:.0f} s left"
+        line = f"{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{total} {self.unit}"
+        if self.anchor is not None and now - self.anchor[0] >= self.WARMUP and done > self.anchor[1]:
+            rate = (done - self.anchor[1]) / (now - self.anchor[0])
+            line += f", {rate:,.0f}/s"
+            if done < total:
+                line += f", {(total - done) / rate:.0f} s left"
         if self.tty:
             self.stream.write("\r" + line + ("\n" if done >= total else ""))
+            self.open = done < total
         else:
             self.stream.write(line + "\n")
         self.stream.flush()
+
+    def close(self):
+        """End a line left open on the terminal (before an error message)."""
+        if self.open:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.open = False
+
+
+_progress = []  # bars of this command, closed before an error or interruption is reported
+
+
+def _bar(label, total, unit="steps"):
+    bar = Progress(label, total, unit=unit)
+    _progress.append(bar)
+    return bar
 
 
 # --- demo ------------------------------------------------------------------------------------------
@@ -92,6 +168,13 @@ class Progress:
 
 def demo(args):
     """Classify a batch of generic pairs with every method; print relations, disagreements, timing."""
+    from . import limits
+
+    try:
+        limits.check_fits(args.pairs * DEMO_BYTES_PER_PAIR, f"--pairs {args.pairs}")
+    except ValueError as exc:
+        raise UserError(f"{exc} (about {DEMO_BYTES_PER_PAIR} bytes a pair)") from None
+
     import ellipsim as es
     from ellipsim.core.certified import certify
     from ellipsim.core.relation import UNDECIDED
@@ -123,31 +206,44 @@ def demo(args):
     print()
     print(f"  exact: {escalated} pairs needed rational arithmetic; 'wrong' counts disagreements with exact")
     print(f"  contact_scale: min {scale.min():.3f}, median {np.median(scale):.3f}, max {scale.max():.3f}")
-    print("  timings are single-threaded; bench/bench_classify.py measures them properly")
+    print("  timings are single-threaded; `ellipsim bench` measures them properly")
     return 0
 
 
-# --- scenarios -------------------------------------------------------------------------------------
+# --- scenarios and models --------------------------------------------------------------------------
 
 
-def _load(name):
-    from ellipsim.app import scenario
+def _load(args):
+    """The Scenario of args.scenario (a name, a .toml or an MJCF .xml), with --key / --ctrl applied."""
+    from . import scenario
 
     try:
-        return scenario.load(name)
+        s = scenario.load(args.scenario)
+        return scenario.with_model_options(s, key=args.key, ctrl=args.ctrl)
     except scenario.ScenarioError as exc:
         raise UserError(str(exc)) from None
 
 
 def _simulated(fn, *args, **kwargs):
     """fn(*args, **kwargs), a scenario's run or validation: a scene the model builder refuses
-    (ScenarioError, raised before any step) is a user mistake."""
-    from ellipsim.app import scenario
+    (ScenarioError, raised before any step, or MuJoCo out of memory) is a user mistake."""
+    from . import scenario
 
     try:
         return fn(*args, **kwargs)
     except scenario.ScenarioError as exc:
         raise UserError(str(exc)) from None
+
+
+def _steps(s, args, check):
+    """--steps or the scenario's duration, checked against memory: UserError naming which."""
+    steps = args.steps or s.steps
+    try:
+        check(s, steps)
+    except ValueError as exc:
+        source = f"--steps {steps}" if args.steps else f"{s.path}: duration {s.duration:g} s ({steps} steps)"
+        raise UserError(f"{source}: {exc}") from None
+    return steps
 
 
 def _check_output(path, suffix, option):
@@ -166,43 +262,93 @@ def _check_output(path, suffix, option):
 
 def _write_error(option, path, exc):
     """UserError of an output file that could not be written after all."""
-    return UserError(f"{option}: cannot write {path!r}: {exc.strerror or exc}")
+    return UserError(f"{option}: cannot write {path!r}: {getattr(exc, 'strerror', None) or exc}")
+
+
+def _write_json(path, report):
+    try:
+        partial = f"{path}.part"
+        with open(partial, "w") as f:
+            json.dump(report, f, indent=1)
+        os.replace(partial, path)
+    except OSError as exc:
+        raise _write_error("--json", path, exc) from None
+
+
+def _recorder(path):
+    """A record.Recorder for --record (ValueError on a bad path is a user mistake)."""
+    from . import record
+
+    try:
+        return record.Recorder(path)
+    except ValueError as exc:
+        raise UserError(f"--record: {exc}") from None
+
+
+def _recorded(recorder, fn, *args, **kwargs):
+    """fn(*args, recorder=recorder, **kwargs), then the recording completed and moved into place;
+    on any error or interruption the partial file is removed.  Returns (fn's result, size in bytes)."""
+    if recorder is None:
+        return fn(*args, **kwargs), 0
+    try:
+        with recorder:
+            result = fn(*args, recorder=recorder, **kwargs)
+        return result, os.path.getsize(recorder.path)
+    except OSError as exc:
+        raise _write_error("--record", recorder.path, exc) from None
 
 
 def list_scenarios(args):
-    from ellipsim.app import scenario
+    from . import scenario
 
     for name in scenario.available():
         s = scenario.load(name)
         kind = "kinematic" if s.kinematic else s.mode
         print(f"{name:<12} {s.duration:g} s, {kind:<11} {s.description}")
+    print("any MJCF model runs too: ellipsim run path/to/model.xml [--key NAME|INDEX] [--ctrl hold|zero|keyframe]")
     return 0
 
 
-def run(args):
-    """Simulate a scenario, print a summary, optionally save a rerun recording."""
-    from ellipsim.app import simulate
+def _header(s, steps):
+    print(f"{s.name}: {s.description}")
+    if s.scene["kind"] == "mjcf":
+        sc = s.scene
+        start = "default pose" if sc["key"] is None else f"keyframe {sc['key']!r}"
+        print(f"  from its {start}, actuators: {sc['ctrl']}")
 
-    s = _load(args.scenario)
+
+def run(args):
+    """Simulate a scenario or model, print a summary, optionally save a rerun recording."""
+    from . import simulate
+
+    s = _load(args)
     if args.record:
         _check_output(args.record, ".rrd", "--record")
-    steps = args.steps or s.steps
+    steps = _steps(s, args, simulate.check_steps)
     mode = args.mode or s.mode
     what = "kinematic replay" if s.kinematic else f"mode {mode}"
-    print(f"{s.name}: {s.description}")
+    _header(s, steps)
     print(f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}", flush=True)
-    result = _simulated(simulate.run, s, steps=steps, mode=mode, progress=Progress(f"  {s.name}", steps))
-    tr = result.frames
+    recorder = _recorder(args.record) if args.record else None
+    t0 = time.perf_counter()
+    result, size = _recorded(recorder, _simulated, simulate.run, s, steps=steps, mode=mode,
+                             progress=_bar(f"  {s.name}", steps))  # fmt: skip
+    wall = time.perf_counter() - t0
+    fr = result.frames
     rate = steps / max(result.seconds, 1e-9)
-    print(f"  wall time {result.seconds:.2f} s: {rate:,.0f} steps/s ({rate * s.timestep:.2f}x real time)")
-    print(
-        f"  contacts per step (all geoms): mean {result.mujoco_contacts.mean():.1f}, max {result.mujoco_contacts.max()}"
-    )
-    print(
-        f"  ellipsoid pairs over {len(tr.times)} recorded frames: MuJoCo contacts mean {tr.builtin_counts.mean():.1f} "
-        f"(max {tr.builtin_counts.max()}), ellipsim overlaps mean {tr.ellipsim_counts.mean():.1f} "
-        f"(max {tr.ellipsim_counts.max()})"
-    )
+    stepper = "mj_forward per keyframed pose" if s.kinematic else f"mj_step, {mode}"
+    print(f"  stepping: {result.seconds:.2f} s for {steps} steps, {rate:,.0f} steps/s ({rate * s.timestep:.2f}x real time; "
+          f"{stepper}, copying frames out included)")
+    print(f"  not in that: model build and kernel loading {wall - result.seconds - result.analysis_seconds - result.record_seconds:.2f} s, "
+          f"ellipsim's verdicts on {len(fr.times)} frames {result.analysis_seconds:.2f} s"
+          + (f", recording {result.record_seconds:.2f} s" if recorder else ""))  # fmt: skip
+    print(f"  contacts per step (all geoms): mean {result.contacts_mean:.1f}, max {result.contacts_max}")
+    if result.kept is None and len(fr.times) and fr.builtin_counts.size:
+        print(
+            f"  ellipsoid pairs over {len(fr.times)} recorded frames: MuJoCo contacts mean {fr.builtin_counts.mean():.1f} "
+            f"(max {fr.builtin_counts.max()}), ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
+            f"(max {fr.ellipsim_counts.max()})"
+        )
     c = result.counters
     if "seen" in c:
         share = c["discarded"] / max(c["seen"], 1)
@@ -212,21 +358,8 @@ def run(args):
             f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
             f"{c['fallbacks']} fallbacks to MuJoCo"
         )
-    if args.record:
-        from ellipsim.app import record
-
-        try:
-            record.save(args.record, tr)
-            size = os.path.getsize(args.record)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
-        except OSError as exc:
-            raise _write_error("--record", args.record, exc) from None
-        except RuntimeError as exc:  # rerun reports a file it cannot create as a RuntimeError
-            if "Failed to create file" not in str(exc):
-                raise
-            raise UserError(f"--record: cannot write {args.record!r}: {exc}") from None
-        print(f"  recording: {args.record} ({len(tr.times)} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
+    if recorder:
+        print(f"  recording: {args.record} ({len(fr.times)} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
     return 0
 
 
@@ -248,18 +381,18 @@ def _compare_summary(validation):
 
 def compare(args):
     """MuJoCo's built-in contacts against ellipsim's exact verdicts, per frame and in total."""
-    from ellipsim.app import simulate
+    from . import simulate
 
-    s = _load(args.scenario)
+    s = _load(args)
     if args.json:
         _check_output(args.json, ".json", "--json")
     if args.plot:
         _check_output(args.plot, ".png", "--plot")
         _matplotlib()
-    steps = args.steps or s.steps
-    print(f"{s.name}: {s.description}")
+    steps = _steps(s, args, _check_validation)
+    _header(s, steps)
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
-    v, model = _simulated(simulate.validation, s, steps, progress=Progress(f"  {s.name}", steps))
+    v, model = _simulated(simulate.validation, s, steps, progress=_bar(f"  {s.name}", steps))
     builtin, ours, missed, extra, near = _compare_summary(v)
     agree = int(v.counts[:, 0].sum() + v.counts[:, 1].sum())
     pairs = int(v.counts.sum())
@@ -291,16 +424,19 @@ def compare(args):
                 for kind, ds in (("missed", missed), ("extra", extra), ("near_tangent", near)) for d in ds
             ],
         }  # fmt: skip
-        try:
-            with open(args.json, "w") as f:
-                json.dump(report, f, indent=1)
-        except OSError as exc:
-            raise _write_error("--json", args.json, exc) from None
+        _write_json(args.json, report)
         print(f"  report: {args.json}")
     if args.plot:
         _plot_compare(args.plot, s, builtin, ours, missed + extra, near)
         print(f"  plot: {args.plot}")
     return 0
+
+
+def _check_validation(s, steps):
+    """ValueError when the counts `validation` keeps for `steps` steps would not fit in memory."""
+    from . import limits, simulate
+
+    limits.check_fits(steps * simulate.BYTES_PER_VALIDATED_STEP, f"{steps} steps of pair counts")
 
 
 def _matplotlib():
@@ -310,7 +446,7 @@ def _matplotlib():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise UserError("plots need matplotlib: pip install 'ellipsim[plot]'") from None
+        raise UserError(f"plots need matplotlib: {install_hint('plot')}") from None
     return plt
 
 
@@ -335,6 +471,139 @@ def _plot_compare(path, s, builtin, ours, disagree, near):
         plt.close(fig)
 
 
+# --- replay ----------------------------------------------------------------------------------------
+
+
+def replay(args):
+    """Play a motion (qpos per frame) on a model: which frames make its ellipsoid geoms touch or overlap."""
+    from . import mjcf, replay as rp
+
+    for path, option in ((args.record, "--record"), (args.json, "--json")):
+        if path:
+            _check_output(path, ".rrd" if option == "--record" else ".json", option)
+    try:
+        model = mjcf.load_model(args.model)
+        layout = rp.qpos_layout(model)
+        motion = rp.load_motion(args.motion, model.nq, layout=layout)
+    except (mjcf.ModelError, rp.MotionError) as exc:
+        raise UserError(str(exc)) from None
+    from . import limits
+
+    try:
+        limits.check_fits(motion.nbytes * 2, f"motion {args.motion!r} ({len(motion)} frames)")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    name = os.path.splitext(os.path.basename(args.model))[0]
+    F = len(motion)
+    print(f"{name}: {F} frames of qpos (nq = {model.nq}: {layout}) at {args.fps:g} fps ({F / args.fps:.2f} s) from {args.motion}")
+    recorder = _recorder(args.record) if args.record else None
+    try:
+        result, size = _recorded(recorder, rp.replay, model, motion, fps=args.fps, name=name,
+                                 progress=_bar(f"  {name}", F, unit="frames"))  # fmt: skip
+    except mjcf.ModelError as exc:
+        raise UserError(str(exc)) from None
+    over = np.flatnonzero(result.overlapping)
+    touch_only = np.flatnonzero((result.touching > 0) & (result.overlapping == 0))
+    print(f"  kinematics and MuJoCo's collision {result.seconds:.2f} s; ellipsim's exact verdicts on "
+          f"{result.candidates} candidate pairs of {result.ellipsoids} ellipsoid geoms {result.analysis_seconds:.2f} s")  # fmt: skip
+    if result.ellipsoids < 2:
+        print("  the model has fewer than two ellipsoid or sphere geoms: ellipsim has no pair to test")
+    print(f"  frames with overlapping pairs: {len(over)} of {F} ({rp.frame_ranges(over)}); touching only: {len(touch_only)}")
+    if len(over):
+        f = int(over[np.argmax(result.deepest[over])])
+        p = result.deepest_pair[f]
+        g1, g2 = result.pair_geoms[p]
+        b1, b2 = (result.body_names[result.geom_body[g]] for g in (g1, g2))
+        print(f"  deepest overlap: {_length(result.deepest[f])} at frame {f} ({f / args.fps:.3f} s): bodies {b1} / {b2} "
+              f"(geoms {result.geom_names[g1]} / {result.geom_names[g2]})")  # fmt: skip
+    print(f"  MuJoCo's contacts on the same frames: {int(result.mujoco_contacts.sum())} in all (max {int(result.mujoco_contacts.max())} "
+          f"in a frame), {int(result.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(result.overlapping.sum())} "
+          f"overlapping, {int(result.touching.sum())} touching pairs")  # fmt: skip
+    body_pairs = result.body_pairs()
+    if body_pairs:
+        print("  body pairs in contact (most overlapping frames first):")
+        for bp in body_pairs[: args.show]:
+            frames = rp.frame_ranges(bp["overlap_frames"], most=4)
+            print(f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
+                  f"deepest {_length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}")  # fmt: skip
+        if len(body_pairs) > args.show:
+            print(f"    ... and {len(body_pairs) - args.show} more (--show N, or --json)")
+    if args.json:
+        _write_json(args.json, _replay_report(name, args, model, result, body_pairs))
+        print(f"  report: {args.json}")
+    if recorder:
+        print(f"  recording: {args.record} ({F} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
+    return 0
+
+
+def _length(metres):
+    return f"{metres * 100:.3g} cm" if metres < 1 else f"{metres:.3g} m"
+
+
+def _replay_report(name, args, model, result, body_pairs):
+    per_pair = [[] for _ in range(result.frames)]
+    for p in range(len(result.pair_frame)):
+        g1, g2 = (int(g) for g in result.pair_geoms[p])
+        per_pair[int(result.pair_frame[p])].append({
+            "geoms": [result.geom_names[g1], result.geom_names[g2]],
+            "bodies": [result.body_names[result.geom_body[g1]], result.body_names[result.geom_body[g2]]],
+            "relation": "overlapping" if result.pair_relation[p] == 2 else "touching",
+            "depth": None if result.pair_relation[p] != 2 else float(result.pair_depth[p]),
+        })  # fmt: skip
+    return {
+        "model": os.path.abspath(args.model), "motion": os.path.abspath(args.motion), "frames": result.frames,
+        "fps": result.fps, "nq": int(model.nq), "ellipsoid_geoms": result.ellipsoids, "candidate_pairs": result.candidates,
+        "frames_overlapping": int(np.count_nonzero(result.overlapping)),
+        "frames_touching_only": int(np.count_nonzero((result.touching > 0) & (result.overlapping == 0))),
+        "overlapping_pairs": int(result.overlapping.sum()), "touching_pairs": int(result.touching.sum()),
+        "mujoco_contacts": int(result.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(result.mujoco_pairs.sum()),
+        "deepest": float(result.deepest.max()) if result.frames else 0.0,
+        "body_pairs": [{k: v for k, v in bp.items()} for bp in body_pairs],
+        "per_frame": {
+            "time": (np.arange(result.frames) / result.fps).tolist(), "touching": result.touching.tolist(),
+            "overlapping": result.overlapping.tolist(), "deepest": result.deepest.tolist(),
+            "mujoco_contacts": result.mujoco_contacts.tolist(), "mujoco_ellipsoid_contacts": result.mujoco_pairs.tolist(),
+            "pairs": per_pair,
+        },
+    }  # fmt: skip
+
+
+# --- fit -------------------------------------------------------------------------------------------
+
+
+def fit(args):
+    """Bounding ellipsoids of meshes, printed to a sensible precision and optionally written as MJCF."""
+    from . import fit as fitting
+
+    if args.out:
+        _check_output(args.out, ".xml", "--out")
+    names = [os.path.splitext(os.path.basename(p))[0] or "limb" for p in args.meshes]
+    if len(set(names)) != len(names):
+        names = [f"{n}_{i}" for i, n in enumerate(names)]
+    limbs = []
+    for name, path in zip(names, args.meshes):
+        try:
+            limbs.append(fitting.fit_limb(name, path, method=args.method, digits=args.digits))
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    print(f"bounding ellipsoids ({args.method}), {args.digits} significant digits, every vertex inside as written:")
+    width = max(len(n) for n in names)
+    print(f"  {'mesh':<{width}}  {'centre (pos)':<30} {'quaternion (w x y z)':<36} {'semi-axes (size)':<30} volume / hull")
+    for limb in limbs:
+        print(f"  {limb.name:<{width}}  {limb.pos:<30} {limb.quat:<36} {limb.size:<30} {limb.volume_ratio:.3f}")
+    if args.out:
+        try:
+            with open(args.out, "w") as f:
+                f.write(fitting.limbs_xml(limbs, method=args.method))
+        except OSError as exc:
+            raise _write_error("--out", args.out, exc) from None
+        print(f"  MJCF: {args.out} (<include file=\"{os.path.basename(args.out)}\"/> adds the geoms to a worldbody)")
+    return 0
+
+
+# --- bench and view --------------------------------------------------------------------------------
+
+
 def bench(args):
     """The benchmark suite (ellipsim/app/bench/): writes DIR/report.md and PNG plots."""
     if os.path.exists(args.out) and not os.path.isdir(args.out):
@@ -345,7 +614,7 @@ def bench(args):
         __import__("matplotlib")
         __import__("mpmath")
     except ImportError:
-        raise UserError("ellipsim bench needs matplotlib and mpmath: pip install '.[bench]'") from None
+        raise UserError(f"ellipsim bench needs matplotlib and mpmath: {install_hint('bench')}") from None
     from ellipsim.app import bench as suite
 
     print(f"ellipsim bench{' --quick' if args.quick else ''}: writing {args.out}/report.md and plots", flush=True)
@@ -355,7 +624,7 @@ def bench(args):
 
 
 def view(args):
-    from ellipsim.app import record
+    from . import record
 
     try:
         return record.view(args.file)
@@ -366,28 +635,57 @@ def view(args):
 # --- entry point -----------------------------------------------------------------------------------
 
 
-def main(argv=None):
-    parser = _Parser(
+def _model_options(p):
+    p.add_argument("--key", metavar="NAME|INDEX", help="an MJCF model's keyframe to start from (default: its default pose)")
+    p.add_argument("--ctrl", choices=("hold", "zero", "keyframe"),
+                   help="an MJCF model's actuators: hold the initial pose (default), zero, or the keyframe's ctrl")
+
+
+def parser():
+    p0 = _Parser(
         prog="ellipsim",
         description="Exact, fast ellipsoid collision detection for MuJoCo figures with oval limbs.",
-        epilog="examples: ellipsim run handshake --record handshake.rrd ; ellipsim compare pile --json pile.json",
+        epilog="examples: ellipsim run handshake --record handshake.rrd ; ellipsim run model.xml --key stand ; "
+        "ellipsim replay model.xml walk.npy --json walk.json ; ellipsim compare pile --json pile.json",
     )
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    p0.add_argument("--version", action="version", version=f"ellipsim {ellipsim.__version__}")
+    sub = p0.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    p = sub.add_parser("run", help="simulate a scenario; print steps/s, contacts, pairs tested/skipped")
-    p.add_argument("scenario", help="a name from `ellipsim list`, or a path to a .toml file")
-    p.add_argument("--steps", type=_positive_int, help="steps to run (default: the scenario's duration)")
+    p = sub.add_parser("run", help="simulate a scenario or an MJCF model; print steps/s, contacts, pairs tested/skipped")
+    p.add_argument("scenario", help="a name from `ellipsim list`, a path to a .toml file, or an MJCF .xml model")
+    p.add_argument("--steps", type=_positive_int, help="steps to run (default: the scenario's duration; a model: 2 s)")
     p.add_argument("--mode", choices=("builtin", "filter", "narrowphase"), help="collision detection (default: the scenario's)")
     p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
+    _model_options(p)
     p.set_defaults(run=run)
 
     p = sub.add_parser("compare", help="MuJoCo's built-in contacts vs ellipsim's exact verdicts, per frame and in total")
-    p.add_argument("scenario", help="a name from `ellipsim list`, or a path to a .toml file")
+    p.add_argument("scenario", help="a name from `ellipsim list`, a path to a .toml file, or an MJCF .xml model")
     p.add_argument("--steps", type=_positive_int, help="steps to compare (default: the scenario's duration)")
     p.add_argument("--json", metavar="FILE.json", help="write the counts and every disagreement as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="plot the per-frame counts (needs the 'plot' extra)")
     p.add_argument("--show", type=_non_negative_int, default=10, help="disagreements to print (default 10)")
+    _model_options(p)
     p.set_defaults(run=compare)
+
+    p = sub.add_parser("replay", help="play a motion (qpos per frame) on a model: which frames make limbs intersect",
+                       epilog="example: ellipsim replay fly.xml flight.npy --fps 60 --record flight.rrd --json flight.json")
+    p.add_argument("model", metavar="MODEL.xml", help="an MJCF model")
+    p.add_argument("motion", metavar="MOTION", help="qpos per frame: a .npy array or a .csv file of shape (frames, nq)")
+    p.add_argument("--fps", type=_positive_real, default=30.0, help="frames per second of the motion (default 30)")
+    p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
+    p.add_argument("--json", metavar="FILE.json", help="write per-frame counts and every touching or overlapping pair")
+    p.add_argument("--show", type=_non_negative_int, default=10, help="body pairs to print (default 10)")
+    p.set_defaults(run=replay)
+
+    p = sub.add_parser("fit", help="bounding ellipsoids of meshes (.obj .stl .ply .off .glb .gltf), as MJCF geoms",
+                       epilog="example: ellipsim fit forearm.stl hand.stl --method mvee --out limbs.xml")
+    p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files, one ellipsoid each (named after the file)")
+    p.add_argument("--method", choices=("thesis", "mvee"), default="thesis",
+                   help="thesis: covariance of the convex hull (default); mvee: minimum-volume enclosing ellipsoid")
+    p.add_argument("--out", metavar="FILE.xml", help="write the ellipsoids as MJCF geoms")
+    p.add_argument("--digits", type=_positive_int, default=6, help="significant digits of the numbers (default 6)")
+    p.set_defaults(run=fit)
 
     p = sub.add_parser("view", help="open a recording in the rerun viewer (or say how)")
     p.add_argument("file", metavar="FILE.rrd")
@@ -405,18 +703,49 @@ def main(argv=None):
 
     p = sub.add_parser("demo", help="classify a random batch of pairs, print a summary table and timing")
     p.add_argument("--pairs", type=_positive_int, default=100_000, help="number of pairs (default 100000)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="random seed, >= 0 (default 0)")
     p.set_defaults(run=demo)
+    return p0
 
-    args = parser.parse_args(argv)
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
+def main(argv=None):
+    args = parser().parse_args(argv)
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)  # this process is the command: unwind on SIGTERM
+    except ValueError:  # not the main thread (main() called from a thread): leave signals alone
+        pass
+    _progress.clear()
     try:
         return args.run(args)
     except UserError as exc:
+        _end_lines()
         print(f"ellipsim: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        _end_lines()
+        print("ellipsim: interrupted", file=sys.stderr)
+        return 130
+    except Terminated:
+        _end_lines()
+        print("ellipsim: terminated", file=sys.stderr)
+        return 143
     except BrokenPipeError:  # `ellipsim ... | head`: the reader left, nothing to report
         sys.stderr.close()
         return 0
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _end_lines():
+    for bar in _progress:
+        bar.close()
+    sys.stdout.flush()
 
 
 if __name__ == "__main__":

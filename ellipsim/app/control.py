@@ -2,7 +2,8 @@
 
 hold, sway, walk, dance (periodic patterns per joint), flail (random sines within the joint
 ranges), reach (one arm to a pose) and keyframes (smoothstep between keys), as a scenario's
-[control] table names them.
+[control] table names them.  Actuators are named by their joint (without a figure's "f{i}_"
+prefix) or by their own name, so the same controls drive the figure and a user's MJCF model.
 """
 
 import math
@@ -11,15 +12,44 @@ import mujoco
 import numpy as np
 
 
+_JOINT_TRANSMISSIONS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
+
+
+def _split_figure(name):
+    """(figure index, name without it) of "f{i}_name"; (0, name) for a name without the prefix."""
+    fig, sep, base = name.partition("_")
+    if sep and fig.startswith("f") and fig[1:].isdigit():
+        return int(fig[1:]), base
+    return 0, name
+
+
 def _actuated_joints(model):
-    """For each actuator: (figure index, joint name without the "f{i}_" prefix, qpos address)."""
+    """For each actuator: (figure index, joint name without the "f{i}_" prefix, qpos address), with
+    the actuator's own name in place of the joint's and qpos address -1 when it drives no joint."""
     out = []
     for a in range(model.nu):
-        j = model.actuator_trnid[a, 0]
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
-        fig, _, base = name.partition("_")
-        out.append((int(fig[1:]) if fig.startswith("f") and fig[1:].isdigit() else 0, base, int(model.jnt_qposadr[j])))
+        if int(model.actuator_trntype[a]) in _JOINT_TRANSMISSIONS:
+            j = model.actuator_trnid[a, 0]
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
+            adr = int(model.jnt_qposadr[j])
+        else:
+            name, adr = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or "", -1
+        fig, base = _split_figure(name)
+        out.append((fig, base, adr))
     return out
+
+
+def _actuator_names(model):
+    """Each actuator's own name without a figure prefix ("" when unnamed)."""
+    return [_split_figure(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or "")[1] for a in range(model.nu)]
+
+
+def _angular(model):
+    """(nu,) bool: the actuator drives a hinge joint (its targets are angles, given in degrees)."""
+    joint = np.isin(model.actuator_trntype, _JOINT_TRANSMISSIONS)
+    jnt = np.where(joint, model.actuator_trnid[:, 0], 0)
+    return joint & (model.jnt_type[jnt] == _HINGE) if model.njnt else np.zeros(model.nu, dtype=bool)
 
 
 # Joint targets of the periodic controls, in units of the amplitude, as
@@ -44,53 +74,91 @@ _PATTERNS = {
 }  # fmt: skip
 
 
-class Controller:
-    """Position targets (radians) of every actuator as a function of time, for a scenario's control.
+#: Joints the reach control moves (either arm).
+_REACH_JOINTS = {f"{j}_{side}" for j in ("shoulder_flex", "shoulder_abd", "shoulder_rot", "elbow") for side in "lr"}
 
+
+class Controller:
+    """Controls (position targets, radians for hinges) of every actuator as a function of time, for
+    a scenario's control, added to `base`.
+
+    base : (nu,) the controls that hold the initial pose (a user's model: mjcf.start's ctrl);
+        default zeros, the figure's standing pose.  Periodic patterns, reach and flail move about
+        it; keyframes set the actuators they name and leave the others at it.
     Each kind is precomputed into per-actuator arrays, so a call is a few numpy operations.
+    ValueError when the control names actuators the model does not have, or moves none of them.
     """
 
-    def __init__(self, model, control):
+    def __init__(self, model, control, base=None):
         self.kind, self.c = control["kind"], control
         self.joints = _actuated_joints(model)
         self.qadr = np.array([adr for _, _, adr in self.joints], dtype=np.intp)  # qpos address per actuator
         nu = len(self.joints)
-        self.lo, self.hi = model.actuator_ctrlrange[:, 0].copy(), model.actuator_ctrlrange[:, 1].copy()
+        self.base = np.zeros(nu) if base is None else np.asarray(base, dtype=np.float64).copy()
+        if self.base.shape != (nu,):
+            raise ValueError(f"base must have shape ({nu},) (one control per actuator), got {self.base.shape}")
+        limited = model.actuator_ctrllimited.astype(bool)
+        self.lo = np.where(limited, model.actuator_ctrlrange[:, 0], -np.inf)
+        self.hi = np.where(limited, model.actuator_ctrlrange[:, 1], np.inf)
         deg = math.pi / 180
         fig = np.array([f for f, _, _ in self.joints], dtype=float)
         names = [j for _, j, _ in self.joints]
+        aliases = _actuator_names(model)
+        if self.kind in _PATTERNS or self.kind == "reach":
+            known = set(_PATTERNS[self.kind]) if self.kind in _PATTERNS else _REACH_JOINTS
+            if nu and not any(j in known or a in known for j, a in zip(names, aliases)):
+                raise ValueError(
+                    f"control {self.kind!r} moves the figure's joints ({', '.join(sorted(known))}); "
+                    f"none of the model's {nu} actuators drives one of them"
+                )
         if self.kind in _PATTERNS:
             table = _PATTERNS[self.kind]
-            self.coef = np.array([table.get(j, (0, 0, 0, 0)) for j in names], dtype=float).T * control["amplitude"] * deg
+            rows = [table.get(j, table.get(a, (0, 0, 0, 0))) for j, a in zip(names, aliases)]
+            self.coef = np.array(rows, dtype=float).reshape(nu, 4).T * control["amplitude"] * deg
             self.phase = fig * control["phase_step"]
             self.w = 2 * math.pi / control["period"]
         elif self.kind == "flail":
             rng = np.random.default_rng(control["seed"])
             self.w = 2 * math.pi / control["period"] * rng.uniform(0.6, 1.6, nu)
             self.phase = rng.uniform(0, 2 * math.pi, nu)
-            self.mid, self.half = 0.5 * (self.lo + self.hi), 0.5 * (self.hi - self.lo) * control["amplitude"]
+            if nu and not limited.any():
+                raise ValueError("control 'flail' swings actuators across their ctrlrange; none of the model's actuators has one")
+            self.mid = np.where(limited, 0.5 * (self.lo + self.hi), self.base) if nu else np.zeros(0)
+            self.half = np.where(limited, 0.5 * (self.hi - self.lo) * control["amplitude"], 0.0) if nu else np.zeros(0)
         elif self.kind == "reach":
             side = "_r" if control["arm"] == "right" else "_l"
             goal = {f"shoulder_flex{side}": control["shoulder_flex"], f"shoulder_abd{side}": control["shoulder_abd"],
                     f"shoulder_rot{side}": control["shoulder_rot"], f"elbow{side}": control["elbow"]}  # fmt: skip
-            self.goal = np.array([goal.get(j, 0.0) for j in names]) * deg
+            self.goal = np.array([goal.get(j, goal.get(a, 0.0)) for j, a in zip(names, aliases)]) * deg
         elif self.kind == "keyframes":
             keys = control["keys"]
+            valid = set(names) | set(aliases)
+            for i, (_, k) in enumerate(keys):
+                unknown = sorted(set(k) - valid)
+                if unknown:
+                    raise ValueError(
+                        f"keys[{i}].joints names {unknown[0]!r}, which no actuator drives; the model's actuators "
+                        f"are {', '.join(sorted(n for n in valid if n)) or 'none'}"
+                    )
+            unit = np.where(_angular(model), deg, 1.0)  # degrees for hinges, the actuator's own units otherwise
             self.key_t = np.array([t for t, _ in keys])
-            self.key_q = np.array([[k.get(j, 0.0) for j in names] for _, k in keys]) * deg  # (K, nu)
+            self.key_q = np.array(
+                [[k[j] * unit[a] if j in k else k[n] * unit[a] if n in k else self.base[a]
+                  for a, (j, n) in enumerate(zip(names, aliases))] for _, k in keys]  # fmt: skip
+            ).reshape(len(keys), nu)  # (K, nu)
             self.shift = fig * control["stagger"]
 
     def __call__(self, t):
         if self.kind == "hold":
-            out = np.zeros(len(self.joints))
+            out = self.base
         elif self.kind in _PATTERNS:
             x = self.w * t + self.phase
             c = np.cos(x)
-            out = self.coef[0] + self.coef[1] * np.sin(x) + self.coef[2] * np.maximum(c, 0) + self.coef[3] * np.maximum(-c, 0)
+            out = self.base + self.coef[0] + self.coef[1] * np.sin(x) + self.coef[2] * np.maximum(c, 0) + self.coef[3] * np.maximum(-c, 0)
         elif self.kind == "flail":
             out = self.mid + self.half * np.sin(self.w * t + self.phase)
         elif self.kind == "reach":
-            out = _smoothstep(t / self.c["ramp"]) * self.goal
+            out = self.base + _smoothstep(t / self.c["ramp"]) * self.goal
         else:  # keyframes: smoothstep between the keys around each actuator's (staggered) time
             tt = np.clip(t - self.shift, self.key_t[0], self.key_t[-1])
             k = np.clip(np.searchsorted(self.key_t, tt, side="right") - 1, 0, len(self.key_t) - 2)

@@ -25,6 +25,7 @@ the result always encloses the mesh.  `limbs_from_meshes` fits one ellipsoid per
 Lengths are in the units of the mesh (metres for MuJoCo).
 """
 
+import dataclasses
 import math
 import os
 import warnings
@@ -36,7 +37,7 @@ import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
 from ..core.ellipsoids import Ellipsoids
-from ..core.rotations import rotations_to_quaternions
+from ..core.rotations import quaternions_to_rotations, rotations_to_quaternions
 from ..mujoco.scenes import mjcf_numbers
 
 #: The fitting methods of `bounding_ellipsoid`.
@@ -174,6 +175,90 @@ def limb_geom_xml(name, ellipsoid):
         size=mjcf_numbers(ellipsoid.radii[0]),
     )
     return ET.tostring(geom, encoding="unicode", short_empty_elements=True)
+
+
+@dataclasses.dataclass
+class FittedLimb:
+    """A bounding ellipsoid written with `digits` significant digits that still encloses its mesh.
+
+    name : the geom's name; pos, quat, size : the MJCF attribute texts (centre, w x y z, semi-axes);
+    ellipsoid : Ellipsoids (length 1) of exactly those numbers (the quaternion normalised, as MuJoCo
+    does); volume_ratio : the ellipsoid's volume over the mesh's convex hull's (>= 1; 1 is a perfect fit).
+    """
+
+    name: str
+    pos: str
+    quat: str
+    size: str
+    ellipsoid: Ellipsoids
+    volume_ratio: float
+
+
+def fit_limb(name, mesh, *, method="thesis", digits=6):
+    """`bounding_ellipsoid` of `mesh`, rounded for reading and writing: a FittedLimb.
+
+    Lengths are rounded to `digits` significant digits of the largest semi-axis (so a centre far
+    from the origin keeps the same absolute precision as the axes), quaternion components to
+    `digits` decimals (w >= 0); then the semi-axes are recomputed for the rounded centre and
+    orientation and rounded up, until every vertex is inside the ellipsoid the written numbers
+    define, evaluated in float64.  Rounding noise (1e-15 of a unit) prints as 0.
+    """
+    if isinstance(digits, bool) or not isinstance(digits, int) or not 1 <= digits <= 17:
+        raise ValueError(f"digits must be an int from 1 to 17, got {digits!r}")
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    e = bounding_ellipsoid(mesh, method=method)
+    _, vertices = _mesh_vertices(mesh)
+    scale = float(e.radii.max())
+    decimals = digits - 1 - math.floor(math.log10(scale))
+    quantum = 10.0 ** -decimals
+    pos = np.array([float(_decimal(x, decimals)) for x in e.centers[0]])
+    quat = np.array([float(_decimal(q, digits)) for q in rotations_to_quaternions(e.rotations[0])])
+    rotation = quaternions_to_rotations(quat / np.linalg.norm(quat))
+    radii = e.radii[0] * math.sqrt(_max_level(vertices, pos, rotation, e.radii[0]))
+    radii = np.ceil(radii / quantum) * quantum
+    for _ in range(100):
+        radii = np.array([float(_decimal(r, decimals)) for r in radii])
+        if _max_level(vertices, pos, rotation, radii) <= 1.0:
+            break
+        radii = radii + quantum
+    else:
+        raise RuntimeError(f"could not round the fit of {name!r} to {digits} digits and keep every vertex inside")
+    hull = ConvexHull(vertices - vertices.mean(axis=0))
+    volume = 4.0 / 3.0 * math.pi * float(np.prod(radii))
+    return FittedLimb(
+        name=name, pos=" ".join(_decimal(x, decimals) for x in pos), quat=" ".join(_decimal(q, digits) for q in quat),
+        size=" ".join(_decimal(r, decimals) for r in radii), ellipsoid=Ellipsoids(pos[None], rotation[None], radii[None]),
+        volume_ratio=volume / hull.volume,
+    )  # fmt: skip
+
+
+def limbs_xml(limbs, *, method="thesis"):
+    """An MJCF file of FittedLimbs: one ellipsoid geom each in the worldbody, in the meshes'
+    coordinates (loads on its own; `<include file=..>` adds the geoms to another model's worldbody)."""
+    root = ET.Element("mujoco", model="limbs")
+    root.append(ET.Comment(f" bounding ellipsoids fitted by `ellipsim fit --method {method}`, one per mesh, "
+                           "in the mesh's coordinates: move each geom into the body its mesh belongs to "))  # fmt: skip
+    world = ET.SubElement(root, "worldbody")
+    for limb in limbs:
+        ET.SubElement(world, "geom", name=limb.name, type="ellipsoid", pos=limb.pos, quat=limb.quat, size=limb.size)
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _decimal(value, decimals):
+    """`value` rounded to `decimals` decimal places (decimals may be negative) as short text: no
+    trailing zeros, no "-0"."""
+    if decimals <= 0:
+        text = str(int(round(value, decimals)))
+    else:
+        text = f"{value:.{decimals}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def mesh_vertices(mesh):
+    """Vertices (n, 3) float64 of a trimesh.Trimesh or a mesh file (as bounding_ellipsoid reads them)."""
+    return _mesh_vertices(mesh)[1]
 
 
 # --- Input checks ----------------------------------------------------------------------------

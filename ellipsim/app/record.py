@@ -1,30 +1,41 @@
-"""Recording: turns a Trajectory into a rerun recording (.rrd) and opens it in the rerun viewer.
+"""Recording: a model and its frames as a rerun recording (.rrd), and opening one in the viewer.
 
-Kept apart from the simulation (scenario.py fills a Trajectory, this module only reads it).  Static
-data (semi-axes, labels, fill mode, series styling) is logged once; everything that changes per
-frame goes out as columns with `RecordingStream.send_columns`, one partition per frame, on two
-timelines: "time" (a duration, seconds) and "frame" (a sequence).
+Kept apart from the simulation (capture.py fills a SceneGeometry and Frames; this module only reads
+them).  A Recorder writes while a run goes: the model's shapes once, static (`begin`), then each
+chunk of frames as columns with `RecordingStream.send_columns` (`write`), on two timelines, "time"
+(a duration, seconds) and "frame" (a sequence).  The file is written under a temporary name in the
+same folder and renamed to its own name only when complete (`close`): an interrupted run leaves
+no truncated recording behind.  Every recording gets a fresh recording id, so two runs opened
+together in one viewer stay two recordings.
 
-What is written (F frames, G geoms, K contacts):
+What is written (B bodies, G geoms):
 
-    world                      ViewCoordinates RIGHT_HAND_Z_UP (MuJoCo's world frame), static
-    world/figures/f{i}         Ellipsoids3D of the geoms with geom_figure == i:
-                                 static: half_sizes, fill_mode (solid), labels (geom names)
-                                 per frame: centers, quaternions (x, y, z, w), colors (by state)
-    world/ellipsoids           the same for the geoms with geom_figure == -1 (free ellipsoids)
-    world/contacts             Points3D: static radii and colour; per frame: positions
-    world/contact_normals      Arrows3D: static radii and colour; per frame: origins, vectors
-    counts/builtin             Scalars per frame (MuJoCo's contacts); static SeriesLines style
-    counts/ellipsim            Scalars per frame (pairs ellipsim finds overlapping); static style
+    world                          ViewCoordinates RIGHT_HAND_Z_UP (MuJoCo's world frame), static
+    world/model                    the world body; its child bodies below it, by the kinematic tree:
+    world/model/<body>/<child>/..  Transform3D relative to the parent body: static for bodies that
+                                   never move relative to it, a column per frame for bodies with
+                                   joints (or mocap)
+      <body>/geoms/ellipsoids      Ellipsoids3D of the body's ellipsoid and sphere geoms, in the body
+                                   frame, static; colours per frame where they change: the MJCF
+                                   colour when free, amber touching, red overlapping (ellipsim's
+                                   exact verdict, the worst over its pairs)
+      <body>/geoms/capsules        Capsules3D, static, MJCF colours
+      <body>/geoms/cylinders       Cylinders3D, static, MJCF colours
+      <body>/geoms/boxes           Boxes3D, static, MJCF colours
+      <body>/geoms/<geom>          a mesh, height field or plane geom: static Transform3D + Mesh3D
+    world/contacts                 Points3D of every MuJoCo contact (all pair types) per frame:
+                                   green between two ellipsoids, cyan otherwise (floor, boxes, ...)
+    world/contact_normals          Arrows3D, the contact normals, same colours
+    counts/pairs/builtin           Scalars per frame: MuJoCo's contacts between ellipsoid geoms
+    counts/pairs/ellipsim          Scalars per frame: pairs ellipsim finds overlapping
+    counts/contacts/all            Scalars per frame: all of MuJoCo's contacts
 
-The default blueprint splits the window horizontally: a 3D view of "world" and a time-series view
-of "counts".
-
-Speed (2-core Xeon VM of README.md, rerun-sdk 0.41, median of 5): 1000 frames of 400 geoms in 25
-figures of 16, with 20 contacts a frame, save in 0.14 s (0.15-0.26 s for the first save in a
-process; 0.16-0.18 s as one entity of 400) to a 13 MB file.
+The default blueprint puts a 3D view of "world" beside two time-series views: ellipsoid pairs in
+contact (MuJoCo's as a wide light line, ellipsim's as a thin dark line over it, so both stay
+visible where they agree) and all contacts.
 """
 
+import contextlib
 import os
 import pathlib
 import shutil
@@ -36,91 +47,275 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from .trajectory import Trajectory
+from .trajectory import GEOM_KINDS, Frames, SceneGeometry
 
-# RGBA colours of a geom by its ellipsim state (Trajectory.state): 0 free, 1 touching, 2 overlapping.
-FREE_COLOR = (120, 144, 176, 255)  # grey-blue
 TOUCHING_COLOR = (255, 176, 0, 255)  # amber
 OVERLAPPING_COLOR = (220, 30, 30, 255)  # red
-STATE_COLORS = np.array([FREE_COLOR, TOUCHING_COLOR, OVERLAPPING_COLOR], dtype=np.uint8)  # (3, 4)
-
-CONTACT_COLOR = (20, 200, 60, 255)  # green: stands out against all three state colours
+CONTACT_COLOR = (20, 200, 60, 255)  # green: contacts between two ellipsoid geoms
+OTHER_CONTACT_COLOR = (0, 190, 230, 255)  # cyan: every other contact (floor, boxes, meshes, ...)
 CONTACT_RADIUS = 0.008  # metres, contact point spheres
 NORMAL_LENGTH = 0.05  # metres, drawn length of a contact normal (the normals are unit)
 NORMAL_RADIUS = 0.002  # metres, arrow shaft radius
-BUILTIN_SERIES_COLOR = (60, 120, 220, 255)  # blue line: MuJoCo's contacts
-ELLIPSIM_SERIES_COLOR = OVERLAPPING_COLOR  # red line: overlapping pairs, as the overlapping geoms
+# Series styles: MuJoCo's line wide and light, ellipsim's thin and dark on top of it, so that where
+# the counts agree the thin line runs inside the wide one and both are seen.
+BUILTIN_SERIES = ("MuJoCo contacts (ellipsoid pairs)", (110, 160, 240, 255), 6.0)
+ELLIPSIM_SERIES = ("ellipsim overlapping pairs (exact)", (170, 20, 20, 255), 1.5)
+ALL_SERIES = ("MuJoCo contacts (all geoms)", (40, 40, 40, 255), 1.5)
 
-FIGURES_PATH = "world/figures"
-FREE_PATH = "world/ellipsoids"
+MODEL_PATH = "world/model"
 CONTACTS_PATH = "world/contacts"
 NORMALS_PATH = "world/contact_normals"
-BUILTIN_PATH = "counts/builtin"
-ELLIPSIM_PATH = "counts/ellipsim"
+BUILTIN_PATH = "counts/pairs/builtin"
+ELLIPSIM_PATH = "counts/pairs/ellipsim"
+ALL_PATH = "counts/contacts/all"
 
-# Namespace of the deterministic recording ids: uuid5(_RECORDING_NAMESPACE, scenario name).
-_RECORDING_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://github.com/ellipsim/recording")
+RRD_MAGIC = b"RRF"  # first bytes of an .rrd file ("RRF2" in rerun 0.41)
 
-
-def recording_id(scenario):
-    """The recording id of a scenario's recordings: a UUID derived from its name, the same every run."""
-    return str(uuid.uuid5(_RECORDING_NAMESPACE, str(scenario)))
+_KIND = {name: k for k, name in enumerate(GEOM_KINDS)}
+_PRIMITIVES = {  # geom kinds drawn as a batch per body: entity name
+    _KIND["ellipsoid"]: "ellipsoids", _KIND["sphere"]: "ellipsoids", _KIND["capsule"]: "capsules",
+    _KIND["cylinder"]: "cylinders", _KIND["box"]: "boxes",
+}  # fmt: skip
 
 
 def blueprint():
-    """The default layout: 3D view of "world" beside a time-series view of "counts"."""
+    """The default layout: a 3D view of "world" beside the two contact-count plots."""
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="world"),
-            rrb.TimeSeriesView(origin="counts", name="contacts per frame"),
+            rrb.Spatial3DView(origin="world", name="model"),
+            rrb.Vertical(
+                rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"),
+                rrb.TimeSeriesView(origin="counts/contacts", name="all MuJoCo contacts"),
+            ),
             column_shares=[3, 2],
         ),
     )
 
 
-def save(path, trajectory, *, app_id="ellipsim"):
-    """Write `trajectory` to the rerun recording file `path` (see the module docstring for the entities).
+def rgba8(rgba):
+    """RGBA floats in [0, 1] (..., 4) as uint8 (..., 4)."""
+    return np.clip(np.round(np.asarray(rgba, dtype=np.float64) * 255), 0, 255).astype(np.uint8)
 
-    path : str or os.PathLike ending in ".rrd", in an existing directory; overwritten if it exists
-    trajectory : Trajectory (centres in metres, quaternions in MuJoCo's w, x, y, z order, times in s)
-    app_id : rerun application id; the recording id is derived from `trajectory.scenario`, so two
-        saves of the same scenario share it.
 
-    Raises ValueError naming `path` or `trajectory` on bad input.  Geometry goes out with
-    send_columns, one call per entity (no per-frame loop): 1000 frames x 400 geoms take about
-    0.15 s and 13 MB.
+def xyzw(wxyz):
+    """MuJoCo's quaternions (..., 4) w x y z in rerun's x y z w order."""
+    wxyz = np.asarray(wxyz, dtype=np.float64)
+    return np.concatenate([wxyz[..., 1:], wxyz[..., :1]], axis=-1)
+
+
+class Recorder:
+    """Writes one recording while a run goes: `begin(geometry)`, `write(frames)` per chunk, `close()`.
+
+    path : str or os.PathLike ending in ".rrd", in an existing directory; replaced only by `close`.
+    Used as a context manager, an exception (or Ctrl-C) inside the block removes the partial file
+    and leaves `path` as it was.  ValueError names a bad path or bad data; OSError a file that
+    cannot be created.
     """
-    path = _check_save_path(path)
-    _check_trajectory(trajectory)
-    t = trajectory
-    n_frames = len(t.times)
 
-    rec = rr.RecordingStream(app_id, recording_id=recording_id(t.scenario))
-    rec.save(path, default_blueprint=blueprint())
-    try:
-        if t.scenario:
-            rec.send_recording_name(t.scenario)
-        indexes = _indexes(t.times)
+    def __init__(self, path, *, app_id="ellipsim"):
+        self.path = _check_save_path(path)
+        folder, base = os.path.split(os.path.abspath(self.path))
+        self.partial = os.path.join(folder, f".{base}.{uuid.uuid4().hex[:12]}.part")
+        self.app_id = app_id
+        self.recording_id = str(uuid.uuid4())
+        self.rec = None
+        self.frames_written = 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, value, tb):
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+        return False
+
+    def begin(self, geometry):
+        """Open the partial file and log the model's static shapes."""
+        if not isinstance(geometry, SceneGeometry):
+            raise ValueError(f"geometry must be an ellipsim.app.trajectory.SceneGeometry, got {type(geometry).__name__}")
+        self.geometry = geometry
+        rec = rr.RecordingStream(self.app_id, recording_id=self.recording_id)
+        try:
+            rec.save(self.partial, default_blueprint=blueprint())
+        except RuntimeError as exc:  # rerun reports a file it cannot create as a RuntimeError
+            rec.disconnect()
+            raise OSError(f"cannot create {self.partial!r}: {exc}") from None
+        self.rec = rec
+        if geometry.name:
+            rec.send_recording_name(geometry.name)
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self._paths = _body_paths(geometry)
+        self._log_bodies()
+        self._log_geoms()
+        rec.log(CONTACTS_PATH, rr.Points3D.from_fields(radii=CONTACT_RADIUS), static=True)
+        rec.log(NORMALS_PATH, rr.Arrows3D.from_fields(radii=NORMAL_RADIUS), static=True)
+        for entity, (name, color, width) in ((BUILTIN_PATH, BUILTIN_SERIES), (ELLIPSIM_PATH, ELLIPSIM_SERIES),
+                                             (ALL_PATH, ALL_SERIES)):  # fmt: skip
+            rec.log(entity, rr.SeriesLines(names=name, colors=color, widths=width), static=True)
+        self._last_state = None
 
-        figure = np.asarray(t.geom_figure)
-        for fig in np.unique(figure):
-            entity = FREE_PATH if fig == -1 else f"{FIGURES_PATH}/f{fig}"
-            _send_geoms(rec, entity, t, np.flatnonzero(figure == fig), indexes)
+    def write(self, frames):
+        """Send one chunk of frames (consecutive, after the previous chunk) as columns."""
+        if self.rec is None:
+            raise ValueError("Recorder.write before begin")
+        if not isinstance(frames, Frames):
+            raise ValueError(f"frames must be an ellipsim.app.trajectory.Frames, got {type(frames).__name__}")
+        frames.check(self.geometry)
+        if len(frames) == 0:
+            return
+        if frames.frame[0] != self.frames_written:
+            raise ValueError(f"frames must continue at frame {self.frames_written}, got frame {frames.frame[0]}")
+        rec, g = self.rec, self.geometry
+        indexes = _indexes(frames.times, frames.frame)
+        for m, body in enumerate(g.moving):
+            rec.send_columns(
+                self._paths[body], indexes=indexes,
+                columns=rr.Transform3D.columns(translation=frames.body_pos[:, m], quaternion=xyzw(frames.body_quat[:, m])),
+            )  # fmt: skip
+        self._write_states(frames)
+        self._write_contacts(frames, indexes)
+        for entity, counts in ((BUILTIN_PATH, frames.builtin_counts), (ELLIPSIM_PATH, frames.ellipsim_counts),
+                               (ALL_PATH, frames.contact_counts)):  # fmt: skip
+            rec.send_columns(entity, indexes=indexes, columns=rr.Scalars.columns(scalars=np.asarray(counts, dtype=np.float64)))
+        self.frames_written += len(frames)
 
-        _send_contacts(rec, t, indexes)
+    def close(self):
+        """Finish the file and move it to `path`; returns `path`."""
+        if self.rec is None:
+            raise ValueError("Recorder.close before begin")
+        rec, self.rec = self.rec, None
+        try:
+            rec.flush()
+            rec.disconnect()
+            os.replace(self.partial, self.path)
+        except BaseException:
+            with contextlib.suppress(FileNotFoundError):
+                os.remove(self.partial)
+            raise
+        return self.path
 
-        for entity, counts, name, color in (
-            (BUILTIN_PATH, t.builtin_counts, "MuJoCo contacts", BUILTIN_SERIES_COLOR),
-            (ELLIPSIM_PATH, t.ellipsim_counts, "ellipsim overlapping pairs", ELLIPSIM_SERIES_COLOR),
-        ):
-            rec.log(entity, rr.SeriesLines(names=name, colors=color, widths=2.0), static=True)
-            if n_frames:
-                scalars = np.asarray(counts, dtype=np.float64)
-                rec.send_columns(entity, indexes=indexes, columns=rr.Scalars.columns(scalars=scalars))
-    finally:
-        rec.flush()
-        rec.disconnect()
+    def abort(self):
+        """Stop writing and remove the partial file; `path` is left untouched."""
+        rec, self.rec = self.rec, None
+        if rec is not None:
+            with contextlib.suppress(Exception):  # the stream may already be broken; the file goes anyway
+                rec.disconnect()
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(self.partial)
+
+    # --- static ----------------------------------------------------------------------------------
+
+    def _log_bodies(self):
+        g, moving = self.geometry, set(int(b) for b in self.geometry.moving)
+        for b in range(1, len(g.body_names)):
+            if b not in moving:
+                self.rec.log(
+                    self._paths[b], rr.Transform3D(translation=g.body_pos[b], quaternion=xyzw(g.body_quat[b])), static=True
+                )
+
+    def _log_geoms(self):
+        g, rec = self.geometry, self.rec
+        ellipsoid_ids = np.asarray(g.ellipsoids)
+        self._ellipsoid_groups = []  # (entity, indices into g.ellipsoids, free colours (n, 4) uint8)
+        colors = rgba8(g.geom_rgba)
+        for body in np.unique(g.geom_body):
+            geoms = np.flatnonzero(g.geom_body == body)
+            base = self._paths[body] + "/geoms"
+            for kind in sorted(set(_PRIMITIVES.values())):
+                mine = geoms[[_PRIMITIVES.get(int(k)) == kind for k in g.geom_kind[geoms]]]
+                if len(mine) == 0:
+                    continue
+                entity = f"{base}/{kind}"
+                labels = [g.geom_names[i] for i in mine]
+                size, pos, quat = g.geom_size[mine], g.geom_pos[mine], xyzw(g.geom_quat[mine])
+                if kind == "ellipsoids":
+                    sphere = g.geom_kind[mine] == _KIND["sphere"]
+                    half = np.where(sphere[:, None], size[:, :1], size)
+                    rec.log(entity, rr.Ellipsoids3D.from_fields(
+                        half_sizes=half, centers=pos, quaternions=quat, labels=labels,
+                        fill_mode=rr.components.FillMode.Solid), static=True)  # fmt: skip
+                    at = np.searchsorted(ellipsoid_ids, mine)
+                    if not np.array_equal(ellipsoid_ids[np.minimum(at, len(ellipsoid_ids) - 1)], mine):
+                        raise ValueError("SceneGeometry.ellipsoids must list every ellipsoid and sphere geom")
+                    self._ellipsoid_groups.append((entity, at, colors[mine]))
+                elif kind == "capsules":
+                    axis = _axes_z(g.geom_quat[mine])
+                    rec.log(entity, rr.Capsules3D(
+                        lengths=2 * size[:, 1], radii=size[:, 0], translations=pos - axis * size[:, 1:2],
+                        quaternions=quat, colors=colors[mine], labels=labels), static=True)  # fmt: skip
+                elif kind == "cylinders":
+                    rec.log(entity, rr.Cylinders3D(
+                        lengths=2 * size[:, 1], radii=size[:, 0], centers=pos, quaternions=quat, colors=colors[mine],
+                        labels=labels, fill_mode=rr.components.FillMode.Solid), static=True)  # fmt: skip
+                else:
+                    rec.log(entity, rr.Boxes3D(
+                        half_sizes=size, centers=pos, quaternions=quat, colors=colors[mine], labels=labels,
+                        fill_mode=rr.components.FillMode.Solid), static=True)  # fmt: skip
+            for i in geoms:
+                if int(i) not in g.meshes:
+                    continue
+                vertices, triangles = g.meshes[int(i)]
+                entity = f"{base}/{rr.escape_entity_path_part(g.geom_names[i])}"
+                rec.log(entity, rr.Transform3D(translation=g.geom_pos[i], quaternion=xyzw(g.geom_quat[i])), static=True)
+                rec.log(entity, rr.Mesh3D(
+                    vertex_positions=vertices, triangle_indices=triangles, vertex_normals=_vertex_normals(vertices, triangles),
+                    albedo_factor=colors[i]), static=True)  # fmt: skip
+
+    # --- per chunk -------------------------------------------------------------------------------
+
+    def _write_states(self, frames):
+        """Ellipsoid colours at the frames where a body's states change (and at the first frame)."""
+        state = np.asarray(frames.state)
+        previous = self._last_state
+        for entity, at, free in self._ellipsoid_groups:
+            s = state[:, at]
+            before = np.concatenate([previous[None, at] if previous is not None else np.full((1, len(at)), -1), s[:-1]])
+            changed = np.flatnonzero((s != before).any(axis=1))
+            if len(changed) == 0:
+                continue
+            palette = np.stack([np.broadcast_to(free, (len(at), 4)), np.broadcast_to(TOUCHING_COLOR, (len(at), 4)),
+                                np.broadcast_to(OVERLAPPING_COLOR, (len(at), 4))]).astype(np.uint8)  # (3, n, 4)
+            colors = palette[s[changed], np.arange(len(at))[None, :]].reshape(-1, 4)
+            columns = rr.Ellipsoids3D.columns(colors=colors).partition(np.full(len(changed), len(at)))
+            self.rec.send_columns(entity, indexes=_indexes(frames.times[changed], frames.frame[changed]), columns=columns)
+        self._last_state = state[-1].copy()
+
+    def _write_contacts(self, frames, indexes):
+        order = np.argsort(frames.contact_frame, kind="stable")
+        lengths = np.bincount(frames.contact_frame - frames.frame[0], minlength=len(frames))
+        pos = np.asarray(frames.contact_pos, dtype=np.float64).reshape(-1, 3)[order]
+        normal = np.asarray(frames.contact_normal, dtype=np.float64).reshape(-1, 3)[order]
+        colors = np.where(np.asarray(frames.contact_ellipsoids)[order][:, None], CONTACT_COLOR, OTHER_CONTACT_COLOR)
+        colors = colors.astype(np.uint8).reshape(-1, 4)
+        self.rec.send_columns(CONTACTS_PATH, indexes=indexes,
+                              columns=rr.Points3D.columns(positions=pos, colors=colors).partition(lengths))  # fmt: skip
+        arrows = rr.Arrows3D.columns(origins=pos, vectors=NORMAL_LENGTH * normal, colors=colors)
+        self.rec.send_columns(NORMALS_PATH, indexes=indexes, columns=arrows.partition(lengths))
+
+
+def save(path, geometry, frames, *, app_id="ellipsim"):
+    """Write `geometry` and `frames` (a Frames or a list of consecutive chunks) to the recording `path`.
+
+    path : str or os.PathLike ending in ".rrd", in an existing directory; written under a temporary
+    name and moved into place when complete.  Returns the recording id.
+    """
+    chunks = [frames] if isinstance(frames, Frames) else list(frames)
+    with Recorder(path, app_id=app_id) as recorder:
+        recorder.begin(geometry)
+        for chunk in chunks:
+            recorder.write(chunk)
+    return recorder.recording_id
+
+
+def is_recording(path):
+    """True when `path` is a file that starts like a rerun recording (.rrd)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(RRD_MAGIC)) == RRD_MAGIC
+    except OSError:
+        return False
 
 
 def view(path):
@@ -128,11 +323,14 @@ def view(path):
 
     Returns the viewer's exit status (0 when it is closed normally).  On Linux without a display
     (neither DISPLAY nor WAYLAND_DISPLAY set) no viewer is started: one line says how to view the
-    file elsewhere, and 0 is returned.  A path that is not an existing file raises ValueError.
+    file elsewhere, and 0 is returned.  A path that is not an existing rerun recording raises
+    ValueError.
     """
     text = os.fspath(path)
     if not os.path.isfile(text):
         raise ValueError(f"path must be an existing .rrd file, got {text!r}")
+    if not is_recording(text):
+        raise ValueError(f"{text!r} is not a rerun recording (an .rrd file starts with {RRD_MAGIC!r})")
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         print(f"no display: view {text} elsewhere with `rerun {text}` (or `python -m rerun {text}`), "
               "or open it at https://app.rerun.io")
@@ -171,68 +369,40 @@ def _check_save_path(path):
     return text
 
 
-def _check_trajectory(t):
-    if not isinstance(t, Trajectory):
-        raise ValueError(f"trajectory must be an ellipsim.app.trajectory.Trajectory, got {type(t).__name__}")
-    figure = np.asarray(t.geom_figure)
-    bad = np.flatnonzero(figure < -1)
-    if len(bad):
-        raise ValueError(f"trajectory.geom_figure[{bad[0]}] must be >= -1, got {figure[bad[0]]}")
-    state = np.asarray(t.state)
-    bad = np.argwhere((state < 0) | (state >= len(STATE_COLORS)))
-    if len(bad):
-        f, g = bad[0]
-        raise ValueError(f"trajectory.state[{f}, {g}] must be 0, 1 or 2, got {state[f, g]}")
-    for name in ("times", "half_sizes", "centers", "quaternions", "contact_pos", "contact_normal"):
-        values = np.asarray(getattr(t, name), dtype=np.float64)
-        bad = np.argwhere(~np.isfinite(values))
-        if len(bad):
-            index = ", ".join(str(i) for i in bad[0])
-            raise ValueError(f"trajectory.{name}[{index}] must be finite, got {values[tuple(bad[0])]}")
+def _body_paths(g):
+    """Entity path of each body: MODEL_PATH for the world, then the kinematic tree of escaped names."""
+    paths = [MODEL_PATH] + [""] * (len(g.body_names) - 1)
+    for b in range(1, len(g.body_names)):  # MuJoCo numbers a parent before its children
+        part = rr.escape_entity_path_part(g.body_names[b])
+        if part == "geoms":  # not to be confused with the geoms of the parent
+            part = f"geoms_{b}"
+        paths[b] = f"{paths[g.body_parent[b]]}/{part}"
+    return paths
 
 
-def _indexes(times):
-    """The two timelines of every per-frame column: "time" (duration) and "frame" (sequence)."""
+def _indexes(times, frames):
+    """The two timelines of per-frame columns: "time" (duration) and "frame" (sequence)."""
     times = np.asarray(times, dtype=np.float64)
     # Whole nanoseconds, rounded: rerun's own float conversion truncates (1/60 s -> 16666666 ns).
     nanos = np.round(times * 1e9).astype(np.int64).astype("timedelta64[ns]")
-    return [rr.TimeColumn("time", duration=nanos), rr.TimeColumn("frame", sequence=np.arange(len(times)))]
+    return [rr.TimeColumn("time", duration=nanos), rr.TimeColumn("frame", sequence=np.asarray(frames, dtype=np.int64))]
 
 
-def _send_geoms(rec, entity, t, geoms, indexes):
-    """One batched Ellipsoids3D for the geoms `geoms` (indices into the G geoms)."""
-    n_frames, n = len(t.times), len(geoms)
-    rec.log(
-        entity,
-        rr.Ellipsoids3D.from_fields(
-            half_sizes=np.asarray(t.half_sizes, dtype=np.float64)[geoms],
-            fill_mode=rr.components.FillMode.Solid,
-            labels=[t.geom_names[g] for g in geoms],
-        ),
-        static=True,
-    )
-    if not n_frames:
-        return
-    centers = np.asarray(t.centers, dtype=np.float64)[:, geoms].reshape(-1, 3)
-    wxyz = np.asarray(t.quaternions, dtype=np.float64)[:, geoms].reshape(-1, 4)
-    xyzw = wxyz[:, [1, 2, 3, 0]]  # MuJoCo (w, x, y, z) -> rerun (x, y, z, w)
-    colors = STATE_COLORS[np.asarray(t.state)[:, geoms].reshape(-1)]
-    columns = rr.Ellipsoids3D.columns(centers=centers, quaternions=xyzw, colors=colors)
-    rec.send_columns(entity, indexes=indexes, columns=columns.partition(np.full(n_frames, n)))
+def _axes_z(quat_wxyz):
+    """Third column (local z axis) of the rotations of quaternions (n, 4) w x y z."""
+    w, x, y, z = np.asarray(quat_wxyz, dtype=np.float64).T
+    return np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
 
 
-def _send_contacts(rec, t, indexes):
-    """Contact points and normals, one partition per frame (empty for frames without contacts)."""
-    n_frames = len(t.times)
-    rec.log(CONTACTS_PATH, rr.Points3D.from_fields(radii=CONTACT_RADIUS, colors=CONTACT_COLOR), static=True)
-    rec.log(NORMALS_PATH, rr.Arrows3D.from_fields(radii=NORMAL_RADIUS, colors=CONTACT_COLOR), static=True)
-    if not n_frames:
-        return
-    frame = np.asarray(t.contact_frame, dtype=np.int64)
-    order = np.argsort(frame, kind="stable")
-    lengths = np.bincount(frame, minlength=n_frames)
-    pos = np.asarray(t.contact_pos, dtype=np.float64).reshape(-1, 3)[order]
-    normal = np.asarray(t.contact_normal, dtype=np.float64).reshape(-1, 3)[order]
-    rec.send_columns(CONTACTS_PATH, indexes=indexes, columns=rr.Points3D.columns(positions=pos).partition(lengths))
-    arrows = rr.Arrows3D.columns(origins=pos, vectors=NORMAL_LENGTH * normal)
-    rec.send_columns(NORMALS_PATH, indexes=indexes, columns=arrows.partition(lengths))
+def _vertex_normals(vertices, triangles):
+    """Unit vertex normals (n, 3): the area-weighted sum of the adjacent faces' normals."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    normals = np.zeros_like(vertices)
+    if len(triangles):
+        a, b, c = (vertices[triangles[:, k]] for k in range(3))
+        face = np.cross(b - a, c - a)
+        for k in range(3):
+            np.add.at(normals, triangles[:, k], face)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)

@@ -1,13 +1,18 @@
-"""Scenarios: what to simulate, read from TOML files (scenarios/*.toml, or any path).
+"""Scenarios: what to simulate, read from TOML files (scenarios/*.toml, or any path), or a user's
+MJCF model given by its path.
 
-A scenario names the scene (oval-limb figures in a layout, or a pile of free ellipsoids), the
-control (scripted position targets: hold, sway, walk, reach, dance, flail, or keyframes), the
-duration and timestep, the collision mode (builtin, filter, narrowphase) and whether it is
-kinematic (poses replayed without physics).  `load` validates every key and raises ScenarioError
-naming the file and the key; simulate.py runs it.
+A scenario names the scene (oval-limb figures in a layout, a pile of free ellipsoids, or an MJCF
+model: `[scene] kind = "mjcf"`, `path` relative to the TOML file), the control (scripted targets:
+hold, sway, walk, reach, dance, flail, or keyframes; they drive actuators by name), the duration and
+timestep, the collision mode (builtin, filter, narrowphase) and whether it is kinematic (poses
+replayed without physics).  `load` validates every key and raises ScenarioError naming the file
+and the key (an unknown key is named as unknown, with the nearest known one); simulate.py runs it.
+An .xml path loads as a scenario of that model: MJCF_DURATION seconds at the model's own timestep,
+from its default pose (or a keyframe), actuators held.
 """
 
 import dataclasses
+import difflib
 import functools
 import math
 import os
@@ -17,10 +22,28 @@ import mujoco
 
 from .. import shipped
 from ..mujoco import scenes
+from .mjcf import CTRL_MODES, one_line
 
 MODES = ("builtin", "filter", "narrowphase")
-SCENES = ("figures", "pile")
+SCENES = ("figures", "pile", "mjcf")
 CONTROLS = ("hold", "sway", "walk", "reach", "dance", "flail", "keyframes")
+
+#: Simulated seconds of `ellipsim run MODEL.xml` without --steps.
+MJCF_DURATION = 2.0
+
+#: Most steps a scenario may ask for (duration / timestep): beyond 2^53 a step count is no longer
+#: an exact float64, and at a microsecond a step it would run for 285 years.
+MAX_STEPS = 2**53
+
+# Keys each table may hold, to name a misspelt one before anything else is checked.
+_TOP_KEYS = ("description", "duration", "timestep", "mode", "kinematic", "gravity", "scene", "control")
+_SCENE_KEYS = {
+    "figures": ("kind", "seed", "figures", "layout", "spacing", "drop_height", "floor", "fixed_roots"),
+    "pile": ("kind", "seed", "ellipsoids", "bin_half_width"),
+    "mjcf": ("kind", "path", "key", "ctrl"),
+}
+_CONTROL_KEYS = ("kind", "amplitude", "period", "phase_step", "seed", "arm", "shoulder_flex", "shoulder_abd",
+                 "shoulder_rot", "elbow", "ramp", "stagger", "keys")  # fmt: skip
 
 
 class ScenarioError(ValueError):
@@ -37,7 +60,7 @@ class Scenario:
     mode: str
     kinematic: bool
     gravity: tuple  # (3,) m/s^2, or () for the model's default
-    scene: dict
+    scene: dict  # kind "mjcf": path (absolute), key (None, int or str), ctrl (one of CTRL_MODES)
     control: dict
 
     @property
@@ -62,9 +85,24 @@ def resolve(name_or_path):
     text = os.fspath(name_or_path)
     if os.path.isfile(text):
         return text
-    if not text.endswith(".toml") and text in available():
+    if not text.endswith((".toml", ".xml")) and text in available():
         return str(_directory() / f"{text}.toml")
-    raise ScenarioError(f"unknown scenario {text!r}; available: {', '.join(available())} (or a path to a .toml file)")
+    if text.endswith(".xml"):
+        raise ScenarioError(f"model {text!r} does not exist or is not a file")
+    if text.endswith(".toml"):
+        raise ScenarioError(f"scenario file {text!r} does not exist or is not a file")
+    raise ScenarioError(
+        f"unknown scenario {text!r}; available: {', '.join(available())} (or a path to a .toml or MJCF .xml file)"
+    )
+
+
+def _unknown(path, prefix, table, known):
+    """ScenarioError naming the first key of `table` not in `known`, and the nearest known key."""
+    unknown = sorted(set(table) - set(known))
+    if unknown:
+        near = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = f"did you mean '{prefix}{near[0]}'? " if near else ""
+        raise ScenarioError(f"{path}: unknown key '{prefix}{unknown[0]}' ({hint}known here: {', '.join(known)})")
 
 
 class _Checker:
@@ -84,12 +122,13 @@ class _Checker:
                 raise ScenarioError(f"{self.path}: missing key '{self.prefix}{key}'")
             return default
         value = self.table[key]
+        what = " or ".join(k.__name__ for k in kind) if isinstance(kind, tuple) else kind.__name__
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         if kind is bool and not isinstance(value, bool) or kind is not bool and isinstance(value, bool):
-            raise self.error(key, f"must be a {kind.__name__}", value)
+            raise self.error(key, f"must be a {what}", value)
         if not isinstance(value, kind):
-            raise self.error(key, f"must be a {kind.__name__}", value)
+            raise self.error(key, f"must be a {what}", value)
         if kind is float and not math.isfinite(value):
             raise self.error(key, "must be finite", value)
         if choices is not None and value not in choices:
@@ -116,8 +155,10 @@ class _Checker:
 
 
 def load(name_or_path):
-    """The Scenario of a name in scenarios/ or of a .toml path, validated."""
+    """The Scenario of a name in scenarios/, of a .toml path, or of an MJCF .xml path, validated."""
     path = resolve(name_or_path)
+    if _is_mjcf(path):
+        return model_scenario(path)
     try:
         with open(path, "rb") as f:
             table = tomllib.load(f)
@@ -127,28 +168,103 @@ def load(name_or_path):
         raise ScenarioError(f"{path}: not UTF-8 text: {exc}") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
+    _unknown(path, "", table, _TOP_KEYS)
     top = _Checker(path, table)
     description = top.get("description", str, "")
     duration = top.get("duration", float, required=True, positive=True)
-    timestep = top.get("timestep", float, required=True, positive=True)
-    if timestep > duration:
-        raise top.error("timestep", f"must not exceed the duration {duration}", timestep)
     mode = top.get("mode", str, "narrowphase", choices=MODES)
     kinematic = top.get("kinematic", bool, False)
     gravity = top.get("gravity", list, [])
     if gravity and (len(gravity) != 3 or not all(isinstance(g, (int, float)) and not isinstance(g, bool) for g in gravity)):
         raise top.error("gravity", "must be a list of three numbers (m/s^2)", gravity)
-    scene = _scene(top.table_of("scene"))
+    scene = _scene(top.table_of("scene"), path)
+    if scene["kind"] == "mjcf":
+        timestep = top.get("timestep", float, None, positive=True)
+        if timestep is None:
+            timestep = _model_timestep(scene["path"], f"{path}: [scene] path")
+    else:
+        timestep = top.get("timestep", float, required=True, positive=True)
+    if timestep > duration:
+        raise top.error("timestep", f"must not exceed the duration {duration}", timestep)
+    if duration / timestep > MAX_STEPS:
+        raise top.error("duration", f"is {duration / timestep:.3g} steps of {timestep:g} s; at most {MAX_STEPS:.3g}", duration)
     if scene["kind"] == "pile" and kinematic:
         raise top.error("kinematic", "must be false for a pile scene (free ellipsoids have no joints to pose)", kinematic)
+    if scene["kind"] == "mjcf" and kinematic:
+        raise top.error(
+            "kinematic", "must be false for an mjcf scene (to pose a model frame by frame: ellipsim replay MODEL MOTION)", kinematic
+        )
     control = _control(top.table_of("control"), kinematic, scene["kind"])
     top.done()
     name = os.path.basename(path)[:-5] if path.endswith(".toml") else os.path.basename(path)
     return Scenario(name, path, description, duration, timestep, mode, kinematic, tuple(float(g) for g in gravity), scene, control)
 
 
-def _scene(c):
+def _is_mjcf(path):
+    """An .xml file, or a file that starts with '<' (XML), is an MJCF model rather than a TOML scenario."""
+    if path.endswith(".xml"):
+        return True
+    if path.endswith(".toml"):
+        return False
+    try:
+        with open(path, "rb") as f:
+            return f.read(64).lstrip().startswith(b"<")
+    except OSError:
+        return False
+
+
+def _model_timestep(path, label):
+    """The timestep of the MJCF model at `path` (parsed, not compiled); ScenarioError naming `label`."""
+    if not os.path.isfile(path):
+        raise ScenarioError(f"{label}: model {path!r} does not exist or is not a file")
+    try:
+        return float(mujoco.MjSpec.from_file(path).option.timestep)
+    except ValueError as exc:
+        raise ScenarioError(f"{label}: MuJoCo cannot read the model {path!r}: {one_line(exc)}") from None
+
+
+def model_scenario(path, *, key=None, ctrl="hold"):
+    """The Scenario of an MJCF model file: MJCF_DURATION seconds at the model's timestep, from
+    keyframe `key` (None: the default pose), actuators held by `ctrl` (mjcf.CTRL_MODES), mode
+    narrowphase.  ScenarioError naming the file when MuJoCo cannot read it."""
+    path = os.path.abspath(os.fspath(path))
+    timestep = _model_timestep(path, path)
+    if not (math.isfinite(timestep) and timestep > 0):
+        raise ScenarioError(f"{path}: the model's timestep must be positive, got {timestep!r}")
+    name = os.path.splitext(os.path.basename(path))[0]
+    scene = {"kind": "mjcf", "path": path, "key": key, "ctrl": ctrl}
+    return Scenario(name, path, f"MJCF model {path}", max(MJCF_DURATION, timestep), timestep, "narrowphase", False, (),
+                    scene, {"kind": "hold"})  # fmt: skip
+
+
+def with_model_options(s, *, key=None, ctrl=None):
+    """Scenario `s` with the keyframe and the held controls of its model replaced (those given);
+    ScenarioError when `s` is not of an MJCF model or `ctrl` is not one of CTRL_MODES."""
+    if key is None and ctrl is None:
+        return s
+    if s.scene["kind"] != "mjcf":
+        option = "--key" if key is not None else "--ctrl"
+        raise ScenarioError(f"{option} applies to MJCF models; scenario {s.name!r} builds a {s.scene['kind']} scene")
+    if ctrl is not None and ctrl not in CTRL_MODES:
+        raise ScenarioError(f"ctrl must be one of {CTRL_MODES}, got {ctrl!r}")
+    scene = dict(s.scene)
+    if key is not None:
+        scene["key"] = key
+    if ctrl is not None:
+        scene["ctrl"] = ctrl
+    return dataclasses.replace(s, scene=scene)
+
+
+def _scene(c, path):
     kind = c.get("kind", str, "figures", choices=SCENES)
+    _unknown(c.path, c.prefix, c.table, _SCENE_KEYS[kind])
+    if kind == "mjcf":
+        model = c.get("path", str, required=True)
+        model = os.path.join(os.path.dirname(os.path.abspath(path)), os.path.expanduser(model))
+        key = c.get("key", (int, str), None)
+        out = {"kind": kind, "path": os.path.normpath(model), "key": key, "ctrl": c.get("ctrl", str, "hold", choices=CTRL_MODES)}
+        c.done()
+        return out
     out = {"kind": kind, "seed": c.get("seed", int, 0)}
     if out["seed"] < 0:
         raise c.error("seed", "must be non-negative", out["seed"])
@@ -167,6 +283,7 @@ def _scene(c):
 
 
 def _control(c, kinematic, scene_kind):
+    _unknown(c.path, c.prefix, c.table, _CONTROL_KEYS)
     kind = c.get("kind", str, "hold", choices=CONTROLS)
     if kinematic and kind != "keyframes":
         raise c.error("kind", "must be 'keyframes' for a kinematic scenario", kind)
@@ -203,7 +320,7 @@ def _control(c, kinematic, scene_kind):
             unknown = set(k) - {"t", "joints"}
             if unknown:
                 raise c.error(f"keys[{i}]", f"has unknown key {sorted(unknown)[0]!r}", k)
-            for j in joints:
+            for j in joints if scene_kind == "figures" else ():  # a model's actuators: checked when built
                 if j not in _figure_joints():
                     raise ScenarioError(
                         f"{c.path}: key '{c.prefix}keys[{i}].joints' names unknown joint {j!r}; "

@@ -1,7 +1,10 @@
-"""Running a scenario: build its model, drive it (or pose it, when kinematic), keep the frames.
+"""Running a scenario: build its model, drive it (or pose it, when kinematic), decide its frames.
 
-`run` returns a Run whose Trajectory record.py writes and the CLI summarises; `validation` steps
-the scenario under mujoco.validate (MuJoCo's contacts against the exact test, pair by pair).
+`run` steps a scenario, hands a frame every 1/RECORD_FPS simulated seconds to a capture.FrameBuffer
+(ellipsim's exact verdicts, a chunk of frames at a time) and each decided chunk to an optional
+record.Recorder.  It keeps a few counts per frame (and, with keep=True, the ellipsoids' centres and
+states), so its memory does not grow with the number of steps beyond that.  `validation` steps the
+scenario under mujoco.validate (MuJoCo's contacts against the exact test, pair by pair).
 """
 
 import contextlib
@@ -11,156 +14,251 @@ import time
 import mujoco
 import numpy as np
 
-from ..core.broadphase import classify_frames
-from ..core.relation import Relation
-from ..core.rotations import rotations_to_quaternions
 from ..mujoco import scenes
 from ..mujoco.attachment import attach
-from ..mujoco.geoms import ellipsoid_geoms
 from ..mujoco.validate import validate
+from . import capture, limits, mjcf
 from .control import Controller
 from .scenario import MODES, Scenario, ScenarioError
-from .trajectory import Trajectory
 
 RECORD_FPS = 60.0  # frames per simulated second kept for recording and comparison
 
+#: Bytes a run keeps per recorded frame: time and four counts (8 bytes each).
+BYTES_PER_FRAME = 40
+#: Bytes `validation` keeps per step: four pair counts and the contact count (8 bytes each).
+BYTES_PER_VALIDATED_STEP = 40
+
+
+def _label(s):
+    """How errors name the scenario's scene: its file, and the [scene] table for a TOML scenario."""
+    return s.path if s.scene["kind"] == "mjcf" and s.path == s.scene["path"] else f"{s.path}: [scene]"
+
 
 def build(s):
-    """(model, data) of a scenario, with its timestep and gravity, at the initial state.
+    """(model, data) of a scenario with its timestep and gravity, at the initial state, data.ctrl
+    holding it (an MJCF model: its keyframe or default pose, controls per its scene's ctrl).
 
-    A scene the figures module refuses (e.g. a spacing too small for the layout) raises
-    ScenarioError naming the file.
+    A scene the model builder refuses (e.g. a spacing too small for the layout, more figures than
+    memory allows) or a model MuJoCo refuses raises ScenarioError naming the file.
     """
     sc = s.scene
+    label = _label(s)
     try:
-        if sc["kind"] == "figures":
-            xml = scenes.scene_xml(
-                sc["figures"], layout=sc["layout"], spacing=sc["spacing"], seed=sc["seed"],
-                drop_height=sc["drop_height"], floor=sc["floor"], fixed_roots=sc["fixed_roots"],
-            )  # fmt: skip
+        if sc["kind"] == "mjcf":
+            model = mjcf.load_model(sc["path"])
         else:
-            xml = scenes.pile_xml(sc["ellipsoids"], seed=sc["seed"], bin_half_width=sc["bin_half_width"])
+            if sc["kind"] == "figures":
+                _check_figures(sc["figures"])
+                xml = scenes.scene_xml(
+                    sc["figures"], layout=sc["layout"], spacing=sc["spacing"], seed=sc["seed"],
+                    drop_height=sc["drop_height"], floor=sc["floor"], fixed_roots=sc["fixed_roots"],
+                )  # fmt: skip
+            else:
+                xml = scenes.pile_xml(sc["ellipsoids"], seed=sc["seed"], bin_half_width=sc["bin_half_width"])
+            model = mujoco.MjModel.from_xml_string(xml)
+        model.opt.timestep = s.timestep
+        if s.gravity:
+            model.opt.gravity[:] = s.gravity
+        data = mjcf.make_data(model, label)
+        if sc["kind"] == "mjcf":
+            key = mjcf.keyframe(model, sc["key"], label)
+            mjcf.start(model, data, key, sc["ctrl"], label)
+    except mjcf.ModelError as exc:
+        raise ScenarioError(str(exc) if str(exc).startswith(label) else f"{label} {exc}") from None
     except ValueError as exc:
-        raise ScenarioError(f"{s.path}: [scene] {exc}") from None
-    model = mujoco.MjModel.from_xml_string(xml)
-    model.opt.timestep = s.timestep
-    if s.gravity:
-        model.opt.gravity[:] = s.gravity
-    return model, mujoco.MjData(model)
+        raise ScenarioError(f"{label} {exc}") from None
+    return model, data
+
+
+def _check_figures(n):
+    """ValueError when MuJoCo's arena for n figures (scenes.scene_memory) exceeds the memory available."""
+    need = scenes.scene_memory(n)
+    available = limits.available_memory()
+    if available is not None and need > available:
+        most = 1
+        while scenes.scene_memory(2 * most) <= available:
+            most *= 2
+        step = most
+        while step > 1:  # the largest count that fits, by bisection
+            step //= 2
+            if scenes.scene_memory(most + step) <= available:
+                most += step
+        raise ValueError(
+            f"figures = {n} needs {limits.gigabytes(need)} of MuJoCo arena (its broad phase takes "
+            f"{scenes.ARENA_PER_BODY_PAIR} bytes per pair of the model's {len(scenes.LIMBS) * n + 1} bodies), more than "
+            f"the {limits.gigabytes(available)} of memory available: at most {most} figures here"
+        )
+
+
+def controller(model, data, s):
+    """The scenario's Controller about data.ctrl (build's held controls); ScenarioError naming the
+    file when the control does not fit the model."""
+    try:
+        return Controller(model, s.control, base=data.ctrl.copy())
+    except ValueError as exc:
+        raise ScenarioError(f"{s.path}: [control] {exc}") from None
+
+
+@dataclasses.dataclass
+class FrameCounts:
+    """Per recorded frame (F,): time (s), MuJoCo's contacts between ellipsoid geoms, pairs ellipsim
+    finds overlapping and touching, all of MuJoCo's contacts."""
+
+    times: np.ndarray
+    builtin_counts: np.ndarray
+    ellipsim_counts: np.ndarray
+    touching_counts: np.ndarray
+    contact_counts: np.ndarray
+
+
+@dataclasses.dataclass
+class Kept:
+    """The ellipsoids of every recorded frame, kept by run(..., keep=True): geom_names (g,),
+    centers (F, g, 3) metres, state (F, g) int8 (0 free, 1 touching, 2 overlapping)."""
+
+    geom_names: list
+    centers: np.ndarray
+    state: np.ndarray
 
 
 @dataclasses.dataclass
 class Run:
-    """What `run` returns: the recorded frames and a summary."""
+    """What `run` returns.
+
+    seconds : wall time of stepping alone (mj_step or the kinematic poses, and copying frames out)
+    analysis_seconds : wall time of ellipsim's verdicts on the recorded frames (broad phase, classify)
+    record_seconds : wall time of sending frames to the recording
+    """
 
     scenario: Scenario
     mode: str
     steps: int
-    seconds: float  # wall time of the stepping loop
-    frames: Trajectory
+    seconds: float
+    analysis_seconds: float
+    record_seconds: float
+    frames: FrameCounts
     counters: dict  # ellipsim's per-data counters (filter or narrowphase), or {}
-    mujoco_contacts: np.ndarray  # (steps,) all contacts MuJoCo made per step
+    contacts_mean: float  # all of MuJoCo's contacts per step
+    contacts_max: int
+    kept: Kept = None
 
 
-def _frames(s, model, ids, radii, allowed, times, centers, rotations, contacts, builtin):
-    """contacts: (frame (N,) int64, pos (N, 3), normal (N, 3)) of the recorded ellipsoid contacts."""
-    pairs, relation = classify_frames(centers, rotations, radii, allowed)
-    F, g = centers.shape[:2]
-    state = np.zeros((F, g), dtype=np.int8)
-    if len(pairs):
-        f, i, j = pairs.T
-        np.maximum.at(state, (f, i), relation)
-        np.maximum.at(state, (f, j), relation)
-    overlaps = np.bincount(pairs[relation == Relation.OVERLAPPING, 0], minlength=F) if len(pairs) else np.zeros(F, int)
-    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, int(k)) or f"geom{k}" for k in ids]
-    figure = np.array([int(n.split("_")[0][1:]) if n.startswith("f") and n.split("_")[0][1:].isdigit() else -1 for n in names])
-    cf, pos, normal = contacts
-    return Trajectory(
-        scenario=s.name, times=np.asarray(times), geom_names=names, geom_figure=figure, half_sizes=radii,
-        centers=centers, quaternions=rotations_to_quaternions(rotations), state=state,
-        contact_frame=cf, contact_pos=pos, contact_normal=normal,
-        builtin_counts=np.asarray(builtin, dtype=np.int64), ellipsim_counts=overlaps.astype(np.int64),
-    )  # fmt: skip
+def recorded_frames(s, steps):
+    """How many frames `run` records in `steps` steps of scenario `s`."""
+    every = _every(s)
+    return (steps + every - 1) // every
 
 
-def _ellipsoid_contacts(data, keep):
-    """Positions (m, 3) and normals (m, 3) of MuJoCo's contacts in data between two geoms marked
-    in `keep` (ngeom,) bool, in MuJoCo's order; the normal is the first row of the contact frame."""
-    con = data.contact
-    both = keep[con.geom].all(axis=1)
-    return con.pos[both], con.frame[both, :3]
+def _every(s):
+    return 1 if s.kinematic else max(1, int(round(1.0 / (RECORD_FPS * s.timestep))))
 
 
-def run(s, *, steps=None, mode=None, progress=None):
+def check_steps(s, steps):
+    """ValueError when `steps` is not a positive int or the counts `run` keeps for it would not fit
+    in the memory available."""
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be a positive integer, got {steps!r}")
+    frames = recorded_frames(s, steps)
+    limits.check_fits(frames * BYTES_PER_FRAME, f"{steps} steps ({frames} recorded frames of counts)")
+
+
+def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False):
     """Simulate a scenario (or replay it, when kinematic); returns a Run.
 
     steps : number of steps (default: the scenario's duration); mode : overrides the scenario's.
     progress : optional callable(step, steps).
+    recorder : optional record.Recorder; it is begun with the model's geometry and sent every chunk
+        of frames (closing it is the caller's).
+    keep : also keep the ellipsoids' centres and states of every recorded frame (Run.kept).
+    ScenarioError for a scene or model that cannot be built or run (MuJoCo out of memory included).
     """
     mode = mode or s.mode
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     steps = s.steps if steps is None else steps
-    if not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ValueError(f"steps must be a positive integer, got {steps!r}")
+    check_steps(s, steps)
     model, data = build(s)
-    ids, radii, allowed = ellipsoid_geoms(model)
-    control = Controller(model, s.control)
-    keep = np.zeros(model.ngeom, dtype=bool)
-    keep[ids] = True
-    every = 1 if s.kinematic else max(1, int(round(1.0 / (RECORD_FPS * s.timestep))))
-    times, centers, rotations, builtin = [], [], [], []
-    contact_frame, contact_pos, contact_normal = [], [], []
-    ncon = np.zeros(steps, dtype=np.int64)
-    counters = {}
+    control = controller(model, data, s)
+    buffer = capture.FrameBuffer(model, record=recorder is not None)
+    if recorder is not None:
+        recorder.begin(capture.geometry(model, s.name))
+    every = _every(s)
+    chunks, kept = [], []
+    timers = {"analysis": 0.0, "record": 0.0}
+
+    def flush():
+        t0 = time.perf_counter()
+        chunk = buffer.flush()
+        t1 = time.perf_counter()
+        timers["analysis"] += t1 - t0
+        if chunk is None:
+            return
+        f = chunk.frames
+        chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
+        if keep:
+            kept.append((chunk.centers.copy(), f.state))
+        if recorder is not None:
+            recorder.write(f)
+            timers["record"] += time.perf_counter() - t1
+
+    ncon_sum, ncon_max = 0, 0
     att = attach(model, data, mode=mode) if mode != "builtin" and not s.kinematic else None
     with att if att else contextlib.nullcontext():
         t0 = time.perf_counter()  # after attaching: the first attach compiles the callback
         for k in range(steps):
-            if s.kinematic:  # pose from the keyframes, then forward kinematics and MuJoCo's collision
-                t = k * s.timestep
-                data.qpos[control.qadr] = control(t)
-                data.time = t
-                mujoco.mj_forward(model, data)
-            else:
-                data.ctrl[:] = control(data.time)
-                mujoco.mj_step(model, data)
-            ncon[k] = data.ncon
-            if k % every == 0:
-                frame = len(times)
-                times.append(data.time)
-                centers.append(data.geom_xpos[ids].copy())
-                rotations.append(data.geom_xmat[ids].reshape(-1, 3, 3).copy())
-                pos, normal = _ellipsoid_contacts(data, keep)
-                contact_frame.append(np.full(len(pos), frame, dtype=np.int64))
-                contact_pos.append(pos)
-                contact_normal.append(normal)
-                builtin.append(len(pos))
+            try:
+                if s.kinematic:  # pose from the keyframes, then forward kinematics and MuJoCo's collision
+                    t = k * s.timestep
+                    data.qpos[control.qadr] = control(t)
+                    data.time = t
+                    mujoco.mj_forward(model, data)
+                else:
+                    data.ctrl[:] = control(data.time)
+                    mujoco.mj_step(model, data)
+            except mujoco.FatalError as exc:
+                raise ScenarioError(f"{_label(s)} MuJoCo stopped at step {k}: {mjcf.one_line(exc)}") from None
+            ncon_sum += data.ncon
+            ncon_max = max(ncon_max, data.ncon)
+            if k % every == 0 and buffer.add(data, data.time):
+                flush()
             if progress is not None:
                 progress(k + 1, steps)
-        seconds = time.perf_counter() - t0
-    if att:
-        counters = att.counters
-    contacts = (np.concatenate(contact_frame), np.concatenate(contact_pos), np.concatenate(contact_normal))
-    frames = _frames(s, model, ids, radii, allowed, times, np.array(centers), np.array(rotations), contacts, builtin)
-    return Run(s, mode, steps, seconds, frames, counters, ncon)
+        flush()
+        total = time.perf_counter() - t0
+    counters = att.counters if att else {}
+    frames = FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
+    kept_frames = None
+    if keep:
+        names = capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
+        kept_frames = Kept([names[g] for g in buffer.ids], np.concatenate([c for c, _ in kept]),
+                           np.concatenate([st for _, st in kept]))  # fmt: skip
+    seconds = total - timers["analysis"] - timers["record"]
+    return Run(s, mode, steps, seconds, timers["analysis"], timers["record"], frames, counters,
+               ncon_sum / steps, int(ncon_max), kept_frames)  # fmt: skip
 
 
 def validation(s, steps=None, progress=None):
     """mujoco.validate on the scenario: its model, its controls (or keyframed poses), `steps` steps."""
-    model, data = build(s)
-    control = Controller(model, s.control)
     steps = s.steps if steps is None else steps
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be a positive integer, got {steps!r}")
+    limits.check_fits(steps * BYTES_PER_VALIDATED_STEP, f"{steps} steps of pair counts")
+    model, data = build(s)
+    control = controller(model, data, s)
     if s.kinematic:
 
         def pose(m, d, k):
             d.time = k * s.timestep
             d.qpos[control.qadr] = control(d.time)
 
-        return validate(model, data, steps, control=pose, advance=False, progress=progress), model
+        step, advance = pose, False
+    else:
 
-    def apply(m, d, k):
-        d.ctrl[:] = control(d.time)
+        def step(m, d, k):
+            d.ctrl[:] = control(d.time)
 
-    return validate(model, data, steps, control=apply, progress=progress), model
-
+        advance = True
+    try:
+        return validate(model, data, steps, control=step, advance=advance, progress=progress), model
+    except mujoco.FatalError as exc:
+        raise ScenarioError(f"{_label(s)} MuJoCo stopped: {mjcf.one_line(exc)}") from None

@@ -1,57 +1,146 @@
-"""What a run produces for recording and comparison: poses, ellipsim states and contacts per frame.
+"""What a run or a replay produces, for recording and summaries: the model's shapes once, then
+frames in chunks (body poses, ellipsim's verdicts, MuJoCo's contacts, counts).
 
-The simulation (scenario.py) fills a Trajectory; record.py turns it into rerun calls.  Nothing here
-knows about MuJoCo or rerun.
+simulate.py and replay.py fill these from MuJoCo; record.py turns them into rerun calls; nothing
+here knows about MuJoCo or rerun.  A run hands frames over a chunk at a time, so that memory is
+bounded by the chunk, not by the number of steps.
 """
 
 import dataclasses
 
 import numpy as np
 
+#: Geom kinds, indexed by MuJoCo's mjtGeom code (mjGEOM_PLANE = 0 ... mjGEOM_MESH = 7).
+GEOM_KINDS = ("plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh")
+
+
+def _check_shapes(obj, shapes):
+    for name, shape in shapes.items():
+        got = np.shape(getattr(obj, name))
+        if got != shape:
+            raise ValueError(f"{type(obj).__name__}.{name} must have shape {shape}, got {got}")
+
 
 @dataclasses.dataclass
-class Trajectory:
-    """F frames of G ellipsoids (ellipsoid and sphere geoms), with K contacts in all.
+class SceneGeometry:
+    """The static part of a model: B bodies (body 0 is the world), G geoms, g of them tested by ellipsim.
 
-    times : (F,) float64 seconds
+    name : the scenario or model, for the recording's name
+    body_names : list of B str (unique, non-empty)
+    body_parent : (B,) int64, parent body (the world's is 0)
+    body_pos, body_quat : (B, 3) metres, (B, 4) unit w x y z: pose relative to the parent body;
+        exact for bodies that are not in `moving`, the rest pose for those that are
+    moving : (M,) int64 bodies whose pose relative to their parent changes (joints, mocap), sorted
     geom_names : list of G str
-    geom_figure : (G,) int64, figure index of each geom, -1 for ellipsoids that belong to no figure
-    half_sizes : (G, 3) float64 semi-axes, metres (a sphere: r, r, r)
-    centers : (F, G, 3) float64, metres
-    quaternions : (F, G, 4) float64, unit, MuJoCo's (w, x, y, z) order
-    state : (F, G) int8, per ellipsim: 0 free, 1 touching, 2 overlapping (the worst over its pairs)
-    contact_frame : (K,) int64, frame of each contact (MuJoCo's contacts between these geoms)
-    contact_pos : (K, 3) float64, metres
-    contact_normal : (K, 3) float64, unit
-    builtin_counts : (F,) int64, MuJoCo's contacts between these geoms per frame
-    ellipsim_counts : (F,) int64, pairs ellipsim classifies overlapping per frame
-    scenario : name of the scenario
+    geom_body : (G,) int64
+    geom_kind : (G,) int64, index into GEOM_KINDS
+    geom_size : (G, 3) MuJoCo's geom_size, metres
+    geom_pos, geom_quat : (G, 3), (G, 4) w x y z: pose in the body's frame
+    geom_rgba : (G, 4) float in [0, 1]: the MJCF colour (the material's when the geom has none)
+    meshes : {geom index: (vertices (n, 3) metres in the geom's frame, triangles (m, 3) int)} for
+        every mesh, height field and plane geom (a plane: a finite square of its drawn size)
+    ellipsoids : (g,) int64 geoms ellipsim tests (ellipsoid and sphere geoms), sorted
     """
 
-    times: np.ndarray
+    name: str
+    body_names: list
+    body_parent: np.ndarray
+    body_pos: np.ndarray
+    body_quat: np.ndarray
+    moving: np.ndarray
     geom_names: list
-    geom_figure: np.ndarray
-    half_sizes: np.ndarray
-    centers: np.ndarray
-    quaternions: np.ndarray
+    geom_body: np.ndarray
+    geom_kind: np.ndarray
+    geom_size: np.ndarray
+    geom_pos: np.ndarray
+    geom_quat: np.ndarray
+    geom_rgba: np.ndarray
+    meshes: dict
+    ellipsoids: np.ndarray
+
+    def __post_init__(self):
+        B, G = len(self.body_names), len(self.geom_names)
+        _check_shapes(self, {
+            "body_parent": (B,), "body_pos": (B, 3), "body_quat": (B, 4), "geom_body": (G,), "geom_kind": (G,),
+            "geom_size": (G, 3), "geom_pos": (G, 3), "geom_quat": (G, 4), "geom_rgba": (G, 4),
+        })  # fmt: skip
+        if B < 1:
+            raise ValueError("SceneGeometry.body_names must hold at least the world body")
+        for name, values, top in (("body_parent", self.body_parent, B), ("moving", self.moving, B),
+                                  ("geom_body", self.geom_body, B), ("ellipsoids", self.ellipsoids, G),
+                                  ("geom_kind", self.geom_kind, len(GEOM_KINDS))):  # fmt: skip
+            values = np.asarray(values)
+            bad = np.flatnonzero((values < 0) | (values >= top))
+            if len(bad):
+                raise ValueError(f"SceneGeometry.{name}[{bad[0]}] must be in [0, {top}), got {values[bad[0]]}")
+        if len(set(self.body_names)) != B or not all(self.body_names):
+            raise ValueError("SceneGeometry.body_names must be unique and non-empty")
+
+
+@dataclasses.dataclass
+class Frames:
+    """f consecutive frames of a SceneGeometry's M moving bodies and g ellipsim geoms, K contacts.
+
+    frame : (f,) int64, frame numbers (consecutive, from 0 for the first chunk of a run)
+    times : (f,) float64 seconds
+    body_pos, body_quat : (f, M, 3), (f, M, 4) w x y z: pose of each moving body relative to its parent
+    state : (f, g) int8, per ellipsim: 0 free, 1 touching, 2 overlapping (the worst over its pairs)
+    contact_frame : (K,) int64 frame number of each of MuJoCo's contacts (every geom pair type)
+    contact_pos, contact_normal : (K, 3) metres, (K, 3) unit (first row of MuJoCo's contact frame)
+    contact_ellipsoids : (K,) bool, the contact is between two geoms ellipsim tests
+    builtin_counts : (f,) int64, MuJoCo's contacts between two geoms ellipsim tests
+    ellipsim_counts : (f,) int64, pairs ellipsim classifies overlapping
+    touching_counts : (f,) int64, pairs ellipsim classifies touching
+    contact_counts : (f,) int64, all of MuJoCo's contacts
+    """
+
+    frame: np.ndarray
+    times: np.ndarray
+    body_pos: np.ndarray
+    body_quat: np.ndarray
     state: np.ndarray
     contact_frame: np.ndarray
     contact_pos: np.ndarray
     contact_normal: np.ndarray
+    contact_ellipsoids: np.ndarray
     builtin_counts: np.ndarray
     ellipsim_counts: np.ndarray
-    scenario: str = ""
+    touching_counts: np.ndarray
+    contact_counts: np.ndarray
 
-    def __post_init__(self):
-        F, G = len(self.times), len(self.geom_names)
-        shapes = {
-            "geom_figure": (G,), "half_sizes": (G, 3), "centers": (F, G, 3), "quaternions": (F, G, 4),
-            "state": (F, G), "contact_pos": (len(self.contact_frame), 3),
-            "contact_normal": (len(self.contact_frame), 3), "builtin_counts": (F,), "ellipsim_counts": (F,),
-        }  # fmt: skip
-        for name, shape in shapes.items():
-            got = np.shape(getattr(self, name))
-            if got != shape:
-                raise ValueError(f"{name} must have shape {shape}, got {got}")
-        if len(self.contact_frame) and not (0 <= np.min(self.contact_frame) and np.max(self.contact_frame) < F):
-            raise ValueError(f"contact_frame must index the {F} frames, got values in [{np.min(self.contact_frame)}, {np.max(self.contact_frame)}]")
+    def __len__(self):
+        return len(self.frame)
+
+    def check(self, geometry):
+        """ValueError naming the field when the shapes do not fit `geometry` or values are not finite."""
+        f, M, g, K = len(self.frame), len(geometry.moving), len(geometry.ellipsoids), len(self.contact_frame)
+        _check_shapes(self, {
+            "times": (f,), "body_pos": (f, M, 3), "body_quat": (f, M, 4), "state": (f, g), "contact_pos": (K, 3),
+            "contact_normal": (K, 3), "contact_ellipsoids": (K,), "builtin_counts": (f,), "ellipsim_counts": (f,),
+            "touching_counts": (f,), "contact_counts": (f,),
+        })  # fmt: skip
+        if f and np.any(np.diff(self.frame) != 1):
+            raise ValueError("Frames.frame must be consecutive frame numbers")
+        if K and not np.isin(self.contact_frame, self.frame).all():
+            bad = np.flatnonzero(~np.isin(self.contact_frame, self.frame))[0]
+            raise ValueError(f"Frames.contact_frame[{bad}] must be one of the chunk's frames, got {self.contact_frame[bad]}")
+        state = np.asarray(self.state)
+        bad = np.argwhere((state < 0) | (state > 2))
+        if len(bad):
+            raise ValueError(f"Frames.state[{bad[0][0]}, {bad[0][1]}] must be 0, 1 or 2, got {state[tuple(bad[0])]}")
+        for name in ("times", "body_pos", "body_quat", "contact_pos", "contact_normal"):
+            values = np.asarray(getattr(self, name), dtype=np.float64)
+            bad = np.argwhere(~np.isfinite(values))
+            if len(bad):
+                index = ", ".join(str(i) for i in bad[0])
+                raise ValueError(f"Frames.{name}[{index}] must be finite, got {values[tuple(bad[0])]}")
+
+
+def concatenate(chunks):
+    """One Frames of consecutive chunks (for tests and small runs kept in memory)."""
+    if not chunks:
+        raise ValueError("chunks must hold at least one Frames")
+    fields = {}
+    for field in dataclasses.fields(Frames):
+        fields[field.name] = np.concatenate([getattr(c, field.name) for c in chunks])
+    return Frames(**fields)

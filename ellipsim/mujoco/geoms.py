@@ -3,11 +3,17 @@
 import mujoco
 import numpy as np
 
+from ..core.broadphase import sweep_and_prune
 from ..core.ellipsoids import Ellipsoids
 from .attachment import Attachment, check_model_data
 from .callbacks import ELLIPSOID, SPHERE
 
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
+_FILTERPARENT = int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+
+#: Bounding spheres of the broad phase are the largest semi-axis times this (one part in 1e9 more,
+#: so that rounding in the sphere test never drops a pair whose ellipsoids touch).
+_SPHERE_SLACK = 1 + 1e-9
 
 
 def pair_margins(model, pairs):
@@ -53,23 +59,78 @@ def candidate_pairs(model, data):
         return np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
 
 
-def ellipsoid_geoms(model):
-    """Ellipsoid and sphere geoms, their semi-axes (g, 3), and which pairs may collide (g, g) bool:
-    MuJoCo's own rules (contype/conaffinity, not the same body, not parent and child, <exclude>)."""
-    ids = np.flatnonzero((model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID) | (model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE))
-    radii = model.geom_size[ids].copy()
-    sphere = model.geom_type[ids] == mujoco.mjtGeom.mjGEOM_SPHERE
-    radii[sphere] = radii[sphere, :1]
-    body = model.geom_bodyid[ids]
-    ct, ca = model.geom_contype[ids], model.geom_conaffinity[ids]
-    allowed = ((ct[:, None] & ca[None, :]) != 0) | ((ct[None, :] & ca[:, None]) != 0)
-    weld = model.body_weldid[body]
-    parent = model.body_weldid[model.body_parentid[model.body_weldid[body]]]
-    allowed &= weld[:, None] != weld[None, :]
-    allowed &= ~((weld[:, None] == parent[None, :]) | (parent[:, None] == weld[None, :])) | (weld[:, None] == 0) | (weld[None, :] == 0)
-    for k in range(model.nexclude):
-        sig = model.exclude_signature[k]
+class PairRules:
+    """MuJoCo's rules for which pairs of the geoms `ids` may collide, tested pair by pair.
+
+    The rules of engine_collision_driver.c: geom contype/conaffinity (`(ct1 & ca2) || (ct2 & ca1)`),
+    not in one weld group (same body, or bodies welded together), not parent and child weld groups
+    unless one is the world (filterparent, unless mjDSBL_FILTERPARENT), no <exclude> of the two
+    bodies.  Memory is linear in len(ids) and the excludes: no (g, g) matrix (500 figures have
+    7500 geoms: a matrix of them is 56 MB and took minutes to build with one pass per exclude).
+    """
+
+    def __init__(self, model, ids):
+        ids = np.asarray(ids, dtype=np.intp)
+        body = model.geom_bodyid[ids]
+        self.contype = model.geom_contype[ids].copy()
+        self.conaffinity = model.geom_conaffinity[ids].copy()
+        self.body = body.astype(np.int64)
+        self.weld = model.body_weldid[body].astype(np.int64)
+        self.parent_weld = model.body_weldid[model.body_parentid[self.weld]].astype(np.int64)
+        self.filter_parent = not (model.opt.disableflags & _FILTERPARENT)
+        self.nbody = int(model.nbody)
+        sig = model.exclude_signature.astype(np.int64)
         b1, b2 = sig >> 16, sig & 0xFFFF
-        allowed &= ~(((body[:, None] == b1) & (body[None, :] == b2)) | ((body[:, None] == b2) & (body[None, :] == b1)))
-    np.fill_diagonal(allowed, False)
-    return ids, radii, allowed
+        self.excluded = np.unique(np.minimum(b1, b2) * self.nbody + np.maximum(b1, b2))
+
+    def __len__(self):
+        return len(self.body)
+
+    def allowed(self, i, j):
+        """(k,) bool: may geoms ids[i] and ids[j] collide?  i, j : (k,) indices into `ids`."""
+        i, j = np.asarray(i, dtype=np.intp), np.asarray(j, dtype=np.intp)
+        ok = ((self.contype[i] & self.conaffinity[j]) != 0) | ((self.contype[j] & self.conaffinity[i]) != 0)
+        wi, wj = self.weld[i], self.weld[j]
+        ok &= wi != wj
+        if self.filter_parent:
+            ok &= ~((wi == self.parent_weld[j]) | (self.parent_weld[i] == wj)) | (wi == 0) | (wj == 0)
+        if len(self.excluded):
+            bi, bj = self.body[i], self.body[j]
+            key = np.minimum(bi, bj) * self.nbody + np.maximum(bi, bj)
+            at = np.minimum(np.searchsorted(self.excluded, key), len(self.excluded) - 1)
+            ok &= self.excluded[at] != key
+        return ok
+
+    def matrix(self):
+        """(g, g) bool of `allowed` for every pair, False on the diagonal (for small g: it is g^2 bytes)."""
+        i, j = np.indices((len(self), len(self))).reshape(2, -1)
+        out = self.allowed(i, j).reshape(len(self), len(self))
+        np.fill_diagonal(out, False)
+        return out
+
+
+def ellipsoid_geoms(model):
+    """The geoms ellipsim tests: ellipsoid and sphere geoms ids (g,), their semi-axes (g, 3) (a sphere:
+    r, r, r), and MuJoCo's rules for which of their pairs may collide (a PairRules over ids)."""
+    ids = np.flatnonzero((model.geom_type == ELLIPSOID) | (model.geom_type == SPHERE))
+    radii = model.geom_size[ids].copy()
+    sphere = model.geom_type[ids] == SPHERE
+    radii[sphere] = radii[sphere, :1]
+    return ids, radii, PairRules(model, ids)
+
+
+def frame_pairs(centers, radii, rules):
+    """Pairs (frame, i, j), i < j, of every frame whose bounding spheres overlap and that `rules`
+    allow: (P, 3) int64, sorted by frame.
+
+    centers : (F, g, 3) metres; radii : (g, 3) semi-axes; rules : PairRules over the same g geoms.
+    Sweep and prune per frame (core.broadphase) with no pair filter (a broadcast True, no (g, g)
+    matrix), then MuJoCo's rules on the pairs it found, vectorised.
+    """
+    centers = np.ascontiguousarray(centers, dtype=np.float64)
+    g = centers.shape[1]
+    if g < 2 or len(centers) == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    rho = np.ascontiguousarray(radii.max(axis=1) * _SPHERE_SLACK)
+    pairs = sweep_and_prune(centers, rho, np.broadcast_to(np.True_, (g, g)))
+    return pairs[rules.allowed(pairs[:, 1], pairs[:, 2])]

@@ -78,6 +78,16 @@ _COIL_PITCH = 0.25
 _COIL_TILT = 20.0
 _CHAIN_CLEARANCE = 0.05
 
+#: MuJoCo's memory arena for scene_xml (<size memory>), bytes.  Its broad phase takes 4 bytes per
+#: pair of bodies (measured with mujoco 4.0: maxuse_arena 4.0 nbody^2 for 25-250 standing figures;
+#: at 1000 figures mj_broadphase alone requests 2 nbody^2 = 450 MB); contacts and constraints up to
+#: 1 MB per figure (a heap of 48 figures used 0.13 MB each); 16 MB for the rest (MuJoCo's own
+#: default for one figure).  MuJoCo's default instead grows too fast: 8.6 GB at 500 figures, and at
+#: 1000 it cannot be allocated.
+ARENA_PER_BODY_PAIR = 4
+ARENA_PER_FIGURE = 1 << 20
+ARENA_BASE = 16 << 20
+
 #: Most links chain_xml builds: each link nests one body deeper, and MuJoCo's XML parser (tinyxml2)
 #: refuses elements nested deeper than 500 (measured with mujoco 4.0: 496 links compile, 497 do not).
 MAX_LINKS = 400
@@ -141,6 +151,12 @@ def _placed_extents(quat):
     axes = np.einsum("ij,gjk->gik", turn, rotations)
     half = np.sqrt(np.einsum("gik,gk->gi", axes**2, radii**2))  # support of an ellipsoid along e_i
     return centres - half, centres + half
+
+
+def scene_memory(n_figures):
+    """Bytes of MuJoCo arena scene_xml gives a model of `n_figures` figures (see ARENA_PER_BODY_PAIR)."""
+    nbody = len(LIMBS) * int(n_figures) + 1
+    return ARENA_PER_BODY_PAIR * nbody * nbody + ARENA_PER_FIGURE * int(n_figures) + ARENA_BASE
 
 
 def mjcf_numbers(values):
@@ -237,6 +253,8 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
     fixed_roots : weld each figure's root (pelvis) to the world instead of a free joint; MuJoCo does
         not filter collisions between a world-welded body and its children, so the pelvis is
         excluded from colliding with the bodies attached to it.
+    The model's memory arena is scene_memory(n_figures) bytes (<size memory>): linear in the
+    figures but for MuJoCo's broad phase, 4 bytes per pair of bodies.
     layout "facing": two rows facing each other across `spacing` metres (figures 0, 2, ... face +x).
     Figures start with no two of their limbs overlapping.
     """
@@ -254,6 +272,11 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
 
     root = ET.fromstring(figure_xml())
     root.set("model", f"oval_figure_scene_{n}")
+    size = root.find("size")
+    if size is None:
+        size = ET.Element("size")
+        root.insert(list(root).index(root.find("worldbody")), size)
+    size.set("memory", str(scene_memory(n)))
     world = root.find("worldbody")
     figure = next(b for b in world.findall("body") if b.find("freejoint") is not None)
     world.remove(figure)

@@ -1,0 +1,276 @@
+"""From MuJoCo to what record.py draws and the summaries count: a model's shapes (`geometry`) and,
+frame by frame, its moving bodies, MuJoCo's contacts and ellipsim's exact verdicts (`FrameBuffer`).
+
+A FrameBuffer copies a few arrays out of mjData per frame and, once it holds a chunk of frames,
+decides every candidate ellipsoid pair of all of them in one batched exact classify (sweep and
+prune per frame over bounding spheres, MuJoCo's pair rules, then core.classify): memory is bounded
+by the chunk, whatever the number of steps.
+"""
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from ..core.classify import classify
+from ..core.distance import signed_distance
+from ..core.ellipsoids import Ellipsoids
+from ..core.relation import Relation
+from ..core.rotations import quaternion_product, quaternions_to_rotations
+from ..mujoco.geoms import ellipsoid_geoms, frame_pairs
+from .trajectory import GEOM_KINDS, Frames, SceneGeometry
+
+#: Values (float64) a FrameBuffer may hold per chunk: 2^23 = 64 MB.  Per frame it keeps 12 per
+#: ellipsoid (centre, rotation) and, when recording, 7 per moving body and its parent; 500 figures
+#: (7500 ellipsoids, 7500 bodies) make 59 frames a chunk, 25 figures 1024 (the most).
+CHUNK_VALUES = 2**23
+MAX_CHUNK_FRAMES = 1024
+
+#: A height field is drawn with at most this many samples along each side (every k-th row and column).
+HFIELD_SAMPLES = 256
+
+#: An infinite plane (size 0) is drawn as a square of this many times the model's extent
+#: (mjModel.stat.extent) on a side, at least PLANE_MIN_HALF metres from its centre to an edge.
+PLANE_EXTENT_FACTOR = 2.0
+PLANE_MIN_HALF = 2.0
+
+_DEFAULT_RGBA = np.array([0.5, 0.5, 0.5, 1.0], dtype=np.float32)  # MuJoCo's geom rgba when none is given
+_SDF = int(mujoco.mjtGeom.mjGEOM_SDF)
+_MESH = int(mujoco.mjtGeom.mjGEOM_MESH)
+_HFIELD = int(mujoco.mjtGeom.mjGEOM_HFIELD)
+_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+
+
+def names_of(model, kind, count, prefix):
+    """Names of `count` objects of type `kind`: MuJoCo's, or prefix + index for unnamed ones
+    (made unique against the named ones)."""
+    names = [mujoco.mj_id2name(model, kind, k) or "" for k in range(count)]
+    taken = set(names)
+    for k, name in enumerate(names):
+        if not name:
+            name = f"{prefix}{k}"
+            while name in taken:
+                name += "_"
+            names[k] = name
+            taken.add(name)
+    return names
+
+
+def geometry(model, name):
+    """SceneGeometry of `model`, a MuJoCo model, called `name`."""
+    body_names = names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")
+    body_names[0] = "world"
+    moving = np.flatnonzero((model.body_jntnum > 0) | (model.body_mocapid >= 0)).astype(np.int64)
+    rgba = model.geom_rgba.astype(np.float64).copy()
+    material = model.geom_matid
+    # MuJoCo draws a geom with its material's colour when the geom's own is the default (mjv_updateScene)
+    use_material = (material >= 0) & (model.geom_rgba == _DEFAULT_RGBA).all(axis=1)
+    rgba[use_material] = model.mat_rgba[material[use_material]]
+    kind = model.geom_type.astype(np.int64).copy()
+    meshes = {}
+    for g in range(model.ngeom):
+        t, data_id = int(model.geom_type[g]), int(model.geom_dataid[g])
+        if t in (_MESH, _SDF) and data_id >= 0:
+            kind[g] = _MESH
+            meshes[g] = _mesh(model, data_id)
+        elif t == _HFIELD and data_id >= 0:
+            meshes[g] = _hfield(model, data_id)
+        elif t == _PLANE:
+            meshes[g] = _plane(model, model.geom_size[g])
+    drawable = kind < len(GEOM_KINDS)
+    kind[~drawable] = _MESH  # an SDF without a mesh: listed as a mesh, drawn as nothing
+    ids, _, _ = ellipsoid_geoms(model)
+    return SceneGeometry(
+        name=name, body_names=body_names, body_parent=model.body_parentid.astype(np.int64),
+        body_pos=model.body_pos.copy(), body_quat=model.body_quat.copy(), moving=moving,
+        geom_names=names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom"),
+        geom_body=model.geom_bodyid.astype(np.int64), geom_kind=kind, geom_size=model.geom_size.copy(),
+        geom_pos=model.geom_pos.copy(), geom_quat=model.geom_quat.copy(), geom_rgba=rgba, meshes=meshes,
+        ellipsoids=ids.astype(np.int64),
+    )  # fmt: skip
+
+
+def _mesh(model, m):
+    """Vertices (n, 3) and triangles (k, 3) of mesh m, in the frame of the geoms that use it."""
+    v0, nv = model.mesh_vertadr[m], model.mesh_vertnum[m]
+    f0, nf = model.mesh_faceadr[m], model.mesh_facenum[m]
+    return model.mesh_vert[v0 : v0 + nv].astype(np.float64), model.mesh_face[f0 : f0 + nf].astype(np.int64)
+
+
+def _hfield(model, h):
+    """Height field h as a triangle grid in its geom's frame (MuJoCo: x, y over [-size0, size0] x
+    [-size1, size1], z = data * size2, rows along y), at most HFIELD_SAMPLES a side."""
+    nrow, ncol = int(model.hfield_nrow[h]), int(model.hfield_ncol[h])
+    sx, sy, sz, _ = model.hfield_size[h]
+    adr = model.hfield_adr[h]
+    z = model.hfield_data[adr : adr + nrow * ncol].reshape(nrow, ncol).astype(np.float64)
+    rows = np.unique(np.linspace(0, nrow - 1, min(nrow, HFIELD_SAMPLES)).round().astype(int))
+    cols = np.unique(np.linspace(0, ncol - 1, min(ncol, HFIELD_SAMPLES)).round().astype(int))
+    x = (2 * cols / max(ncol - 1, 1) - 1) * sx
+    y = (2 * rows / max(nrow - 1, 1) - 1) * sy
+    X, Y = np.meshgrid(x, y)
+    vertices = np.column_stack([X.ravel(), Y.ravel(), (z[np.ix_(rows, cols)] * sz).ravel()])
+    r, c = len(rows), len(cols)
+    k = (np.arange(r - 1)[:, None] * c + np.arange(c - 1)[None, :]).ravel()
+    triangles = np.concatenate([np.column_stack([k, k + 1, k + c + 1]), np.column_stack([k, k + c + 1, k + c])])
+    return vertices, triangles
+
+
+def _plane(model, size):
+    """A plane as two triangles in its geom's frame: its size, or a square around it when infinite."""
+    half = max(PLANE_EXTENT_FACTOR * float(model.stat.extent), PLANE_MIN_HALF)
+    sx = size[0] if size[0] > 0 else half
+    sy = size[1] if size[1] > 0 else half
+    vertices = np.array([[-sx, -sy, 0.0], [sx, -sy, 0.0], [sx, sy, 0.0], [-sx, sy, 0.0]])
+    return vertices, np.array([[0, 1, 2], [0, 2, 3]])
+
+
+@dataclasses.dataclass
+class Chunk:
+    """What FrameBuffer.flush returns: the Frames, and every candidate ellipsoid pair it decided.
+
+    pairs : (P, 3) int64 (frame number, i, j), i < j indices into the g ellipsoid geoms
+    relation : (P,) int8 Relation
+    depth : (P,) float64 penetration depth of overlapping pairs (metres, >= 0; nan for the others),
+        or None when not asked for
+    centers : (f, g, 3) the ellipsoids' centres, metres (a view of the buffer: copy to keep)
+    """
+
+    frames: Frames
+    pairs: np.ndarray
+    relation: np.ndarray
+    depth: np.ndarray
+    centers: np.ndarray
+
+
+class FrameBuffer:
+    """Frames of one (model, data), collected with `add` after each step or pose and decided in
+    chunks with `flush`.
+
+    record : also keep the moving bodies' poses and every contact's position and normal (for a
+        recording); without it a frame costs only the ellipsoids' poses and contact counts.
+    depth : flush also measures the penetration depth of overlapping pairs (core.signed_distance).
+    """
+
+    def __init__(self, model, *, record=False, depth=False):
+        self.model = model
+        self.ids, self.radii, self.rules = ellipsoid_geoms(model)
+        self.tested = np.zeros(model.ngeom, dtype=bool)
+        self.tested[self.ids] = True
+        self.record, self.depth = record, depth
+        self.moving = np.flatnonzero((model.body_jntnum > 0) | (model.body_mocapid >= 0))
+        parent = model.body_parentid[self.moving]
+        self.posed = np.union1d(self.moving, parent) if record else np.zeros(0, dtype=np.intp)
+        self._at_moving = np.searchsorted(self.posed, self.moving)
+        self._at_parent = np.searchsorted(self.posed, parent)
+        g, n = len(self.ids), len(self.posed)
+        per_frame = 12 * g + 7 * n + 8
+        self.capacity = int(min(MAX_CHUNK_FRAMES, max(1, CHUNK_VALUES // per_frame)))
+        self.centers = np.empty((self.capacity, g, 3))
+        self.rotations = np.empty((self.capacity, g, 9))
+        self.xpos = np.empty((self.capacity, n, 3))
+        self.xquat = np.empty((self.capacity, n, 4))
+        self.times = np.empty(self.capacity)
+        self.builtin = np.empty(self.capacity, dtype=np.int64)
+        self.ncon = np.empty(self.capacity, dtype=np.int64)
+        self.contacts = []  # per frame: (pos (k, 3), normal (k, 3), both tested (k,))
+        self.n = 0
+        self.next_frame = 0
+
+    def add(self, data, time):
+        """Copy the current frame out of `data` (after mj_step, mj_forward or collision); True when
+        the buffer is full (flush it before the next add)."""
+        k = self.n
+        self.centers[k] = data.geom_xpos[self.ids]
+        self.rotations[k] = data.geom_xmat[self.ids]
+        self.times[k] = time
+        ncon = data.ncon
+        self.ncon[k] = ncon
+        if ncon:
+            con = data.contact
+            both = self.tested[con.geom].all(axis=1)
+            self.builtin[k] = np.count_nonzero(both)
+            if self.record:
+                self.contacts.append((con.pos.copy(), con.frame[:, :3].copy(), both))
+        else:
+            self.builtin[k] = 0
+            if self.record:
+                self.contacts.append((np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=bool)))
+        if self.record:
+            self.xpos[k] = data.xpos[self.posed]
+            self.xquat[k] = data.xquat[self.posed]
+        self.n += 1
+        return self.n == self.capacity
+
+    def flush(self):
+        """The Chunk of the frames added since the last flush (None if there are none)."""
+        f, g = self.n, len(self.ids)
+        if f == 0:
+            return None
+        first = self.next_frame
+        centers = self.centers[:f]
+        rotations = self.rotations[:f].reshape(f, g, 3, 3)
+        pairs = frame_pairs(centers, self.radii, self.rules)
+        state = np.zeros((f, g), dtype=np.int8)
+        depth = None
+        if len(pairs):
+            pf, i, j = pairs.T
+            a = Ellipsoids(centers[pf, i], rotations[pf, i], self.radii[i])
+            b = Ellipsoids(centers[pf, j], rotations[pf, j], self.radii[j])
+            relation = classify(a, b)
+            np.maximum.at(state, (pf, i), relation)
+            np.maximum.at(state, (pf, j), relation)
+            if self.depth:
+                depth = np.full(len(pairs), np.nan)
+                over = np.flatnonzero(relation == Relation.OVERLAPPING)
+                if len(over):
+                    dist = signed_distance(a[over], b[over])[0]
+                    depth[over] = np.maximum(-dist, 0.0)
+        else:
+            relation = np.zeros(0, dtype=np.int8)
+            pf = np.zeros(0, dtype=np.int64)
+            if self.depth:
+                depth = np.zeros(0)
+        overlapping = np.bincount(pf[relation == Relation.OVERLAPPING], minlength=f)
+        touching = np.bincount(pf[relation == Relation.TOUCHING], minlength=f)
+        frame = first + np.arange(f, dtype=np.int64)
+        body_pos, body_quat = self._relative_poses(f)
+        if self.record:
+            counts = np.array([len(c[0]) for c in self.contacts], dtype=np.int64)
+            contact_frame = np.repeat(frame, counts)
+            contact_pos = np.concatenate([c[0] for c in self.contacts]).reshape(-1, 3)
+            contact_normal = np.concatenate([c[1] for c in self.contacts]).reshape(-1, 3)
+            contact_ellipsoids = np.concatenate([c[2] for c in self.contacts]).astype(bool)
+        else:
+            contact_frame = np.zeros(0, dtype=np.int64)
+            contact_pos = contact_normal = np.zeros((0, 3))
+            contact_ellipsoids = np.zeros(0, dtype=bool)
+        frames = Frames(
+            frame=frame, times=self.times[:f].copy(), body_pos=body_pos, body_quat=body_quat, state=state,
+            contact_frame=contact_frame, contact_pos=contact_pos, contact_normal=contact_normal,
+            contact_ellipsoids=contact_ellipsoids, builtin_counts=self.builtin[:f].copy(),
+            ellipsim_counts=overlapping.astype(np.int64), touching_counts=touching.astype(np.int64),
+            contact_counts=self.ncon[:f].copy(),
+        )  # fmt: skip
+        out_pairs = pairs.copy()
+        out_pairs[:, 0] += first
+        chunk = Chunk(frames, out_pairs, relation, depth, centers)
+        self.n = 0
+        self.next_frame += f
+        self.contacts = []
+        return chunk
+
+    def _relative_poses(self, f):
+        """(f, M, 3), (f, M, 4): each moving body's pose relative to its parent, from world poses."""
+        M = len(self.moving)
+        if not self.record or M == 0:
+            return np.zeros((f, M if self.record else 0, 3)), np.zeros((f, M if self.record else 0, 4))
+        xpos, xquat = self.xpos[:f], self.xquat[:f]
+        child_pos, child_quat = xpos[:, self._at_moving], xquat[:, self._at_moving]
+        parent_pos, parent_quat = xpos[:, self._at_parent], xquat[:, self._at_parent]
+        parent_rot = quaternions_to_rotations(parent_quat)  # (f, M, 3, 3)
+        pos = np.einsum("fmji,fmj->fmi", parent_rot, child_pos - parent_pos)  # R_p^T (x - x_p)
+        conj = parent_quat * np.array([1.0, -1.0, -1.0, -1.0])
+        quat = quaternion_product(conj, child_quat)
+        quat /= np.linalg.norm(quat, axis=-1, keepdims=True)
+        return pos, quat

@@ -1,0 +1,278 @@
+"""The animation check: a motion (qpos per frame) played on a model, and which frames make its
+ellipsoid geoms touch or overlap.
+
+    motion = load_motion("walk.csv", model.nq)          # (frames, nq), .npy or .csv
+    result = replay(model, motion, fps=30)              # a ReplayResult
+
+Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPosition, for its contact
+count on the same frames), then ellipsim's verdict on every candidate pair of every frame in one
+batched exact classify per chunk of frames (capture.FrameBuffer: sweep and prune per frame, MuJoCo's
+pair rules, core.classify), and the penetration depth of the overlapping pairs
+(core.signed_distance).  Only the touching and overlapping pairs are kept.
+"""
+
+import dataclasses
+import os
+import time
+
+import mujoco
+import numpy as np
+
+from . import capture
+from .mjcf import make_data
+
+MOTION_FORMATS = (".npy", ".csv")
+
+_JOINT_NAMES = {int(mujoco.mjtJoint.mjJNT_FREE): "free", int(mujoco.mjtJoint.mjJNT_BALL): "ball",
+                int(mujoco.mjtJoint.mjJNT_SLIDE): "slide", int(mujoco.mjtJoint.mjJNT_HINGE): "hinge"}  # fmt: skip
+_QPOS_WIDTH = {"free": 7, "ball": 4, "slide": 1, "hinge": 1}
+
+
+class MotionError(ValueError):
+    """A motion file that cannot be played on the model; the message names the file (one line)."""
+
+
+def qpos_layout(model):
+    """What the model's qpos holds, e.g. "7 (1 free joint) + 28 (28 hinges)"."""
+    kinds = [_JOINT_NAMES.get(int(t), "joint") for t in model.jnt_type]
+    parts = []
+    for kind in ("free", "ball", "slide", "hinge"):
+        n = kinds.count(kind)
+        if n:
+            noun = f"{kind} joint{'s' if n > 1 else ''}" if kind in ("free", "ball") else f"{kind}{'s' if n > 1 else ''}"
+            parts.append(f"{n * _QPOS_WIDTH[kind]} ({n} {noun})")
+    return " + ".join(parts) or "nothing (no joints)"
+
+
+def load_motion(path, nq, *, layout=""):
+    """The motion file `path` as qpos per frame, (frames, nq) float64.
+
+    .npy: a 2-D array of real numbers (no pickles).  .csv: one frame per line, comma-separated;
+    a first line that is not numbers is taken as a header and skipped.  MotionError names the file
+    and what is wrong: the format, the shape (with the expected nq and `layout`, what qpos holds),
+    the first value that is not finite.
+    """
+    text = os.fspath(path)
+    ext = os.path.splitext(text)[1].lower()
+    if ext not in MOTION_FORMATS:
+        raise MotionError(f"motion {text!r} must be a {' or '.join(MOTION_FORMATS)} file, got {ext or 'no extension'!r}")
+    if not os.path.isfile(text):
+        raise MotionError(f"motion {text!r} does not exist or is not a file")
+    if ext == ".npy":
+        try:
+            values = np.load(text, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise MotionError(f"motion {text!r} is not a readable .npy array: {exc}") from None
+        if values.dtype == bool or values.dtype.kind not in "iuf":
+            raise MotionError(f"motion {text!r} must hold real numbers, got dtype {values.dtype}")
+    else:
+        values = _read_csv(text)
+    expected = f"(frames, nq) with nq = {nq}" + (f": the model's qpos holds {layout}" if layout else "")
+    if values.ndim != 2:
+        raise MotionError(f"motion {text!r} must have shape {expected}, got shape {values.shape}")
+    if values.shape[0] == 0:
+        raise MotionError(f"motion {text!r} has no frames")
+    if values.shape[1] != nq:
+        raise MotionError(f"motion {text!r} has {values.shape[1]} values per frame, expected {expected}")
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    bad = np.argwhere(~np.isfinite(values))
+    if len(bad):
+        f, q = (int(i) for i in bad[0])
+        raise MotionError(f"motion {text!r}: frame {f}, qpos[{q}] must be finite, got {values[f, q]}")
+    return values
+
+
+def _read_csv(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            lines = [line.strip() for line in f]
+    except UnicodeDecodeError as exc:
+        raise MotionError(f"motion {path!r} is not UTF-8 text: {exc}") from None
+    except OSError as exc:
+        raise MotionError(f"motion {path!r} cannot be read: {exc.strerror}") from None
+    rows = [(n + 1, line) for n, line in enumerate(lines) if line and not line.startswith("#")]
+    if rows and not _numeric(rows[0][1]):
+        rows = rows[1:]  # a header line of column names
+    parsed = []
+    for number, line in rows:
+        try:
+            parsed.append([float(x) for x in line.split(",")])
+        except ValueError:
+            raise MotionError(f"motion {path!r}, line {number}: expected comma-separated numbers, got {line[:60]!r}") from None
+    widths = {len(r) for r in parsed}
+    if len(widths) > 1:
+        first = next(n for (n, _), r in zip(rows, parsed) if len(r) != len(parsed[0]))
+        raise MotionError(f"motion {path!r}, line {first}: rows have different numbers of values ({sorted(widths)})")
+    return np.array(parsed, dtype=np.float64).reshape(len(parsed), widths.pop() if widths else 0)
+
+
+def _numeric(line):
+    try:
+        [float(x) for x in line.split(",")]
+    except ValueError:
+        return False
+    return True
+
+
+@dataclasses.dataclass
+class ReplayResult:
+    """What `replay` found, per frame (F,) and per contact pair (P touching or overlapping pairs).
+
+    fps : frames per second of the motion
+    touching, overlapping : (F,) int64, pairs ellipsim classifies touching / overlapping
+    deepest : (F,) float64, the largest penetration depth of the frame, metres (0 without overlap)
+    deepest_pair : (F,) int64, index into the pair arrays of that pair (-1 without overlap)
+    mujoco_contacts : (F,) int64, all of MuJoCo's contacts; mujoco_pairs : (F,) those between two
+        ellipsoid geoms
+    pair_frame : (P,) int64; pair_geoms : (P, 2) int64 MuJoCo geom ids; pair_relation : (P,) int8
+        (1 touching, 2 overlapping); pair_depth : (P,) float64 metres (nan when touching)
+    geom_names, body_names : MuJoCo's names (or geom{i} / body{i}); geom_body : (ngeom,) int64
+    candidates : number of candidate pairs decided, all frames
+    seconds : wall time of kinematics and MuJoCo's collision; analysis_seconds : of ellipsim's verdicts
+    """
+
+    fps: float
+    touching: np.ndarray
+    overlapping: np.ndarray
+    deepest: np.ndarray
+    deepest_pair: np.ndarray
+    mujoco_contacts: np.ndarray
+    mujoco_pairs: np.ndarray
+    pair_frame: np.ndarray
+    pair_geoms: np.ndarray
+    pair_relation: np.ndarray
+    pair_depth: np.ndarray
+    geom_names: list
+    body_names: list
+    geom_body: np.ndarray
+    ellipsoids: int
+    candidates: int
+    seconds: float
+    analysis_seconds: float
+    record_seconds: float
+
+    @property
+    def frames(self):
+        return len(self.touching)
+
+    def body_pairs(self):
+        """Per pair of bodies that touch or overlap in some frame, most overlapping frames first:
+        list of dicts {bodies, geoms (the deepest pair's), frames_overlapping, frames_touching,
+        first, last, deepest (m), deepest_frame}."""
+        if len(self.pair_frame) == 0:
+            return []
+        bodies = np.sort(self.geom_body[self.pair_geoms], axis=1)
+        keys, group = np.unique(bodies, axis=0, return_inverse=True)
+        group = group.ravel()
+        out = []
+        for k, (b1, b2) in enumerate(keys):
+            mine = np.flatnonzero(group == k)
+            over = mine[self.pair_relation[mine] == 2]
+            frames_over = np.unique(self.pair_frame[over])
+            frames_touch = np.setdiff1d(np.unique(self.pair_frame[mine]), frames_over)
+            depth = self.pair_depth[over]
+            deepest = over[int(np.argmax(depth))] if len(over) else mine[0]
+            out.append({
+                "bodies": [self.body_names[b1], self.body_names[b2]],
+                "geoms": [self.geom_names[g] for g in self.pair_geoms[deepest]],
+                "frames_overlapping": int(len(frames_over)), "frames_touching": int(len(frames_touch)),
+                "first": int(self.pair_frame[mine].min()), "last": int(self.pair_frame[mine].max()),
+                "deepest": float(depth.max()) if len(over) else 0.0, "deepest_frame": int(self.pair_frame[deepest]),
+                "overlap_frames": frames_over.tolist(),
+            })  # fmt: skip
+        out.sort(key=lambda d: (-d["frames_overlapping"], -d["deepest"], d["first"]))
+        return out
+
+
+def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay"):
+    """Pose `model` at every frame of `motion` (F, nq) and decide every candidate ellipsoid pair.
+
+    fps : frames per second, > 0 (the recording's time line, and the report's times).
+    progress : optional callable(frame, F).  recorder : optional record.Recorder, begun with the
+    model's geometry (named `name`) and sent every chunk (closing it is the caller's).
+    Returns a ReplayResult.  ValueError names a bad motion shape or fps.
+    """
+    motion = np.asarray(motion, dtype=np.float64)
+    if motion.ndim != 2 or motion.shape[1] != model.nq or len(motion) == 0:
+        raise ValueError(f"motion must have shape (frames, {model.nq}) (frames >= 1), got {motion.shape}")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.floating)) or not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps must be a positive finite number, got {fps!r}")
+    data = make_data(model, name)
+    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True)
+    if recorder is not None:
+        recorder.begin(capture.geometry(model, name))
+    F = len(motion)
+    per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
+    pairs, relations, depths = [], [], []
+    timers = {"analysis": 0.0, "record": 0.0}
+    candidates = 0
+
+    def flush():
+        nonlocal candidates
+        t0 = time.perf_counter()
+        chunk = buffer.flush()
+        t1 = time.perf_counter()
+        timers["analysis"] += t1 - t0
+        if chunk is None:
+            return
+        fr = chunk.frames
+        at = fr.frame
+        per_frame["touching"][at] = fr.touching_counts
+        per_frame["overlapping"][at] = fr.ellipsim_counts
+        per_frame["mujoco_contacts"][at] = fr.contact_counts
+        per_frame["mujoco_pairs"][at] = fr.builtin_counts
+        candidates += len(chunk.pairs)
+        hit = chunk.relation > 0
+        pairs.append(chunk.pairs[hit])
+        relations.append(chunk.relation[hit])
+        depths.append(chunk.depth[hit])
+        if recorder is not None:
+            recorder.write(fr)
+            timers["record"] += time.perf_counter() - t1
+
+    t0 = time.perf_counter()
+    for f in range(F):
+        data.qpos[:] = motion[f]
+        data.time = f / fps
+        mujoco.mj_fwdPosition(model, data)
+        if buffer.add(data, data.time):
+            flush()
+        if progress is not None:
+            progress(f + 1, F)
+    flush()
+    total = time.perf_counter() - t0
+    pairs = np.concatenate(pairs) if pairs else np.zeros((0, 3), dtype=np.int64)
+    relation = np.concatenate(relations) if relations else np.zeros(0, dtype=np.int8)
+    depth = np.where(relation == 2, np.concatenate(depths), np.nan) if len(relation) else np.zeros(0)
+    geoms = np.column_stack([buffer.ids[pairs[:, 1]], buffer.ids[pairs[:, 2]]]).astype(np.int64).reshape(-1, 2)
+    deepest, deepest_pair = np.zeros(F), np.full(F, -1, dtype=np.int64)
+    over = np.flatnonzero(relation == 2)
+    if len(over):
+        order = over[np.lexsort((-depth[over], pairs[over, 0]))]  # by frame, deepest first
+        first = order[np.r_[True, pairs[order[1:], 0] != pairs[order[:-1], 0]]]
+        deepest[pairs[first, 0]] = depth[first]
+        deepest_pair[pairs[first, 0]] = first
+    return ReplayResult(
+        fps=float(fps), touching=per_frame["touching"], overlapping=per_frame["overlapping"], deepest=deepest,
+        deepest_pair=deepest_pair, mujoco_contacts=per_frame["mujoco_contacts"], mujoco_pairs=per_frame["mujoco_pairs"],
+        pair_frame=pairs[:, 0].copy(), pair_geoms=geoms, pair_relation=relation, pair_depth=depth,
+        geom_names=capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom"),
+        body_names=["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:],
+        geom_body=model.geom_bodyid.astype(np.int64), ellipsoids=len(buffer.ids), candidates=candidates,
+        seconds=total - timers["analysis"] - timers["record"], analysis_seconds=timers["analysis"],
+        record_seconds=timers["record"],
+    )  # fmt: skip
+
+
+def frame_ranges(frames, most=8):
+    """Sorted frame numbers as text: "3-7, 12, 15-16" (the first `most` runs, then "... (n more)")."""
+    frames = np.unique(np.asarray(frames, dtype=np.int64))
+    if len(frames) == 0:
+        return "none"
+    breaks = np.flatnonzero(np.diff(frames) != 1)
+    starts = np.r_[frames[0], frames[breaks + 1]]
+    ends = np.r_[frames[breaks], frames[-1]]
+    runs = [f"{a}" if a == b else f"{a}-{b}" for a, b in zip(starts, ends)]
+    more = len(runs) - most
+    return ", ".join(runs[:most]) + (f", ... ({more} more)" if more > 0 else "")
+

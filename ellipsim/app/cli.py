@@ -309,8 +309,20 @@ def list_scenarios(args):
     return 0
 
 
-def _header(s, steps):
+#: From this many figures on, say before building that MuJoCo's compile will take a while: its
+#: parser and compiler take time quadratic in the bodies (measured on the 2-core VM: 27 s for 500
+#: figures, 92-170 s for 1000; ellipsim's own scene building is linear, 1.2 s and 1.6 s).
+BIG_SCENE = 200
+
+
+def _header(s):
     print(f"{s.name}: {s.description}")
+    if s.scene["kind"] == "figures" and s.scene["figures"] >= BIG_SCENE:
+        from ..mujoco.scenes import LIMBS
+
+        n = s.scene["figures"]
+        print(f"  {n} figures: {len(LIMBS) * n + 1} bodies for MuJoCo to compile, in time that grows with their square "
+              "(500 figures: ~30 s on 2 cores) ...", flush=True)
     if s.scene["kind"] == "mjcf":
         sc = s.scene
         start = "default pose" if sc["key"] is None else f"keyframe {sc['key']!r}"
@@ -327,7 +339,7 @@ def run(args):
     steps = _steps(s, args, simulate.check_steps)
     mode = args.mode or s.mode
     what = "kinematic replay" if s.kinematic else f"mode {mode}"
-    _header(s, steps)
+    _header(s)
     print(f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}", flush=True)
     recorder = _recorder(args.record) if args.record else None
     t0 = time.perf_counter()
@@ -343,7 +355,7 @@ def run(args):
           f"ellipsim's verdicts on {len(fr.times)} frames {result.analysis_seconds:.2f} s"
           + (f", recording {result.record_seconds:.2f} s" if recorder else ""))  # fmt: skip
     print(f"  contacts per step (all geoms): mean {result.contacts_mean:.1f}, max {result.contacts_max}")
-    if result.kept is None and len(fr.times) and fr.builtin_counts.size:
+    if len(fr.times):
         print(
             f"  ellipsoid pairs over {len(fr.times)} recorded frames: MuJoCo contacts mean {fr.builtin_counts.mean():.1f} "
             f"(max {fr.builtin_counts.max()}), ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
@@ -390,7 +402,7 @@ def compare(args):
         _check_output(args.plot, ".png", "--plot")
         _matplotlib()
     steps = _steps(s, args, _check_validation)
-    _header(s, steps)
+    _header(s)
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
     v, model = _simulated(simulate.validation, s, steps, progress=_bar(f"  {s.name}", steps))
     builtin, ours, missed, extra, near = _compare_summary(v)
@@ -476,7 +488,7 @@ def _plot_compare(path, s, builtin, ours, disagree, near):
 
 def replay(args):
     """Play a motion (qpos per frame) on a model: which frames make its ellipsoid geoms touch or overlap."""
-    from . import mjcf, replay as rp
+    from . import limits, mjcf, replay as rp
 
     for path, option in ((args.record, "--record"), (args.json, "--json")):
         if path:
@@ -487,8 +499,6 @@ def replay(args):
         motion = rp.load_motion(args.motion, model.nq, layout=layout)
     except (mjcf.ModelError, rp.MotionError) as exc:
         raise UserError(str(exc)) from None
-    from . import limits
-
     try:
         limits.check_fits(motion.nbytes * 2, f"motion {args.motion!r} ({len(motion)} frames)")
     except ValueError as exc:

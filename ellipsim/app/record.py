@@ -137,12 +137,12 @@ class Recorder:
             raise ValueError(f"geometry must be an ellipsim.app.trajectory.SceneGeometry, got {type(geometry).__name__}")
         self.geometry = geometry
         rec = rr.RecordingStream(self.app_id, recording_id=self.recording_id)
+        self.rec = rec  # before the file exists: an interruption from here on is cleaned up by abort
         try:
             rec.save(self.partial, default_blueprint=blueprint())
         except RuntimeError as exc:  # rerun reports a file it cannot create as a RuntimeError
-            rec.disconnect()
+            self.abort()
             raise OSError(f"cannot create {self.partial!r}: {exc}") from None
-        self.rec = rec
         if geometry.name:
             rec.send_recording_name(geometry.name)
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)

@@ -18,7 +18,7 @@ import time
 import mujoco
 import numpy as np
 
-from . import capture
+from . import capture, limits
 from .mjcf import make_data
 
 MOTION_FORMATS = (".npy", ".csv")
@@ -60,7 +60,7 @@ def load_motion(path, nq, *, layout=""):
         raise MotionError(f"motion {text!r} does not exist or is not a file")
     if ext == ".npy":
         try:
-            values = np.load(text, allow_pickle=False)
+            values = np.load(text, allow_pickle=False, mmap_mode="r")  # the header first: shape and dtype
         except (ValueError, OSError, EOFError) as exc:
             raise MotionError(f"motion {text!r} is not a readable .npy array: {exc}") from None
         if values.dtype == bool or values.dtype.kind not in "iuf":
@@ -74,7 +74,11 @@ def load_motion(path, nq, *, layout=""):
         raise MotionError(f"motion {text!r} has no frames")
     if values.shape[1] != nq:
         raise MotionError(f"motion {text!r} has {values.shape[1]} values per frame, expected {expected}")
-    values = np.ascontiguousarray(values, dtype=np.float64)
+    try:
+        limits.check_fits(2 * 8 * values.size, f"motion {text!r} ({values.shape[0]} frames of {nq} values)")
+    except ValueError as exc:
+        raise MotionError(str(exc)) from None
+    values = np.array(values, dtype=np.float64)  # read in (from a memory map) and owned
     bad = np.argwhere(~np.isfinite(values))
     if len(bad):
         f, q = (int(i) for i in bad[0])
@@ -83,35 +87,36 @@ def load_motion(path, nq, *, layout=""):
 
 
 def _read_csv(path):
+    """(frames, values) float64 of a CSV motion, line by line: blank lines and lines starting with
+    '#' are skipped, a first line that is not numbers is a header; errors name the line."""
+    rows, width, first = [], None, True
     try:
         with open(path, encoding="utf-8") as f:
-            lines = [line.strip() for line in f]
+            for number, line in enumerate(f, start=1):
+                line = line.strip()
+                if not line or line.startswith("#"):
+                    continue
+                try:
+                    row = np.array([float(x) for x in line.split(",")])
+                except ValueError:
+                    if first:  # a header line of column names
+                        first = False
+                        continue
+                    raise MotionError(
+                        f"motion {path!r}, line {number}: expected comma-separated numbers, got {line[:60]!r}"
+                    ) from None
+                first = False
+                if width is not None and len(row) != width:
+                    raise MotionError(
+                        f"motion {path!r}, line {number}: {len(row)} values, the lines before have {width}"
+                    )
+                width = len(row)
+                rows.append(row)
     except UnicodeDecodeError as exc:
         raise MotionError(f"motion {path!r} is not UTF-8 text: {exc}") from None
     except OSError as exc:
         raise MotionError(f"motion {path!r} cannot be read: {exc.strerror}") from None
-    rows = [(n + 1, line) for n, line in enumerate(lines) if line and not line.startswith("#")]
-    if rows and not _numeric(rows[0][1]):
-        rows = rows[1:]  # a header line of column names
-    parsed = []
-    for number, line in rows:
-        try:
-            parsed.append([float(x) for x in line.split(",")])
-        except ValueError:
-            raise MotionError(f"motion {path!r}, line {number}: expected comma-separated numbers, got {line[:60]!r}") from None
-    widths = {len(r) for r in parsed}
-    if len(widths) > 1:
-        first = next(n for (n, _), r in zip(rows, parsed) if len(r) != len(parsed[0]))
-        raise MotionError(f"motion {path!r}, line {first}: rows have different numbers of values ({sorted(widths)})")
-    return np.array(parsed, dtype=np.float64).reshape(len(parsed), widths.pop() if widths else 0)
-
-
-def _numeric(line):
-    try:
-        [float(x) for x in line.split(",")]
-    except ValueError:
-        return False
-    return True
+    return np.array(rows).reshape(len(rows), width or 0)
 
 
 @dataclasses.dataclass

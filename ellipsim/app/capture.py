@@ -215,8 +215,13 @@ class FrameBuffer:
         depth = None
         if len(pairs):
             pf, i, j = pairs.T
-            a = Ellipsoids(centers[pf, i], rotations[pf, i], self.radii[i])
-            b = Ellipsoids(centers[pf, j], rotations[pf, j], self.radii[j])
+            if 2 * len(pairs) > f * g:  # validating every pose once is cheaper than both sides of every pair
+                every = Ellipsoids(centers.reshape(-1, 3), rotations.reshape(-1, 3, 3),
+                                   np.broadcast_to(self.radii, (f, g, 3)).reshape(-1, 3))  # fmt: skip
+                a, b = every[pf * g + i], every[pf * g + j]  # indexing a batch does not validate again
+            else:
+                a = Ellipsoids(centers[pf, i], rotations[pf, i], self.radii[i])
+                b = Ellipsoids(centers[pf, j], rotations[pf, j], self.radii[j])
             relation = classify(a, b)
             np.maximum.at(state, (pf, i), relation)
             np.maximum.at(state, (pf, j), relation)

@@ -266,13 +266,17 @@ def _write_error(option, path, exc):
 
 
 def _write_json(path, report):
+    """Write `report` to `path` through a partial file renamed when complete (none is left behind)."""
+    partial = f"{path}.part"
     try:
-        partial = f"{path}.part"
         with open(partial, "w") as f:
             json.dump(report, f, indent=1)
         os.replace(partial, path)
     except OSError as exc:
         raise _write_error("--json", path, exc) from None
+    finally:
+        if os.path.exists(partial):
+            os.remove(partial)
 
 
 def _recorder(path):

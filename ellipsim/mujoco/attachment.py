@@ -5,9 +5,11 @@
             mujoco.mj_step(model, data)
     att.counters
 
-The callbacks themselves are in callbacks.py; this module installs them in MuJoCo's process-global
-hooks (mjcb_contactfilter, the mjCOLLISIONFUNC table) while at least one data needs them, writes
-the registry rows they read, and puts MuJoCo's originals back when the last attachment ends.
+The callbacks themselves are in callbacks.py, their machine code comes from nativecache.py (loaded
+without numba when cached; only the mode's callback, and none for a model without ellipsoid pairs).
+This module installs them in MuJoCo's process-global hooks (mjcb_contactfilter, the mjCOLLISIONFUNC
+table) while at least one data needs them, writes the registry rows they read (context.py), and puts
+MuJoCo's originals back when the last attachment ends.
 """
 
 import threading
@@ -15,19 +17,8 @@ import threading
 import mujoco
 import numpy as np
 
-from . import structs
-from .callbacks import (
-    ELLIPSOID,
-    FILTER,
-    MAX_ATTACHED,
-    NARROW,
-    NCOUNTERS,
-    RECORD,
-    REGISTRY,
-    SPHERE,
-    callback,
-    narrowphase_function,
-)
+from . import nativecache, structs
+from .context import ELLIPSOID, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY, SPHERE
 
 MODES = ("filter", "narrowphase")
 _lock = threading.Lock()
@@ -89,10 +80,10 @@ def _install(attached_before, attachment):
             raise ValueError(
                 f"a contact filter callback is already installed ({current!r}); ellipsim's filter would replace it"
             )
-        mujoco.set_mjcb_contactfilter(callback().ctypes)
+        mujoco.set_mjcb_contactfilter(nativecache.function("filter").ctypes)
         _state["previous"], _state["filter_installed"] = current, True
     if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
-        fn = narrowphase_function()
+        fn = nativecache.function("narrowphase")
         table, ntypes = structs.collision_table()
         entries = (ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID)
         _state["table"] = {k: table[k] for k in entries}
@@ -137,6 +128,8 @@ class Attachment:
     def __enter__(self):
         if self.mode != "record" and not ellipsoid_pair_possible(self.model):
             return self  # skip what the scene does not need: nothing is installed
+        structs.checked_layout()  # MuJoCo's version and struct layout, once per process (~8 ms)
+        structs.verify_fields(self.model, self.data)  # the offsets hold for this (model, data) (~0.3 ms)
         with _lock:
             attached = _state["attached"]
             if any(a.data._address == self.data._address for a in attached):

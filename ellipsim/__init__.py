@@ -6,26 +6,33 @@ Three layers, each importing only the ones above it in this list:
     ellipsim.mujoco   the MuJoCo glue: attach to mj_step, validate and compare, scene builders
     ellipsim.app      scenarios, recording, the command line, mesh fitting, the benchmark suite
 
-`import ellipsim` loads the core only; `ellipsim.mujoco` and `ellipsim.app` are imported on first use.
+`import ellipsim` loads none of them: every public name is imported on first use (PEP 562), so that
+attaching to MuJoCo imports neither numba nor the core when the callbacks are cached
+(ellipsim/mujoco/nativecache.py).
 """
 
 import importlib
 
-from .core.charpoly import characteristic_polynomial
-from .core.classify import classify
-from .core.distance import signed_distance
-from .core.ellipsoids import Ellipsoids
-from .core.perram_wertheim import contact_scale
-from .core.relation import Relation
-
-__all__ = ["Ellipsoids", "Relation", "classify", "characteristic_polynomial", "contact_scale", "signed_distance"]
 __version__ = "0.2.0"
 
-_LAZY = ("mujoco", "app")
+_LAZY = {
+    "Ellipsoids": "core.ellipsoids", "Relation": "core.relation", "classify": "core.classify",
+    "characteristic_polynomial": "core.charpoly", "contact_scale": "core.perram_wertheim",
+    "signed_distance": "core.distance",
+}  # fmt: skip
+_SUBPACKAGES = ("core", "mujoco", "app")
+
+__all__ = ["Ellipsoids", "Relation", "classify", "characteristic_polynomial", "contact_scale", "signed_distance"]
 
 
 def __getattr__(name):
-    """`ellipsim.mujoco` and `ellipsim.app` without importing MuJoCo or rerun with the core."""
+    """The public names of the core, and the layers `ellipsim.mujoco` / `ellipsim.app`, on first use."""
     if name in _LAZY:
+        return getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    if name in _SUBPACKAGES:
         return importlib.import_module(f"{__name__}.{name}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY) | set(_SUBPACKAGES))

@@ -81,3 +81,55 @@ def test_glue_and_application_are_reached_from_the_top_package():
     assert proc.stdout.strip() == "True"
     with pytest.raises(AttributeError, match="no attribute 'plugin'"):
         ellipsim.plugin  # noqa: B018
+
+
+def test_import_ellipsim_and_its_glue_load_no_numba():
+    """`import ellipsim` + `ellipsim.mujoco.attach` import only the glue that attaching needs: with the
+    callbacks cached, a process attaches and steps without numba (tests/test_startup.py steps)."""
+    code = (
+        "import sys, ellipsim\n"
+        "ellipsim.mujoco.attach\n"
+        "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in ('ellipsim', 'numba', 'scipy', 'llvmlite'))))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.split() == [
+        "ellipsim", "ellipsim.mujoco", "ellipsim.mujoco.attachment", "ellipsim.mujoco.context",
+        "ellipsim.mujoco.nativecache", "ellipsim.mujoco.structs",
+    ]  # fmt: skip
+
+
+def test_every_public_name_resolves_to_its_module():
+    import ellipsim.core.charpoly
+    import ellipsim.core.classify
+    import ellipsim.core.distance
+    import ellipsim.core.ellipsoids
+    import ellipsim.core.perram_wertheim
+    import ellipsim.core.relation
+    import ellipsim.mujoco.compare
+    import ellipsim.mujoco.geoms
+
+    assert set(ellipsim.__all__) <= set(dir(ellipsim)) and set(ellipsim.mujoco.__all__) <= set(dir(ellipsim.mujoco))
+    assert ellipsim.classify is ellipsim.core.classify.classify
+    assert ellipsim.Ellipsoids is ellipsim.core.ellipsoids.Ellipsoids
+    assert ellipsim.Relation is ellipsim.core.relation.Relation
+    assert ellipsim.contact_scale is ellipsim.core.perram_wertheim.contact_scale
+    assert ellipsim.signed_distance is ellipsim.core.distance.signed_distance
+    assert ellipsim.characteristic_polynomial is ellipsim.core.charpoly.characteristic_polynomial
+    assert ellipsim.mujoco.compare_narrowphase is ellipsim.mujoco.compare.compare_narrowphase
+    assert ellipsim.mujoco.candidate_pairs is ellipsim.mujoco.geoms.candidate_pairs
+    for name in set(ellipsim.mujoco.__all__) - {"MODES"}:
+        assert getattr(ellipsim.mujoco, name).__name__ == name
+    assert ellipsim.mujoco.MODES == ("filter", "narrowphase")
+    with pytest.raises(AttributeError, match="no attribute 'classfy'"):
+        ellipsim.classfy  # noqa: B018
+
+
+def test_importing_the_validate_module_keeps_the_validate_function():
+    code = (
+        "import ellipsim.mujoco.validate\n"
+        "import ellipsim.mujoco as em\n"
+        "from ellipsim.mujoco.validate import Validation\n"
+        "print(em.validate.__module__, em.validate.__name__, em.Validation is Validation)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.split() == ["ellipsim.mujoco.validate", "validate", "True"]

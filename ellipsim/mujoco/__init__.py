@@ -5,17 +5,51 @@
     ellipsim.mujoco.validate(model, data, 100)             # MuJoCo's contacts vs exact verdicts
     ellipsim.mujoco.compare_narrowphase(model, data, 100)  # contact by contact, refereed
 
-Modules: structs (mjModel/mjData field access from compiled code), callbacks (the cfuncs), attachment
+Modules: structs (mjModel/mjData field offsets from MuJoCo's introspection, verified), context (what
+the compiled callbacks read per process), callbacks (the cfuncs), nativecache (their machine code,
+cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
 (installing them for one data), geoms (ellipsoid geoms and candidate pairs), validate, compare,
 scenes (MJCF builders: figures, piles, chains).
+
+`attach` is imported with the package; the rest on first use (PEP 562), so that attaching from a
+warm cache imports neither numba nor the geometry core.
 """
 
-from .attachment import MODES, Attachment, attach
-from .compare import ContactDifference, NarrowphaseComparison, compare_narrowphase
-from .geoms import candidate_pairs
-from .validate import Disagreement, Validation, validate
+import importlib
+import sys
+import types
 
-__all__ = [
-    "MODES", "Attachment", "attach", "candidate_pairs", "validate", "Validation", "Disagreement",
-    "compare_narrowphase", "NarrowphaseComparison", "ContactDifference",
-]  # fmt: skip
+from .attachment import MODES, Attachment, attach
+
+_LAZY = {
+    "candidate_pairs": "geoms",
+    "validate": "validate", "Validation": "validate", "Disagreement": "validate",
+    "compare_narrowphase": "compare", "NarrowphaseComparison": "compare", "ContactDifference": "compare",
+}  # fmt: skip
+
+__all__ = ["MODES", "Attachment", "attach", *_LAZY]
+
+
+def __getattr__(name):
+    """The public names of geoms, validate and compare, imported on first use."""
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
+
+class _Package(types.ModuleType):
+    """This package, whose attribute `validate` stays the function: importing the submodule
+    ellipsim.mujoco.validate (anyone may, any time) would otherwise set the attribute to the module,
+    as the import system does for every submodule (docs.python.org/3/reference/import.html#submodules)."""
+
+    def __setattr__(self, name, value):
+        if name == "validate" and isinstance(value, types.ModuleType):
+            value = value.validate
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package  # the data model's way to customise a module (3.5+)

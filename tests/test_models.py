@@ -183,7 +183,8 @@ def test_model_errors_are_one_line(models):
         scenario.load(str(models / "nothere.xml"))
 
 
-def test_mujoco_out_of_memory_is_a_clear_error(models):
+def test_mujoco_out_of_memory_is_a_clear_error(models, monkeypatch):
+    monkeypatch.chdir(models)  # MuJoCo logs its warnings to MUJOCO_LOG.TXT in the working directory
     small = variant(models, "small.xml", '<option timestep="0.004"/>', '<option timestep="0.004"/><size memory="2K"/>')
     s = scenario.load(str(small))
     with pytest.raises(scenario.ScenarioError, match=r"small\.xml MuJoCo stopped at step \d+: mj_stackAlloc: out of memory.*increase <size memory"):

@@ -259,6 +259,22 @@ def test_prebuild_usage(monkeypatch, capsys):
         prebuild.build("unused")
 
 
+def test_bench_section_reports_each_origin():
+    from ellipsim.app.bench import startup
+
+    runs = startup.measure({"startup_cold": 0, "startup_rounds": 1, "startup_modes": ("filter",)})
+    assert sorted(runs) == [("MuJoCo alone", "none"), ("prebuilt", "filter"), ("warm", "filter")]
+    assert [r["origin"] for r in runs[("warm", "filter")]] == ["cache"]
+    assert [r["origin"] for r in runs[("prebuilt", "filter")]] == ["prebuilt"]
+    assert not any(r["numba"] or r["notice"] for rs in runs.values() for r in rs)
+    for rs in runs.values():
+        assert all(0 < r["part"] <= r["wall"] and 0 < r["cpu"] for r in rs)
+    lines = startup.write(runs, None, None, None)
+    assert lines[0] == "## 6. Start-up"
+    rows = [line for line in lines if line.startswith("| warm ") or line.startswith("| prebuilt ")]
+    assert [row.split("|")[9].strip() for row in rows] == ["cache", "prebuilt"]
+
+
 def test_an_error_status_answers_as_mujoco_would():
     """The wrapper's error path (callbacks._wrapper_for), driven by kernels that always raise: the
     filter gives MuJoCo's bitmask verdict, the narrow phase MuJoCo's own contact."""

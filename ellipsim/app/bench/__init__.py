@@ -11,6 +11,8 @@ each:
 3. scaling: classify against batch size; the kinematic replay against the number of figures
 4. table1: the thesis's Table 1 re-run
 5. inside_mujoco: mj_step per mode, cost per pair, contacts against MuJoCo's, long runs
+6. startup: `import ellipsim` to the first narrow-phase mj_step in fresh interpreters: cold
+   (compiling), warm cache, shipped prebuilt objects
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -19,10 +21,11 @@ import datetime
 import os
 import time
 
-from . import accuracy, inside_mujoco, scaling, stress, table1
+from . import accuracy, inside_mujoco, scaling, startup, stress, table1
 from .common import SIZES, machine_description, plt
 
-SECTIONS = {"accuracy": accuracy, "stress": stress, "scaling": scaling, "table1": table1, "mujoco": inside_mujoco}
+SECTIONS = {"accuracy": accuracy, "stress": stress, "scaling": scaling, "table1": table1, "mujoco": inside_mujoco,
+            "startup": startup}
 
 
 def run(out_dir, *, quick=False, only=None):

@@ -1,0 +1,138 @@
+"""Section 6: start-up, from `import ellipsim` to the end of the first mj_step that runs the narrow
+phase, each run in a fresh interpreter (issue 10, part 4: <= 0.3 s once compiled, <= 4 s on a fresh
+install).
+
+Configurations (ellipsim's cache is ELLIPSIM_CACHE_DIR, the shipped objects ELLIPSIM_PREBUILT_DIR):
+
+- cold: empty ellipsim cache, no prebuilt objects, empty numba cache: a compile on a fresh install
+  of a platform without shipped objects;
+- prebuilt: empty ellipsim cache, the shipped CPU-generic objects: a fresh install;
+- warm: the cache the cold runs wrote;
+- MuJoCo alone: the same process without ellipsim (interpreter, numpy and MuJoCo), for scale.
+
+Warm, prebuilt and MuJoCo-alone runs are interleaved round by round.  The box this runs on may be
+loaded by other work: medians, and the CPU time of the child process beside the wall time.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from ...mujoco import nativecache
+from .common import SIZES, say
+
+# Two overlapping ellipsoids: the first mj_step calls the narrow phase (the child checks).
+_XML = """<mujoco><worldbody>
+<body><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>
+<body pos=".15 0 0"><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>
+</worldbody></mujoco>"""
+
+_CHILD = r"""
+import json, resource, sys, time
+t_start = time.perf_counter()
+import mujoco
+model = mujoco.MjModel.from_xml_string(sys.argv[1])
+data = mujoco.MjData(model)
+mode = sys.argv[2]
+cpu0, t0 = time.process_time(), time.perf_counter()
+if mode != "none":
+    import ellipsim
+    with ellipsim.mujoco.attach(model, data, mode=mode) as att:
+        t_attach = time.perf_counter()
+        mujoco.mj_step(model, data)
+    key = "calls" if mode == "narrowphase" else "seen"
+    assert att.counters[key] == 1, att.counters
+    from ellipsim.mujoco import nativecache
+    origin = nativecache.function(mode).origin
+else:
+    t_attach = time.perf_counter()
+    mujoco.mj_step(model, data)
+    origin = "-"
+t1 = time.perf_counter()
+usage = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps({"part": t1 - t0, "part_cpu": time.process_time() - cpu0, "attach": t_attach - t0,
+                  "before": t0 - t_start, "cpu": usage.ru_utime + usage.ru_stime, "origin": origin,
+                  "numba": "numba" in sys.modules}))
+"""
+
+#: runs per configuration: (cold runs per mode, warm / prebuilt / MuJoCo-alone rounds, modes)
+_RUNS = {"quick": (1, 3, ("narrowphase",)), "full": (3, 10, ("narrowphase", "filter"))}
+
+
+def _child(mode, cache, prebuilt, numba_cache=None):
+    """One fresh interpreter: the child's report plus "wall", the whole process's wall time."""
+    env = dict(os.environ, **{nativecache.CACHE_ENV: str(cache), nativecache.PREBUILT_ENV: str(prebuilt)})
+    if numba_cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(numba_cache)
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", _CHILD, _XML, mode], env=env, capture_output=True, text=True, timeout=900)
+    wall = time.perf_counter() - t0
+    if proc.returncode:
+        raise RuntimeError(f"start-up child ({mode}) failed: {proc.stderr.strip()}")
+    return dict(json.loads(proc.stdout), wall=wall, notice=nativecache.NOTICE_PREFIX in proc.stderr)
+
+
+def measure(size):
+    """{(configuration, mode): [child reports]} (see _child)."""
+    n_cold, rounds, modes = _RUNS["quick" if size == SIZES["quick"] else "full"]
+    n_cold, rounds, modes = size.get("startup_cold", n_cold), size.get("startup_rounds", rounds), size.get("startup_modes", modes)
+    runs = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        cache, nothing = os.path.join(tmp, "cache"), os.path.join(tmp, "no-prebuilt")
+        os.makedirs(nothing)
+        for mode in modes:
+            for k in range(n_cold):
+                say(f"start-up: cold {mode} {k + 1}/{n_cold} (compiles) ...")
+                fresh = os.path.join(tmp, f"cold-{mode}-{k}")
+                # the last cold run writes into `cache`, the warm runs' cache
+                target = cache if k == n_cold - 1 else os.path.join(fresh, "cache")
+                runs.setdefault(("cold", mode), []).append(_child(mode, target, nothing, os.path.join(fresh, "numba")))
+            if n_cold == 0:  # fill the warm cache all the same
+                _child(mode, cache, nothing, os.path.join(tmp, f"numba-{mode}"))
+        say(f"start-up: warm, prebuilt and MuJoCo alone, {rounds} interleaved rounds ...")
+        shipped = nativecache.prebuilt_dir()
+        for k in range(rounds):
+            for mode in modes:
+                runs.setdefault(("warm", mode), []).append(_child(mode, cache, nothing))
+                runs.setdefault(("prebuilt", mode), []).append(_child(mode, os.path.join(tmp, f"empty-{k}"), shipped))
+            runs.setdefault(("MuJoCo alone", "none"), []).append(_child("none", cache, nothing))
+    return runs
+
+
+def write(result, size, out, plt):
+    """The section's markdown (no plot)."""
+    L = [
+        "## 6. Start-up",
+        "",
+        "A fresh interpreter per run: import mujoco, build two overlapping ellipsoids, then `import ellipsim`, "
+        "`attach`, one mj_step that calls ellipsim's callback.  *ellipsim part*: from `import ellipsim` to the end "
+        "of that step (the issue's goal: <= 0.3 s once compiled, <= 4 s on a fresh install); *process*: the whole "
+        "child, interpreter start-up included.  Medians (minimum in brackets); CPU seconds are the child's own, "
+        "less sensitive than wall time to other work on the machine.",
+        "",
+        "| configuration | mode | runs | ellipsim part s | its CPU s | import + attach s | process wall s "
+        "| process CPU s | callback from | numba imported | notice |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---|---|---|",
+    ]
+    for (config, mode), reports in result.items():
+        col = {k: np.array([r[k] for r in reports]) for k in ("part", "part_cpu", "attach", "wall", "cpu")}
+        med = {k: float(np.median(v)) for k, v in col.items()}
+        origins = "/".join(sorted({r["origin"] for r in reports}))
+        numba = "/".join(sorted({"yes" if r["numba"] else "no" for r in reports}))
+        notice = "/".join(sorted({"yes" if r["notice"] else "no" for r in reports}))
+        L.append(
+            f"| {config} | {mode} | {len(reports)} | **{med['part']:.3f}** ({col['part'].min():.3f}) | {med['part_cpu']:.3f} "
+            f"| {med['attach']:.3f} | {med['wall']:.2f} ({col['wall'].min():.2f}) | {med['cpu']:.2f} | {origins} | {numba} "
+            f"| {notice} |"
+        )
+    L += [
+        "",
+        "Regenerate the shipped objects after changing a kernel the callbacks use: `python -m ellipsim.mujoco.prebuild`.",
+        "",
+    ]
+    return L

@@ -234,14 +234,12 @@ def test_sweep_and_prune_finds_every_overlapping_pair(n, seed):
     rng = np.random.default_rng(seed)
     centers = rng.uniform(-1, 1, (3, n, 3)) * rng.permutation([0.2, 1.0, 5.0])  # the sweep axis varies
     rho = rng.uniform(0.05, 0.4, n)
-    allowed = rng.random((n, n)) < 0.8
-    allowed = allowed & allowed.T
-    np.fill_diagonal(allowed, False)
-    got = {tuple(p) for p in sweep_and_prune(centers, rho, allowed)}
+    pairs = sweep_and_prune(centers, rho)
+    got = {tuple(p) for p in pairs}
     d = np.linalg.norm(centers[:, :, None] - centers[:, None, :], axis=-1)
-    want = {(f, i, j) for f in range(3) for i in range(n) for j in range(i + 1, n)
-            if allowed[i, j] and d[f, i, j] <= rho[i] + rho[j]}  # fmt: skip
-    assert got == want
+    want = {(f, i, j) for f in range(3) for i in range(n) for j in range(i + 1, n) if d[f, i, j] <= rho[i] + rho[j]}
+    assert got == want and len(got) == len(pairs)  # each pair once
+    assert np.all(np.diff(pairs[:, 0]) >= 0)  # sorted by frame
 
 
 def test_candidate_rules_follow_mujoco():

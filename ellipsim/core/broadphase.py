@@ -2,22 +2,23 @@
 
 A kinematic replay (or a recording) poses the same g ellipsoids in F frames.  Sweep and prune per
 frame over bounding spheres (Cohen, Lin, Manocha & Ponamgi, I-COLLIDE, 1995: sort the intervals
-along an axis, sweep) gives the candidate pairs; one batched exact `classify` decides them all.
+along an axis, sweep) gives the candidate pairs; ellipsim.mujoco.geoms filters them by MuJoCo's
+rules, and one batched exact `classify` decides them all.
 """
 
 import numpy as np
 
 from ._jit import jit
-from .classify import classify
-from .ellipsoids import Ellipsoids
 
 
 @jit
-def sweep_and_prune(centers, rho, allowed):
+def sweep_and_prune(centers, rho):
     """Pairs (frame, i, j), i < j, whose bounding spheres overlap in each frame: sort by c - rho along
     the frame's axis of widest spread (figures in a line along y must not be swept along x), sweep.
 
-    centers : (F, g, 3), rho : (g,) bounding radii, allowed : (g, g) bool.  Returns (P, 3) int64.
+    centers : (F, g, 3), rho : (g,) bounding radii.  Returns (P, 3) int64, sorted by frame.  Which
+    of these pairs may collide at all (MuJoCo's contype, parent and exclude rules) is the caller's
+    filter: a (g, g) matrix here would be quadratic in memory.
     """
     F, g = centers.shape[0], centers.shape[1]
     cap = 1024
@@ -38,8 +39,6 @@ def sweep_and_prune(centers, rho, allowed):
                 j = order[b]
                 if lo[j] > hi:
                     break
-                if not allowed[i, j]:
-                    continue
                 dx = centers[f, i, 0] - centers[f, j, 0]
                 dy = centers[f, i, 1] - centers[f, j, 1]
                 dz = centers[f, i, 2] - centers[f, j, 2]
@@ -52,19 +51,3 @@ def sweep_and_prune(centers, rho, allowed):
                     out[n, 0], out[n, 1], out[n, 2] = f, min(i, j), max(i, j)
                     n += 1
     return out[:n]
-
-
-def classify_frames(centers, rotations, radii, allowed):
-    """Exact relation of every candidate pair of every frame, in one batched classify call.
-
-    centers (F, g, 3), rotations (F, g, 3, 3), radii (g, 3), allowed (g, g).
-    Returns pairs (P, 3) (frame, i, j) and relations (P,) int8.
-    """
-    rho = radii.max(axis=1) * (1 + 1e-9)
-    pairs = sweep_and_prune(np.ascontiguousarray(centers), rho, allowed)
-    if len(pairs) == 0:
-        return pairs, np.zeros(0, dtype=np.int8)
-    f, i, j = pairs.T
-    a = Ellipsoids(centers[f, i], rotations[f, i], radii[i])
-    b = Ellipsoids(centers[f, j], rotations[f, j], radii[j])
-    return pairs, classify(a, b)

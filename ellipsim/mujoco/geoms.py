@@ -48,15 +48,46 @@ def enclosing(model, data, geoms, grow):
     return Ellipsoids(data.geom_xpos[geoms], data.geom_xmat[geoms].reshape(-1, 3, 3), radii)
 
 
+class PairRecorder:
+    """Records the ellipsoid and sphere-ellipsoid pairs MuJoCo's broad phase sends to collision, while
+    the `with` block runs (the contact filter in record mode: it applies MuJoCo's own bitmask test
+    and otherwise keeps every pair, so contacts and state are plain MuJoCo's).
+
+    The buffer starts at 8 pairs per such geom and doubles when a step overflows it (that step is
+    collided again): memory follows the candidates, not the g (g - 1) / 2 possible pairs."""
+
+    def __init__(self, model, data):
+        check_model_data(model, data)
+        ell = int(np.count_nonzero((model.geom_type == ELLIPSOID) | (model.geom_type == SPHERE)))
+        self.model, self.data, self.capacity = model, data, 8 * ell + 64
+        self._att = None
+
+    def __enter__(self):
+        self._att = Attachment(self.model, self.data, "record", capacity=self.capacity).__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        self._att.__exit__(*exc)
+        return False
+
+    def forward(self):
+        """mj_forward, and the (k, 2) int32 candidate pairs it collided, each once, g1 < g2, sorted."""
+        while True:
+            self._att._counters[3] = 0
+            mujoco.mj_forward(self.model, self.data)
+            k = int(self._att._counters[3])
+            if k <= self.capacity:
+                return np.unique(np.sort(self._att._pairs[:k], axis=1), axis=0)
+            self._att.__exit__(None, None, None)
+            self.capacity = 2 * k
+            self._att = Attachment(self.model, self.data, "record", capacity=self.capacity).__enter__()
+
+
 def candidate_pairs(model, data):
     """(k, 2) int32: the ellipsoid and sphere-ellipsoid geom pairs MuJoCo's broad phase sends to
     collision at the current state (runs mj_forward; contacts and state as plain MuJoCo leaves them)."""
-    check_model_data(model, data)
-    ell = np.count_nonzero((model.geom_type == ELLIPSOID) | (model.geom_type == SPHERE))
-    with Attachment(model, data, "record", capacity=max(ell * (ell - 1) // 2, 1)) as att:
-        mujoco.mj_forward(model, data)
-        k = int(att._counters[3])
-        return np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
+    with PairRecorder(model, data) as recorder:
+        return recorder.forward()
 
 
 class PairRules:
@@ -124,13 +155,13 @@ def frame_pairs(centers, radii, rules):
     allow: (P, 3) int64, sorted by frame.
 
     centers : (F, g, 3) metres; radii : (g, 3) semi-axes; rules : PairRules over the same g geoms.
-    Sweep and prune per frame (core.broadphase) with no pair filter (a broadcast True, no (g, g)
-    matrix), then MuJoCo's rules on the pairs it found, vectorised.
+    Sweep and prune per frame (core.broadphase), then MuJoCo's rules on the pairs it found, vectorised
+    (no (g, g) matrix).
     """
     centers = np.ascontiguousarray(centers, dtype=np.float64)
     g = centers.shape[1]
     if g < 2 or len(centers) == 0:
         return np.zeros((0, 3), dtype=np.int64)
     rho = np.ascontiguousarray(radii.max(axis=1) * _SPHERE_SLACK)
-    pairs = sweep_and_prune(centers, rho, np.broadcast_to(np.True_, (g, g)))
+    pairs = sweep_and_prune(centers, rho)
     return pairs[rules.allowed(pairs[:, 1], pairs[:, 2])]

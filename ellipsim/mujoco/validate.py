@@ -8,9 +8,8 @@ import numpy as np
 from ..core.classify import classify
 from ..core.perram_wertheim import contact_scale
 from ..core.relation import Relation
-from .attachment import Attachment, check_model_data
-from .callbacks import ELLIPSOID, SPHERE
-from .geoms import enclosing, pair_contact_dist, pair_margins
+from .attachment import check_model_data
+from .geoms import PairRecorder, enclosing, pair_contact_dist, pair_margins
 
 
 @dataclasses.dataclass
@@ -63,21 +62,15 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None):
     check_model_data(model, data)
     if not isinstance(nstep, (int, np.integer)) or nstep < 1:
         raise ValueError(f"nstep must be a positive integer, got {nstep!r}")
-    ell = np.flatnonzero((model.geom_type == ELLIPSOID) | (model.geom_type == SPHERE))
-    capacity = max(len(ell) * (len(ell) - 1) // 2, 1)
-    att = Attachment(model, data, "record", capacity=capacity)
     counts = np.zeros((nstep, 4), dtype=np.int64)
     ncon = np.zeros(nstep, dtype=np.int64)
     disagreements = []
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
-    with att:
+    with PairRecorder(model, data) as recorder:
         for step in range(nstep):
-            att._counters[3] = 0
             if control is not None:
                 control(model, data, step)
-            mujoco.mj_forward(model, data)
-            k = int(att._counters[3])
-            pairs = np.unique(np.sort(att._pairs[:k], axis=1), axis=0)
+            pairs = recorder.forward()
             ncon[step] = data.ncon
             if len(pairs):
                 margin = pair_margins(model, pairs)

@@ -27,6 +27,8 @@ from .mjcf import CTRL_MODES, one_line
 MODES = ("builtin", "filter", "narrowphase")
 SCENES = ("figures", "pile", "mjcf")
 CONTROLS = ("hold", "sway", "walk", "reach", "dance", "flail", "keyframes")
+#: Controls that draw from a random seed (key control.seed).
+SEEDED_CONTROLS = ("sway", "walk", "dance", "flail")
 
 #: Simulated seconds of `ellipsim run MODEL.xml` without --steps.
 MJCF_DURATION = 2.0
@@ -159,15 +161,40 @@ def load(name_or_path):
     path = resolve(name_or_path)
     if _is_mjcf(path):
         return model_scenario(path)
+    return from_table(read_table(path), path)
+
+
+def read_table(path):
+    """The TOML table of the scenario file at `path` (not validated); ScenarioError naming the file
+    when it cannot be read or is not TOML."""
     try:
         with open(path, "rb") as f:
-            table = tomllib.load(f)
+            return tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{path}: not UTF-8 text: {exc}") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
+
+
+def source_table(name_or_path):
+    """(table, path): the TOML table of a scenario given as `load` takes it (an MJCF model: the
+    table that loads as `model_scenario` does), for a caller to change before `from_table`."""
+    path = resolve(name_or_path)
+    if not _is_mjcf(path):
+        return read_table(path), path
+    s = model_scenario(path)
+    return {"description": s.description, "duration": s.duration, "mode": s.mode,
+            "scene": {"kind": "mjcf", "path": s.scene["path"]}, "control": {"kind": "hold"}}, s.path  # fmt: skip
+
+
+def from_table(table, path):
+    """The Scenario of a TOML `table` validated as if it were the file at `path` (errors name that
+    file; an mjcf scene's path is relative to its folder).  Its name is the file's, without .toml
+    or .xml."""
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{path}: a scenario must be a table, got {table!r}")
     _unknown(path, "", table, _TOP_KEYS)
     top = _Checker(path, table)
     description = top.get("description", str, "")
@@ -196,7 +223,8 @@ def load(name_or_path):
         )
     control = _control(top.table_of("control"), kinematic, scene["kind"])
     top.done()
-    name = os.path.basename(path)[:-5] if path.endswith(".toml") else os.path.basename(path)
+    base = os.path.basename(path)
+    name = os.path.splitext(base)[0] if base.endswith((".toml", ".xml")) else base
     return Scenario(name, path, description, duration, timestep, mode, kinematic, tuple(float(g) for g in gravity), scene, control)
 
 
@@ -290,7 +318,7 @@ def _control(c, kinematic, scene_kind):
     if scene_kind == "pile" and kind != "hold":
         raise c.error("kind", "must be 'hold' for a pile scene (free ellipsoids have no joints to drive)", kind)
     out = {"kind": kind}
-    if kind in ("sway", "walk", "dance", "flail"):
+    if kind in SEEDED_CONTROLS:
         out["amplitude"] = c.get("amplitude", float, 20.0 if kind != "flail" else 0.5, positive=True)
         out["period"] = c.get("period", float, 2.0, positive=True)
         out["phase_step"] = c.get("phase_step", float, 0.0)

@@ -193,3 +193,14 @@ def test_fit_prints_short_numbers_and_writes_mjcf_that_encloses_the_meshes(tmp_p
 def test_fit_mistakes_are_one_line(tmp_path):
     assert "mesh file" in one_line_error(cli("fit", str(tmp_path / "none.stl")))
     assert "--out must name a .xml file" in one_line_error(cli("fit", str(tmp_path / "none.stl"), "--out", "x.txt"))
+
+
+def test_bench_sections_are_the_suites_and_the_cli_starts_without_it(tmp_path, capsys):
+    from ellipsim.app import bench
+
+    assert main(["bench", "--only", "stress", "nosuch", "--out", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"ellipsim: error: --only: unknown section 'nosuch'; the sections are {', '.join(bench.SECTIONS)}"
+    assert not (tmp_path / "b").exists()
+    code = "import sys\nfrom ellipsim.app import cli\ncli.parser()\nprint('ellipsim.app.bench' in sys.modules)\n"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"

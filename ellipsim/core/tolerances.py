@@ -112,3 +112,69 @@ POS_TOL = 1e-3  # metres between the contact points
 #: tolerance (its default is 1e-6; at 1e-11 its contacts agree with ellipsim's to ~1e-11).
 TIGHT_CCD_TOLERANCE = 1e-11
 TIGHT_CCD_ITERATIONS = 1000
+
+# --- Motion and time of impact (core/motion.py, core/time_of_impact.py) --------------------------
+
+#: The contract's resolution in t (issue 12): time_of_impact proves separation on [0, toi - TOI_TOL]
+#: and finds a pose that is not separated at toi, which lies within TOI_TOL of the proven range.
+TOI_TOL = 1e-9
+
+#: A relative rotation within this many radians of a half turn has no well-defined shortest arc
+#: (validated rotations are orthonormal to 1e-6 only, so the axis of a turn by pi - 1e-7 is noise):
+#: ValueError.  It also keeps |alpha| = |w| |phi| <= pi/2 for the sin/cos polynomials of motion.py.
+HALF_TURN_TOL = 1e-6
+
+#: |w| below this is no rotation at all (E = I exactly): 2^-500 rad would only add underflow.
+OMEGA_ZERO = 2.0**-500
+
+#: motion.sincos errs by less than this (absolute) for |x| <= 1.6: gamma_23 cosh(1.6) for Horner's
+#: rule on the Taylor polynomials, the rounding of x^2 and the tail (derivation in its docstring).
+#: Its own polynomials rather than libm's sin/cos, whose accuracy is documented but not proven.
+SINCOS_ERR = 62.0 * U
+
+#: Rodrigues' E~^T p errs by at most (RODRIGUES_ERR + 12 |alpha|) u |p| (motion.rodrigues_apply:
+#: 3 SINCOS_ERR/u + 28.8 = 214.8; mpmath over random cases in tests/test_toi.py).
+RODRIGUES_ERR = 216.0
+
+#: Spectral-norm bound on fl(R_p E~(phi)) - R_p E(phi), the float pose's rotation against the exact
+#: motion's: each column of E~ within (RODRIGUES_ERR + 12 pi/2) u = 2.61e-14, sqrt(3) of that for the
+#: matrix, times ||R_p|| <= 1 + 1.6e-6, plus the product's rounding gamma_3 * 3: 4.7e-14 < 2^-44.
+DELTA_R = 2.0**-44
+
+#: Where time_of_impact looks for the first pose that is not separated once the sweep stalls at its
+#: proven end a: a + TOI_PROBE, then a + TOI_PROBE2 (a deeper pose when the first is within rounding
+#: of touching) before asking for rationals.  Both within TOI_TOL of the proven range.
+TOI_PROBE = 0.5 * TOI_TOL
+TOI_PROBE2 = 0.999 * TOI_TOL
+
+#: The sweep has stalled when a step advances less than this ...
+TOI_STALL = 0.25 * TOI_TOL
+#: ... and after this many stalls in a row, each probed and found separated, the pair is UNRESOLVED:
+#: the certificates resolve margins to ~1e-14 of the pair's size, so the pair stays within float64
+#: resolution of touching over several TOI_TOL (a grazing contact, a near miss, a very slow approach).
+TOI_STALL_LIMIT = 6
+
+#: Sweep steps before a pair is declared UNRESOLVED (a guard; never reached in the tests, where the
+#: mean is 1.6-4 and the largest count 20).
+TOI_MAX_STEPS = 4000
+
+#: Regula-falsi steps for the largest certified end of a step, stopping once the failing end is within
+#: this fraction of the certified span: more steps buy less than a new sweep step costs.
+TOI_FALSI_STEPS = 6
+TOI_FALSI_RTOL = 0.05
+
+#: Exact relations (rationals) a pair's search may ask for before it is declared UNRESOLVED: each
+#: costs ~1-4 ms, and a pair needs one or two (a touching pose at t = 0 or a grazing probe).
+TOI_MAX_ORACLE = 16
+
+# --- Containment (core/containment.py) ------------------------------------------------------------
+
+#: B inside A forces each sorted semi-axis of B to be at most A's times this: widths are monotone
+#: under inclusion, and a validated rotation's singular values lie within 1 +- 1.6e-6
+#: (BOUNDING_INFLATION), so the axes of R^{-T} D differ from r by at most that factor each way.
+AXIS_SLACK = BOUNDING_INFLATION**2
+
+#: Cyclic Jacobi sweeps for K_c's eigenbasis (3x3: converged to rounding in 3-4) and the safeguarded
+#: Newton steps on the secular equation (converges in < 10; both only guide the certificates).
+JACOBI_SWEEPS = 6
+CONTAIN_NEWTON_STEPS = 40

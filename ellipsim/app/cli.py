@@ -6,6 +6,8 @@
     ellipsim replay MODEL.xml MOTION.npy|.csv [--fps F] [--record FILE.rrd] [--json FILE]
     ellipsim fit MESH... [--method thesis|mvee] [--out limbs.xml]
     ellipsim view FILE.rrd
+    ellipsim sweep SCENARIO|MODEL.xml --vary KEY=V1,V2,... [--vary ...] [--seeds N] [--steps N] [--mode M]
+                   [--record] --out DIR [--backend local|ray] [--workers N]
     ellipsim bench [--quick] [--only SECTION ...] [--out DIR]
     ellipsim list
     ellipsim demo [--pairs N] [--seed S]
@@ -380,19 +382,14 @@ def run(args):
 
 
 def _compare_summary(validation):
-    """Per-frame and total counts, and the disagreements split into missed / extra / near-tangent."""
+    """Per-frame and total counts, and the disagreements split into missed / extra / near-tangent
+    (as sweep's columns are)."""
+    from .sweep import split_disagreements
+
     counts = validation.counts
     builtin = counts[:, 0] + counts[:, 2]
     ours = counts[:, 0] + counts[:, 3]
-    missed, extra, near = [], [], []
-    for d in validation.disagreements:
-        if abs(d.geom_distance) < NEAR_TANGENT:
-            near.append(d)
-        elif d.mujoco_contact:
-            missed.append(d)
-        else:
-            extra.append(d)
-    return builtin, ours, missed, extra, near
+    return builtin, ours, *split_disagreements(validation)
 
 
 def compare(args):
@@ -611,6 +608,96 @@ def fit(args):
     return 0
 
 
+# --- sweep -----------------------------------------------------------------------------------------
+
+
+def sweep(args):
+    """Many variants of a scenario: DIR/results.csv (a row each), DIR/sweep.png, optional recordings."""
+    from . import scenario, sweep as sw
+
+    try:
+        vary = {}
+        for text in args.vary:
+            key, values = sw.parse_vary(text)
+            if key in vary:
+                raise UserError(f"--vary {key}: given twice; put all its values in one --vary")
+            vary[key] = values
+        sw.check_out(args.out)
+        if args.backend == "ray":
+            try:
+                import ray  # noqa: F401
+            except ImportError:
+                raise UserError(f"--backend ray needs Ray: {install_hint('ray')}") from None
+        variants = sw.plan(args.scenario, vary, seeds=args.seeds, steps=args.steps, mode=args.mode,
+                           record_dir=args.out if args.record else None)  # fmt: skip
+        done = sw.already_done(variants, args.out)
+    except sw.SweepError as exc:
+        raise UserError(f"--{exc}") from None
+    except scenario.ScenarioError as exc:
+        raise UserError(str(exc)) from None
+    plot = sw.plot_available()
+    s = scenario.from_table(variants[0].table, variants[0].path)
+    _header(s)
+    shape = " x ".join([f"{len(v)} {k}" for k, v in vary.items()] + ([f"{args.seeds} seeds"] if args.seeds else []))
+    steps = sorted({v.steps for v in variants})
+    todo = len(variants) - len(done)
+    where = (f"{min(args.workers or os.cpu_count() or 1, todo)} local processes" if args.backend == "local" else
+             f"Ray at {os.environ['RAY_ADDRESS']}" if os.environ.get("RAY_ADDRESS") else "a local Ray instance")  # fmt: skip
+    print(f"  sweep: {len(variants)} variants ({shape or 'the scenario alone'}), "
+          f"{steps[0] if len(steps) == 1 else f'{steps[0]}-{steps[-1]}'} steps each (twice: plain MuJoCo validated, then the mode)"
+          + (f"; {len(done)} already in {os.path.join(args.out, sw.RESULTS)}" if done else "")
+          + (f"; running {todo} on {where}" if todo else ""), flush=True)  # fmt: skip
+    bar = _bar("  variants", max(todo, 1), unit="variants")
+    try:
+        rows = sw.sweep(args.scenario, vary, seeds=args.seeds, steps=args.steps, mode=args.mode, out=args.out,
+                        backend=args.backend, workers=args.workers, record=args.record, plot=plot, progress=bar)  # fmt: skip
+    except sw.SweepError as exc:
+        raise UserError(f"--{exc}") from None
+    except OSError as exc:
+        raise _write_error("--out", args.out, exc) from None
+    _print_rows(rows, list(variants[0].values))
+    print(f"  results: {os.path.join(args.out, sw.RESULTS)} (columns: {os.path.join(args.out, 'columns.json')})")
+    if plot:
+        print(f"  plot: {os.path.join(args.out, sw.PLOT)}")
+    else:
+        print(f"  no plot: it needs matplotlib: {install_hint('plot')}")
+    if args.record:
+        print(f"  recordings: {os.path.join(args.out, '<variant>.rrd')}; view one with: ellipsim view {os.path.join(args.out, rows[0]['variant'] + '.rrd')}")
+    failed = [r for r in rows if r["error"]]
+    if failed:
+        _end_lines()
+        print(f"ellipsim: {len(failed)} of {len(rows)} variants failed (their rows hold the error), "
+              f"e.g. {failed[0]['variant']}: {failed[0]['error']}", file=sys.stderr)  # fmt: skip
+        return 1
+    return 0
+
+
+#: Rows of a sweep printed at most (results.csv has them all).
+SWEEP_ROWS_SHOWN = 40
+
+
+def _print_rows(rows, keys):
+    from .sweep import format_value
+
+    def cell(value, fmt="{}"):
+        return "" if value is None else fmt.format(value)
+
+    head = ["variant", *keys, "steps/s", "pairs", "MuJoCo", "exact", "missed", "extra", "near", "fallbacks", "deepest mm"]
+    table = [
+        [r["variant"], *(format_value(r[k]) for k in keys), cell(r["steps_per_second"], "{:,.0f}"), cell(r["pairs"]),
+         cell(r["mujoco_contacts"]), cell(r["ellipsim_overlaps"]), cell(r["missed"]), cell(r["extra"]), cell(r["near_tangent"]),
+         cell(r["fallbacks"]), cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}")]
+        + ([f"failed: {r['error']}"] if r["error"] else [])
+        for r in rows[:SWEEP_ROWS_SHOWN]
+    ]  # fmt: skip
+    width = [max(len(str(row[k])) for row in [head, *table] if k < len(row)) for k in range(len(head))]
+    print("  " + "  ".join(f"{h:>{w}}" for h, w in zip(head, width)))
+    for row in table:
+        print("  " + "  ".join(f"{c:>{w}}" for c, w in zip(row, width)) + ("  " + row[-1] if len(row) > len(head) else ""))
+    if len(rows) > SWEEP_ROWS_SHOWN:
+        print(f"  ... and {len(rows) - SWEEP_ROWS_SHOWN} more")
+
+
 # --- bench and view --------------------------------------------------------------------------------
 
 
@@ -699,6 +786,29 @@ def parser():
     p.add_argument("--out", metavar="FILE.xml", help="write the ellipsoids as MJCF geoms")
     p.add_argument("--digits", type=_positive_int, default=6, help="significant digits of the numbers (default 6)")
     p.set_defaults(run=fit)
+
+    p = sub.add_parser(
+        "sweep", help="many variants of a scenario (cartesian product of --vary lists, seeds): a CSV row each, a plot",
+        epilog="example: ellipsim sweep pile --vary scene.figures=2,4,8 --vary mode=builtin,narrowphase --seeds 3 "
+        "--steps 500 --out sweeps/pile ; on a Ray cluster: RAY_ADDRESS=head:6379 ellipsim sweep ... --backend ray. "
+        "Each variant steps plain MuJoCo validated against the exact test (contacts, missed, extra), then its mode "
+        "(steps/s, fallbacks, deepest penetration); DIR/columns.json says what each column holds. A re-run into the "
+        "same DIR skips the variants already in results.csv. Exit status 1 when a variant failed (its row says why).",
+    )  # fmt: skip
+    p.add_argument("scenario", help="a name from `ellipsim list`, a path to a .toml file, or an MJCF .xml model")
+    p.add_argument("--vary", action="append", default=[], metavar="KEY=V1,V2,...",
+                   help="a TOML key of the scenario (scene.figures, timestep, mode, control.amplitude, ...) and its values; "
+                   "repeat for more keys (values are TOML: 2, 0.001, true, \"text\", [0, 0, -9.81]; bare words are text)")
+    p.add_argument("--seeds", type=_positive_int, help="run each variant with scene.seed (and control.seed) = 0 .. N-1")
+    p.add_argument("--steps", type=_positive_int, help="steps of each pass (default: each variant's duration)")
+    p.add_argument("--mode", choices=("builtin", "filter", "narrowphase"), help="collision detection of every variant")
+    p.add_argument("--record", action="store_true", help="write DIR/<variant>.rrd per variant (its recording id)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (made if missing; a re-run resumes it)")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: processes on this machine (default); ray: RAY_ADDRESS's cluster or a local Ray instance")
+    p.add_argument("--workers", type=_positive_int,
+                   help="processes (local, default: the CPUs; 1 runs in this process) or Ray tasks at a time")
+    p.set_defaults(run=sweep)
 
     p = sub.add_parser("view", help="open a recording in the rerun viewer (or say how)")
     p.add_argument("file", metavar="FILE.rrd")

@@ -69,6 +69,7 @@ from .tolerances import (
     TOI_MAX_STEPS,
     TOI_PROBE,
     TOI_PROBE2,
+    TOI_PROBE_REACH,
     TOI_STALL,
     TOI_STALL_LIMIT,
     TOI_TOL,
@@ -220,27 +221,15 @@ def _body_terms(n, inv_p, w, rod, r):
 def _margin_lower(s, setup):
     """A certified lower bound of n.d(m + s) - phi_A(s) - phi_B(s) for the exact q's (not yet minus Q).
 
-    Errors: n.d and n.v (their mags, already scaled), each phi by gamma_5 of its mag (depth: x [2], s x,
-    q - s x, r (...)) plus gamma_3 of itself (the norm), the exact-q deviation r_max eps_q (1 + |s| theta),
-    the final sums gamma_4 of their magnitudes; `fixed` holds the pose ball and TAU.
+    Errors (_setup sums the parts that do not depend on phi into E0 + |s| E1): n.d and n.v (their mags,
+    already scaled), each phi by gamma_5 of its mag (depth: x [2], s x, q - s x, r (...)) plus gamma_3 of
+    itself (the norm), the exact-q deviation r_max eps_q (1 + |s| theta), the final sums gamma_4 of their
+    magnitudes, the pose ball and TAU.  1.01 covers the rounding of the bound's own (nonnegative) sums.
     """
-    nd, m_nd, nv, m_nv, A, B, fixed = setup
-    qa, xa, aqa, mxa, eqa, _, _, ra, rma, tha = A
-    qb, xb, aqb, mxb, eqb, _, _, rb, rmb, thb = B
-    pa = _scaled_norm(ra, _affine(qa, -s, xa))
-    pb = _scaled_norm(rb, _affine(qb, -s, xb))
-    t = abs(s)
-    ma = ra[0] * (aqa[0] + t * mxa[0]) + ra[1] * (aqa[1] + t * mxa[1]) + ra[2] * (aqa[2] + t * mxa[2])
-    mb = rb[0] * (aqb[0] + t * mxb[0]) + rb[1] * (aqb[1] + t * mxb[1]) + rb[2] * (aqb[2] + t * mxb[2])
-    val = nd + s * nv - pa - pb
-    err = (
-        m_nd + t * m_nv
-        + G5 * (ma + mb) + G3 * (pa + pb)
-        + rma * eqa * (1.0 + t * tha) + rmb * eqb * (1.0 + t * thb)
-        + G4 * (abs(nd) + t * abs(nv) + pa + pb)
-        + fixed
-    )  # fmt: skip
-    return val - err * 1.01
+    nd, nv, E0, E1, A, B = setup
+    pa = _scaled_norm(A[7], _affine(A[0], -s, A[1]))
+    pb = _scaled_norm(B[7], _affine(B[0], -s, B[1]))
+    return nd + s * nv - pa - pb - (E0 + abs(s) * E1 + (G3 + G4) * (pa + pb)) * 1.01
 
 
 @stage
@@ -260,8 +249,8 @@ def _certified(lo, S, setup):
 @stage
 def _model_root(setup, M0, S_full):
     """Float guess of where the bound falls to zero: M0 + L1 S - Qc S^2, with L1 the margin's slope at 0."""
-    nd, m_nd, nv, m_nv, A, B, fixed = setup
-    L1 = nv - m_nv
+    nd, nv, E0, E1, A, B = setup
+    L1 = nv - E1
     Qc = 0.0
     for X in (A, B):
         q, x, r = X[0], X[1], X[7]
@@ -372,7 +361,12 @@ def _setup(n, m, ctx):
     m_nv = G6 * (an[0] * mv[0] + an[1] * mv[1] + an[2] * mv[2])
     A = _body_terms(n, inv_a, wa, rod_a, ra) + (ra, rma, tha)
     B = _body_terms(n, inv_b, wb, rod_b, rb) + (rb, rmb, thb)
-    return nd, m_nd, nv, m_nv, A, B, ball * _norm(n) * (1.0 + 4.0 * U) + TAU
+    # _margin_lower's error terms that do not depend on phi: E0 + |s| E1 (mags of phi: r . (|q| + |s| mx))
+    ma0 = ra[0] * A[2][0] + ra[1] * A[2][1] + ra[2] * A[2][2] + rb[0] * B[2][0] + rb[1] * B[2][1] + rb[2] * B[2][2]
+    ma1 = ra[0] * A[3][0] + ra[1] * A[3][1] + ra[2] * A[3][2] + rb[0] * B[3][0] + rb[1] * B[3][1] + rb[2] * B[3][2]
+    E0 = m_nd + G5 * ma0 + rma * A[4] + rmb * B[4] + G4 * abs(nd) + ball * _norm(n) * (1.0 + 4.0 * U) + TAU
+    E1 = m_nv + G5 * ma1 + rma * A[4] * tha + rmb * B[4] * thb + G4 * abs(nv)
+    return nd, nv, E0, E1, A, B
 
 
 @stage
@@ -655,7 +649,7 @@ def toi_pair(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb, ot, orel, o
             return 0.0, rel, 0.0, 0
     stalls = 0
     steps = 1
-    pw_first = False
+    pw_first = True  # the contact normal usually reaches farther than the centre line
     carry = False
     first = True
     n_carry = (0.0, 0.0, 0.0)
@@ -672,12 +666,12 @@ def toi_pair(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb, ot, orel, o
         carry = b == end and piece == 0 and end == 0.5
         if carry:
             n_carry = n_best
-        if b == end or (b - a >= TOI_STALL and fail - b > TOI_PROBE):
+        if b == end or (b - a >= TOI_STALL and (fail - b > TOI_PROBE or b - a > TOI_PROBE_REACH)):
             a = b
             stalls = 0
             continue
-        # Stalled, or the certificate fails within TOI_PROBE of b: a contact (or a near-touch float64
-        # cannot resolve) within reach; probe the pose just beyond the proven end.
+        # Stalled, or the certificate fails within TOI_PROBE of b near a: a contact (or a near-touch
+        # float64 cannot resolve) within reach; probe the pose just beyond the proven end.
         stalled = b - a < TOI_STALL
         a = b
         probe = min(a + TOI_PROBE, 1.0)

@@ -1,6 +1,5 @@
 """Every tolerance and threshold of ellipsim, each with where its number comes from."""
 
-import math
 
 #: Unit roundoff of float64 (round to nearest): |fl(x op y) - x op y| <= U |x op y|.
 U = 2.0**-53
@@ -88,16 +87,32 @@ FILTER_RELATIVE_SLACK = 1e-12
 NEWTON_MAX_ITER = 40
 #: ... and converged once a negative definite Newton step is below this many radians: Newton is
 #: quadratic there, so the point it lands on is ~1e-12 rad from the maximiser and sigma (flat there)
-#: is exact to rounding (checked against 40-digit mpmath in tests/test_narrowphase.py).
+#: is exact to rounding (checked against 40-digit mpmath in tests/test_distance.py).
 NEWTON_STEP_TOL = 1e-5
 
-#: The first Newton run (from the bisector seed) gets this many steps before the multi-start takes
-#: over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
+#: The first Newton run (from the bisector seed) gets this many steps before the branch and bound
+#: takes over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
 FIRST_RUN_ITER = 10
 
-#: A secondary seed within 30 degrees of the maximum the first run found is skipped: on the random
-#: penetrating pairs of the first release's narrow-phase benchmark no second local maximum lay that close to the first.
-SAME_BASIN_COS = math.cos(math.radians(30.0))
+# --- Proven global maximum for deep penetrations (ellipsim/core/global_max.py) -------------------
+# u = 2^-53; S = |e| + max semi-axis of A + max semi-axis of B in A's frame (the scale of sigma).
+
+#: A returned signed distance is proven within max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of
+#: the global maximum (r_min the shortest of the six semi-axes, delta R_A's orthonormality defect):
+#: the issue's 1e-12 of the smaller shortest semi-axis, floored by what float64 evaluates sigma to.
+BB_TOL_REL = 1e-12
+BB_TOL_ULPS = 96.0
+#: Rounding of sigma at a float point, <= 11 u S counted (global_max.py docstring): 24 u S covers it ...
+BB_ERR_SIGMA_ULPS = 24.0
+#: ... of a patch's upper bound (gradient, |c|^2 - 1, the bound's own sum), <= 41 u S counted ...
+BB_PATCH_SLACK_ULPS = 48.0
+#: ... and of the change to A's frame (e and U rounded), <= 10 u S counted; 6 delta S is added for
+#: a rotation orthonormal only to delta.
+BB_FRAME_ULPS = 16.0
+#: Budget of branch-and-bound nodes per pair (a node: a patch and its antipode; ~55 ns each).  Deep
+#: leaves.xml contacts and random 25:1 and 100:1 crossings needed at most a few hundred; only
+#: concentric coaxial spheroids (sigma constant on a circle, no isolated maximum) ran out.
+BB_MAX_PATCHES = 6000
 
 # --- Narrow-phase validation against MuJoCo (mujoco/compare.py) --------------------------
 # The acceptance bounds of issue 4: MuJoCo's GJK/EPA works to ccd_tolerance (1e-6 by default), so
@@ -146,6 +161,12 @@ DELTA_R = 2.0**-44
 #: of touching) before asking for rationals.  Both within TOI_TOL of the proven range.
 TOI_PROBE = 0.5 * TOI_TOL
 TOI_PROBE2 = 0.999 * TOI_TOL
+
+#: A step whose certificate fails within TOI_PROBE of its end b probes beyond b only when b is within
+#: this of the step's start a (or the step stalled): the step's normal is the contact normal at a, which
+#: misses the contact time by ~C (b - a)^2 with C = 0.1-5 on the benchmark's motions, so a probe after a
+#: longer step finds the pose still separated, and the next step (from b) is what gets there.
+TOI_PROBE_REACH = 1e-5
 
 #: The sweep has stalled when a step advances less than this ...
 TOI_STALL = 0.25 * TOI_TOL

@@ -393,3 +393,14 @@ def test_an_output_that_cannot_be_written_after_all_is_one_line(tmp_path, monkey
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == f"ellipsim: error: --out: cannot write {str(out)!r}: Permission denied"
     assert len(read_csv(out / sw.RESULTS)) == 1  # the rows are kept: a re-run only draws the plot
+
+
+def test_a_script_whose_workers_cannot_start_is_told_why():
+    """Spawned workers re-run the parent's main script: one read from standard input cannot be."""
+    code = "from ellipsim.app import sweep as sw\nsw.sweep('tumble', steps=5, seeds=2, workers=2)\n"
+    proc = subprocess.run([sys.executable, "-"], input=code, capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert proc.stderr.strip().splitlines()[-1] == (
+        "RuntimeError: the local backend's worker processes could not start (their error is above); a script read "
+        "from standard input cannot start them: run it from a file, or use workers=1"
+    )

@@ -64,11 +64,12 @@ RESULTS = "results.csv"
 PLOT = "sweep.png"
 
 #: Ray tasks per worker slot: each task runs its share of the variants one after the other and
-#: streams a row per variant.  A task costs Ray ~1-5 ms (median round trip of an empty task on
-#: the 2-core VM, Ray 2.60, an empty task's median round trip), the smallest variant ~0.1 s
-#: (a pile of 4 ellipsoids, 20 steps, both passes), so even one variant a task is 20x above it;
-#: several tasks a slot balance the load when variants differ in size (they are dealt out round
-#: robin, so that the big ones of a product spread over the tasks).
+#: streams a row per variant.  Measured on the 2-core VM (Ray 2.60, medians of 7): an empty task's
+#: round trip 1.4-1.5 ms (0.6-0.7 ms a task with 500 in flight); a streaming task of one small
+#: variant (tumble, 30 steps: 18 ms in-process) 2.9-4.5 ms more than in-process, each further
+#: variant of the same task 1.5 ms more.  With at most TASKS_PER_SLOT tasks a slot, the sweep pays
+#: ~4 x 4 ms of task overhead a slot whatever its size; several tasks a slot balance the load when
+#: variants differ in size (dealt round robin, so the big ones of a product spread over tasks).
 TASKS_PER_SLOT = 4
 
 #: What each column of results.csv holds (also written to DIR/columns.json).
@@ -450,9 +451,23 @@ def _run_local(todo, workers, emit, run=run_variant):
     # worker leaves to the resource tracker, which warns about it)
     context = multiprocessing.get_context("spawn")
     queue, alone = collections.deque(todo), collections.deque()
+    first = True
     while queue or alone:
         pool = futures.ProcessPoolExecutor(min(workers, len(queue) + len(alone)), mp_context=context,
                                            initializer=_ignore_sigint)  # fmt: skip
+        if first:  # a worker that cannot even start is no variant's fault
+            first = False
+            try:
+                pool.submit(os.getpid).result()
+            except BrokenProcessPool:
+                pool.shutdown(wait=True)
+                raise RuntimeError(
+                    "the local backend's worker processes could not start (their error is above); a script read "
+                    "from standard input cannot start them: run it from a file, or use workers=1"
+                ) from None
+            except BaseException:
+                _stop(pool)
+                raise
         running, lost, broken = {}, [], False
 
         def submit(source, solo):
@@ -768,6 +783,9 @@ def sweep(scenario, vary=None, *, seeds=None, steps=None, mode=None, out=None, b
 # --- the plot --------------------------------------------------------------------------------------
 
 
+_STYLE = {"-": "solid", "--": "dashed", ":": "dotted"}
+
+
 def _number(value):
     return isinstance(value, int | float) and not isinstance(value, bool)
 
@@ -777,6 +795,7 @@ def plot_rows(rows, keys, path, *, title="sweep"):
     line per combination of the other keys, seeds as mean with a min-max bar: MuJoCo's contacts
     and the exact test's overlaps, the disagreements, steps/s, the deepest penetration."""
     import matplotlib
+    import matplotlib.ticker
     from matplotlib.figure import Figure  # no pyplot: no backend or global figure state touched
 
     axis_keys = [k for k in keys if k != "seed"]
@@ -795,8 +814,8 @@ def plot_rows(rows, keys, path, *, title="sweep"):
         return rs[0][xkey] if numeric else position[text]
 
     panels = (
-        ("ellipsoid pairs in contact, all steps\n(plain MuJoCo pass)", (("mujoco_contacts", "-", "MuJoCo"), ("ellipsim_overlaps", "--", "exact"))),
-        ("disagreements with the exact test\n(plain MuJoCo pass)", (("missed", "-", "missed"), ("extra", "--", "extra"), ("near_tangent", ":", "near-tangent"))),
+        ("ellipsoid pairs in contact, all steps (plain MuJoCo pass)", (("mujoco_contacts", "-", "MuJoCo"), ("ellipsim_overlaps", "--", "exact"))),
+        ("disagreements with the exact test (plain MuJoCo pass)", (("missed", "-", "missed"), ("extra", "--", "extra"), ("near_tangent", ":", "near-tangent"))),
         ("steps per second (mode pass)", (("steps_per_second", "-", None),)),
         ("deepest penetration, mm (mode pass)", (("deepest_penetration", "-", None),)),
     )  # fmt: skip
@@ -807,7 +826,7 @@ def plot_rows(rows, keys, path, *, title="sweep"):
         for c, (label, points) in enumerate(sorted(series.items())):
             order = sorted(points.items(), key=lambda item: x_of(*item))
             x = [x_of(t, rs) for t, rs in order]
-            for column, style, what in columns_:
+            for n, (column, style, what) in enumerate(columns_):
                 scale = 1000.0 if column == "deepest_penetration" else 1.0
                 vals = [[r[column] * scale for r in rs if r[column] is not None] for _, rs in order]
                 keep = [k for k, v in enumerate(vals) if v]
@@ -816,20 +835,25 @@ def plot_rows(rows, keys, path, *, title="sweep"):
                 mean = np.array([np.mean(vals[k]) for k in keep])
                 lo = mean - np.array([min(vals[k]) for k in keep])
                 hi = np.array([max(vals[k]) for k in keep]) - mean
-                text = ", ".join(p for p in (label, what) if p) or None
+                text = (label or None) if n == 0 else None  # the series once; the styles are in the title
+                if len(series) == 1:
+                    text = what
                 ax.errorbar([x[k] for k in keep], mean, yerr=[lo, hi], fmt="o", ls=style if numeric else "none",
                             color=colours[c % len(colours)], mfc="none" if style != "-" else None, capsize=3,
                             label=text, ms=5, lw=1.2)  # fmt: skip
-        ax.set_title(name, fontsize=9)
+        styles = ", ".join(f"{what} {_STYLE[style]}" for _, style, what in columns_ if what)
+        ax.set_title(name + (f"\n{styles}" if styles and len(series) > 1 else ""), fontsize=9)
         ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0] and (ax is axes[0, 0] or ax is axes[0, 1] or len(series) > 1):
+        if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="best")
     for ax in axes[1]:
         ax.set_xlabel(xkey or "")
         if not numeric:
             ax.set_xticks(range(len(xs)), xs, rotation=30 if max(map(len, xs), default=0) > 6 else 0, fontsize=8)
-        elif all(_number(r[xkey]) and r[xkey] > 0 for r in rows) and max(r[xkey] for r in rows) >= 10 * min(r[xkey] for r in rows):
+        elif all(r[xkey] > 0 for r in rows) and max(r[xkey] for r in rows) >= 10 * min(r[xkey] for r in rows):
             ax.set_xscale("log")
+        elif all(isinstance(r[xkey], int) for r in rows):
+            ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     failed = len(rows) - len(ok)
     fig.suptitle(title + (f" ({failed} failed: see results.csv)" if failed else "") +
                  ("; seeds: mean, bars min-max" if "seed" in keys and xkey != "seed" else ""), fontsize=10)  # fmt: skip

@@ -799,14 +799,14 @@ def parser():
     p.add_argument("--vary", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="a TOML key of the scenario (scene.figures, timestep, mode, control.amplitude, ...) and its values; "
                    "repeat for more keys (values are TOML: 2, 0.001, true, \"text\", [0, 0, -9.81]; bare words are text)")
-    p.add_argument("--seeds", type=_positive_int, help="run each variant with scene.seed (and control.seed) = 0 .. N-1")
-    p.add_argument("--steps", type=_positive_int, help="steps of each pass (default: each variant's duration)")
+    p.add_argument("--seeds", type=_positive_int, metavar="N", help="run each variant with scene.seed (and control.seed) = 0 .. N-1")
+    p.add_argument("--steps", type=_positive_int, metavar="N", help="steps of each pass (default: each variant's duration)")
     p.add_argument("--mode", choices=("builtin", "filter", "narrowphase"), help="collision detection of every variant")
     p.add_argument("--record", action="store_true", help="write DIR/<variant>.rrd per variant (its recording id)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (made if missing; a re-run resumes it)")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: processes on this machine (default); ray: RAY_ADDRESS's cluster or a local Ray instance")
-    p.add_argument("--workers", type=_positive_int,
+    p.add_argument("--workers", type=_positive_int, metavar="N",
                    help="processes (local, default: the CPUs; 1 runs in this process) or Ray tasks at a time")
     p.set_defaults(run=sweep)
 

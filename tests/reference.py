@@ -129,7 +129,10 @@ def sigma_stationary(d, Ma, Mb, n0, iterations=60):
                 J[i, j] = H[i, j]
             J[i, 3] = -n[i]
             J[3, i] = 2 * n[i]
-        step = mp.lu_solve(J, -F)
+        try:
+            step = mp.lu_solve(J, -F)
+        except ZeroDivisionError:  # no isolated stationary point (concentric spheres: sigma is constant)
+            break
         n = n + step[0:3]
         lam += step[3]
         if mp.norm(step) < mp.mpf(10) ** (6 - mp.mp.dps):

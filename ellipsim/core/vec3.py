@@ -110,3 +110,14 @@ def unit_scale(ra, rb):
 @jit
 def scaled(r, p):
     return r[0] * p, r[1] * p, r[2] * p
+
+
+@jit
+def rotation_defect(R):
+    """max_ij |(R^T R - I)_ij| of a row-major 3x3 tuple (ellipsoids.orthonormality_defect, one matrix)."""
+    d = 0.0
+    for i in range(3):
+        for j in range(i, 3):
+            v = R[i] * R[j] + R[3 + i] * R[3 + j] + R[6 + i] * R[6 + j] - (1.0 if i == j else 0.0)
+            d = max(d, abs(v))
+    return d

@@ -12,8 +12,8 @@ mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellips
 sphere x ellipsoid (where MuJoCo has mjc_Convex: GJK, then EPA).  It returns no contact for pairs
 certified separated beyond the margin, else the signed distance, normal and contact point of
 core.distance, filling the mjPreContact as mjc_Convex does (dist, pos, normal; tangent zero:
-mj_setContact completes the frame).  A pair whose Newton run does not converge goes to MuJoCo's
-original function, and is counted.
+mj_setContact completes the frame).  A pair whose maximum is not proven global (core.distance
+UNPROVEN: the branch and bound's budget ran out) goes to MuJoCo's original function, and is counted.
 
 A data not attached in the callback's mode gets MuJoCo's own answer: the bitmask test, or MuJoCo's
 original function.  Both read geom arrays of whatever (model, data) they are given through struct
@@ -36,7 +36,7 @@ from numba.extending import intrinsic
 
 from ..core._jit import jit
 from ..core.certified import separated_by_axes
-from ..core.distance import NOT_CONVERGED, pair_signed_distance
+from ..core.distance import GLOBAL, pair_signed_distance
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from .context import (
     CALLS, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER,
@@ -226,7 +226,7 @@ def narrowphase(m, d, con, g1, g2, margin):
     status, dist, normal, pos, _ = pair_signed_distance(
         _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
     )
-    if status == NOT_CONVERGED:
+    if status != GLOBAL:  # no proof that this is the global maximum: MuJoCo's own answer, counted
         atomic_add(counters + 8 * FALLBACKS, 1)
         return call_collision(original, m, d, con, g1, g2, margin)
     if dist >= margin:

@@ -28,7 +28,7 @@ class ContactDifference:
     dpos: float
     sigma_mujoco: float  # sigma(n) at MuJoCo's normal: the signed distance is the maximum of sigma
     sigma_ellipsim: float  # ... and at ellipsim's
-    certified: bool  # ellipsim's maximum is provably the global one
+    proven: bool  # ellipsim's maximum is proven global (core.distance GLOBAL)
     right: str  # "ellipsim", "mujoco" or "undetermined"
     reason: str
 
@@ -96,7 +96,7 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
     (dist, normal angle, position); a difference beyond the bounds in tolerances.py, or a contact on
     one side only with |dist| >= NEAR_TANGENT, is reported with the referee: the signed distance is
     the maximum over n of sigma(n), so sigma at each side's normal shows whose is better, and when
-    ellipsim's maximum is certified global it is the exact answer to rounding.  Deep penetrations that
+    ellipsim's maximum is proven global it is the exact answer to rounding.  Deep penetrations that
     sigma cannot settle are re-collided by MuJoCo at ccd_tolerance TIGHT_CCD_TOLERANCE.
     """
     check_model_data(model, data)
@@ -169,7 +169,7 @@ def _referee(model, data, step, key, names, mj, el):
     a = enclosing(model, data, np.array([g1]), zero)
     b = enclosing(model, data, np.array([g2]), zero)
     dist, normal, pos, status = signed_distance(a, b)
-    certified = bool(status[0] == GLOBAL)
+    proven = bool(status[0] == GLOBAL)
     s_el = _sigma(model, data, g1, g2, normal[0])
     s_mj = _sigma(model, data, g1, g2, mj[1]) if mj else float("nan")
     ddist = abs(mj[0] - el[0]) if mj and el else float("nan")
@@ -178,23 +178,23 @@ def _referee(model, data, step, key, names, mj, el):
     eps = 1e-12 * float(np.abs(model.geom_size[[g1, g2]]).max())
     if mj and s_mj > s_el + eps:
         right, reason = "mujoco", f"MuJoCo's normal reaches sigma {s_mj:.9g} > ellipsim's {s_el:.9g}"
-    elif certified:
+    elif proven:
         right = "ellipsim"
         if mj and el:
             reason = (
-                f"ellipsim's maximum is certified: signed distance {s_el:.9g}; MuJoCo reports {mj[0]:.9g} "
+                f"ellipsim's maximum is proven global: signed distance {s_el:.9g}; MuJoCo reports {mj[0]:.9g} "
                 f"and its normal reaches only sigma {s_mj:.9g} (ccd_tolerance {model.opt.ccd_tolerance:g})"
             )
         else:
             side = "MuJoCo only" if mj else "ellipsim only"
-            reason = f"contact on {side}; certified signed distance {s_el:.9g}"
+            reason = f"contact on {side}; proven signed distance {s_el:.9g}"
     elif mj and mj[0] < s_el - eps:
         right = "ellipsim"
         reason = (
-            f"deep penetration (multi-start, not certified global): MuJoCo's depth {-mj[0]:.9g} exceeds the "
+            f"deep penetration (no proof in budget): MuJoCo's depth {-mj[0]:.9g} exceeds the "
             f"depth {-s_el:.9g} along ellipsim's normal, so it is too deep by at least the difference"
         )
     else:
-        right, reason = "undetermined", f"deep penetration, best of a multi-start: sigma {s_el:.9g}"
-    return ContactDifference(step, g1, g2, (names[g1], names[g2]), mj, el, ddist, angle, dpos, s_mj, s_el, certified, right, reason)
+        right, reason = "undetermined", f"deep penetration, no proof in budget: sigma {s_el:.9g}"
+    return ContactDifference(step, g1, g2, (names[g1], names[g2]), mj, el, ddist, angle, dpos, s_mj, s_el, proven, right, reason)
 

@@ -19,7 +19,8 @@ import numpy as np
 
 from ...core._jit import jit
 from ...core.classify import _classify_float_serial
-from ...core.distance import a_frame, bisector_seed, newton, pair_signed_distance, sigma
+from ...core.distance import pair_signed_distance
+from ...core.sigma import a_frame, bisector_seed, newton, sigma
 from ...core.vec3 import load
 from ...mujoco import structs
 from ...mujoco.attachment import attach

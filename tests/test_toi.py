@@ -280,7 +280,9 @@ def test_pure_rotation_needle_against_bisection():
         if k > 0:
             hits += 1
             lo, hi = ts[k - 1], ts[k]
-            rel = lambda t: int(classify(independent_poses(a0, a1, np.array([t])), independent_poses(b, b, np.array([t])))[0])  # noqa: E731
+            def rel(t):
+                return int(classify(independent_poses(a0, a1, np.array([t])), independent_poses(b, b, np.array([t])))[0])
+
             for _ in range(40):
                 mid = 0.5 * (lo + hi)
                 lo, hi = (lo, mid) if rel(mid) != SEP else (mid, hi)
@@ -400,8 +402,8 @@ def test_broadcasting_and_empty_batches():
     assert toi.shape == (30,) and toi.dtype == np.float64
     for i in (0, 11):
         assert time_of_impact(A, A, b0[i], b1[i])[0] == toi[i]
-    np.testing.assert_array_equal(time_of_impact(b0, b1, A, A), time_of_impact(b0, b1, Ellipsoids.concatenate([A] * 30),
-                                                                                  Ellipsoids.concatenate([A] * 30)))  # fmt: skip
+    many = Ellipsoids.concatenate([A] * 30)
+    np.testing.assert_array_equal(time_of_impact(b0, b1, A, A), time_of_impact(b0, b1, many, many))
     assert time_of_impact(A, A, b0[:0], b1[:0]).shape == (0,)
 
 
@@ -488,3 +490,25 @@ def test_rodrigues_error_bounds_against_mpmath():
             assert np.linalg.norm(D, 2) <= DELTA_R
             used_m = max(used_m, np.linalg.norm(D, 2) / DELTA_R)
     assert used_v < 0.1 and used_m < 0.1  # the bounds are rigorous, not tight
+
+
+def test_poses_at_follows_the_motion():
+    rng = np.random.default_rng(25)
+    x0, x1 = random_motion(rng, 60)
+    ts = rng.uniform(0, 1, 60)
+    got = motion.poses_at(x0, x1, ts)
+    ref = [independent_poses(x0[i], x1[i], ts[i : i + 1]) for i in range(60)]
+    assert max(np.abs(got.rotations[i] - ref[i].rotations[0]).max() for i in range(60)) < 1e-13
+    assert max(np.abs(got.centers[i] - ref[i].centers[0]).max() for i in range(60)) < 1e-14
+    np.testing.assert_array_equal(got.radii, x0.radii)
+    for t, x in ((0.0, x0), (1.0, x1)):  # the inputs themselves at the ends
+        ends = motion.poses_at(x0, x1, t)
+        np.testing.assert_array_equal(ends.centers, x.centers)
+        np.testing.assert_array_equal(ends.rotations, x.rotations)
+    # the rotations time_of_impact classifies are these
+    arrays, _ = T._check(x0, x1, x0, x1)
+    np.testing.assert_array_equal(T.float_poses(arrays, np.arange(60), ts)[1], got.rotations)
+    with pytest.raises(ValueError, match=r"t\[1\] must lie in \[0, 1\], got 1.5"):
+        motion.poses_at(x0[:2], x1[:2], [0.5, 1.5])
+    with pytest.raises(ValueError, match=r"t must be a number or have shape \(2,\)"):
+        motion.poses_at(x0[:2], x1[:2], [0.5, 0.5, 0.5])

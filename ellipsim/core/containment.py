@@ -46,7 +46,16 @@ from .certified import _in_float_range, _positive, bounding_spheres_apart
 from .ellipsoids import check_pair, check_parallel
 from .pencil import invariants, offset, shape
 from .rational import _cofactor, _remainder, _strip
-from .tolerances import AXIS_SLACK, CONTAIN_NEWTON_STEPS, CONTAIN_RTOL, CONTAIN_RTOL_FINE, ERR_POLY, ERR_SHORT, ERR_WITNESS, JACOBI_SWEEPS
+from .tolerances import (
+    AXIS_SLACK,
+    CONTAIN_NEWTON_STEPS,
+    CONTAIN_RTOL,
+    CONTAIN_RTOL_FINE,
+    ERR_POLY,
+    ERR_SHORT,
+    ERR_WITNESS,
+    JACOBI_SWEEPS,
+)
 from .vec3 import cross3, cross3_mag, load, matvec, norm2, reciprocal
 
 INSIDE, NOT_INSIDE = 1, 0

@@ -26,13 +26,13 @@ import math
 import numpy as np
 
 from ._jit import jit, stage
-from .tolerances import HALF_TURN_TOL, OMEGA_ZERO, SINCOS_ERR, U
+from .ellipsoids import Ellipsoids
+from .tolerances import HALF_TURN_TOL, OMEGA_ZERO
 
-# Taylor coefficients (-1)^k / (2k)! and (-1)^k / (2k + 1)!, k = 0 ... 11, each rounded once to float64.
-_COS = tuple((-1.0) ** k / math.factorial(2 * k) for k in range(12))
-_SIN = tuple((-1.0) ** k / math.factorial(2 * k + 1) for k in range(12))
-(C0, C1, C2, C3, C4, C5, C6, C7, C8, C9, C10, C11) = _COS
-(S0, S1, S2, S3, S4, S5, S6, S7, S8, S9, S10, S11) = _SIN
+# Taylor coefficients (-1)^k / (2k)! and (-1)^k / (2k + 1)!, k = 11 ... 0 (Horner's order), each rounded
+# once to float64.
+_COS = tuple((-1.0) ** k / math.factorial(2 * k) for k in range(11, -1, -1))
+_SIN = tuple((-1.0) ** k / math.factorial(2 * k + 1) for k in range(11, -1, -1))
 
 
 @stage
@@ -46,8 +46,10 @@ def sincos(x):
     (sin); the truncated tails are below 1.3e-19 = 0.0015u.  Total < 62u = SINCOS_ERR.
     """
     y = x * x
-    c = ((((((((((C11 * y + C10) * y + C9) * y + C8) * y + C7) * y + C6) * y + C5) * y + C4) * y + C3) * y + C2) * y + C1) * y + C0  # fmt: skip
-    s = ((((((((((S11 * y + S10) * y + S9) * y + S8) * y + S7) * y + S6) * y + S5) * y + S4) * y + S3) * y + S2) * y + S1) * y + S0  # fmt: skip
+    c = s = 0.0
+    for k in range(12):
+        c = c * y + _COS[k]
+        s = s * y + _SIN[k]
     return x * s, c
 
 
@@ -193,8 +195,8 @@ def rotation_at(R0, R1, w, t):
 
 
 @jit
-def _interpolate(C0, R0, C1, R1, W, t, C, R):
-    st = int(t.shape[0] > 1)
+def _poses_at(C0, R0, C1, R1, W, t, C, R):
+    st = int(t.shape[0] > 1)  # stride 0 broadcasts one time
     for i in range(C.shape[0]):
         ti = t[i * st]
         Rt = rotation_at(
@@ -202,7 +204,7 @@ def _interpolate(C0, R0, C1, R1, W, t, C, R):
             (R1[i, 0, 0], R1[i, 0, 1], R1[i, 0, 2], R1[i, 1, 0], R1[i, 1, 1], R1[i, 1, 2], R1[i, 2, 0], R1[i, 2, 1], R1[i, 2, 2]),
             (W[i, 0], W[i, 1], W[i, 2]),
             ti,
-        )
+        )  # fmt: skip
         for j in range(3):
             if ti == 0.0:
                 C[i, j] = C0[i, j]
@@ -212,3 +214,30 @@ def _interpolate(C0, R0, C1, R1, W, t, C, R):
                 C[i, j] = C0[i, j] + ti * (C1[i, j] - C0[i, j])
             for k in range(3):
                 R[i, j, k] = Rt[3 * j + k]
+
+
+def poses_at(x0, x1, t):
+    """The bodies of the motion from x0 to x1 at times t, as an Ellipsoids batch (x0 itself at t = 0,
+    x1 at t = 1; elsewhere the float pose, within DELTA_R of the exact rotation).
+
+    x0, x1 : Ellipsoids of equal length and semi-axes (one body per row, at t = 0 and t = 1).
+    t : float or (n,) float64 in [0, 1].
+    """
+    for name, value in (("x0", x0), ("x1", x1)):
+        if not isinstance(value, Ellipsoids):
+            raise ValueError(f"{name} must be an ellipsim.Ellipsoids batch, got {type(value).__name__}")
+    if len(x0) != len(x1):
+        raise ValueError(f"x0 and x1 must have the same length, got {len(x0)} and {len(x1)}")
+    bad = np.flatnonzero(np.any(x0.radii != x1.radii, axis=1))
+    if len(bad):
+        i = int(bad[0])
+        raise ValueError(f"x1.radii[{i}] must equal x0.radii[{i}], got {x1.radii[i].tolist()} and {x0.radii[i].tolist()}")
+    t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+    if t.ndim != 1 or len(t) not in (1, len(x0)):
+        raise ValueError(f"t must be a number or have shape ({len(x0)},), got shape {t.shape}")
+    out = np.flatnonzero(~((t >= 0.0) & (t <= 1.0)))
+    if len(out):
+        raise ValueError(f"t[{int(out[0])}] must lie in [0, 1], got {float(t[out[0]])!r}")
+    C, R = np.empty((len(x0), 3)), np.empty((len(x0), 3, 3))
+    _poses_at(x0.centers, x0.rotations, x1.centers, x1.rotations, rotation_vectors(x0, x1), t, C, R)
+    return Ellipsoids(C, R, x0.radii)

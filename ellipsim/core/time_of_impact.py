@@ -50,7 +50,15 @@ import numpy as np
 
 from . import rational
 from ._jit import jit, prange, stage
-from .certified import _in_float_range, _positive, bounding_spheres_apart, certify_pair, inside_both, pencil_positive, witness
+from .certified import (
+    _in_float_range,
+    _positive,
+    bounding_spheres_apart,
+    certify_pair,
+    inside_both,
+    pencil_positive,
+    witness,
+)
 from .ellipsoids import Ellipsoids, check_parallel
 from .motion import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
 from .pencil import invariants, offset, shape
@@ -72,7 +80,6 @@ from .tolerances import (
     TOI_PROBE_REACH,
     TOI_STALL,
     TOI_STALL_LIMIT,
-    TOI_TOL,
     U,
 )
 from .vec3 import matvec, norm2, reciprocal
@@ -182,9 +189,11 @@ def _solve_inverse(inv, n):
     |p~_i - p_i| <= (gamma_5 mN_i + |N~_i| (xi + 2u)) / (|det~| (1 - xi)), summed as 2-norms.
     """
     C, mC, det, mdet = inv
-    N = (C[0] * n[0] + C[3] * n[1] + C[6] * n[2], C[1] * n[0] + C[4] * n[1] + C[7] * n[2], C[2] * n[0] + C[5] * n[1] + C[8] * n[2])
+    N = (C[0] * n[0] + C[3] * n[1] + C[6] * n[2], C[1] * n[0] + C[4] * n[1] + C[7] * n[2],
+         C[2] * n[0] + C[5] * n[1] + C[8] * n[2])  # fmt: skip
     a = _abs3(n)
-    mN = (mC[0] * a[0] + mC[3] * a[1] + mC[6] * a[2], mC[1] * a[0] + mC[4] * a[1] + mC[7] * a[2], mC[2] * a[0] + mC[5] * a[1] + mC[8] * a[2])
+    mN = (mC[0] * a[0] + mC[3] * a[1] + mC[6] * a[2], mC[1] * a[0] + mC[4] * a[1] + mC[7] * a[2],
+          mC[2] * a[0] + mC[5] * a[1] + mC[8] * a[2])  # fmt: skip
     ad = abs(det)
     xi = G5 * mdet / (ad - G5 * mdet)
     p = (N[0] / det, N[1] / det, N[2] / det)
@@ -349,8 +358,8 @@ def _setup(n, m, ctx):
     """Everything the certificate needs for the plane normal n expanded at the float time m of the half
     described by ctx (whose rotations rod_a, rod_b are evaluated at m)."""
     piece, rod_a, rod_b, half = ctx
-    inv_a, inv_b, wa, wb, ra, rb, rma, rmb, tha, thb = half[0], half[1], half[2], half[3], half[4], half[5], half[6], half[7], half[8], half[9]
-    d_tau, md_tau, v, mv, ball = half[10], half[11], half[12], half[13], half[14]
+    inv_a, inv_b, wa, wb, ra, rb, rma, rmb, tha, thb = half[:10]
+    d_tau, md_tau, v, mv, ball = half[10:15]
     phi = m - float(piece)
     an = _abs3(n)
     ap = abs(phi)
@@ -458,33 +467,38 @@ def _lookup(t, ot, orel, ocount):
 
 
 @stage
+def _pose_at(t, pair):
+    """(ca, Ra, ra, cb, Rb, rb): the inputs at t = 0 and t = 1, elsewhere the float pose of the half t is on
+    (unit-scaled, centres relative to c_a at tau)."""
+    if t == 0.0:
+        return pair[0], pair[1], pair[8], pair[4], pair[5], pair[9]
+    if t == 1.0:
+        return pair[2], pair[3], pair[8], pair[6], pair[7], pair[9]
+    piece = 0 if t <= 0.5 else 1
+    half = pair[13][0] if piece == 0 else pair[13][1]
+    phi = t - float(piece)
+    ca, Ra, cb, Rb = _pose(piece, t, pair[1] if piece == 0 else pair[3], pair[5] if piece == 0 else pair[7],
+                           rodrigues(pair[10], phi), rodrigues(pair[11], phi), half[15], half[16], half[10])  # fmt: skip
+    return ca, Ra, half[4], cb, Rb, half[5]
+
+
+@stage
 def _probe(t, pair, mu0, ot, orel, ocount):
     """What the pose at t proves: CONTACT (the motion is not separated), CONTACT_AT_FLOAT_POSE (the float
     pose is not separated), SEPARATED (the float pose is) or UNDECIDED (needs rationals).  mu0 warm-starts
     the Perram-Wertheim solve (0: none)."""
-    ca0, Ra0, ca1, Ra1, cb0, Rb0, cb1, Rb1, ra0, rb0, wa, wb, scale, halves, kappa = pair
-    if t == 0.0 or t == 1.0:  # the inputs themselves
-        rel = certify_pair((ca0, Ra0, ra0), (cb0, Rb0, rb0)) if t == 0.0 else certify_pair((ca1, Ra1, ra0), (cb1, Rb1, rb0))
-        if rel == UNDECIDED:
-            rel = _lookup(t, ot, orel, ocount)
-        if rel == UNDECIDED:
-            return UNDECIDED
-        return SEPARATED if rel == SEPARATED else CONTACT
-    piece = 0 if t <= 0.5 else 1
-    half = halves[0] if piece == 0 else halves[1]
-    phi = t - float(piece)
-    ra, rb, da, db, d_tau = half[4], half[5], halves[0][15], halves[0][16], half[10]
-    ca, Ra, cb, Rb = _pose(piece, t, Ra0 if piece == 0 else Ra1, Rb0 if piece == 0 else Rb1,
-                           rodrigues(wa, phi), rodrigues(wb, phi), da, db, d_tau)  # fmt: skip
-    rel = _witness_relation(ca, Ra, ra, cb, Rb, rb, mu0, kappa[0], kappa[1])
-    if rel != UNDECIDED:
-        return rel
+    ca, Ra, ra, cb, Rb, rb = _pose_at(t, pair)
+    ends = t == 0.0 or t == 1.0  # the inputs themselves: the motion there
+    if not ends:
+        rel = _witness_relation(ca, Ra, ra, cb, Rb, rb, mu0, pair[14][0], pair[14][1])
+        if rel != UNDECIDED:
+            return rel
     rel = certify_pair((ca, Ra, ra), (cb, Rb, rb))
     if rel == UNDECIDED:
         rel = _lookup(t, ot, orel, ocount)
-    if rel == UNDECIDED:
-        return UNDECIDED
-    return SEPARATED if rel == SEPARATED else CONTACT_AT_FLOAT_POSE
+    if rel == UNDECIDED or rel == SEPARATED:
+        return rel
+    return CONTACT if ends else CONTACT_AT_FLOAT_POSE
 
 
 # --- the search ---------------------------------------------------------------------------------
@@ -696,8 +710,24 @@ def toi_pair(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb, ot, orel, o
 
 
 @stage
+def _loads(A0, A1, B0, B1, ia, ib):
+    """Pair (ia, ib)'s twelve tuples: centre, rotation, centre, rotation, radii, w for A, then for B."""
+    return (
+        _load3(A0[0], ia), _load9(A0[1], ia), _load3(A1[0], ia), _load9(A1[1], ia), _load3(A0[2], ia), _load3(A1[2], ia),
+        _load3(B0[0], ib), _load9(B0[1], ib), _load3(B1[0], ib), _load9(B1[1], ib), _load3(B0[2], ib), _load3(B1[2], ib),
+    )  # fmt: skip
+
+
+@stage
+def load_pair(A0, A1, B0, B1, ia, ib):
+    """_pair_data of pair (ia, ib) of the kernels' argument tuples (_check): (pair, swept)."""
+    x = _loads(A0, A1, B0, B1, ia, ib)
+    return _pair_data(x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8], x[9], x[10], x[11])
+
+
+@stage
 def _run_pair(i, A0, A1, B0, B1, sa, sb, OT, OR, OC, out, status, t_exact, steps):
-    Ca0, Ra0, ra = A0
+    Ca0, Ra0, ra = A0  # unpacked here, not through _loads: numba's parfor analysis rejects that under prange
     Ca1, Ra1, Wa = A1
     Cb0, Rb0, rb = B0
     Cb1, Rb1, Wb = B1
@@ -731,23 +761,7 @@ def _float_poses(A0, A1, B0, B1, idx, t, CA, RA, ra_out, CB, RB, rb_out):
     for k in range(idx.shape[0]):
         i = idx[k]
         ia, ib = i * sa, i * sb
-        pair, _ = _pair_data(
-            _load3(A0[0], ia), _load9(A0[1], ia), _load3(A1[0], ia), _load9(A1[1], ia), _load3(A0[2], ia), _load3(A1[2], ia),
-            _load3(B0[0], ib), _load9(B0[1], ib), _load3(B1[0], ib), _load9(B1[1], ib), _load3(B0[2], ib), _load3(B1[2], ib),
-        )  # fmt: skip
-        tk = t[k]
-        ra, rb = pair[8], pair[9]
-        if tk == 0.0:
-            ca, Ra, cb, Rb = pair[0], pair[1], pair[4], pair[5]
-        elif tk == 1.0:
-            ca, Ra, cb, Rb = pair[2], pair[3], pair[6], pair[7]
-        else:
-            piece = 0 if tk <= 0.5 else 1
-            half = pair[13][0] if piece == 0 else pair[13][1]
-            phi = tk - float(piece)
-            ca, Ra, cb, Rb = _pose(piece, tk, pair[1] if piece == 0 else pair[3], pair[5] if piece == 0 else pair[7],
-                                   rodrigues(pair[10], phi), rodrigues(pair[11], phi), half[15], half[16], half[10])  # fmt: skip
-            ra, rb = half[4], half[5]
+        ca, Ra, ra, cb, Rb, rb = _pose_at(t[k], load_pair(A0, A1, B0, B1, ia, ib)[0])
         for j in range(3):
             CA[k, j], CB[k, j], ra_out[k, j], rb_out[k, j] = ca[j], cb[j], ra[j], rb[j]
             for l in range(3):
@@ -770,7 +784,9 @@ def _check_motion(x0, x1, name):
         if not isinstance(value, Ellipsoids):
             raise ValueError(f"{nm} must be an ellipsim.Ellipsoids batch, got {type(value).__name__}")
     if len(x0) != len(x1):
-        raise ValueError(f"{n0} and {n1} must have the same length (one body at t = 0 and t = 1), got {len(x0)} and {len(x1)}")
+        raise ValueError(
+            f"{n0} and {n1} must have the same length (one body at t = 0 and t = 1), got {len(x0)} and {len(x1)}"
+        )
     bad = np.flatnonzero(np.any(x0.radii != x1.radii, axis=1))
     if len(bad):
         i = int(bad[0])
@@ -802,11 +818,16 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
     Motion: centres linear, rotation R0 exp(t log(R0^T R1)), constant angular velocity along the shortest
         arc (motion.py); a turn within 1e-6 rad of a half turn is a ValueError.
     parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
-    returns : (n,) float64 toi; with return_status=True also (n,) int8 `Impact` codes.  For every pair,
-        [0, toi - 1e-9] is proven separated ([0, toi] for UNRESOLVED), and CONTACT / CONTACT_AT_FLOAT_POSE
-        prove a pose at toi that is not separated (Impact says which).  toi is 0 when the inputs at t = 0
-        are not separated, and within 1e-9 of the first contact otherwise; pairs that pass through each
-        other between t = 0 and t = 1 are found.  1e-9 is tolerances.TOI_TOL.
+    returns : (n,) float64 toi; with return_status=True also (n,) int8 `Impact` codes (the pair's status
+        says what was proven).  Every real t in [0, toi - 1e-9] is proven separated ([0, toi] for
+        UNRESOLVED), so the first contact t* is later than toi - 1e-9; CONTACT proves the motion not
+        separated at toi (t* <= toi), CONTACT_AT_FLOAT_POSE the float pose there.  toi = 0 when the inputs
+        at t = 0 are not separated; inf (NO_CONTACT) when no t in [0, 1] is in contact.  Contacts that
+        begin and end between t = 0 and t = 1 (tunnelling) are found.  1e-9 is tolerances.TOI_TOL.
+
+    The reversed motion is the same motion (w flips sign exactly): 1 - time_of_impact(a1, a0, b1, b0) is
+    the end of the last contact.  For consecutive frames, index one validated batch per frame by the
+    candidate pairs (`frame[k][ia]`, no re-validation) and concatenate the steps into one call.
     """
     arrays, n = _check(a0, a1, b0, b1)
     parallel = check_parallel(parallel, n)

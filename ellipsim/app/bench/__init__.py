@@ -13,6 +13,8 @@ each:
 5. inside_mujoco: mj_step per mode, cost per pair, contacts against MuJoCo's, long runs
 6. startup: `import ellipsim` to the first narrow-phase mj_step in fresh interpreters: cold
    (compiling), warm cache, shipped prebuilt objects
+7. motion: time_of_impact against checking sampled instants with the exact classify, the samples a
+   sampling checker needs to find the same contacts; contains
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -21,11 +23,11 @@ import datetime
 import os
 import time
 
-from . import accuracy, inside_mujoco, scaling, startup, stress, table1
+from . import accuracy, inside_mujoco, motion, scaling, startup, stress, table1
 from .common import SIZES, machine_description, plt
 
 SECTIONS = {"accuracy": accuracy, "stress": stress, "scaling": scaling, "table1": table1, "mujoco": inside_mujoco,
-            "startup": startup}
+            "startup": startup, "motion": motion}
 
 
 def run(out_dir, *, quick=False, only=None):

@@ -152,8 +152,8 @@ def test_local_pool_gives_the_rows_of_one_process_and_a_rerun_resumes(tmp_path):
     assert sum(r["mujoco_contacts"] for r in pooled) > 0 and any(r["deepest_penetration"] > 0 for r in pooled)
     text = read_csv(out / sw.RESULTS)
     assert [r["variant"] for r in text] == [r["variant"] for r in pooled]  # sorted into variant order
-    assert list(text[0]) == ["variant", "control.amplitude", "seed", "mode", *sw._METRICS]
-    assert set(sw.COLUMNS) >= set(text[0]) - {"control.amplitude"}
+    assert list(text[0]) == ["variant", "scenario", "control.amplitude", "seed", "mode", *sw._METRICS]
+    assert set(sw.COLUMNS) >= set(text[0]) - {"control.amplitude"} and {r["scenario"] for r in text} == {"tumble"}
     assert (out / sw.PLOT).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # a re-run runs nothing and returns the same rows, timings included
     calls.clear()

@@ -75,6 +75,7 @@ TASKS_PER_SLOT = 4
 #: What each column of results.csv holds (also written to DIR/columns.json).
 COLUMNS = {
     "variant": "id: hash of the variant's validated scenario and steps; its .rrd's name and recording id",
+    "scenario": "the scenario's (or model's) file name, without .toml or .xml",
     "seed": "scene.seed (and control.seed) of the run (with --seeds)",
     "mode": "collision detection of the mode pass (builtin, filter, narrowphase; kinematic: poses replayed)",
     "steps": "steps of each pass",
@@ -94,7 +95,7 @@ COLUMNS = {
 _METRICS = ("steps", "wall_seconds", "steps_per_second", "pairs", "mujoco_contacts", "ellipsim_overlaps", "missed",
             "extra", "near_tangent", "fallbacks", "mujoco_warnings", "deepest_penetration", "error")  # fmt: skip
 _FLOATS = {"wall_seconds", "steps_per_second", "deepest_penetration"}
-_STRINGS = {"variant", "mode", "error"}
+_STRINGS = {"variant", "scenario", "mode", "error"}
 #: Columns that differ between runs of the same variant.
 TIMING = ("wall_seconds", "steps_per_second")
 
@@ -116,6 +117,12 @@ class Variant:
     steps: int
     mode: str  # the scenario's mode, or "kinematic"
     record: str = None  # .rrd path, or None
+
+    @property
+    def scenario(self):
+        """The scenario's name: its file's, without .toml or .xml (as scenario.from_table names it)."""
+        base = os.path.basename(self.path)
+        return os.path.splitext(base)[0] if base.endswith((".toml", ".xml")) else base
 
 
 # --- values and variants -----------------------------------------------------------------------
@@ -297,7 +304,7 @@ def _describe(values):
 def columns(variants):
     """The columns of results.csv for these variants: id, varied keys, seed, mode, steps, metrics."""
     keys = list(variants[0].values) if variants else []
-    return ["variant", *keys, *(["mode"] if "mode" not in keys else []), *_METRICS]
+    return ["variant", "scenario", *keys, *(["mode"] if "mode" not in keys else []), *_METRICS]
 
 
 # --- one variant ---------------------------------------------------------------------------------
@@ -334,7 +341,7 @@ def _one_thread():
 
 def run_variant(variant):
     """The row of one variant (a dict of COLUMNS' values): both passes, or its error."""
-    row = {"variant": variant.id, **variant.values, "mode": variant.mode, "steps": variant.steps}
+    row = {"variant": variant.id, "scenario": variant.scenario, **variant.values, "mode": variant.mode, "steps": variant.steps}
     row.update(dict.fromkeys(_METRICS[1:]))
     t0 = time.perf_counter()
     try:
@@ -429,7 +436,7 @@ def _ignore_sigint():
 
 
 def _died(variant, how):
-    row = {"variant": variant.id, **variant.values, "mode": variant.mode, "steps": variant.steps}
+    row = {"variant": variant.id, "scenario": variant.scenario, **variant.values, "mode": variant.mode, "steps": variant.steps}
     row.update(dict.fromkeys(_METRICS[1:]))
     row["error"] = f"WorkerDied: {how}"
     return row
@@ -606,7 +613,7 @@ def _format_row(row):
 
 def _parse_row(text, variant):
     """A row of results.csv back as values: the metrics parsed, the varied values the variant's."""
-    row = {"variant": variant.id, **variant.values}
+    row = {"variant": variant.id, "scenario": text.get("scenario") or None, **variant.values}
     for key in ("mode", *_METRICS):
         cell = text.get(key, "")
         if key in _STRINGS:
@@ -775,8 +782,7 @@ def sweep(scenario, vary=None, *, seeds=None, steps=None, mode=None, out=None, b
             results.rewrite([v.id for v in variants])
     rows = [_parse_row(fresh[v.id] if v.id in fresh else results.rows[v.id], v) for v in variants]
     if out is not None and plot:
-        name = os.path.splitext(os.path.basename(variants[0].path))[0]
-        plot_rows(rows, list(variants[0].values), os.path.join(out, PLOT), title=f"{name}: {len(rows)} variants")
+        plot_rows(rows, list(variants[0].values), os.path.join(out, PLOT), title=f"{variants[0].scenario}: {len(rows)} variants")
     return rows
 
 

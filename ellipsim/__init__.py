@@ -2,9 +2,10 @@
 
 Three layers, each importing only the ones above it in this list:
 
-    ellipsim.core     the geometry (numpy and numba only): classify, contact_scale, signed_distance
+    ellipsim.core     the geometry (numpy and numba only): classify, contact_scale, signed_distance,
+                      time_of_impact, contains
     ellipsim.mujoco   the MuJoCo glue: attach to mj_step, validate and compare, scene builders
-    ellipsim.app      scenarios, recording, the command line, mesh fitting, the benchmark suite
+    ellipsim.app      scenarios, recording, the command line, sweeps, mesh fitting, the benchmark suite
 
 `import ellipsim` loads none of them: every public name is imported on first use (PEP 562), so that
 attaching to MuJoCo imports neither numba nor the core when the callbacks are cached
@@ -18,11 +19,15 @@ __version__ = "0.2.0"
 _LAZY = {
     "Ellipsoids": "core.ellipsoids", "Relation": "core.relation", "classify": "core.classify",
     "characteristic_polynomial": "core.charpoly", "contact_scale": "core.perram_wertheim",
-    "signed_distance": "core.distance",
+    "signed_distance": "core.distance", "time_of_impact": "core.time_of_impact", "Impact": "core.time_of_impact",
+    "contains": "core.containment", "sweep": "app.sweep",
 }  # fmt: skip
 _SUBPACKAGES = ("core", "mujoco", "app")
 
-__all__ = ["Ellipsoids", "Relation", "classify", "characteristic_polynomial", "contact_scale", "signed_distance"]
+__all__ = [
+    "Ellipsoids", "Relation", "classify", "characteristic_polynomial", "contact_scale", "signed_distance",
+    "time_of_impact", "Impact", "contains", "sweep",
+]  # fmt: skip
 
 
 def __getattr__(name):

@@ -386,7 +386,7 @@ def test_rational_fallback_runs_batched():
     arrays, n = T._check(A, A, B0, B1)
     out, status, t_exact = np.empty(1), np.empty(1, np.int8), np.empty(1)
     OT, OR, OC = np.zeros((1, 16)), np.zeros((1, 16), np.int8), np.zeros(1, np.int64)
-    T._toi_serial(*arrays, np.arange(1), OT, OR, OC, out, status, t_exact, np.empty(1, np.int64))
+    T._toi(*arrays, np.arange(1), OT, OR, OC, out, status, t_exact, np.empty(1, np.int64), 0, 1)
     assert status[0] == T.NEED_EXACT and t_exact[0] == 0.0
     far = one([5, 0, 0], I, [0.5] * 3)
     toi, st = time_of_impact(A, A, Ellipsoids.concatenate([B0, far, B0]), Ellipsoids.concatenate([B1, far, B1]),

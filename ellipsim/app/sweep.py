@@ -55,6 +55,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
+from ..core import threads
 from ..core.tolerances import NEAR_TANGENT
 from . import scenario as scenarios
 from .mjcf import one_line
@@ -325,27 +326,13 @@ def split_disagreements(validation):
     return missed, extra, near
 
 
-@contextlib.contextmanager
-def _one_thread():
-    """numba's parallel kernels on one thread in this block (numba's setting is per thread): the
-    workers of a sweep share the cores."""
-    import numba
-
-    previous = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(previous)
-
-
 def run_variant(variant):
     """The row of one variant (a dict of COLUMNS' values): both passes, or its error."""
     row = {"variant": variant.id, "scenario": variant.scenario, **variant.values, "mode": variant.mode, "steps": variant.steps}
     row.update(dict.fromkeys(_METRICS[1:]))
     t0 = time.perf_counter()
     try:
-        with _one_thread():
+        with threads.limit(1):  # the workers of a sweep share the cores
             row.update(_measure(variant))
     except Exception as exc:  # a failed variant is a row with its error, not a lost sweep
         row["error"] = f"{type(exc).__name__}: {one_line(exc) or 'no message'}"

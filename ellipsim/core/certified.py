@@ -23,7 +23,8 @@ import math
 
 import numpy as np
 
-from ._jit import jit, prange, stage
+from . import threads
+from ._jit import jit, stage
 from .pencil import invariants, pencil, pencil_mag, shape
 from .perram_wertheim import initial_mu, pw_step, pw_value
 from .relation import OVERLAPPING, SEPARATED, UNDECIDED
@@ -241,17 +242,9 @@ def separated_by_axes(A, B):
 
 
 @jit
-def _certify_serial(Ca, Ra, ra, Cb, Rb, rb, out):
+def _certify(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in range(out.shape[0]):
-        ia, ib = i * sa, i * sb
-        out[i] = certify_pair(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
-
-
-@jit(parallel=True)
-def _certify_parallel(Ca, Ra, ra, Cb, Rb, rb, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in prange(out.shape[0]):
+    for i in range(lo, hi):
         ia, ib = i * sa, i * sb
         out[i] = certify_pair(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
 
@@ -259,6 +252,5 @@ def _certify_parallel(Ca, Ra, ra, Cb, Rb, rb, out):
 def certify(a, b, n, parallel):
     """int8 (n,): SEPARATED / OVERLAPPING where the float path is certain, UNDECIDED (-1) elsewhere."""
     out = np.empty(n, dtype=np.int8)
-    kernel = _certify_parallel if parallel else _certify_serial
-    kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
+    threads.run(_certify, n, parallel, a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
     return out

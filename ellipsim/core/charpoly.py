@@ -11,8 +11,9 @@ det(lambda A + B).  Both assume R^{-1} = R^T, as the thesis does.
 
 import numpy as np
 
-from ._jit import jit, prange, stage
-from .ellipsoids import check_choice, check_pair
+from . import threads
+from ._jit import jit, stage
+from .ellipsoids import check_choice, check_pair, check_parallel
 from .pencil import coefficients, invariants, offset, shape
 from .vec3 import load, matvec, reciprocal, sandwich
 
@@ -118,10 +119,10 @@ def rearranged_coefficients(A, B):
     return c4 * s, c3 * s, c2 * s, c1 * s, c0 * s
 
 
-@jit(parallel=True)
-def _polynomials(Ca, Ra, ra, Cb, Rb, rb, cofactor, out):
+@jit
+def _polynomials(Ca, Ra, ra, Cb, Rb, rb, cofactor, out, lo, hi):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in prange(out.shape[0]):
+    for i in range(lo, hi):
         ia, ib = i * sa, i * sb
         if cofactor:
             c = cofactor_coefficients(load(Ca, Ra, ra, ia), load(Cb, Rb, rb, ib))
@@ -131,15 +132,18 @@ def _polynomials(Ca, Ra, ra, Cb, Rb, rb, cofactor, out):
             out[i, k] = c[k]
 
 
-def characteristic_polynomial(a, b, *, setup="rearranged"):
+def characteristic_polynomial(a, b, *, setup="rearranged", parallel=None):
     """Coefficients of det(lambda A + B) for the pairs (a[i], b[i]).
 
     a, b : Ellipsoids (a batch of length 1 broadcasts)
     setup : "rearranged" (thesis 4.1.3) or "cofactor" (thesis 4.1.2)
+    parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
     returns : (n, 5) float64, columns lambda^4, lambda^3, lambda^2, lambda, 1
     """
     n = check_pair(a, b)
     check_choice("setup", setup, SETUPS)
+    parallel = check_parallel(parallel, n)
     out = np.empty((n, 5))
-    _polynomials(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, setup == "cofactor", out)
+    arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
+    threads.run(_polynomials, n, parallel, *arrays, setup == "cofactor", out)
     return out

@@ -10,7 +10,8 @@ path (certified.py) and exact rationals where that path is unsure (rational.py);
 import numpy as np
 
 from . import rational
-from ._jit import jit, prange, stage
+from . import threads
+from ._jit import jit, stage
 from .certified import certify
 from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
 from .ellipsoids import check_choice, check_pair, check_parallel
@@ -33,17 +34,10 @@ def _float_relation(A, B, cofactor, sturm):
     return sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
 
 
-@jit(parallel=True)
-def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in prange(out.shape[0]):
-        out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
-
-
 @jit
-def _classify_float_serial(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
-    for i in range(out.shape[0]):
+def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out, lo, hi):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    for i in range(lo, hi):
         out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
 
 
@@ -84,6 +78,5 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
     if dtype == "float32":
         arrays = [x.astype(np.float32) for x in arrays]
     out = np.empty(n, dtype=np.int8)
-    kernel = _classify_float if parallel else _classify_float_serial
-    kernel(*arrays, setup == "cofactor", method == "sturm", out)
+    threads.run(_classify_float, n, parallel, *arrays, setup == "cofactor", method == "sturm", out)
     return out

@@ -41,7 +41,8 @@ from itertools import combinations
 
 import numpy as np
 
-from ._jit import jit, prange, stage
+from . import threads
+from ._jit import jit, stage
 from .certified import _in_float_range, _positive, bounding_spheres_apart
 from .ellipsoids import check_pair, check_parallel
 from .pencil import invariants, offset, shape
@@ -303,24 +304,16 @@ def _certificates(nu, kap, V, eh, eh2, e, me, W, mW, inv, minv, alpha, malpha):
 
 
 @jit
-def _contains_serial(Ca, Ra, ra, Cb, Rb, rb, out):
+def _contains(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in range(out.shape[0]):
-        out[i] = contains_pair(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
-
-
-@jit(parallel=True)
-def _contains_parallel(Ca, Ra, ra, Cb, Rb, rb, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
-    for i in prange(out.shape[0]):
+    for i in range(lo, hi):
         out[i] = contains_pair(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
 
 
 def certify_containment(a, b, n, parallel):
     """int8 (n,): INSIDE / NOT_INSIDE where the float path is certain, UNDECIDED (-1) elsewhere."""
     out = np.empty(n, dtype=np.int8)
-    kernel = _contains_parallel if parallel else _contains_serial
-    kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
+    threads.run(_contains, n, parallel, a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
     return out
 
 

@@ -27,7 +27,8 @@ import math
 
 import numpy as np
 
-from ._jit import jit, prange, stage
+from . import threads
+from ._jit import jit, stage
 from .ellipsoids import check_pair, check_parallel
 from .global_max import GLOBAL as BB_GLOBAL
 from .global_max import SEPARATED_MAX, global_max, sigma_only
@@ -136,15 +137,9 @@ def _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, 
         pos[i, k] = p[k]
 
 
-@jit(parallel=True)
-def _distances(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status):
-    for i in prange(dist.shape[0]):
-        _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, i)
-
-
 @jit
-def _distances_serial(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status):
-    for i in range(dist.shape[0]):
+def _distances(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, lo, hi):
+    for i in range(lo, hi):
         _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, i)
 
 
@@ -164,8 +159,8 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
     n = check_pair(a, b)
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000:
         raise ValueError(f"max_iter must be an integer from 1 to 1000000, got {max_iter!r}")
-    kernel = _distances if check_parallel(parallel, n) else _distances_serial
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
-    kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, int(max_iter), dist, normal, pos, status)
+    arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
+    threads.run(_distances, n, check_parallel(parallel, n), *arrays, int(max_iter), dist, normal, pos, status)
     return dist, normal, pos, status

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-from ._jit import jit, prange, stage
+from . import threads
+from ._jit import jit, stage
 from .ellipsoids import check_pair, check_parallel
 from .pencil import invariants, offset, shape
 from .vec3 import load, matvec, norm2, reciprocal, scaled, unit_scale
@@ -113,17 +114,10 @@ def contact_scale_pair(A, B):
     return k * math.sqrt(pw_value(mu, inv, alpha))
 
 
-@jit(parallel=True)
-def _contact_scales(Ca, Ra, ra, Cb, Rb, rb, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in prange(out.shape[0]):
-        out[i] = contact_scale_pair(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
-
-
 @jit
-def _contact_scales_serial(Ca, Ra, ra, Cb, Rb, rb, out):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
-    for i in range(out.shape[0]):
+def _contact_scales(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
+    for i in range(lo, hi):
         out[i] = contact_scale_pair(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
 
 
@@ -139,7 +133,7 @@ def contact_scale(a, b, *, parallel=None):
     returns : (n,) float64
     """
     n = check_pair(a, b)
-    kernel = _contact_scales if check_parallel(parallel, n) else _contact_scales_serial
     out = np.empty(n)
-    kernel(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
+    arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
+    threads.run(_contact_scales, n, check_parallel(parallel, n), *arrays, out)
     return out

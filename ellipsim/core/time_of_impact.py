@@ -49,7 +49,8 @@ from enum import IntEnum
 import numpy as np
 
 from . import rational
-from ._jit import jit, prange, stage
+from . import threads
+from ._jit import jit, stage
 from .certified import (
     _in_float_range,
     _positive,
@@ -727,7 +728,7 @@ def load_pair(A0, A1, B0, B1, ia, ib):
 
 @stage
 def _run_pair(i, A0, A1, B0, B1, sa, sb, OT, OR, OC, out, status, t_exact, steps):
-    Ca0, Ra0, ra = A0  # unpacked here, not through _loads: numba's parfor analysis rejects that under prange
+    Ca0, Ra0, ra = A0
     Ca1, Ra1, Wa = A1
     Cb0, Rb0, rb = B0
     Cb1, Rb1, Wb = B1
@@ -740,16 +741,9 @@ def _run_pair(i, A0, A1, B0, B1, sa, sb, OT, OR, OC, out, status, t_exact, steps
 
 
 @jit
-def _toi_serial(A0, A1, B0, B1, idx, OT, OR, OC, out, status, t_exact, steps):
+def _toi(A0, A1, B0, B1, idx, OT, OR, OC, out, status, t_exact, steps, lo, hi):
     sa, sb = int(A0[0].shape[0] > 1), int(B0[0].shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for k in range(idx.shape[0]):
-        _run_pair(idx[k], A0, A1, B0, B1, sa, sb, OT, OR, OC, out, status, t_exact, steps)
-
-
-@jit(parallel=True)
-def _toi_parallel(A0, A1, B0, B1, idx, OT, OR, OC, out, status, t_exact, steps):
-    sa, sb = int(A0[0].shape[0] > 1), int(B0[0].shape[0] > 1)
-    for k in prange(idx.shape[0]):
+    for k in range(lo, hi):
         _run_pair(idx[k], A0, A1, B0, B1, sa, sb, OT, OR, OC, out, status, t_exact, steps)
 
 
@@ -836,8 +830,7 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
     OT = np.zeros((n, TOI_MAX_ORACLE))
     OR = np.zeros((n, TOI_MAX_ORACLE), dtype=np.int8)
     OC = np.zeros(n, dtype=np.int64)
-    kernel = _toi_parallel if parallel else _toi_serial
-    kernel(*arrays, np.arange(n), OT, OR, OC, out, status, t_exact, steps)
+    threads.run(_toi, n, parallel, *arrays, np.arange(n), OT, OR, OC, out, status, t_exact, steps)
     _resolve_exact(arrays, OT, OR, OC, out, status, t_exact, steps)
     if return_status:
         return out, status
@@ -862,4 +855,4 @@ def _resolve_exact(arrays, OT, OR, OC, out, status, t_exact, steps):
             OT[i, OC[i]] = t_exact[i]
             OR[i, OC[i]] = rational.relation(ca[k], Ra[k], ra[k], cb[k], Rb[k], rb[k])
             OC[i] += 1
-        _toi_serial(*arrays, idx, OT, OR, OC, out, status, t_exact, steps)
+        _toi(*arrays, idx, OT, OR, OC, out, status, t_exact, steps, 0, len(idx))

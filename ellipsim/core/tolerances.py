@@ -66,10 +66,14 @@ PW_TRY_SEPARATED = 1e-12
 
 # --- Dispatch -------------------------------------------------------------------------------
 
-#: Batches at least this long run the parallel kernels: on the 2-core VM, with numba's workqueue
-#: layer, one thread was faster up to ~3e4 generic pairs per call and two only pulled ahead from
-#: ~1e5 (ellipsim bench, "classify: batch size").
+#: Batches at least this long run on several threads by default (core/threads.py): MEASURED_BELOW.
 PARALLEL_MIN_PAIRS = 100_000
+
+#: A parallel call cuts its batch into at most CHUNKS_PER_THREAD chunks per thread (pairs differ in
+#: cost: a chunk of deep pairs must not hold up the call) of at least CHUNK_MIN_PAIRS pairs (a chunk
+#: costs a task submission and a numba dispatch, ~10 us).
+CHUNKS_PER_THREAD = 4
+CHUNK_MIN_PAIRS = 2_000
 
 # --- MuJoCo contact filter (ellipsim/mujoco/callbacks.py) ----------------------------------------------
 

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from ...core._jit import jit
-from ...core.classify import _classify_float_serial
+from ...core.classify import _classify_float
 from ...core.distance import pair_signed_distance
 from ...core.sigma import a_frame, bisector_seed, newton, sigma
 from ...core.vec3 import load
@@ -113,7 +113,7 @@ def float_runner(a, b, method, setup, dtype):
     out = np.empty(max(len(a), len(b)), dtype=np.int8)
 
     def run():
-        _classify_float_serial(*arrays, setup == "cofactor", method == "sturm", out)
+        _classify_float(*arrays, setup == "cofactor", method == "sturm", out, 0, len(out))
         return out
 
     return run

@@ -267,7 +267,8 @@ def test_blueprint(saved):
         if "ContainerBlueprint:container_kind" in batch.schema.names:
             kinds += batch.column("ContainerBlueprint:container_kind").to_pylist()
     assert views["3D"] == ["world"] and sorted(views["TimeSeries"]) == ["counts/contacts", "counts/pairs"]
-    assert set(views) == {"3D", "TimeSeries"}
+    assert views["TextLog"] == ["events"]
+    assert set(views) == {"3D", "TimeSeries", "TextLog"}
     assert sorted(k[0] for k in kinds) == sorted([rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value])
 
 

@@ -4,10 +4,13 @@ frame by frame, its moving bodies, MuJoCo's contacts and ellipsim's exact verdic
 A FrameBuffer copies a few arrays out of mjData per frame and, once it holds a chunk of frames,
 decides every candidate ellipsoid pair of all of them in one batched exact classify (sweep and
 prune per frame over bounding spheres, MuJoCo's pair rules, then core.classify): memory is bounded
-by the chunk, whatever the number of steps.
+by the chunk, whatever the number of steps.  With between=True it also finds the contacts that begin
+and end between two frames (mujoco.between, on the interpolated motion), the step from one chunk into
+the next included.
 """
 
 import dataclasses
+from time import perf_counter
 
 import mujoco
 import numpy as np
@@ -17,6 +20,7 @@ from ..core.distance import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from ..core.relation import Relation
 from ..core.rotations import quaternion_product, quaternions_to_rotations
+from ..mujoco.between import BetweenFrames
 from ..mujoco.geoms import ellipsoid_geoms, frame_pairs
 from .trajectory import GEOM_KINDS, Frames, SceneGeometry
 
@@ -134,6 +138,8 @@ class Chunk:
     depth : (P,) float64 penetration depth of overlapping pairs (metres, >= 0; nan for the others),
         or None when not asked for
     centers : (f, g, 3) the ellipsoids' centres, metres (a view of the buffer: copy to keep)
+    events : between.Events of the steps into and within these frames (pairs index the g ellipsoid
+        geoms), or None when not asked for
     """
 
     frames: Frames
@@ -141,6 +147,7 @@ class Chunk:
     relation: np.ndarray
     depth: np.ndarray
     centers: np.ndarray
+    events: object = None
 
 
 class FrameBuffer:
@@ -150,9 +157,11 @@ class FrameBuffer:
     record : also keep the moving bodies' poses and every contact's position and normal (for a
         recording); without it a frame costs only the ellipsoids' poses and contact counts.
     depth : flush also measures the penetration depth of overlapping pairs (core.signed_distance).
+    between : flush also finds the contacts that begin and end between two frames (between.Events,
+        the step from the previous chunk included); between_seconds accumulates their wall time.
     """
 
-    def __init__(self, model, *, record=False, depth=False):
+    def __init__(self, model, *, record=False, depth=False, between=False):
         self.model = model
         self.ids, self.radii, self.rules = ellipsoid_geoms(model)
         self.tested = np.zeros(model.ngeom, dtype=bool)
@@ -176,6 +185,8 @@ class FrameBuffer:
         self.contacts = []  # per frame: (pos (k, 3), normal (k, 3), both tested (k,))
         self.n = 0
         self.next_frame = 0
+        self.between = BetweenFrames(self.radii, self.rules) if between else None
+        self.between_seconds = 0.0
 
     def add(self, data, time):
         """Copy the current frame out of `data` (after mj_step, mj_forward or collision); True when
@@ -259,7 +270,12 @@ class FrameBuffer:
         )  # fmt: skip
         out_pairs = pairs.copy()
         out_pairs[:, 0] += first
-        chunk = Chunk(frames, out_pairs, relation, depth, centers)
+        events = None
+        if self.between is not None:
+            t0 = perf_counter()
+            events = self.between.check(frame, frames.times, centers, rotations, out_pairs[relation != Relation.SEPARATED])
+            self.between_seconds += perf_counter() - t0
+        chunk = Chunk(frames, out_pairs, relation, depth, centers, events)
         self.n = 0
         self.next_frame += f
         self.contacts = []
@@ -279,3 +295,38 @@ class FrameBuffer:
         quat = quaternion_product(conj, child_quat)
         quat /= np.linalg.norm(quat, axis=-1, keepdims=True)
         return pos, quat
+
+
+def describe_events(events, ids, geom_names, body_names, geom_body):
+    """Contacts between frames (between.Events over the ellipsoid geoms `ids`) as dicts for reports:
+    {geoms, bodies, frame, t_begin, t_end (seconds), status, point (metres)}, in the events' order."""
+    out = []
+    for e in range(len(events)):
+        g1, g2 = (int(ids[k]) for k in events.pair[e])
+        out.append({
+            "geoms": [geom_names[g1], geom_names[g2]],
+            "bodies": [body_names[geom_body[g1]], body_names[geom_body[g2]]],
+            "frame": int(events.frame[e]), "t_begin": float(events.begin[e]), "t_end": float(events.end[e]),
+            "status": events.status_name(e), "point": [float(x) for x in events.point[e]],
+        })  # fmt: skip
+    return out
+
+
+def event_line(d):
+    """One line of text for an event dict of describe_events."""
+    where = f"geoms {d['geoms'][0]} / {d['geoms'][1]}"
+    if d["bodies"][0] != d["geoms"][0] or d["bodies"][1] != d["geoms"][1]:
+        where += f" (bodies {d['bodies'][0]} / {d['bodies'][1]})"
+    return (f"frames {d['frame']}-{d['frame'] + 1}: {where} touch from {d['t_begin']:.6g} s to {d['t_end']:.6g} s "
+            f"({d['status']})")  # fmt: skip
+
+
+def record_events(recorder, events, ids, geom_names, body_names, geom_body):
+    """Send contacts between frames (between.Events over the ellipsoid geoms `ids`) to a
+    record.Recorder as markers: the contact point, labelled with the geoms, and a log line."""
+    if events is None or len(events) == 0:
+        return
+    described = describe_events(events, ids, geom_names, body_names, geom_body)
+    recorder.write_events(events.frame, events.begin, events.until, events.point,
+                          [f"{d['geoms'][0]} / {d['geoms'][1]}" for d in described],
+                          ["contact between " + event_line(d) for d in described])  # fmt: skip

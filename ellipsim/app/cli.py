@@ -506,7 +506,7 @@ def replay(args):
     recorder = _recorder(args.record) if args.record else None
     try:
         result, size = _recorded(recorder, rp.replay, model, motion, fps=args.fps, name=name,
-                                 progress=_bar(f"  {name}", F, unit="frames"))  # fmt: skip
+                                 progress=_bar(f"  {name}", F, unit="frames"), between=args.between_frames)  # fmt: skip
     except mjcf.ModelError as exc:
         raise UserError(str(exc)) from None
     over = np.flatnonzero(result.overlapping)
@@ -535,8 +535,11 @@ def replay(args):
                   f"deepest {_length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}")  # fmt: skip
         if len(body_pairs) > args.show:
             print(f"    ... and {len(body_pairs) - args.show} more (--show N, or --json)")
+    events = result.between_events()
+    if args.between_frames:
+        _print_between(events, result.between_candidates, result.between_seconds, args.show, "frames")
     if args.json:
-        _write_json(args.json, _replay_report(name, args, model, result, body_pairs))
+        _write_json(args.json, _replay_report(name, args, model, result, body_pairs, events))
         print(f"  report: {args.json}")
     if recorder:
         print(f"  recording: {args.record} ({F} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
@@ -547,7 +550,19 @@ def _length(metres):
     return f"{metres * 100:.3g} cm" if metres < 1 else f"{metres:.3g} m"
 
 
-def _replay_report(name, args, model, result, body_pairs):
+def _print_between(events, candidates, seconds, show, unit):
+    """The contacts between frames (or steps): a count, then a line each (at most `show`)."""
+    from .capture import event_line
+
+    print(f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
+          f"motion): {len(events)}; time_of_impact on {candidates} pairs {seconds:.2f} s")  # fmt: skip
+    for d in events[:show]:
+        print("    " + event_line(d))
+    if len(events) > show:
+        print(f"    ... and {len(events) - show} more (--show N, or --json)")
+
+
+def _replay_report(name, args, model, result, body_pairs, events):
     per_pair = [[] for _ in range(result.frames)]
     for p in range(len(result.pair_frame)):
         g1, g2 = (int(g) for g in result.pair_geoms[p])
@@ -566,6 +581,7 @@ def _replay_report(name, args, model, result, body_pairs):
         "mujoco_contacts": int(result.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(result.mujoco_pairs.sum()),
         "deepest": float(result.deepest.max()) if result.frames else 0.0,
         "body_pairs": [{k: v for k, v in bp.items()} for bp in body_pairs],
+        "between_frames": events if args.between_frames else None,
         "per_frame": {
             "time": (np.arange(result.frames) / result.fps).tolist(), "touching": result.touching.tolist(),
             "overlapping": result.overlapping.tolist(), "deepest": result.deepest.tolist(),
@@ -775,7 +791,10 @@ def parser():
     p.add_argument("--fps", type=_positive_real, default=30.0, help="frames per second of the motion (default 30)")
     p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
     p.add_argument("--json", metavar="FILE.json", help="write per-frame counts and every touching or overlapping pair")
-    p.add_argument("--show", type=_non_negative_int, default=10, help="body pairs to print (default 10)")
+    p.add_argument("--show", type=_non_negative_int, default=10, help="body pairs and contacts between frames to print (default 10)")
+    p.add_argument("--between-frames", action=argparse.BooleanOptionalAction, default=True,
+                   help="also find pairs separated at two consecutive frames that touch in between, on the interpolated "
+                   "motion (continuous collision detection; default: on)")
     p.set_defaults(run=replay)
 
     p = sub.add_parser("fit", help="bounding ellipsoids of meshes (.obj .stl .ply .off .glb .gltf), as MJCF geoms",

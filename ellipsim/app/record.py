@@ -26,13 +26,19 @@ What is written (B bodies, G geoms):
     world/contacts                 Points3D of every MuJoCo contact (all pair types) per frame:
                                    green between two ellipsoids, cyan otherwise (floor, boxes, ...)
     world/contact_normals          Arrows3D, the contact normals, same colours
+    world/between_frames           Points3D, magenta, labelled with the geoms: where two ellipsoids,
+                                   separated at two consecutive frames, first touch in between (on
+                                   the interpolated motion, mujoco.between), from that time until the
+                                   next frame (then an empty row); every such contact of the step
+                                   begun so far is shown
+    events/between_frames          TextLog, a line per such contact at its time (level WARN)
     counts/pairs/builtin           Scalars per frame: MuJoCo's contacts between ellipsoid geoms
     counts/pairs/ellipsim          Scalars per frame: pairs ellipsim finds overlapping
     counts/contacts/all            Scalars per frame: all of MuJoCo's contacts
 
 The default blueprint puts a 3D view of "world" beside two time-series views: ellipsoid pairs in
 contact (MuJoCo's as a wide light line, ellipsim's as a thin dark line over it, so both stay
-visible where they agree) and all contacts.
+visible where they agree) and all contacts; below them a text log of the contacts between frames.
 """
 
 import contextlib
@@ -56,6 +62,8 @@ OTHER_CONTACT_COLOR = (0, 190, 230, 255)  # cyan: every other contact (floor, bo
 CONTACT_RADIUS = 0.008  # metres, contact point spheres
 NORMAL_LENGTH = 0.05  # metres, drawn length of a contact normal (the normals are unit)
 NORMAL_RADIUS = 0.002  # metres, arrow shaft radius
+BETWEEN_COLOR = (230, 0, 200, 255)  # magenta: a contact between two frames
+BETWEEN_RADIUS = 0.015  # metres, its marker (larger than a contact point: it is rare and brief)
 # Series styles: MuJoCo's line wide and light, ellipsim's thin and dark on top of it, so that where
 # the counts agree the thin line runs inside the wide one and both are seen.
 BUILTIN_SERIES = ("MuJoCo contacts (ellipsoid pairs)", (110, 160, 240, 255), 6.0)
@@ -68,6 +76,8 @@ NORMALS_PATH = "world/contact_normals"
 BUILTIN_PATH = "counts/pairs/builtin"
 ELLIPSIM_PATH = "counts/pairs/ellipsim"
 ALL_PATH = "counts/contacts/all"
+BETWEEN_PATH = "world/between_frames"
+BETWEEN_LOG_PATH = "events/between_frames"
 
 RRD_MAGIC = b"RRF"  # first bytes of an .rrd file ("RRF2" in rerun 0.41)
 
@@ -86,6 +96,8 @@ def blueprint():
             rrb.Vertical(
                 rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"),
                 rrb.TimeSeriesView(origin="counts/contacts", name="all MuJoCo contacts"),
+                rrb.TextLogView(origin="events", name="contacts between frames"),
+                row_shares=[2, 2, 1],
             ),
             column_shares=[3, 2],
         ),
@@ -180,6 +192,44 @@ class Recorder:
                                (ALL_PATH, frames.contact_counts)):  # fmt: skip
             rec.send_columns(entity, indexes=indexes, columns=rr.Scalars.columns(scalars=np.asarray(counts, dtype=np.float64)))
         self.frames_written += len(frames)
+
+    def write_events(self, frame, time, until, point, label, text):
+        """Markers of E contacts between frames, each at its time: a point at `point` from `time` until
+        `until` (the next frame, then cleared) and a text line.
+
+        frame : (E,) int, the frame before the contact (its row on the "frame" timeline); time, until :
+        (E,) seconds, time <= until; point : (E, 3) metres; label : E str (drawn by the point); text : E
+        str (the log line).  Events of one step (equal frame) are shown together from each one's time.
+        """
+        if self.rec is None:
+            raise ValueError("Recorder.write_events before begin")
+        frame = np.asarray(frame, dtype=np.int64).reshape(-1)
+        time, until = (np.asarray(x, dtype=np.float64).reshape(-1) for x in (time, until))
+        point = np.asarray(point, dtype=np.float64).reshape(-1, 3)
+        E = len(frame)
+        if not (len(time) == len(until) == len(point) == len(label) == len(text) == E):
+            raise ValueError(f"frame, time, until, point, label and text must have one row per event, got "
+                             f"{E}, {len(time)}, {len(until)}, {len(point)}, {len(label)} and {len(text)}")  # fmt: skip
+        if E == 0:
+            return
+        bad = np.flatnonzero(~(time <= until))
+        if len(bad):
+            raise ValueError(f"time[{int(bad[0])}] must be <= until[{int(bad[0])}], got {time[bad[0]]!r} and {until[bad[0]]!r}")
+        order = np.lexsort((time, frame))
+        frame, time, until, point = frame[order], time[order], until[order], point[order]
+        label = [label[k] for k in order]
+        starts = np.flatnonzero(np.r_[True, frame[1:] != frame[:-1]])  # first event of each step
+        group_start = starts[np.searchsorted(starts, np.arange(E), side="right") - 1]
+        shown = np.concatenate([np.arange(group_start[e], e + 1) for e in range(E)])  # the step's events so far
+        lengths = np.r_[np.arange(E) - group_start + 1, np.zeros(len(starts), dtype=np.int64)]
+        row_time = np.r_[time, until[starts]]
+        row_frame = np.r_[frame, frame[starts] + 1]
+        columns = rr.Points3D.columns(positions=point[shown], labels=[label[k] for k in shown],
+                                      colors=np.broadcast_to(np.array(BETWEEN_COLOR, dtype=np.uint8), (len(shown), 4)),
+                                      radii=np.full(len(shown), BETWEEN_RADIUS, dtype=np.float32))  # fmt: skip
+        self.rec.send_columns(BETWEEN_PATH, indexes=_indexes(row_time, row_frame), columns=columns.partition(lengths))
+        self.rec.send_columns(BETWEEN_LOG_PATH, indexes=_indexes(time, frame),
+                              columns=rr.TextLog.columns(text=[text[k] for k in order], level=["WARN"] * E))  # fmt: skip
 
     def close(self):
         """Finish the file and move it to `path`; returns `path`."""

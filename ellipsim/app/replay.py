@@ -8,7 +8,9 @@ Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPositi
 count on the same frames), then ellipsim's verdict on every candidate pair of every frame in one
 batched exact classify per chunk of frames (capture.FrameBuffer: sweep and prune per frame, MuJoCo's
 pair rules, core.classify), and the penetration depth of the overlapping pairs
-(core.signed_distance).  Only the touching and overlapping pairs are kept.
+(core.signed_distance).  Only the touching and overlapping pairs are kept.  With between=True, also
+the contacts that begin and end between two frames (pairs separated at both frames that touch in
+between on the interpolated motion: mujoco.between, core.time_of_impact).
 """
 
 import dataclasses
@@ -18,6 +20,7 @@ import time
 import mujoco
 import numpy as np
 
+from ..mujoco import between as between_events
 from . import capture, limits
 from .mjcf import make_data
 
@@ -133,7 +136,11 @@ class ReplayResult:
         (1 touching, 2 overlapping); pair_depth : (P,) float64 metres (nan when touching)
     geom_names, body_names : MuJoCo's names (or geom{i} / body{i}); geom_body : (ngeom,) int64
     candidates : number of candidate pairs decided, all frames
+    between : mujoco.between.Events, the contacts between frames (pairs index the ellipsoid geoms
+        `ellipsoid_ids`), or None when not looked for; between_candidates : the pairs whose motion
+        between two frames time_of_impact decided
     seconds : wall time of kinematics and MuJoCo's collision; analysis_seconds : of ellipsim's verdicts
+        (between_seconds of it: the contacts between frames)
     """
 
     fps: float
@@ -155,6 +162,10 @@ class ReplayResult:
     seconds: float
     analysis_seconds: float
     record_seconds: float
+    ellipsoid_ids: np.ndarray = None
+    between: object = None
+    between_candidates: int = 0
+    between_seconds: float = 0.0
 
     @property
     def frames(self):
@@ -188,11 +199,21 @@ class ReplayResult:
         out.sort(key=lambda d: (-d["frames_overlapping"], -d["deepest"], d["first"]))
         return out
 
+    def between_events(self):
+        """The contacts between frames as dicts (capture.describe_events), in time order; [] when not
+        looked for."""
+        if self.between is None:
+            return []
+        return capture.describe_events(self.between, self.ellipsoid_ids, self.geom_names, self.body_names, self.geom_body)
 
-def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay"):
+
+def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay", between=True):
     """Pose `model` at every frame of `motion` (F, nq) and decide every candidate ellipsoid pair.
 
     fps : frames per second, > 0 (the recording's time line, and the report's times).
+    between : also find the contacts that begin and end between two frames, on the interpolated motion
+        of each ellipsoid (centre linear, rotation along the shortest arc: core.motion), which is not
+        the motion of qpos interpolated; the recording gets a marker at each one's first contact.
     progress : optional callable(frame, F).  recorder : optional record.Recorder, begun with the
     model's geometry (named `name`) and sent every chunk (closing it is the caller's).
     Returns a ReplayResult.  ValueError names a bad motion shape or fps.
@@ -203,12 +224,14 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     if isinstance(fps, bool) or not isinstance(fps, (int, float, np.floating)) or not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive finite number, got {fps!r}")
     data = make_data(model, name)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True)
+    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True, between=between)
+    geom_names = capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
+    body_names = ["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:]
     if recorder is not None:
         recorder.begin(capture.geometry(model, name))
     F = len(motion)
     per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
-    pairs, relations, depths = [], [], []
+    pairs, relations, depths, events = [], [], [], []
     timers = {"analysis": 0.0, "record": 0.0}
     candidates = 0
 
@@ -231,8 +254,12 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         pairs.append(chunk.pairs[hit])
         relations.append(chunk.relation[hit])
         depths.append(chunk.depth[hit])
+        if chunk.events is not None:
+            events.append(chunk.events)
         if recorder is not None:
             recorder.write(fr)
+            if chunk.events is not None:
+                capture.record_events(recorder, chunk.events, buffer.ids, geom_names, body_names, model.geom_bodyid)
             timers["record"] += time.perf_counter() - t1
 
     t0 = time.perf_counter()
@@ -261,11 +288,12 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         fps=float(fps), touching=per_frame["touching"], overlapping=per_frame["overlapping"], deepest=deepest,
         deepest_pair=deepest_pair, mujoco_contacts=per_frame["mujoco_contacts"], mujoco_pairs=per_frame["mujoco_pairs"],
         pair_frame=pairs[:, 0].copy(), pair_geoms=geoms, pair_relation=relation, pair_depth=depth,
-        geom_names=capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom"),
-        body_names=["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:],
+        geom_names=geom_names, body_names=body_names,
         geom_body=model.geom_bodyid.astype(np.int64), ellipsoids=len(buffer.ids), candidates=candidates,
         seconds=total - timers["analysis"] - timers["record"], analysis_seconds=timers["analysis"],
-        record_seconds=timers["record"],
+        record_seconds=timers["record"], ellipsoid_ids=buffer.ids.astype(np.int64),
+        between=between_events.Events.concatenate(events) if between else None,
+        between_candidates=buffer.between.candidates if between else 0, between_seconds=buffer.between_seconds,
     )  # fmt: skip
 
 

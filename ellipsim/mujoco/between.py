@@ -1,0 +1,220 @@
+"""Contacts between frames: ellipsoid pairs separated at frame k and at frame k + 1 that touch in
+between (a limb passing through another within one frame, a graze), by continuous collision
+detection (core.time_of_impact) on the interpolated motion.
+
+Between two frames each ellipsoid moves as core.motion defines (centre linear, rotation at constant
+angular velocity along the shortest arc).  That is an interpolation of the two poses: neither a
+replay's own in-between poses nor a simulation's mj_step need follow it, so an event says "on the
+interpolated motion the pair touches between these frames", from `begin` to `end`.
+
+Per chunk of consecutive frames: a swept-sphere broad phase per step (sweep and prune over the
+sphere enclosing each bounding sphere's sweep), then, vectorised over every step's pairs, the closest
+approach of the two centres' straight paths against the sum of the bounding radii (conservative: a
+point of a moving ellipsoid stays within its bounding radius of its centre), MuJoCo's pair rules
+(geoms.PairRules), and pairs known to touch at either end dropped.  One time_of_impact call decides
+the rest; the contacts it finds get their end from the reversed motion (1 - toi(a1, a0, b1, b0),
+time_of_impact's docstring) and a contact point from core.signed_distance at the pose at toi.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..core.broadphase import sweep_and_prune
+from ..core.distance import signed_distance
+from ..core.ellipsoids import Ellipsoids
+from ..core.motion import poses_at
+from ..core.time_of_impact import Impact, time_of_impact
+from ..core.tolerances import BOUNDING_INFLATION, HALF_TURN_TOL, U
+
+#: A geom turning by more than pi - HALF_TURN_MARGIN between two frames has no well-defined
+#: interpolated motion (core.motion refuses turns within HALF_TURN_TOL = 1e-6 rad of pi): its pairs
+#: are reported UNRESOLVED over the whole step.  100 x HALF_TURN_TOL: the angle is computed here with
+#: numpy (atan2 of the same quantities as core.motion.rotation_vector, errors ~1e-15 rad).
+HALF_TURN_MARGIN = 100 * HALF_TURN_TOL
+
+STATUS_NAMES = {int(s): s.name.lower() for s in Impact}
+
+
+@dataclasses.dataclass
+class Events:
+    """Contacts that begin and end between two frames (E of them, sorted by frame and begin).
+
+    frame : (E,) int64, frame k: separated at k and k + 1 (exact classify), touching in between
+    pair : (E, 2) int64, i < j, indices into the g ellipsoid geoms the checker was given
+    toi : (E,) float64 in (0, 1): first contact, as a fraction of the step (core.time_of_impact)
+    begin, end : (E,) float64 seconds: first and last contact on the interpolated motion
+    until : (E,) float64 seconds, the time of frame k + 1
+    status : (E,) int8 core.time_of_impact.Impact code of the first contact (UNRESOLVED: a possible
+        contact, e.g. a graze within float64 resolution, or a half turn between the frames)
+    half_turn : (E,) bool, a geom of the pair turns by about pi between the frames: no interpolated
+        motion, reported UNRESOLVED with begin, end the frames' times
+    point : (E, 3) float64 metres, where: core.signed_distance's contact point of the pair's pose at
+        toi (for a half turn: the midpoint of the centres half-way through the step)
+    """
+
+    frame: np.ndarray
+    pair: np.ndarray
+    toi: np.ndarray
+    begin: np.ndarray
+    end: np.ndarray
+    until: np.ndarray
+    status: np.ndarray
+    half_turn: np.ndarray
+    point: np.ndarray
+
+    def __len__(self):
+        return len(self.frame)
+
+    @classmethod
+    def empty(cls):
+        return cls(np.zeros(0, dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros(0), np.zeros(0),
+                   np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int8), np.zeros(0, dtype=bool), np.zeros((0, 3)))  # fmt: skip
+
+    @classmethod
+    def concatenate(cls, parts):
+        parts = list(parts)
+        if not parts:
+            return cls.empty()
+        return cls(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(cls)))
+
+    def status_name(self, e):
+        """"contact", "contact_at_float_pose" or "unresolved" (+ " (half turn)") of event e."""
+        name = STATUS_NAMES[int(self.status[e])]
+        return name + " (half turn between the frames)" if self.half_turn[e] else name
+
+
+def swept_pairs(c0, c1, rho):
+    """(P, 3) int64 (step, i, j), i < j: the pairs whose bounding spheres may meet while the centres
+    move linearly from c0 to c1.  c0, c1 : (S, g, 3) metres; rho : (g,) bounding radii (inflated).
+
+    Necessary for touching at t: |d0 + t (d1 - d0)| <= rho_i + rho_j, d = c_j - c_i.  Sweep and
+    prune per step over spheres about the mid-points of radius rho + |c1 - c0| / 2 (each encloses its
+    bounding sphere's sweep), then the exact minimum over t in [0, 1], with room for the rounding."""
+    S, g = c0.shape[0], c0.shape[1]
+    if S == 0 or g < 2:
+        return np.zeros((0, 3), dtype=np.int64)
+    move = c1 - c0
+    mid = np.ascontiguousarray(c0 + 0.5 * move)
+    reach = rho[None, :] + 0.5 * np.sqrt(np.einsum("sgk,sgk->sg", move, move)) * (1 + 4 * U)
+    parts = []
+    for s in range(S):  # one sweep per step (its radii change with the motion); vectorised within
+        p = sweep_and_prune(mid[s : s + 1], np.ascontiguousarray(reach[s]))
+        p[:, 0] = s
+        parts.append(p)
+    pairs = np.concatenate(parts)
+    s, i, j = pairs.T
+    d0 = c0[s, j] - c0[s, i]
+    e = (c1[s, j] - c1[s, i]) - d0
+    ee = np.einsum("nk,nk->n", e, e)
+    t = np.clip(-np.einsum("nk,nk->n", d0, e) / np.where(ee > 0, ee, 1.0), 0.0, 1.0)
+    closest = d0 + t[:, None] * e
+    r = rho[i] + rho[j]
+    # rounding of the centres' differences and of `closest`: a few ulps of the coordinates involved
+    scale = np.abs(c0[s, i]).max(axis=1) + np.abs(c0[s, j]).max(axis=1) + np.abs(c1[s, i]).max(axis=1) + np.abs(c1[s, j]).max(axis=1)
+    r = r * (1 + 8 * U) + 16 * U * scale
+    return pairs[np.einsum("nk,nk->n", closest, closest) <= r * r]
+
+
+def turn_angles(R0, R1):
+    """(n,) angles in [0, pi] of R0^T R1, radians; R0, R1 : (n, 3, 3) (core.motion.rotation_vector's
+    atan2 of the antisymmetric part's norm and the trace)."""
+    Q = np.einsum("nji,njk->nik", R0, R1)
+    c = 0.5 * (Q[:, 0, 0] + Q[:, 1, 1] + Q[:, 2, 2] - 1.0)
+    v = 0.5 * np.stack([Q[:, 2, 1] - Q[:, 1, 2], Q[:, 0, 2] - Q[:, 2, 0], Q[:, 1, 0] - Q[:, 0, 1]], axis=1)
+    return np.arctan2(np.linalg.norm(v, axis=1), c)
+
+
+class BetweenFrames:
+    """Finds Events in consecutive chunks of frames of the same g ellipsoid geoms; the last frame of
+    a chunk is kept for the step into the next.
+
+    radii : (g, 3) semi-axes, metres; rules : geoms.PairRules over the same g geoms (MuJoCo's rules
+    for which pairs may collide).
+    """
+
+    def __init__(self, radii, rules):
+        self.radii = np.ascontiguousarray(radii, dtype=np.float64)
+        self.rules = rules
+        self.rho = self.radii.max(axis=1) * BOUNDING_INFLATION if len(self.radii) else np.zeros(0)
+        self._last = None  # (frame, time, centres (g, 3), rotations (g, 3, 3), contact pairs (k, 2))
+        self.candidates = 0  # pairs handed to time_of_impact, all chunks
+
+    def check(self, frames, times, centers, rotations, contacts=None):
+        """Events of the steps into and within these frames.
+
+        frames : (f,) int64 consecutive frame numbers (following the previous chunk's); times : (f,)
+        seconds; centers : (f, g, 3) metres; rotations : (f, g, 3, 3).
+        contacts : optional (P, 3) int64 (frame, i, j), i < j: pairs known not to be separated at that
+            frame (exact classify), skipped at its two steps; None: time_of_impact's own verdicts at
+            the ends (toi = 0 forwards or backwards) drop them.
+        """
+        frames = np.asarray(frames, dtype=np.int64)
+        times = np.asarray(times, dtype=np.float64)
+        centers = np.asarray(centers, dtype=np.float64)
+        rotations = np.asarray(rotations, dtype=np.float64).reshape(len(frames), -1, 3, 3)
+        g = len(self.radii)
+        contacts = np.zeros((0, 3), dtype=np.int64) if contacts is None else np.asarray(contacts, dtype=np.int64)
+        if len(frames) == 0:
+            return Events.empty()
+        last = self._last
+        self._last = (frames[-1], times[-1], centers[-1].copy(), rotations[-1].copy(), contacts[contacts[:, 0] == frames[-1], 1:])
+        if last is not None:
+            if frames[0] != last[0] + 1:
+                raise ValueError(f"frames must continue at frame {last[0] + 1}, got frame {frames[0]}")
+            frames = np.r_[last[0], frames]
+            times = np.r_[last[1], times]
+            centers = np.concatenate([last[2][None], centers])
+            rotations = np.concatenate([last[3][None], rotations])
+            contacts = np.concatenate([np.column_stack([np.full(len(last[4]), last[0]), last[4]]), contacts])
+        if len(frames) < 2 or g < 2:
+            return Events.empty()
+        pairs = swept_pairs(centers[:-1], centers[1:], self.rho)
+        pairs = pairs[self.rules.allowed(pairs[:, 1], pairs[:, 2])]
+        if len(contacts):  # drop pairs touching at either end of their step
+            first = frames[0]
+            known = np.unique((contacts[:, 0] - first) * g * g + contacts[:, 1] * g + contacts[:, 2])
+            key = pairs[:, 0] * g * g + pairs[:, 1] * g + pairs[:, 2]
+            pairs = pairs[~(np.isin(key, known) | np.isin(key + g * g, known))]
+        if len(pairs) == 0:
+            return Events.empty()
+        s, i, j = pairs.T
+        turn = np.maximum(turn_angles(rotations[s, i], rotations[s + 1, i]), turn_angles(rotations[s, j], rotations[s + 1, j]))
+        half = math.pi - turn < HALF_TURN_MARGIN
+        every = Ellipsoids(centers.reshape(-1, 3), rotations.reshape(-1, 3, 3),
+                           np.broadcast_to(self.radii, (len(frames), g, 3)).reshape(-1, 3))  # fmt: skip
+        ok = np.flatnonzero(~half)
+        s_ok, i_ok, j_ok = s[ok], i[ok], j[ok]
+        a0, a1 = every[s_ok * g + i_ok], every[(s_ok + 1) * g + i_ok]
+        b0, b1 = every[s_ok * g + j_ok], every[(s_ok + 1) * g + j_ok]
+        self.candidates += len(ok)
+        toi, status = time_of_impact(a0, a1, b0, b1, return_status=True)
+        hit = np.flatnonzero(np.isfinite(toi) & (toi > 0))  # toi = 0: not separated at frame k
+        back = time_of_impact(a1[hit], a0[hit], b1[hit], b0[hit]) if len(hit) else np.zeros(0)
+        keep = back > 0  # reversed toi = 0: not separated at frame k + 1
+        hit, back = hit[keep], back[keep]
+        t_hit = toi[hit]
+        t_end = np.where(np.isfinite(back), 1.0 - back, t_hit)  # an UNRESOLVED start may have no end
+        t_end = np.maximum(t_end, t_hit)
+        point = np.zeros((len(hit), 3))
+        if len(hit):
+            pa = poses_at(a0[hit], a1[hit], t_hit)
+            pb = poses_at(b0[hit], b1[hit], t_hit)
+            point = signed_distance(pa, pb)[2]
+        h = np.flatnonzero(half)
+        sh, ih, jh = s[h], i[h], j[h]
+        mid_h = 0.25 * (centers[sh, ih] + centers[sh + 1, ih] + centers[sh, jh] + centers[sh + 1, jh])
+        step = np.r_[s_ok[hit], sh]
+        frac_begin = np.r_[t_hit, np.zeros(len(h))]
+        frac_end = np.r_[t_end, np.ones(len(h))]
+        dt = times[step + 1] - times[step]
+        events = Events(
+            frame=frames[step], pair=np.column_stack([np.r_[i_ok[hit], ih], np.r_[j_ok[hit], jh]]).astype(np.int64),
+            toi=frac_begin, begin=times[step] + frac_begin * dt, end=times[step] + frac_end * dt, until=times[step + 1],
+            status=np.r_[status[hit], np.full(len(h), Impact.UNRESOLVED)].astype(np.int8),
+            half_turn=np.r_[np.zeros(len(hit), dtype=bool), np.ones(len(h), dtype=bool)],
+            point=np.concatenate([point, mid_h]).reshape(-1, 3),
+        )  # fmt: skip
+        order = np.lexsort((events.pair[:, 1], events.pair[:, 0], events.toi, events.frame))
+        return Events(*(getattr(events, f.name)[order] for f in dataclasses.fields(Events)))

@@ -85,13 +85,16 @@ class Events:
         return name + " (half turn between the frames)" if self.half_turn[e] else name
 
 
-def swept_pairs(c0, c1, rho):
-    """(P, 3) int64 (step, i, j), i < j: the pairs whose bounding spheres may meet while the centres
-    move linearly from c0 to c1.  c0, c1 : (S, g, 3) metres; rho : (g,) bounding radii (inflated).
+def swept_pairs(c0, c1, rho, rules):
+    """(P, 3) int64 (step, i, j), i < j: the pairs `rules` allow whose bounding spheres may meet
+    while the centres move linearly from c0 to c1.  c0, c1 : (S, g, 3) metres; rho : (g,) bounding
+    radii (inflated); rules : geoms.PairRules.
 
     Necessary for touching at t: |d0 + t (d1 - d0)| <= rho_i + rho_j, d = c_j - c_i.  Sweep and
     prune per step over spheres about the mid-points of radius rho + |c1 - c0| / 2 (each encloses its
-    bounding sphere's sweep), then the exact minimum over t in [0, 1], with room for the rounding."""
+    bounding sphere's sweep), the rules, then the exact minimum over t in [0, 1], with room for the
+    rounding.  (A sweep of several steps with each geom's largest radius costs as much and passes more
+    pairs: measured, 16 figures.)"""
     S, g = c0.shape[0], c0.shape[1]
     if S == 0 or g < 2:
         return np.zeros((0, 3), dtype=np.int64)
@@ -99,31 +102,32 @@ def swept_pairs(c0, c1, rho):
     mid = np.ascontiguousarray(c0 + 0.5 * move)
     reach = rho[None, :] + 0.5 * np.sqrt(np.einsum("sgk,sgk->sg", move, move)) * (1 + 4 * U)
     parts = []
-    for s in range(S):  # one sweep per step (its radii change with the motion); vectorised within
+    for s in range(S):  # a sweep per step (its radii change with the motion), vectorised within
         p = sweep_and_prune(mid[s : s + 1], np.ascontiguousarray(reach[s]))
         p[:, 0] = s
         parts.append(p)
     pairs = np.concatenate(parts)
-    s, i, j = pairs.T
-    d0 = c0[s, j] - c0[s, i]
-    e = (c1[s, j] - c1[s, i]) - d0
+    pairs = pairs[rules.allowed(pairs[:, 1], pairs[:, 2])]
+    a, b = pairs[:, 0] * g + pairs[:, 1], pairs[:, 0] * g + pairs[:, 2]
+    f0, f1 = c0.reshape(-1, 3), c1.reshape(-1, 3)
+    d0 = f0[b] - f0[a]
+    e = (f1[b] - f1[a]) - d0
     ee = np.einsum("nk,nk->n", e, e)
     t = np.clip(-np.einsum("nk,nk->n", d0, e) / np.where(ee > 0, ee, 1.0), 0.0, 1.0)
     closest = d0 + t[:, None] * e
-    r = rho[i] + rho[j]
     # rounding of the centres' differences and of `closest`: a few ulps of the coordinates involved
-    scale = np.abs(c0[s, i]).max(axis=1) + np.abs(c0[s, j]).max(axis=1) + np.abs(c1[s, i]).max(axis=1) + np.abs(c1[s, j]).max(axis=1)
-    r = r * (1 + 8 * U) + 16 * U * scale
+    coord = np.maximum(np.abs(c0).max(axis=2), np.abs(c1).max(axis=2)).ravel()  # (S g,)
+    r = (rho[pairs[:, 1]] + rho[pairs[:, 2]]) * (1 + 8 * U) + 32 * U * (coord[a] + coord[b])
     return pairs[np.einsum("nk,nk->n", closest, closest) <= r * r]
 
 
 def turn_angles(R0, R1):
-    """(n,) angles in [0, pi] of R0^T R1, radians; R0, R1 : (n, 3, 3) (core.motion.rotation_vector's
-    atan2 of the antisymmetric part's norm and the trace)."""
-    Q = np.einsum("nji,njk->nik", R0, R1)
-    c = 0.5 * (Q[:, 0, 0] + Q[:, 1, 1] + Q[:, 2, 2] - 1.0)
-    v = 0.5 * np.stack([Q[:, 2, 1] - Q[:, 1, 2], Q[:, 0, 2] - Q[:, 2, 0], Q[:, 1, 0] - Q[:, 0, 1]], axis=1)
-    return np.arctan2(np.linalg.norm(v, axis=1), c)
+    """(...) angles in [0, pi] of R0^T R1, radians; R0, R1 : (..., 3, 3) (core.motion.rotation_vector's
+    atan2 of the antisymmetric part's norm and (trace - 1) / 2; the antisymmetric part of R0^T R1 is
+    minus half the sum of the cross products of the rows)."""
+    c = 0.5 * (np.einsum("...ij,...ij->...", R0, R1) - 1.0)
+    v = 0.5 * np.cross(R0, R1).sum(axis=-2)
+    return np.arctan2(np.sqrt(np.einsum("...k,...k->...", v, v)), c)
 
 
 class BetweenFrames:
@@ -170,8 +174,7 @@ class BetweenFrames:
             contacts = np.concatenate([np.column_stack([np.full(len(last[4]), last[0]), last[4]]), contacts])
         if len(frames) < 2 or g < 2:
             return Events.empty()
-        pairs = swept_pairs(centers[:-1], centers[1:], self.rho)
-        pairs = pairs[self.rules.allowed(pairs[:, 1], pairs[:, 2])]
+        pairs = swept_pairs(centers[:-1], centers[1:], self.rho, self.rules)
         if len(contacts):  # drop pairs touching at either end of their step
             first = frames[0]
             known = np.unique((contacts[:, 0] - first) * g * g + contacts[:, 1] * g + contacts[:, 2])
@@ -180,8 +183,13 @@ class BetweenFrames:
         if len(pairs) == 0:
             return Events.empty()
         s, i, j = pairs.T
-        turn = np.maximum(turn_angles(rotations[s, i], rotations[s + 1, i]), turn_angles(rotations[s, j], rotations[s + 1, j]))
-        half = math.pi - turn < HALF_TURN_MARGIN
+        # geoms turning by about a half turn in a step: cos of the angle (trace - 1) / 2 first, the
+        # angle itself only where it is below -1/2 (more than 120 degrees)
+        cos = 0.5 * (np.einsum("sgij,sgij->sg", rotations[:-1], rotations[1:]) - 1.0)
+        wide = np.flatnonzero(cos.ravel() < -0.5)
+        flip = np.zeros(cos.shape, dtype=bool)
+        flip.ravel()[wide] = math.pi - turn_angles(rotations[:-1].reshape(-1, 3, 3)[wide], rotations[1:].reshape(-1, 3, 3)[wide]) < HALF_TURN_MARGIN
+        half = flip[s, i] | flip[s, j]
         every = Ellipsoids(centers.reshape(-1, 3), rotations.reshape(-1, 3, 3),
                            np.broadcast_to(self.radii, (len(frames), g, 3)).reshape(-1, 3))  # fmt: skip
         ok = np.flatnonzero(~half)

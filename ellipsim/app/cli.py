@@ -1,9 +1,10 @@
 """The `ellipsim` command line.
 
     ellipsim run SCENARIO|MODEL.xml [--steps N] [--mode builtin|filter|narrowphase] [--record FILE.rrd]
-                 [--key NAME|INDEX] [--ctrl hold|zero|keyframe]
+                 [--key NAME|INDEX] [--ctrl hold|zero|keyframe] [--[no-]between-frames]
     ellipsim compare SCENARIO|MODEL.xml [--steps N] [--json FILE] [--plot FILE.png] [--key ..] [--ctrl ..]
-    ellipsim replay MODEL.xml MOTION.npy|.csv [--fps F] [--record FILE.rrd] [--json FILE]
+                 [--[no-]between-frames]
+    ellipsim replay MODEL.xml MOTION.npy|.csv [--fps F] [--record FILE.rrd] [--json FILE] [--[no-]between-frames]
     ellipsim fit MESH... [--method thesis|mvee] [--out limbs.xml]
     ellipsim view FILE.rrd
     ellipsim sweep SCENARIO|MODEL.xml --vary KEY=V1,V2,... [--vary ...] [--seeds N] [--steps N] [--mode M]
@@ -350,7 +351,7 @@ def run(args):
     recorder = _recorder(args.record) if args.record else None
     t0 = time.perf_counter()
     result, size = _recorded(recorder, _simulated, simulate.run, s, steps=steps, mode=mode,
-                             progress=_bar(f"  {s.name}", steps))  # fmt: skip
+                             progress=_bar(f"  {s.name}", steps), between=_between(args))  # fmt: skip
     wall = time.perf_counter() - t0
     fr = result.frames
     rate = steps / max(result.seconds, 1e-9)
@@ -376,9 +377,17 @@ def run(args):
             f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
             f"{c['fallbacks']} fallbacks to MuJoCo"
         )
+    if result.between is not None:
+        _print_between(result.between, result.between_candidates, result.between_seconds, BETWEEN_SHOWN, "frames")
+    elif args.between_frames:  # asked for explicitly
+        print("  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)")
     if recorder:
         print(f"  recording: {args.record} ({len(fr.times)} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
     return 0
+
+
+#: Contacts between frames `ellipsim run` prints at most.
+BETWEEN_SHOWN = 10
 
 
 def _compare_summary(validation):
@@ -405,7 +414,7 @@ def compare(args):
     steps = _steps(s, args, _check_validation)
     _header(s)
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
-    v, model = _simulated(simulate.validation, s, steps, progress=_bar(f"  {s.name}", steps))
+    v, model = _simulated(simulate.validation, s, steps, progress=_bar(f"  {s.name}", steps), between=_between(args))
     builtin, ours, missed, extra, near = _compare_summary(v)
     agree = int(v.counts[:, 0].sum() + v.counts[:, 1].sum())
     pairs = int(v.counts.sum())
@@ -422,6 +431,9 @@ def compare(args):
             f"ellipsim {d.relation}, contact_scale {d.contact_scale:.9f}, mj_geomDistance {d.geom_distance:.3g}; "
             f"right: {d.right} ({d.reason})"
         )
+    passed = _passed_through(v, model)
+    if passed is not None:
+        _print_between(passed, v.between_candidates, None, args.show, "steps")
     if args.json:
         report = {
             "scenario": s.name, "steps": steps,
@@ -436,6 +448,7 @@ def compare(args):
                  "contact_scale": d.contact_scale, "geom_distance": d.geom_distance, "right": d.right, "reason": d.reason}
                 for kind, ds in (("missed", missed), ("extra", extra), ("near_tangent", near)) for d in ds
             ],
+            "passed_through": passed,
         }  # fmt: skip
         _write_json(args.json, report)
         print(f"  report: {args.json}")
@@ -443,6 +456,21 @@ def compare(args):
         _plot_compare(args.plot, s, builtin, ours, missed + extra, near)
         print(f"  plot: {args.plot}")
     return 0
+
+
+def _passed_through(v, model):
+    """The pairs that passed through each other within one step as event dicts with "step" for
+    "frame" (None when not looked for)."""
+    import mujoco
+
+    from .capture import describe_events, names_of
+
+    if v.passed_through is None:
+        return None
+    geom_names = names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
+    body_names = ["world"] + names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:]
+    out = describe_events(v.passed_through, v.ellipsoid_ids, geom_names, body_names, model.geom_bodyid)
+    return [{("step" if k == "frame" else k): value for k, value in d.items()} for d in out]
 
 
 def _check_validation(s, steps):
@@ -506,7 +534,7 @@ def replay(args):
     recorder = _recorder(args.record) if args.record else None
     try:
         result, size = _recorded(recorder, rp.replay, model, motion, fps=args.fps, name=name,
-                                 progress=_bar(f"  {name}", F, unit="frames"), between=args.between_frames)  # fmt: skip
+                                 progress=_bar(f"  {name}", F, unit="frames"), between=_between(args))  # fmt: skip
     except mjcf.ModelError as exc:
         raise UserError(str(exc)) from None
     over = np.flatnonzero(result.overlapping)
@@ -536,7 +564,7 @@ def replay(args):
         if len(body_pairs) > args.show:
             print(f"    ... and {len(body_pairs) - args.show} more (--show N, or --json)")
     events = result.between_events()
-    if args.between_frames:
+    if result.between is not None:
         _print_between(events, result.between_candidates, result.between_seconds, args.show, "frames")
     if args.json:
         _write_json(args.json, _replay_report(name, args, model, result, body_pairs, events))
@@ -554,10 +582,11 @@ def _print_between(events, candidates, seconds, show, unit):
     """The contacts between frames (or steps): a count, then a line each (at most `show`)."""
     from .capture import event_line
 
+    timing = f" {seconds:.2f} s" if seconds is not None else ""
     print(f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
-          f"motion): {len(events)}; time_of_impact on {candidates} pairs {seconds:.2f} s")  # fmt: skip
+          f"motion): {len(events)}; time_of_impact on {candidates} pairs{timing}")  # fmt: skip
     for d in events[:show]:
-        print("    " + event_line(d))
+        print("    " + event_line(d if "frame" in d else {**d, "frame": d["step"]}).replace("frames ", f"{unit} ", 1))
     if len(events) > show:
         print(f"    ... and {len(events) - show} more (--show N, or --json)")
 
@@ -581,7 +610,7 @@ def _replay_report(name, args, model, result, body_pairs, events):
         "mujoco_contacts": int(result.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(result.mujoco_pairs.sum()),
         "deepest": float(result.deepest.max()) if result.frames else 0.0,
         "body_pairs": [{k: v for k, v in bp.items()} for bp in body_pairs],
-        "between_frames": events if args.between_frames else None,
+        "between_frames": events if result.between is not None else None,
         "per_frame": {
             "time": (np.arange(result.frames) / result.fps).tolist(), "touching": result.touching.tolist(),
             "overlapping": result.overlapping.tolist(), "deepest": result.deepest.tolist(),
@@ -757,6 +786,21 @@ def _model_options(p):
                    help="an MJCF model's actuators: hold the initial pose (default), zero, or the keyframe's ctrl")
 
 
+#: Whether the contacts between frames (steps) are looked for unless --between-frames or
+#: --no-between-frames says: see README ("contacts between frames") for what they cost.
+BETWEEN_DEFAULT = True
+
+
+def _between_option(p, what):
+    """--between-frames / --no-between-frames; args.between_frames is None when neither is given."""
+    p.add_argument("--between-frames", action=argparse.BooleanOptionalAction, default=None,
+                   help=f"{what} (continuous collision detection; default: {'on' if BETWEEN_DEFAULT else 'off'})")
+
+
+def _between(args):
+    return BETWEEN_DEFAULT if args.between_frames is None else args.between_frames
+
+
 def parser():
     p0 = _Parser(
         prog="ellipsim",
@@ -772,6 +816,8 @@ def parser():
     p.add_argument("--steps", type=_positive_int, help="steps to run (default: the scenario's duration; a model: 2 s)")
     p.add_argument("--mode", choices=("builtin", "filter", "narrowphase"), help="collision detection (default: the scenario's)")
     p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
+    _between_option(p, "a kinematic scenario: also find pairs separated at two consecutive frames that touch in "
+                    "between, on the interpolated motion")
     _model_options(p)
     p.set_defaults(run=run)
 
@@ -780,7 +826,9 @@ def parser():
     p.add_argument("--steps", type=_positive_int, help="steps to compare (default: the scenario's duration)")
     p.add_argument("--json", metavar="FILE.json", help="write the counts and every disagreement as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="plot the per-frame counts (needs the 'plot' extra)")
-    p.add_argument("--show", type=_non_negative_int, default=10, help="disagreements to print (default 10)")
+    p.add_argument("--show", type=_non_negative_int, default=10, help="disagreements (and pairs passed through each other) to print (default 10)")
+    _between_option(p, "also find ellipsoid pairs separated at two consecutive steps that touch in between (passed "
+                    "through each other within one step), on the interpolated motion")
     _model_options(p)
     p.set_defaults(run=compare)
 
@@ -792,9 +840,8 @@ def parser():
     p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
     p.add_argument("--json", metavar="FILE.json", help="write per-frame counts and every touching or overlapping pair")
     p.add_argument("--show", type=_non_negative_int, default=10, help="body pairs and contacts between frames to print (default 10)")
-    p.add_argument("--between-frames", action=argparse.BooleanOptionalAction, default=True,
-                   help="also find pairs separated at two consecutive frames that touch in between, on the interpolated "
-                   "motion (continuous collision detection; default: on)")
+    _between_option(p, "also find pairs separated at two consecutive frames that touch in between, on the "
+                    "interpolated motion")
     p.set_defaults(run=replay)
 
     p = sub.add_parser("fit", help="bounding ellipsoids of meshes (.obj .stl .ply .off .glb .gltf), as MJCF geoms",

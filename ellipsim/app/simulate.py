@@ -2,7 +2,8 @@
 
 `run` steps a scenario, hands a frame every 1/RECORD_FPS simulated seconds to a capture.FrameBuffer
 (ellipsim's exact verdicts, a chunk of frames at a time) and each decided chunk to an optional
-record.Recorder.  It keeps a few counts per frame (and, with keep=True, the ellipsoids' centres and
+record.Recorder; for a kinematic scenario, whose every step is a frame, it also finds the contacts
+that begin and end between two frames (mujoco.between).  It keeps a few counts per frame (and, with keep=True, the ellipsoids' centres and
 states), so its memory does not grow with the number of steps beyond that.  `validation` steps the
 scenario under mujoco.validate (MuJoCo's contacts against the exact test, pair by pair).
 """
@@ -128,6 +129,9 @@ class Run:
     seconds : wall time of stepping alone (mj_step or the kinematic poses, and copying frames out)
     analysis_seconds : wall time of ellipsim's verdicts on the recorded frames (broad phase, classify)
     record_seconds : wall time of sending frames to the recording
+    between : the contacts between two frames of a kinematic scenario, as capture.describe_events
+        dicts in time order (None when not looked for); between_candidates : pairs time_of_impact
+        decided; between_seconds : its share of analysis_seconds
     """
 
     scenario: Scenario
@@ -141,6 +145,9 @@ class Run:
     contacts_mean: float  # all of MuJoCo's contacts per step
     contacts_max: int
     kept: Kept = None
+    between: list = None
+    between_candidates: int = 0
+    between_seconds: float = 0.0
 
 
 def recorded_frames(s, steps):
@@ -162,7 +169,7 @@ def check_steps(s, steps):
     limits.check_fits(frames * BYTES_PER_FRAME, f"{steps} steps ({frames} recorded frames of counts)")
 
 
-def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False):
+def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, between=False):
     """Simulate a scenario (or replay it, when kinematic); returns a Run.
 
     steps : number of steps (default: the scenario's duration); mode : overrides the scenario's.
@@ -170,6 +177,10 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False):
     recorder : optional record.Recorder; it is begun with the model's geometry and sent every chunk
         of frames (closing it is the caller's).
     keep : also keep the ellipsoids' centres and states of every recorded frame (Run.kept).
+    between : a kinematic scenario: also find the contacts that begin and end between two frames, on
+        each ellipsoid's interpolated motion (core.motion, not the keyframes' joint interpolation);
+        the recording gets a marker at each one's first contact.  Ignored for a dynamic scenario
+        (its frames are 1/RECORD_FPS apart, many steps).
     ScenarioError for a scene or model that cannot be built or run (MuJoCo out of memory included).
     """
     mode = mode or s.mode
@@ -179,11 +190,14 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False):
     check_steps(s, steps)
     model, data = build(s)
     control = controller(model, data, s)
-    buffer = capture.FrameBuffer(model, record=recorder is not None)
+    between = bool(between and s.kinematic)
+    buffer = capture.FrameBuffer(model, record=recorder is not None, between=between)
+    names = (capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom"),
+             ["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:], model.geom_bodyid)  # fmt: skip
     if recorder is not None:
         recorder.begin(capture.geometry(model, s.name))
     every = _every(s)
-    chunks, kept = [], []
+    chunks, kept, events = [], [], []
     timers = {"analysis": 0.0, "record": 0.0}
 
     def flush():
@@ -197,8 +211,11 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False):
         chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
         if keep:
             kept.append((chunk.centers.copy(), f.state))
+        if chunk.events is not None:
+            events.extend(capture.describe_events(chunk.events, buffer.ids, *names))
         if recorder is not None:
             recorder.write(f)
+            capture.record_events(recorder, chunk.events, buffer.ids, *names)
             timers["record"] += time.perf_counter() - t1
 
     ncon_sum, ncon_max = 0, 0
@@ -229,16 +246,17 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False):
     frames = FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
     kept_frames = None
     if keep:
-        names = capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
-        kept_frames = Kept([names[g] for g in buffer.ids], np.concatenate([c for c, _ in kept]),
+        kept_frames = Kept([names[0][g] for g in buffer.ids], np.concatenate([c for c, _ in kept]),
                            np.concatenate([st for _, st in kept]))  # fmt: skip
     seconds = total - timers["analysis"] - timers["record"]
     return Run(s, mode, steps, seconds, timers["analysis"], timers["record"], frames, counters,
-               ncon_sum / steps, int(ncon_max), kept_frames)  # fmt: skip
+               ncon_sum / steps, int(ncon_max), kept_frames, events if between else None,
+               buffer.between.candidates if between else 0, buffer.between_seconds)  # fmt: skip
 
 
-def validation(s, steps=None, progress=None):
-    """mujoco.validate on the scenario: its model, its controls (or keyframed poses), `steps` steps."""
+def validation(s, steps=None, progress=None, between=False):
+    """mujoco.validate on the scenario: its model, its controls (or keyframed poses), `steps` steps;
+    between: also the ellipsoid pairs that pass through each other within one step."""
     steps = s.steps if steps is None else steps
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -259,6 +277,6 @@ def validation(s, steps=None, progress=None):
 
         advance = True
     try:
-        return validate(model, data, steps, control=step, advance=advance, progress=progress), model
+        return validate(model, data, steps, control=step, advance=advance, progress=progress, between=between), model
     except mujoco.FatalError as exc:
         raise ScenarioError(f"{_label(s)} MuJoCo stopped: {mjcf.one_line(exc)}") from None

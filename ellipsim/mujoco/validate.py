@@ -1,4 +1,5 @@
-"""MuJoCo's built-in contacts against ellipsim's exact verdicts, candidate pair by candidate pair."""
+"""MuJoCo's built-in contacts against ellipsim's exact verdicts, candidate pair by candidate pair, and
+the ellipsoid pairs that pass through each other within one step (between.py)."""
 
 import dataclasses
 
@@ -9,7 +10,12 @@ from ..core.classify import classify
 from ..core.perram_wertheim import contact_scale
 from ..core.relation import Relation
 from .attachment import check_model_data
-from .geoms import PairRecorder, enclosing, pair_contact_dist, pair_margins
+from .between import BetweenFrames, Events
+from .geoms import PairRecorder, ellipsoid_geoms, enclosing, pair_contact_dist, pair_margins
+
+#: Values (float64) of ellipsoid poses `validate` holds before looking between the steps: 2^22 = 32 MB
+#: (12 per ellipsoid and step; at most 1024 steps at a time).
+STEP_VALUES = 2**22
 
 
 @dataclasses.dataclass
@@ -34,6 +40,11 @@ class Validation:
     """Per-step agreement of MuJoCo's contacts with ellipsim's exact verdicts.
 
     counts : (steps, 4) int64, columns COLUMNS: candidate ellipsoid pairs per step
+    passed_through : between.Events, ellipsoid pairs separated at step k and at step k + 1 that touch in
+        between on the interpolated motion (pairs index `ellipsoid_ids`; the geoms themselves, margins
+        not included); None when not looked for.  mj_step's motion between two steps is not that
+        interpolation (centre linear, rotation along the shortest arc): an event says the two poses
+        are consistent with passing through each other within the step, not that MuJoCo's did.
     """
 
     COLUMNS = ("both", "neither", "mujoco_only", "ellipsim_only")
@@ -41,12 +52,15 @@ class Validation:
     counts: np.ndarray
     mujoco_contacts: np.ndarray  # (steps,) all contacts MuJoCo made (every geom type)
     disagreements: list
+    passed_through: Events = None
+    ellipsoid_ids: np.ndarray = None
+    between_candidates: int = 0
 
     def totals(self):
         return {name: int(self.counts[:, k].sum()) for k, name in enumerate(self.COLUMNS)}
 
 
-def validate(model, data, nstep, *, control=None, advance=True, progress=None):
+def validate(model, data, nstep, *, control=None, advance=True, progress=None, between=False):
     """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
 
     At each step, before mj_step, mj_forward runs collision; every candidate ellipsoid pair MuJoCo's
@@ -58,6 +72,8 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None):
     control : optional callable(model, data, step) run before each mj_forward (set ctrl, or a pose)
     advance : mj_step after each comparison (False for kinematic replays that set every pose)
     progress : optional callable(step, nstep), called after each step
+    between : also find the ellipsoid pairs separated at two consecutive steps that touch in between
+        (Validation.passed_through; mujoco.between, core.time_of_impact on the interpolated motion)
     """
     check_model_data(model, data)
     if not isinstance(nstep, (int, np.integer)) or nstep < 1:
@@ -66,12 +82,23 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None):
     ncon = np.zeros(nstep, dtype=np.int64)
     disagreements = []
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
+    ids, radii, rules = ellipsoid_geoms(model)
+    checker = BetweenFrames(radii, rules) if between else None
+    capacity = int(min(1024, max(2, STEP_VALUES // max(12 * len(ids), 1))))
+    centers, rotations, times = np.empty((capacity, len(ids), 3)), np.empty((capacity, len(ids), 9)), np.empty(capacity)
+    events, held, first = [], 0, 0
     with PairRecorder(model, data) as recorder:
         for step in range(nstep):
             if control is not None:
                 control(model, data, step)
             pairs = recorder.forward()
             ncon[step] = data.ncon
+            if checker is not None:
+                centers[held], rotations[held], times[held] = data.geom_xpos[ids], data.geom_xmat[ids], data.time
+                held += 1
+                if held == capacity or step == nstep - 1:
+                    events.append(checker.check(np.arange(first, first + held), times[:held], centers[:held], rotations[:held]))
+                    first, held = first + held, 0
             if len(pairs):
                 margin = pair_margins(model, pairs)
                 a = enclosing(model, data, pairs[:, 0], np.maximum(margin, 0) / 2)
@@ -88,7 +115,9 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None):
                 mujoco.mj_step(model, data)
             if progress is not None:
                 progress(step + 1, nstep)
-    return Validation(nstep, counts, ncon, disagreements)
+    passed = Events.concatenate(events) if checker is not None else None
+    return Validation(nstep, counts, ncon, disagreements, passed, ids.astype(np.int64),
+                      checker.candidates if checker is not None else 0)  # fmt: skip
 
 
 def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, a, b):

@@ -1,0 +1,293 @@
+"""Contacts between frames (mujoco.between): pairs separated at two consecutive frames that touch in
+between, against time_of_impact called directly, a dense sampling of the same motion with exact
+classify, and a brute force without the prefilter; then replay, run and compare on the command line,
+the JSON and the recording's markers."""
+
+import json
+import math
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+from rerun.chunk import RrdReader
+
+from ellipsim import Ellipsoids, Impact, Relation, classify, time_of_impact
+from ellipsim.app import record, replay as rp, scenario, simulate
+from ellipsim.core.motion import poses_at
+from ellipsim.mujoco import validate
+from ellipsim.mujoco.between import BetweenFrames, Events, swept_pairs
+from ellipsim.mujoco.geoms import ellipsoid_geoms
+
+# A thin plate and a small pellet, both free: the pellet's motion is set per frame (replay) or shot
+# at 50 m/s through the plate with a 10 ms step (compare): 0.5 m a step through a plate 1 cm thick.
+PLATE_XML = """<mujoco model="plate">
+  <option timestep="0.01" gravity="0 0 0"/>
+  <worldbody>
+    <body name="board"><freejoint/><geom name="plate" type="ellipsoid" size=".3 .3 .005"/></body>
+    <body name="bullet" pos="0 0 .26"><freejoint/><geom name="pellet" type="ellipsoid" size=".02 .015 .01"/></body>
+  </worldbody>
+  <keyframe><key name="shot" qpos="0 0 0 1 0 0 0 0 0 .26 1 0 0 0" qvel="0 0 0 0 0 0 0 0 -50 0 0 0"/></keyframe>
+</mujoco>"""
+FPS = 10.0
+SAMPLES = 2001  # instants of the dense check per step
+
+
+@pytest.fixture(scope="module")
+def plate():
+    return mujoco.MjModel.from_xml_string(PLATE_XML)
+
+
+def pellet_motion(zs, tilt=None):
+    """qpos (F, 14): the plate at the origin, the pellet at heights zs (a quaternion per frame optional)."""
+    q = np.zeros((len(zs), 14))
+    q[:, 3] = 1.0
+    q[:, 9] = zs
+    q[:, 10] = 1.0
+    if tilt is not None:
+        q[:, 10:14] = tilt
+    return q
+
+
+def poses(model, motion):
+    """centres (F, g, 3), rotations (F, g, 3, 3) of the ellipsoid geoms, and the checker's inputs."""
+    data = mujoco.MjData(model)
+    ids, radii, rules = ellipsoid_geoms(model)
+    C, R = [], []
+    for q in motion:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        C.append(data.geom_xpos[ids].copy())
+        R.append(data.geom_xmat[ids].reshape(-1, 3, 3).copy())
+    return np.array(C), np.array(R), radii, rules
+
+
+def dense(a0, a1, b0, b1, n=SAMPLES):
+    """Instants t in [0, 1] (n of them) and exact classify of the float poses there."""
+    t = np.linspace(0.0, 1.0, n)
+    rep = lambda x: x[np.zeros(n, dtype=np.int64)]  # noqa: E731
+    return t, classify(poses_at(rep(a0), rep(a1), t), poses_at(rep(b0), rep(b1), t))
+
+
+def check_event(C, R, radii, events, e, times):
+    """Event e: separated at both frames, time_of_impact's toi directly, the dense samples agree."""
+    k, (i, j) = int(events.frame[e]), events.pair[e]
+    at = lambda f, g: Ellipsoids(C[f, g], R[f, g], radii[g])  # noqa: E731
+    a0, a1, b0, b1 = at(k, i), at(k + 1, i), at(k, j), at(k + 1, j)
+    assert classify(a0, b0)[0] == Relation.SEPARATED and classify(a1, b1)[0] == Relation.SEPARATED
+    toi, status = time_of_impact(a0, a1, b0, b1, return_status=True)
+    assert events.toi[e] == toi[0] and events.status[e] == status[0] and status[0] != Impact.NO_CONTACT
+    back = time_of_impact(a1, a0, b1, b0)[0]
+    dt = times[k + 1] - times[k]
+    assert events.begin[e] == pytest.approx(times[k] + toi[0] * dt, abs=1e-12)
+    assert events.end[e] == pytest.approx(times[k] + (1 - back) * dt, abs=1e-12)
+    assert times[k] < events.begin[e] <= events.end[e] < times[k + 1]
+    t, rel = dense(a0, a1, b0, b1)
+    touching = t[rel != Relation.SEPARATED]
+    # every instant before toi - TOI_TOL is proven separated, and so is every one after the end
+    assert touching.min() >= toi[0] - 1e-9 and touching.max() <= 1 - back + 1e-9
+    # the contact lasts more than a sample here: the samples see it, within a sample of toi and the end
+    assert touching.min() - toi[0] <= 1 / (SAMPLES - 1) and (1 - back) - touching.max() <= 1 / (SAMPLES - 1)
+
+
+# --- the checker ---------------------------------------------------------------------------------
+
+
+def test_a_pellet_through_the_plate_between_two_frames(plate):
+    motion = pellet_motion([0.5, 0.26, -0.24, -0.5])  # through the plate between frames 1 and 2
+    C, R, radii, rules = poses(plate, motion)
+    times = np.arange(len(motion)) / FPS
+    events = BetweenFrames(radii, rules).check(np.arange(len(motion)), times, C, R)
+    assert len(events) == 1 and events.frame.tolist() == [1] and events.pair.tolist() == [[0, 1]]
+    assert events.status[0] == Impact.CONTACT and not events.half_turn[0]
+    # first contact when the pellet's bottom (z - 0.01) meets the plate's top (0.005): z = 0.015
+    assert events.toi[0] == pytest.approx((0.26 - 0.015) / 0.5, abs=1e-9)
+    assert events.begin[0] == pytest.approx(0.1 + 0.49 * 0.1, abs=1e-9)
+    assert events.end[0] == pytest.approx(0.1 + (0.26 + 0.015) / 0.5 * 0.1, abs=1e-9)
+    np.testing.assert_allclose(events.point[0], [0, 0, 0.005], atol=1e-6)  # where they meet
+    check_event(C, R, radii, events, 0, times)
+
+
+def test_a_turning_limb_sweeps_through_a_ball():
+    """Centres at rest, a long ellipsoid turning 80 degrees about z between two frames: a ball at 40
+    degrees, clear of it at both frames, is hit in between."""
+    radii = np.array([[1.0, 0.02, 0.02], [0.05, 0.05, 0.05]])
+    rules = ellipsoid_geoms(mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom type='ellipsoid' size='1 .02 .02'/></body>"
+        "<body><freejoint/><geom type='sphere' size='.05'/></body></worldbody></mujoco>"))[2]  # fmt: skip
+    rz = lambda deg: np.array([[math.cos(math.radians(deg)), -math.sin(math.radians(deg)), 0],  # noqa: E731
+                               [math.sin(math.radians(deg)), math.cos(math.radians(deg)), 0], [0, 0, 1]])  # fmt: skip
+    ball = 0.5 * np.array([math.cos(math.radians(40)), math.sin(math.radians(40)), 0])
+    C = np.array([[[0, 0, 0], ball]] * 3, dtype=float)
+    R = np.array([[rz(a), np.eye(3)] for a in (0, 80, 160)])
+    times = np.array([0.0, 0.02, 0.04])
+    events = BetweenFrames(radii, rules).check(np.arange(3), times, C, R)
+    assert events.frame.tolist() == [0] and events.pair.tolist() == [[0, 1]]
+    # the limb's axis reaches the ball's edge at 40 - asin(0.07 / 0.5) degrees or so: well inside
+    assert 0.3 < events.toi[0] < 0.5
+    check_event(C, R, radii, events, 0, times)
+
+
+def test_no_contact_and_contacts_at_frames_are_not_between_frames(plate):
+    C, R, radii, rules = poses(plate, pellet_motion([0.5, 0.4, 0.3, 0.02]))  # approaching, never touching
+    assert len(BetweenFrames(radii, rules).check(np.arange(4), np.arange(4) / FPS, C, R)) == 0
+    # overlapping at frame 1 (z = 0), then through and out: the frames see it, so no event between
+    motion = pellet_motion([0.2, 0.0, -0.2, 0.01, 0.2])  # through, then back into it from below
+    C, R, radii, rules = poses(plate, motion)
+    rel = classify(Ellipsoids(C[:, 0], R[:, 0], np.broadcast_to(radii[0], (5, 3))),
+                   Ellipsoids(C[:, 1], R[:, 1], np.broadcast_to(radii[1], (5, 3))))  # fmt: skip
+    assert rel.tolist() == [0, 2, 0, 2, 0]  # 0.01 overlaps too: the plate's top is 0.005, the pellet 0.01 tall
+    for contacts in (None, np.array([[f, 0, 1] for f in np.flatnonzero(rel)])):  # known or found by toi
+        events = BetweenFrames(radii, rules).check(np.arange(5), np.arange(5) / FPS, C, R, contacts)
+        assert len(events) == 0
+
+
+def test_chunks_join_and_a_half_turn_is_unresolved(plate):
+    motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.26, 0.24, 0.5])  # through and back
+    C, R, radii, rules = poses(plate, motion)
+    times = np.arange(len(motion)) / FPS
+    whole = BetweenFrames(radii, rules).check(np.arange(7), times, C, R)
+    assert whole.frame.tolist() == [1, 4]
+    checker = BetweenFrames(radii, rules)
+    parts = [checker.check(np.arange(a, b), times[a:b], C[a:b], R[a:b]) for a, b in ((0, 2), (2, 3), (3, 7))]
+    joined = Events.concatenate(parts)
+    for name in ("frame", "pair", "toi", "begin", "end", "status", "point"):
+        np.testing.assert_array_equal(getattr(joined, name), getattr(whole, name))
+    with pytest.raises(ValueError, match="frames must continue at frame 7, got frame 8"):
+        checker.check([8], [0.8], C[:1], R[:1])
+    # the pellet turns by exactly pi about x between frames 1 and 2 (while passing the plate): no
+    # interpolated motion, reported as a possible contact over the whole step, no error
+    flip = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, 1, 0, 0]], dtype=float)
+    motion = pellet_motion([0.5, 0.26, -0.24, -0.5], tilt=flip)
+    C, R, radii, rules = poses(plate, motion)
+    events = BetweenFrames(radii, rules).check(np.arange(4), np.arange(4) / FPS, C, R)
+    assert events.frame.tolist() == [1] and events.half_turn.tolist() == [True]
+    assert events.status[0] == Impact.UNRESOLVED and events.status_name(0) == "unresolved (half turn between the frames)"
+    assert (events.begin[0], events.end[0]) == (0.1, 0.2)
+
+
+def test_the_prefilter_drops_no_contact():
+    """Random motions of 12 ellipsoids over 30 frames: the events equal those of time_of_impact on
+    every pair of every step (no prefilter), separated at both frames by classify."""
+    rng = np.random.default_rng(5)
+    g, F = 12, 30
+    radii = rng.uniform(0.05, 0.3, (g, 3))
+    radii[np.arange(g), rng.integers(0, 3, g)] = 0.01  # thin: easy to pass through within a frame
+    xml = "<mujoco><worldbody>" + "".join(
+        f"<body><freejoint/><geom type='ellipsoid' size='{r[0]} {r[1]} {r[2]}'/></body>" for r in radii) + "</worldbody></mujoco>"
+    rules = ellipsoid_geoms(mujoco.MjModel.from_xml_string(xml))[2]
+    start, amplitude, phase = rng.uniform(-0.4, 0.4, (g, 3)), rng.uniform(0.1, 0.4, (g, 3)), rng.uniform(0, 6, (g, 3))
+    C = start[None] + amplitude[None] * np.sin(0.8 * np.arange(F)[:, None, None] + phase[None])  # up to 0.3 m a frame
+    q = rng.normal(size=(g, 4)) / 2
+    axis, speed = rng.normal(size=(g, 3)), rng.uniform(0, 1.5, g)
+    R = np.empty((F, g, 3, 3))
+    for f in range(F):
+        for k in range(g):
+            w = axis[k] / np.linalg.norm(axis[k]) * speed[k] * f
+            W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+            th = np.linalg.norm(w)
+            E = np.eye(3) + math.sin(th) / th * W + (1 - math.cos(th)) / th**2 * W @ W if th else np.eye(3)
+            R[f, k] = Ellipsoids.from_quaternions(np.zeros(3), q[k], np.ones(3)).rotations[0] @ E
+    times = np.arange(F) * 0.01
+    got = BetweenFrames(radii, rules).check(np.arange(F), times, C, R)
+    i, j = np.triu_indices(g, 1)
+    s = np.repeat(np.arange(F - 1), len(i))
+    i, j = np.tile(i, F - 1), np.tile(j, F - 1)
+    at = lambda f, k: Ellipsoids(C[f, k], R[f, k], radii[k])  # noqa: E731
+    a0, a1, b0, b1 = at(s, i), at(s + 1, i), at(s, j), at(s + 1, j)
+    apart = (classify(a0, b0) == Relation.SEPARATED) & (classify(a1, b1) == Relation.SEPARATED)
+    toi = time_of_impact(a0, a1, b0, b1)
+    want = np.flatnonzero(apart & np.isfinite(toi))
+    assert len(want) >= 5, "the motion should have some contacts between frames"
+    assert sorted(zip(got.frame.tolist(), got.pair[:, 0].tolist(), got.pair[:, 1].tolist())) == sorted(
+        zip(s[want].tolist(), i[want].tolist(), j[want].tolist()))  # fmt: skip
+    # the prefilter does drop most pairs: fewer candidates than pairs
+    assert len(swept_pairs(C[:-1], C[1:], radii.max(axis=1), rules)) < len(s) / 2
+
+
+# --- replay, run, compare ------------------------------------------------------------------------
+
+
+def test_replay_reports_and_records_the_contact_between_frames(plate, tmp_path):
+    motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.4])
+    path = tmp_path / "shot.rrd"
+    with record.Recorder(path) as recorder:
+        result = rp.replay(plate, motion, fps=FPS, recorder=recorder, name="shot")
+    (event,) = result.between_events()
+    assert event["geoms"] == ["plate", "pellet"] and event["bodies"] == ["board", "bullet"] and event["frame"] == 1
+    assert event["status"] == "contact" and 0.1 < event["t_begin"] < event["t_end"] < 0.2
+    assert result.overlapping.sum() == 0  # no frame sees it
+    assert rp.replay(plate, motion, fps=FPS, between=False).between is None
+    points, texts = {}, []
+    for c in RrdReader(path).stream().to_chunks():
+        if c.is_static:
+            continue
+        batch = c.to_record_batch()
+        if c.entity_path == "/world/between_frames":
+            for t, pos, label in zip(batch.column("time").cast("int64").to_pylist(), batch.column("Points3D:positions").to_pylist(),
+                                     batch.column("Points3D:labels").to_pylist()):  # fmt: skip
+                points[t] = (pos, label)
+        if c.entity_path == "/events/between_frames":
+            texts += batch.column("TextLog:text").to_pylist()
+    begin = round(event["t_begin"] * 1e9)
+    assert sorted(points) == [begin, round(0.2 * 1e9)]  # the marker at the first contact, cleared at frame 2
+    (pos,), (label,) = points[begin]
+    np.testing.assert_allclose(pos, event["point"], atol=1e-6)  # float32 in the file
+    assert label == "plate / pellet" and points[round(0.2 * 1e9)] == ([], [])
+    assert len(texts) == 1 and "plate / pellet" in texts[0][0] and "frames 1-2" in texts[0][0]
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.mark.slow
+def test_replay_and_compare_on_the_command_line(tmp_path):
+    xml = tmp_path / "plate.xml"
+    xml.write_text(PLATE_XML)
+    np.save(tmp_path / "m.npy", pellet_motion([0.5, 0.26, -0.24, -0.5]))
+    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--fps", str(FPS), "--json", str(tmp_path / "r.json"))
+    assert proc.returncode == 0, proc.stderr
+    assert "contacts between frames (separated at two consecutive frames, touching in between on the interpolated motion): 1" in proc.stdout
+    assert "frames 1-2: geoms plate / pellet (bodies board / bullet) touch from 0.149 s to 0.155 s (contact)" in proc.stdout
+    (event,) = json.loads((tmp_path / "r.json").read_text())["between_frames"]
+    assert event["geoms"] == ["plate", "pellet"] and event["frame"] == 1 and event["status"] == "contact"
+    assert event["t_begin"] == pytest.approx(0.149) and event["t_end"] == pytest.approx(0.155)
+    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--no-between-frames", "--json", str(tmp_path / "n.json"))
+    assert proc.returncode == 0 and "between frames" not in proc.stdout
+    assert json.loads((tmp_path / "n.json").read_text())["between_frames"] is None
+    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "c.json"))
+    assert proc.returncode == 0, proc.stderr
+    assert "steps 0-1: geoms plate / pellet (bodies board / bullet) touch from 0.0049 s to 0.0055 s (contact)" in proc.stdout
+    (event,) = json.loads((tmp_path / "c.json").read_text())["passed_through"]
+    assert event["step"] == 0 and event["bodies"] == ["board", "bullet"]
+
+
+def test_compare_finds_the_pellet_shot_through_the_plate(plate):
+    """A simulation: separated at both steps by classify, in contact in between by time_of_impact."""
+    data = mujoco.MjData(plate)
+    mujoco.mj_resetDataKeyframe(plate, data, 0)
+    v = validate(plate, data, 6, between=True)
+    assert v.counts[:, 0].sum() == 0  # MuJoCo never sees a contact: the pellet tunnels
+    events = v.passed_through
+    assert events.frame.tolist() == [0] and v.ellipsoid_ids[events.pair[0]].tolist() == [plate.geom("plate").id, plate.geom("pellet").id]
+    mujoco.mj_resetDataKeyframe(plate, data, 0)  # the same steps again, for the poses
+    frames = []
+    for _ in range(6):
+        mujoco.mj_forward(plate, data)
+        frames.append(data.qpos.copy())
+        mujoco.mj_step(plate, data)
+    C, R, radii, _ = poses(plate, np.array(frames))
+    check_event(C, R, radii, events, 0, np.arange(6) * plate.opt.timestep)
+    assert validate(plate, data, 2).passed_through is None  # not looked for by default
+
+
+@pytest.mark.slow
+def test_a_kinematic_scenario_run_looks_between_its_frames():
+    s = scenario.load("replay")
+    run = simulate.run(s, steps=60, between=True)
+    assert isinstance(run.between, list) and run.between_candidates > 0
+    for d in run.between:
+        assert d["frame"] * s.timestep < d["t_begin"] <= d["t_end"] < (d["frame"] + 1) * s.timestep + 1e-12
+    assert simulate.run(s, steps=5).between is None

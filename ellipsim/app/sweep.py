@@ -30,7 +30,8 @@ and runs again those whose row is an error.  A variant that fails is a row with 
 Backends: "local", a pool of processes on this machine (spawned: forking a process that runs
 numba's and MuJoCo's threads is unsafe), and "ray" (`import ray` only there), which connects to
 RAY_ADDRESS or starts a local Ray instance and runs the variants as streaming tasks of several
-variants each.  A variant runs numba single-threaded: the workers share the cores.
+variants each.  A variant's batch calls run on one thread (core.threads.limit): the workers share
+the cores.
 """
 
 import collections

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import ellipsim.mujoco as em
+from test_capsule import capsule_pile_xml
 from ellipsim.mujoco import scenes, structs
 
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
@@ -18,6 +19,12 @@ STEPS = 400
 
 def pile(seed):
     return mujoco.MjModel.from_xml_string(scenes.pile_xml(30, seed=seed))
+
+
+def capsule_pile(seed):
+    """A pile of capsules and ellipsoids (test_capsule.py): capsule x ellipsoid pairs, which the narrow
+    phase handles too."""
+    return mujoco.MjModel.from_xml_string(capsule_pile_xml(30, seed=seed))
 
 
 def plain_run(model, steps=STEPS):
@@ -31,8 +38,11 @@ def plain_run(model, steps=STEPS):
 
 
 @pytest.mark.parametrize("mode", em.MODES)
-def test_other_data_of_the_same_model_is_plain_mujoco(mode):
-    model = pile(1)
+@pytest.mark.parametrize("make", [pile, capsule_pile])
+def test_other_data_of_the_same_model_is_plain_mujoco(mode, make):
+    model = make(1)
+    if make is capsule_pile:
+        assert (model.geom_type == mujoco.mjtGeom.mjGEOM_CAPSULE).sum() == 15
     reference = plain_run(model)
     mine, other = mujoco.MjData(model), mujoco.MjData(model)
     got = np.empty_like(reference)

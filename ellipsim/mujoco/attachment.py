@@ -18,20 +18,23 @@ import mujoco
 import numpy as np
 
 from . import nativecache, structs
-from .context import ELLIPSOID, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY, SPHERE
+from .context import CAPSULE, ELLIPSOID, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY, SPHERE
 
 MODES = ("filter", "narrowphase")
 _lock = threading.Lock()
 _state = {"previous": None, "filter_installed": False, "table": None, "attached": []}
 
 
-def ellipsoid_pair_possible(model):
-    """True when the model has a geom pair the filter would test (ellipsoid with ellipsoid or sphere)."""
+def ellipsoid_pair_possible(model, mode="filter"):
+    """True when the model has a geom pair the mode's callback handles: ellipsoid with ellipsoid or
+    sphere, and in mode "narrowphase" also capsule with ellipsoid."""
     t = model.geom_type
     collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     n_ell = int(np.count_nonzero((t == ELLIPSOID) & collides))
-    n_sph = int(np.count_nonzero((t == SPHERE) & collides))
-    return n_ell >= 2 or (n_ell >= 1 and n_sph >= 1)
+    n_other = int(np.count_nonzero((t == SPHERE) & collides))
+    if mode == "narrowphase":
+        n_other += int(np.count_nonzero((t == CAPSULE) & collides))
+    return n_ell >= 2 or (n_ell >= 1 and n_other >= 1)
 
 
 def check_model_data(model, data):
@@ -85,7 +88,7 @@ def _install(attached_before, attachment):
     if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
         fn = nativecache.function("narrowphase")
         table, ntypes = structs.collision_table()
-        entries = (ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID)
+        entries = (ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID, CAPSULE * ntypes + ELLIPSOID)
         _state["table"] = {k: table[k] for k in entries}
         for k in entries:
             table[k] = fn.address
@@ -114,7 +117,7 @@ class Attachment:
 
     @property
     def counters(self):
-        """Per-data counts of the ellipsoid pairs ellipsim handled while attached.
+        """Per-data counts of the ellipsoid (and, narrowphase, capsule-ellipsoid) pairs ellipsim handled.
 
         filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (proven apart
         beyond the margin, no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured
@@ -126,7 +129,7 @@ class Attachment:
         return {"seen": c[0], "discarded": c[1], "passed": c[2]}
 
     def __enter__(self):
-        if self.mode != "record" and not ellipsoid_pair_possible(self.model):
+        if self.mode != "record" and not ellipsoid_pair_possible(self.model, self.mode):
             return self  # skip what the scene does not need: nothing is installed
         structs.checked_layout()  # MuJoCo's version and struct layout, once per process (~8 ms)
         structs.verify_fields(self.model, self.data)  # the offsets hold for this (model, data) (~0.3 ms)
@@ -158,7 +161,8 @@ def attach(model, data, *, mode="filter"):
     """Attach ellipsim to mj_step of (model, data) for the duration of a `with` block.
 
     mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs;
-    mode "narrowphase": ellipsim computes the contacts of those pairs in place of GJK/EPA.
+    mode "narrowphase": ellipsim computes the contacts of those pairs and of capsule-ellipsoid pairs
+    in place of GJK/EPA.
     A model without such pairs installs nothing.  Per-data counters are on the returned object.
     """
     check_model_data(model, data)

@@ -8,12 +8,15 @@ gap + 2 ccd_tolerance: GJK reports contact once the margin-grown bodies are with
 and discarded only when a separating axis is certified (certified.separated_by_axes).  No contact
 MuJoCo would make is lost, so trajectories are bit-identical.
 
-mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid and
-sphere x ellipsoid (where MuJoCo has mjc_Convex: GJK, then EPA).  It returns no contact for pairs
-certified separated beyond the margin, else the signed distance, normal and contact point of
-core.distance, filling the mjPreContact as mjc_Convex does (dist, pos, normal; tangent zero:
-mj_setContact completes the frame).  A pair whose maximum is not proven global (core.distance
-UNPROVEN: the branch and bound's budget ran out) goes to MuJoCo's original function, and is counted.
+mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid,
+sphere x ellipsoid and capsule x ellipsoid (where MuJoCo has mjc_Convex: GJK, then EPA).  It returns
+no contact for pairs certified separated beyond the margin, else the signed distance, normal and
+contact point of core.distance (core.capsule for a capsule), filling the mjPreContact as mjc_Convex
+does (dist, pos, normal from g1 to g2; tangent zero: mj_setContact completes the frame).  The table
+is indexed type1 <= type2 (engine_collision_driver.c swaps the pair by type), so the capsule is g1
+and its normal is core.capsule's flipped.  A pair whose maximum is not proven global (core.distance
+UNPROVEN: the branch and bound's budget ran out; a non-finite capsule result) goes to MuJoCo's
+original function, and is counted.
 
 A data not attached in the callback's mode gets MuJoCo's own answer: the bitmask test, or MuJoCo's
 original function.  Both read geom arrays of whatever (model, data) they are given through struct
@@ -27,6 +30,7 @@ The cache keys hash this module and every module it imports at module level, tra
 depends on.  Imports inside functions here are for the Python side only.
 """
 
+import math
 import time
 
 from llvmlite import ir
@@ -35,11 +39,13 @@ from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
 from ..core._jit import jit
+from ..core.capsule import capsule_ellipsoid, centre_line_bound
 from ..core.certified import separated_by_axes
 from ..core.distance import GLOBAL, pair_signed_distance
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from .context import (
-    CALLS, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER,
+    CALLS, CAPSULE, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_CAPSULE, FALLBACK_ELLIPSOID, FALLBACK_SPHERE,
+    FALLBACKS, FILTER,
     MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
     REGISTRY_ROWS, SEEN, SEPARATED, SPHERE, SYMBOL, WORDS,
 )  # fmt: skip
@@ -143,15 +149,21 @@ def _slot(reg, da):
 
 
 @jit
-def _ellipsoid(xpos, xmat, size, gtype, g, grow):
-    """Geom g as an ellipsoid tuple (vec3.load layout), grown to enclose its `grow`-offset body."""
+def _geom(xpos, xmat, size, g):
+    """Geom g as (centre, rotation row-major, geom_size) tuples (vec3.load layout)."""
     c = (xpos[3 * g], xpos[3 * g + 1], xpos[3 * g + 2])
     k = 9 * g
     R = (xmat[k], xmat[k + 1], xmat[k + 2], xmat[k + 3], xmat[k + 4], xmat[k + 5], xmat[k + 6], xmat[k + 7], xmat[k + 8])
+    return c, R, (size[3 * g], size[3 * g + 1], size[3 * g + 2])
+
+
+@jit
+def _ellipsoid(xpos, xmat, size, gtype, g, grow):
+    """Geom g as an ellipsoid tuple (vec3.load layout), grown to enclose its `grow`-offset body."""
+    c, R, (r0, r1, r2) = _geom(xpos, xmat, size, g)
     if gtype == SPHERE:
-        r = size[3 * g] + grow
+        r = r0 + grow
         return c, R, (r, r, r)
-    r0, r1, r2 = size[3 * g], size[3 * g + 1], size[3 * g + 2]
     s = 1.0 + grow / min(r0, r1, r2)  # E + ball(grow) lies inside E scaled by s about its centre
     return c, R, (r0 * s, r1 * s, r2 * s)
 
@@ -214,19 +226,32 @@ def narrowphase(m, d, con, g1, g2, margin):
     reg = carray(i64_pointer(ctx[REGISTRY_ADDRESS]), (ctx[REGISTRY_ROWS], REGISTRY_COLUMNS))
     slot = _slot(reg, da)
     t1, t2 = gtype[g1], gtype[g2]
-    original = ctx[FALLBACK_SPHERE] if t1 == SPHERE else ctx[FALLBACK_ELLIPSOID]
+    if t1 == CAPSULE:
+        original = ctx[FALLBACK_CAPSULE]
+    else:
+        original = ctx[FALLBACK_SPHERE] if t1 == SPHERE else ctx[FALLBACK_ELLIPSOID]
     if slot == 0 or reg[slot, 2] != NARROW:  # not attached in this mode: MuJoCo's own function
         return call_collision(original, m, d, con, g1, g2, margin)
     counters = reg[slot, 1]
     atomic_add(counters + 8 * CALLS, 1)
-    grow = 0.5 * max(margin, 0.0)
-    if separated_by_axes(_ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)):
-        atomic_add(counters + 8 * SEPARATED, 1)
-        return 0
-    status, dist, normal, pos, _ = pair_signed_distance(
-        _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
-    )
-    if status != GLOBAL:  # no proof that this is the global maximum: MuJoCo's own answer, counted
+    if t1 == CAPSULE:  # g1 the capsule, g2 the ellipsoid
+        E, K = _ellipsoid(xpos, xmat, size, t2, g2, 0.0), _geom(xpos, xmat, size, g1)
+        if centre_line_bound(E, K) >= margin:  # a direction proves them apart beyond the margin
+            atomic_add(counters + 8 * SEPARATED, 1)
+            return 0
+        _, dist, away, pos, _ = capsule_ellipsoid(E, K)  # CERTIFIED or ENUMERATED: both proven
+        proven = math.isfinite(dist)
+        normal = (-away[0], -away[1], -away[2])  # from the capsule (g1) to the ellipsoid (g2)
+    else:
+        grow = 0.5 * max(margin, 0.0)
+        if separated_by_axes(_ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)):
+            atomic_add(counters + 8 * SEPARATED, 1)
+            return 0
+        status, dist, normal, pos, _ = pair_signed_distance(
+            _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
+        )
+        proven = status == GLOBAL
+    if not proven:  # no proof that this is the global maximum: MuJoCo's own answer, counted
         atomic_add(counters + 8 * FALLBACKS, 1)
         return call_collision(original, m, d, con, g1, g2, margin)
     if dist >= margin:
@@ -297,10 +322,12 @@ def _wrapper_for(kind, pyfunc, original):
                 builder.ret(builder.zext(builder.icmp_signed("==", both, ir.Constant(ir.IntType(32), 0)), ir.IntType(32)))
             else:  # MuJoCo's own function for this pair
                 t1 = _geom_int(builder, ctx, m, _TYPE, g1)
+                i32 = ir.IntType(32)
                 word = builder.select(
-                    builder.icmp_signed("==", t1, ir.Constant(ir.IntType(32), SPHERE)),
-                    ir.Constant(ir.IntType(32), FALLBACK_SPHERE), ir.Constant(ir.IntType(32), FALLBACK_ELLIPSOID),
+                    builder.icmp_signed("==", t1, ir.Constant(i32, CAPSULE)),
+                    ir.Constant(i32, FALLBACK_CAPSULE), ir.Constant(i32, FALLBACK_ELLIPSOID),
                 )  # fmt: skip
+                word = builder.select(builder.icmp_signed("==", t1, ir.Constant(i32, SPHERE)), ir.Constant(i32, FALLBACK_SPHERE), word)
                 fn = builder.inttoptr(builder.load(builder.gep(ctx, [word])), _collision_type().as_pointer())
                 builder.ret(builder.call(fn, list(wrapfn.args)))
         builder.ret(out)

@@ -7,8 +7,9 @@ LLVM's symbol table under SYMBOL (`llvmlite.binding.add_symbol`); their code dec
 external global, which the JIT linker resolves each time the code is loaded:
 
     CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS]       the registry below
-    CONTEXT[FALLBACK_ELLIPSOID], CONTEXT[FALLBACK_SPHERE]   MuJoCo's own mjCOLLISIONFUNC entries for
-                                                           ellipsoid x ellipsoid, sphere x ellipsoid
+    CONTEXT[FALLBACK_ELLIPSOID], CONTEXT[FALLBACK_SPHERE],  MuJoCo's own mjCOLLISIONFUNC entries for
+    CONTEXT[FALLBACK_CAPSULE]                              ellipsoid x ellipsoid, sphere x ellipsoid,
+                                                           capsule x ellipsoid
     CONTEXT[MODEL_WORDS[field]], CONTEXT[DATA_WORDS[field]] byte offsets of mjModel / mjData fields
                                                            (structs.py)
 
@@ -20,9 +21,10 @@ an object built for the old layout then no longer links in a process with the ne
 import mujoco
 import numpy as np
 
-SYMBOL = "ellipsim_ctx_v1"
+SYMBOL = "ellipsim_ctx_v2"  # v2: word 15 FALLBACK_CAPSULE
 
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
+FALLBACK_CAPSULE = 15
 #: pointer fields (the word at the offset holds the array's address) and, dotted, mjOption scalars
 MODEL_WORDS = {
     "geom_type": 4, "geom_contype": 5, "geom_conaffinity": 6, "geom_size": 7, "geom_margin": 8, "geom_gap": 9,
@@ -49,7 +51,8 @@ SEEN, DISCARDED, PASSED, RECORDED = 0, 1, 2, 3
 CALLS, SEPARATED, CONTACTS, FALLBACKS = 0, 1, 2, 4
 
 # MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
-SPHERE, ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+SPHERE, CAPSULE, ELLIPSOID = (int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE),
+                             int(mujoco.mjtGeom.mjGEOM_ELLIPSOID))  # fmt: skip
 OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 #: mjPreContact as the narrow phase writes it: float64 words dist, pos[3], normal[3], tangent[3]
 PRECONTACT_WORDS = {"dist": 0, "pos": 1, "normal": 4, "tangent": 7}

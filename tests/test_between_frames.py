@@ -213,12 +213,12 @@ def test_replay_reports_and_records_the_contact_between_frames(plate, tmp_path):
     motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.4])
     path = tmp_path / "shot.rrd"
     with record.Recorder(path) as recorder:
-        result = rp.replay(plate, motion, fps=FPS, recorder=recorder, name="shot")
+        result = rp.replay(plate, motion, fps=FPS, recorder=recorder, name="shot", between=True)
     (event,) = result.between_events()
     assert event["geoms"] == ["plate", "pellet"] and event["bodies"] == ["board", "bullet"] and event["frame"] == 1
     assert event["status"] == "contact" and 0.1 < event["t_begin"] < event["t_end"] < 0.2
     assert result.overlapping.sum() == 0  # no frame sees it
-    assert rp.replay(plate, motion, fps=FPS, between=False).between is None
+    assert rp.replay(plate, motion, fps=FPS).between is None  # not looked for by default
     points, texts = {}, []
     for c in RrdReader(path).stream().to_chunks():
         if c.is_static:
@@ -247,21 +247,24 @@ def test_replay_and_compare_on_the_command_line(tmp_path):
     xml = tmp_path / "plate.xml"
     xml.write_text(PLATE_XML)
     np.save(tmp_path / "m.npy", pellet_motion([0.5, 0.26, -0.24, -0.5]))
-    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--fps", str(FPS), "--json", str(tmp_path / "r.json"))
+    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--fps", str(FPS), "--json", str(tmp_path / "r.json"),
+               "--between-frames")  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert "contacts between frames (separated at two consecutive frames, touching in between on the interpolated motion): 1" in proc.stdout
     assert "frames 1-2: geoms plate / pellet (bodies board / bullet) touch from 0.149 s to 0.155 s (contact)" in proc.stdout
     (event,) = json.loads((tmp_path / "r.json").read_text())["between_frames"]
     assert event["geoms"] == ["plate", "pellet"] and event["frame"] == 1 and event["status"] == "contact"
     assert event["t_begin"] == pytest.approx(0.149) and event["t_end"] == pytest.approx(0.155)
-    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--no-between-frames", "--json", str(tmp_path / "n.json"))
-    assert proc.returncode == 0 and "between frames" not in proc.stdout
+    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--json", str(tmp_path / "n.json"))
+    assert proc.returncode == 0 and "between two frames: not looked for (--between-frames)" in proc.stdout
     assert json.loads((tmp_path / "n.json").read_text())["between_frames"] is None
-    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "c.json"))
+    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "c.json"), "--between-frames")
     assert proc.returncode == 0, proc.stderr
     assert "steps 0-1: geoms plate / pellet (bodies board / bullet) touch from 0.0049 s to 0.0055 s (contact)" in proc.stdout
     (event,) = json.loads((tmp_path / "c.json").read_text())["passed_through"]
     assert event["step"] == 0 and event["bodies"] == ["board", "bullet"]
+    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "d.json"))
+    assert proc.returncode == 0 and json.loads((tmp_path / "d.json").read_text())["passed_through"] is None
 
 
 def test_compare_finds_the_pellet_shot_through_the_plate(plate):

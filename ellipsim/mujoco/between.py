@@ -179,7 +179,11 @@ class BetweenFrames:
             first = frames[0]
             known = np.unique((contacts[:, 0] - first) * g * g + contacts[:, 1] * g + contacts[:, 2])
             key = pairs[:, 0] * g * g + pairs[:, 1] * g + pairs[:, 2]
-            pairs = pairs[~(np.isin(key, known) | np.isin(key + g * g, known))]
+            drop = np.zeros(len(key), dtype=bool)
+            for k in (key, key + g * g):  # the pair at frame k, at frame k + 1 (known is sorted and short)
+                at = np.minimum(np.searchsorted(known, k), len(known) - 1)
+                drop |= known[at] == k
+            pairs = pairs[~drop]
         if len(pairs) == 0:
             return Events.empty()
         s, i, j = pairs.T

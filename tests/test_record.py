@@ -272,6 +272,35 @@ def test_blueprint(saved):
     assert sorted(k[0] for k in kinds) == sorted([rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value])
 
 
+def test_contacts_between_frames_are_markers_until_the_next_frame(tmp_path):
+    """Two contacts in the step 2-3 and one in 5-6: from each one's time the step's contacts so far,
+    cleared at the next frame; a log line each, at its time."""
+    rng = np.random.default_rng(3)
+    path = tmp_path / "between.rrd"
+    frame = [2, 5, 2]
+    time = [2.5 / 60, 5.2 / 60, 2.25 / 60]  # the step's second contact is given first
+    point = rng.normal(size=(3, 3))
+    with record.Recorder(path) as recorder:
+        recorder.begin(make_geometry(rng))
+        recorder.write(make_frames(rng, 0, F))
+        recorder.write_events(frame, time, [3 / 60, 6 / 60, 3 / 60], point, ["a / b", "c / d", "e / f"],
+                              ["line a", "line c", "line e"])  # fmt: skip
+        with pytest.raises(ValueError, match=r"time\[0\] must be <= until\[0\], got 0.5 and 0.25"):
+            recorder.write_events([1], [0.5], [0.25], [[0, 0, 0]], ["x"], ["x"])
+        with pytest.raises(ValueError, match="one row per event, got 1, 1, 1, 1, 2 and 1"):
+            recorder.write_events([1], [0.5], [0.5], [[0, 0, 0]], ["x", "y"], ["x"])
+    rec = Recording(path)
+    frames, times, positions = rec.temporal("/world/between_frames", "Points3D:positions")
+    _, _, labels = rec.temporal("/world/between_frames", "Points3D:labels")
+    rows = sorted(zip(times, frames, positions, labels))
+    ns = lambda t: round(t * 1e9)  # noqa: E731
+    assert [(t, f) for t, f, _, _ in rows] == [(ns(2.25 / 60), 2), (ns(2.5 / 60), 2), (ns(3 / 60), 3), (ns(5.2 / 60), 5), (ns(6 / 60), 6)]
+    assert [lab for *_, lab in rows] == [["e / f"], ["e / f", "a / b"], [], ["c / d"], []]
+    np.testing.assert_array_equal(rows[1][2], f32(point[[2, 0]]))
+    _, times, texts = rec.temporal("/events/between_frames", "TextLog:text")
+    assert sorted(zip(times, texts)) == [(ns(2.25 / 60), ["line e"]), (ns(2.5 / 60), ["line a"]), (ns(5.2 / 60), ["line c"])]
+
+
 def test_every_run_gets_its_own_recording_id(tmp_path):
     rng = np.random.default_rng(1)
     g = make_geometry(rng)

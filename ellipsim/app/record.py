@@ -214,7 +214,7 @@ class Recorder:
             return
         bad = np.flatnonzero(~(time <= until))
         if len(bad):
-            raise ValueError(f"time[{int(bad[0])}] must be <= until[{int(bad[0])}], got {time[bad[0]]!r} and {until[bad[0]]!r}")
+            raise ValueError(f"time[{int(bad[0])}] must be <= until[{int(bad[0])}], got {float(time[bad[0]])!r} and {float(until[bad[0]])!r}")
         order = np.lexsort((time, frame))
         frame, time, until, point = frame[order], time[order], until[order], point[order]
         label = [label[k] for k in order]

@@ -80,7 +80,8 @@ class Events:
         return cls(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(cls)))
 
     def status_name(self, e):
-        """"contact", "contact_at_float_pose" or "unresolved" (+ " (half turn)") of event e."""
+        """Event e's status as text: contact, contact_at_float_pose or unresolved (+ " (half turn
+        between the frames)")."""
         name = STATUS_NAMES[int(self.status[e])]
         return name + " (half turn between the frames)" if self.half_turn[e] else name
 

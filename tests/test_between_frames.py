@@ -156,6 +156,8 @@ def test_chunks_join_and_a_half_turn_is_unresolved(plate):
         np.testing.assert_array_equal(getattr(joined, name), getattr(whole, name))
     with pytest.raises(ValueError, match="frames must continue at frame 7, got frame 8"):
         checker.check([8], [0.8], C[:1], R[:1])
+    with pytest.raises(ValueError, match=r"must have shapes \(1, 2, 3\), \(1, 2, 3, 3\) and \(1,\) for 1 frames of 2 geoms, got \(2, 2, 3\)"):
+        checker.check([7], [0.7], C[:2], R[:1])
     # the pellet turns by exactly pi about x between frames 1 and 2 (while passing the plate): no
     # interpolated motion, reported as a possible contact over the whole step, no error
     flip = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, 1, 0, 0]], dtype=float)

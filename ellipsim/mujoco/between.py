@@ -150,7 +150,7 @@ class BetweenFrames:
         """Events of the steps into and within these frames.
 
         frames : (f,) int64 consecutive frame numbers (following the previous chunk's); times : (f,)
-        seconds; centers : (f, g, 3) metres; rotations : (f, g, 3, 3).
+        seconds; centers : (f, g, 3) metres; rotations : (f, g, 3, 3) (or (f, g, 9): MuJoCo's geom_xmat).
         contacts : optional (P, 3) int64 (frame, i, j), i < j: pairs known not to be separated at that
             frame (exact classify), skipped at its two steps; None: time_of_impact's own verdicts at
             the ends (toi = 0 forwards or backwards) drop them.
@@ -158,16 +158,22 @@ class BetweenFrames:
         frames = np.asarray(frames, dtype=np.int64)
         times = np.asarray(times, dtype=np.float64)
         centers = np.asarray(centers, dtype=np.float64)
-        rotations = np.asarray(rotations, dtype=np.float64).reshape(len(frames), -1, 3, 3)
+        rotations = np.asarray(rotations, dtype=np.float64)
+        if rotations.ndim == 3 and rotations.shape[-1] == 9:  # MuJoCo's xmat rows
+            rotations = rotations.reshape(*rotations.shape[:2], 3, 3)
         g = len(self.radii)
+        if centers.shape != (len(frames), g, 3) or rotations.shape != (len(frames), g, 3, 3) or times.shape != frames.shape:
+            raise ValueError(f"centers, rotations and times must have shapes ({len(frames)}, {g}, 3), ({len(frames)}, {g}, 3, 3) "
+                             f"and ({len(frames)},) for {len(frames)} frames of {g} geoms, got {centers.shape}, "
+                             f"{rotations.shape} and {times.shape}")  # fmt: skip
         contacts = np.zeros((0, 3), dtype=np.int64) if contacts is None else np.asarray(contacts, dtype=np.int64)
         if len(frames) == 0:
             return Events.empty()
         last = self._last
+        if last is not None and frames[0] != last[0] + 1:
+            raise ValueError(f"frames must continue at frame {last[0] + 1}, got frame {frames[0]}")
         self._last = (frames[-1], times[-1], centers[-1].copy(), rotations[-1].copy(), contacts[contacts[:, 0] == frames[-1], 1:])
         if last is not None:
-            if frames[0] != last[0] + 1:
-                raise ValueError(f"frames must continue at frame {last[0] + 1}, got frame {frames[0]}")
             frames = np.r_[last[0], frames]
             times = np.r_[last[1], times]
             centers = np.concatenate([last[2][None], centers])

@@ -338,3 +338,24 @@ def test_chain_xml_coils_and_collides_with_itself(n_links):
 def test_bad_arguments_raise_value_error_naming_the_argument(call, argument):
     with pytest.raises(ValueError, match=rf"^{argument}\b"):
         call()
+
+
+def test_capsule_twin_puts_a_capsule_along_each_ellipsoids_longest_axis():
+    xml = figures.scene_xml(2, layout="pile", seed=4)
+    m0, m1 = mujoco.MjModel.from_xml_string(xml), mujoco.MjModel.from_xml_string(figures.capsule_twin_xml(xml))
+    ell = np.flatnonzero(m0.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+    assert len(ell) == 30 and (m1.geom_type[ell] == mujoco.mjtGeom.mjGEOM_CAPSULE).all()
+    others = np.setdiff1d(np.arange(m0.ngeom), ell)
+    assert (m1.geom_type[others] == m0.geom_type[others]).all()
+    d0, d1 = mujoco.MjData(m0), mujoco.MjData(m1)
+    mujoco.mj_forward(m0, d0)
+    mujoco.mj_forward(m1, d1)
+    for g in ell:
+        size = m0.geom_size[g]
+        k = int(np.argmax(size))
+        axis0 = d0.geom_xmat[g].reshape(3, 3)[:, k]
+        axis1 = d1.geom_xmat[g].reshape(3, 3)[:, 2]  # a capsule's axis is its z
+        assert abs(abs(axis0 @ axis1) - 1) < 1e-6  # the MJCF text keeps 6 digits
+        assert np.allclose(d1.geom_xpos[g], d0.geom_xpos[g], atol=1e-6)
+        r = (size.sum() - size[k]) / 2
+        assert np.allclose(m1.geom_size[g, :2], [r, size[k] - r], atol=1e-6)

@@ -476,3 +476,30 @@ def chain_xml(n_links, *, seed=0):
         ET.SubElement(parent, "geom", name=f"link{i}", pos=mjcf_numbers((0, 0, -a)))
     ET.indent(root)
     return ET.tostring(root, encoding="unicode")
+
+
+#: quaternion turning a geom's z axis onto its x / y / z axis (w, x, y, z)
+_Z_ONTO = (np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0]), np.array([math.sqrt(0.5), -math.sqrt(0.5), 0.0, 0.0]),
+           np.array([1.0, 0.0, 0.0, 0.0]))  # fmt: skip
+
+
+def capsule_twin_xml(xml):
+    """The same MJCF model with every ellipsoid geom replaced by a capsule along its longest semi-axis
+    a (radius r = the mean of the other two, half-length max(a - r, 0)), in the ellipsoid's place:
+    the capsule-limbed twin of a figure scene, to compare mj_step costs.  Masses follow the new volumes."""
+    model = mujoco.MjModel.from_xml_string(xml)
+    spec = mujoco.MjSpec.from_string(xml)
+    ids = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g): g for g in range(model.ngeom)}
+    for geom in spec.geoms:
+        if geom.type != mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+            continue
+        g = ids[geom.name]
+        size = model.geom_size[g]
+        k = int(np.argmax(size))
+        r = (float(size.sum()) - float(size[k])) / 2
+        geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+        geom.size = [r, max(float(size[k]) - r, 0.0), 0.0]
+        geom.pos = model.geom_pos[g]  # as compiled (an alternative orientation or fromto resolved)
+        geom.quat = quaternion_product(model.geom_quat[g], _Z_ONTO[k])
+        geom.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
+    return spec.to_xml()

@@ -14,6 +14,7 @@
 
 import contextlib
 import ctypes
+from importlib import resources
 import os
 import time
 
@@ -39,6 +40,7 @@ SCENES = {
     "16 figures in a heap": (lambda: scenes.scene_xml(16, layout="pile", seed=1), 1000),
     "64 figures in a heap": (lambda: scenes.scene_xml(64, layout="pile", seed=1), 1000),
 }
+SCENES["MuJoCo's collision_convex/perf/mixed.xml"] = (lambda: resources.files(__package__).joinpath("mixed.xml").read_text(), 1000)
 COMPARED = ("pile of 40 ellipsoids", "pile of 100 ellipsoids", "4 figures in a heap", "16 figures in a heap")
 LONG_RUNS = ("pile of 40 ellipsoids", "16 figures in a heap")
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
@@ -214,6 +216,21 @@ def long_run(xml, seconds):
     return rows
 
 
+def capsule_twin(name, size):
+    """A figure heap with ellipsoid limbs in narrowphase mode against its capsule twin (scenes.
+    capsule_twin_xml) in plain MuJoCo, each settled from the same drop: (ellipsoid µs/step, capsule
+    µs/step, median per-round ratio ellipsoid / capsule)."""
+    xml = SCENES[name][0]()
+    ell = settled(xml, SCENES[name][1])
+    cap = settled(scenes.capsule_twin_xml(xml), SCENES[name][1])
+    fns = {"ellipsoids": step_segment(*ell, size["steps"], "narrowphase"), "capsules": step_segment(*cap, size["steps"], "builtin")}
+    for fn in fns.values():
+        fn()
+    t = interleaved(fns, size["step_rounds"], self_timed=True)
+    us = {k: float(np.median(v)) / size["steps"] * 1e6 for k, v in t.items()}
+    return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules")
+
+
 def measure(size):
     names = size["scenes"] or tuple(SCENES)
     rows, compared, longs = {}, {}, {}
@@ -228,18 +245,21 @@ def measure(size):
         if name in COMPARED:
             say(f"inside MuJoCo: {name}: contacts against MuJoCo's ...")
             compared[name] = contacts(model, data, state, size["compare_steps"])
+    heap = "16 figures in a heap" if "16 figures in a heap" in names else "4 figures in a heap"
+    say(f"inside MuJoCo: {heap} against its capsule twin ...")
+    twin = (heap, *capsule_twin(heap, size))
     say("inside MuJoCo: deep crossings ...")
     deep = deep_crossings(size["deep_pairs"])
     for name in LONG_RUNS:
         if name in names:
             say(f"inside MuJoCo: long runs of {name} ...")
             longs[name] = long_run(SCENES[name][0](), size["long_seconds"])
-    return rows, compared, deep, longs
+    return rows, compared, deep, longs, twin
 
 
 def write(result, size, out, plt):
     """The section's markdown, and mujoco.png in `out`."""
-    rows, compared, deep, longs = result
+    rows, compared, deep, longs, twin = result
     _plot(plt, out, rows)
     L = [
         "## 5. Inside MuJoCo",
@@ -277,12 +297,17 @@ def write(result, size, out, plt):
     separated = [pp["separated"][0] for _, pp, *_r in rows.values() if pp["separated"][3]]
     L += [
         "",
-        "Goals of issue 13 for the ellipsoid-ellipsoid function inside mj_step (largest over the scenes above):",
+        "Goals of issue 13, inside mj_step (per-pair rows: the largest over the scenes above):",
         "",
         "| goal | measured | met |",
         "|---|---:|---|",
         *(f"| <= {goal} ns per {kind} pair | {max(v):.0f} ns | {'yes' if max(v) <= goal else 'no'} |"
           for goal, kind, v in ((200, "penetrating (touching)", touching), (50, "separated", separated)) if v),
+        f"| {twin[0]}, narrowphase, within 1.05x of its capsule twin in plain MuJoCo | {twin[1]:.0f} / {twin[2]:.0f} "
+        f"µs/step: {twin[3]:.2f}x | {'yes' if twin[3] <= 1.05 else 'no'} |",
+        *(f"| {name} (box walls, or MuJoCo's mixed convex shapes) faster than builtin | narrowphase speed-up "
+          f"{rows[name][3]['narrowphase'][0]:.2f} | {'yes' if rows[name][3]['narrowphase'][0] > 1 else 'no'} |"
+          for name in rows if name.startswith("pile") or "mixed" in name),
     ]
     L += [
         "",

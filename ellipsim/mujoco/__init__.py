@@ -8,8 +8,9 @@
 Modules: structs (mjModel/mjData field offsets from MuJoCo's introspection, verified), context (what
 the compiled callbacks read per process), callbacks (the cfuncs), nativecache (their machine code,
 cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
-(installing them for one data), geoms (ellipsoid geoms and candidate pairs), validate, compare,
-scenes (MJCF builders: figures, piles, chains).
+(installing them for one data), geoms (ellipsoid geoms and candidate pairs), between (contacts that
+begin and end between two frames or steps), validate, compare, scenes (MJCF builders: figures, piles,
+chains, capsule twins).
 
 `attach` is imported with the package; the rest on first use (PEP 562), so that attaching from a
 warm cache imports neither numba nor the geometry core.

@@ -18,6 +18,7 @@ __version__ = "0.2.0"
 
 _LAZY = {
     "Ellipsoids": "core.ellipsoids", "Relation": "core.relation", "classify": "core.classify",
+    "classify_pairs": "core.classify",
     "characteristic_polynomial": "core.charpoly", "contact_scale": "core.perram_wertheim",
     "signed_distance": "core.distance", "time_of_impact": "core.time_of_impact", "Impact": "core.time_of_impact",
     "contains": "core.containment", "sweep": "app.sweep",
@@ -25,8 +26,8 @@ _LAZY = {
 _SUBPACKAGES = ("core", "mujoco", "app")
 
 __all__ = [
-    "Ellipsoids", "Relation", "classify", "characteristic_polynomial", "contact_scale", "signed_distance",
-    "time_of_impact", "Impact", "contains", "sweep",
+    "Ellipsoids", "Relation", "classify", "classify_pairs", "characteristic_polynomial", "contact_scale",
+    "signed_distance", "time_of_impact", "Impact", "contains", "sweep",
 ]  # fmt: skip
 
 

@@ -5,8 +5,10 @@ from hypothesis import strategies as st
 
 import reference
 import strategies as S
-from ellipsim import Ellipsoids, Relation, characteristic_polynomial, classify, contact_scale, signed_distance
-from ellipsim.core.samples import near_contact_pairs
+from ellipsim import (
+    Ellipsoids, Relation, characteristic_polynomial, classify, classify_pairs, contact_scale, signed_distance,
+)  # fmt: skip
+from ellipsim.core.samples import generic_pairs, near_contact_pairs, stress_pairs
 from ellipsim.core.certified import certify
 from ellipsim.core.relation import UNDECIDED
 
@@ -211,3 +213,34 @@ def test_bad_batches():
         classify(a, b)
     with pytest.raises(ValueError, match="b must be an ellipsim.Ellipsoids batch, got ndarray"):
         classify(a, np.zeros(3))
+
+
+def test_classify_pairs_indexes_one_batch_as_classify_does_on_copies():
+    n = 6000  # several chunks when parallel
+    a, b = generic_pairs(n, seed=21)
+    ta, tb = stress_pairs("exactly tangent", 20, seed=3)  # rationals decide these
+    batch = Ellipsoids.concatenate([a, b, ta, tb])
+    rng = np.random.default_rng(0)
+    first = np.r_[np.arange(n), 2 * n + np.arange(20), rng.integers(0, len(batch), 500)]
+    second = np.r_[n + np.arange(n), 2 * n + 20 + np.arange(20), rng.integers(0, len(batch), 500)]
+    want = classify(batch[first], batch[second])
+    for parallel in (False, True):
+        assert np.array_equal(classify_pairs(batch, first, second, parallel=parallel), want)
+    assert (want[n : n + 20] == Relation.TOUCHING).all()
+    assert classify_pairs(batch, [], []).shape == (0,)
+
+
+@pytest.mark.parametrize(
+    "first, second, match",
+    [([0, 5], [1, 2], r"first\[1\] must index the batch of 4 ellipsoids, got 5"),
+     ([0], [-1], r"second\[0\] must index the batch of 4 ellipsoids, got -1"),
+     ([0.5], [1], r"first must be a 1-D array of integer indices"),
+     ([[0]], [1], r"first must be a 1-D array of integer indices, got shape \(1, 1\)"),
+     ([0, 1], [1], r"first and second must have the same length, got 2 and 1")],
+)  # fmt: skip
+def test_classify_pairs_names_bad_indices(first, second, match):
+    a, _ = generic_pairs(4, seed=1)
+    with pytest.raises(ValueError, match=match):
+        classify_pairs(a, first, second)
+    with pytest.raises(ValueError, match=r"batch must be an ellipsim.Ellipsoids batch, got list"):
+        classify_pairs([1], [0], [0])

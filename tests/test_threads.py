@@ -39,10 +39,13 @@ def moved(x, seed):
 
 A, B = batch()
 A1, B1 = moved(A, 1), moved(B, 2)
+AB = es.Ellipsoids.concatenate([A, B])
+IDX = np.random.default_rng(7).integers(0, 2 * len(A), (2, len(A)))
 CALLS = {
     "classify": lambda p: es.classify(A, B, parallel=p),
     "classify sturm": lambda p: es.classify(A, B, method="sturm", parallel=p),
     "classify descartes float32": lambda p: es.classify(A, B, method="descartes", dtype="float32", parallel=p),
+    "classify_pairs": lambda p: es.classify_pairs(AB, IDX[0], IDX[1], parallel=p),
     "contact_scale": lambda p: es.contact_scale(A, B, parallel=p),
     "characteristic_polynomial": lambda p: es.characteristic_polynomial(A, B, parallel=p),
     "signed_distance": lambda p: es.signed_distance(A[:3000], B[:3000], parallel=p),

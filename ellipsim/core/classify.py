@@ -12,9 +12,9 @@ import numpy as np
 from . import rational
 from . import threads
 from ._jit import jit, stage
-from .certified import certify
+from .certified import certify, certify_pair
 from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
-from .ellipsoids import check_choice, check_pair, check_parallel
+from .ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel
 from .relation import UNDECIDED, Relation
 from .roots import descartes_relation, sturm_relation
 from .vec3 import load
@@ -79,4 +79,46 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
         arrays = [x.astype(np.float32) for x in arrays]
     out = np.empty(n, dtype=np.int8)
     threads.run(_classify_float, n, parallel, *arrays, setup == "cofactor", method == "sturm", out)
+    return out
+
+
+@jit
+def _certify_indexed(C, R, r, first, second, out, lo, hi):
+    for k in range(lo, hi):
+        out[k] = certify_pair(load(C, R, r, first[k]), load(C, R, r, second[k]))
+
+
+def check_indices(name, value, n):
+    """`value` as a 1-D int64 array of indices into a batch of n; ValueError naming `name`."""
+    arr = np.asarray(value)
+    if arr.ndim != 1 or (arr.size and arr.dtype.kind not in "iu"):
+        raise ValueError(f"{name} must be a 1-D array of integer indices, got shape {arr.shape} and dtype {arr.dtype}")
+    arr = np.ascontiguousarray(arr, dtype=np.int64)
+    bad = np.flatnonzero((arr < 0) | (arr >= n))
+    if len(bad):
+        raise ValueError(f"{name}[{int(bad[0])}] must index the batch of {n} ellipsoids, got {int(arr[bad[0]])}")
+    return arr
+
+
+def classify_pairs(batch, first, second, *, parallel=None):
+    """Exact relation of each pair (batch[first[k]], batch[second[k]]), as int8 codes of `Relation`.
+
+    The same answers as classify(batch[first], batch[second]) without copying the ellipsoids: for the
+    pairs a broad phase found among one validated batch (e.g. every ellipsoid of every frame).
+    batch : Ellipsoids; first, second : (k,) integer indices into it.
+    parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
+    returns : (k,) int8
+    """
+    if not isinstance(batch, Ellipsoids):
+        raise ValueError(f"batch must be an ellipsim.Ellipsoids batch, got {type(batch).__name__}")
+    first, second = check_indices("first", first, len(batch)), check_indices("second", second, len(batch))
+    if len(first) != len(second):
+        raise ValueError(f"first and second must have the same length, got {len(first)} and {len(second)}")
+    k = len(first)
+    out = np.empty(k, dtype=np.int8)
+    threads.run(_certify_indexed, k, check_parallel(parallel, k), batch.centers, batch.rotations, batch.radii, first, second, out)
+    for i in np.flatnonzero(out == UNDECIDED):
+        a, b = first[i], second[i]
+        out[i] = rational.relation(batch.centers[a], batch.rotations[a], batch.radii[a],
+                                   batch.centers[b], batch.rotations[b], batch.radii[b])  # fmt: skip
     return out

@@ -15,6 +15,7 @@ from rerun.chunk import RrdReader
 
 from ellipsim import Ellipsoids, Impact, Relation, classify, time_of_impact
 from ellipsim.app import record, replay as rp, scenario, simulate
+from ellipsim.core import broadphase
 from ellipsim.core.motion import poses_at
 from ellipsim.mujoco import validate
 from ellipsim.mujoco.between import BetweenFrames, Events, swept_pairs
@@ -158,6 +159,14 @@ def test_chunks_join_and_a_half_turn_is_unresolved(plate):
         checker.check([8], [0.8], C[:1], R[:1])
     with pytest.raises(ValueError, match=r"must have shapes \(1, 2, 3\), \(1, 2, 3, 3\) and \(1,\) for 1 frames of 2 geoms, got \(2, 2, 3\)"):
         checker.check([7], [0.7], C[:2], R[:1])
+    bad = C.copy()
+    bad[2, 1, 0] = np.nan
+    with pytest.raises(ValueError, match="must be finite, got a non-finite pose of geom 1 at frame 2"):
+        BetweenFrames(radii, rules).check(np.arange(7), times, bad, R)
+    bad = R.copy()
+    bad[2, 1] *= 1.01
+    with pytest.raises(ValueError, match=r"rotations of geom 1 at frame 2 must be orthonormal: max \|R\^T R - I\| = 0.0201"):
+        BetweenFrames(radii, rules).check(np.arange(7), times, C, bad)
     # the pellet turns by exactly pi about x between frames 1 and 2 (while passing the plate): no
     # interpolated motion, reported as a possible contact over the whole step, no error
     flip = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, 1, 0, 0]], dtype=float)
@@ -205,7 +214,97 @@ def test_the_prefilter_drops_no_contact():
     assert sorted(zip(got.frame.tolist(), got.pair[:, 0].tolist(), got.pair[:, 1].tolist())) == sorted(
         zip(s[want].tolist(), i[want].tolist(), j[want].tolist()))  # fmt: skip
     # the prefilter does drop most pairs: fewer candidates than pairs
-    assert len(swept_pairs(C[:-1], C[1:], radii.max(axis=1), rules)) < len(s) / 2
+    assert len(swept_pairs(C, R, radii, rules)) < len(s) / 2
+
+
+def random_rotations(rng, n):
+    return Ellipsoids.from_quaternions(np.zeros((n, 3)), rng.normal(size=(n, 4)), np.ones((n, 3))).rotations
+
+
+def test_capsules_enclose_their_ellipsoids():
+    """Points on the ellipsoids' surfaces (the worst places) lie within the capsule's radius of its
+    segment, up to rounding; the long end's tip touches the capsule's end."""
+    rng = np.random.default_rng(2)
+    radii = np.r_[rng.uniform(0.01, 1.0, (200, 3)), [[1.0, 1.0, 1.0], [1.0, 0.2, 0.2], [0.3, 0.3, 2.0]]]
+    axis, half, cap = broadphase.capsules(radii)
+    u = rng.normal(size=(len(radii), 500, 3))
+    x = radii[:, None] * u / np.linalg.norm(u, axis=2, keepdims=True)  # surface points, body frame
+    along = np.take_along_axis(x, axis[:, None, None], axis=2)[..., 0]
+    foot = np.clip(along, -half[:, None], half[:, None])
+    off = x.copy()
+    np.put_along_axis(off, axis[:, None, None], (along - foot)[..., None], axis=2)
+    assert (np.linalg.norm(off, axis=2) <= cap[:, None] * (1 + 1e-12)).all()
+    assert half[-3:].tolist() == [0.0, 0.8, 1.7] and cap[-3:].tolist() == [1.0, 0.2, 0.3]
+
+
+def test_segment_distance_against_dense_sampling():
+    rng = np.random.default_rng(4)
+    cases = [rng.normal(size=(4, 3)) for _ in range(300)]
+    p, d = rng.normal(size=3), rng.normal(size=3)
+    cases += [np.array([p, p + d, p + [0, 0, 0.1], p + [0, 0, 0.1] + 0.5 * d]),  # parallel
+              np.array([p, p + d, p + 1e-9 * rng.normal(size=3), p + d + [1e-8, 0, 0]]),  # nearly parallel
+              np.array([p, p, p + d, p + 2 * d]), np.array([p, p, p + d, p + d])]  # a point  # fmt: skip
+    u = np.linspace(0, 1, 401)
+    for a0, a1, b0, b1 in cases:
+        got = broadphase._segment_distance(*a0, *b0, *(a1 - a0), *(b1 - b0))
+        A = a0 + u[:, None] * (a1 - a0)
+        B = b0 + u[:, None] * (b1 - b0)
+        dense = np.linalg.norm(A[:, None] - B[None], axis=2).min()
+        assert got <= dense + 1e-12  # never above the true distance (a lower bound is what is used)
+        assert got >= dense - 0.01 * max(np.linalg.norm(a1 - a0), np.linalg.norm(b1 - b0))  # the grid's spacing
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_swept_pairs_keep_every_pair_time_of_impact_finds(seed):
+    """Fast thin limbs (turning up to ~110 degrees a step, some more than 120: sphere tests only, and
+    spheres, and a few still): every pair that touches at some t of a step by time_of_impact (toi
+    finite, touching at the frames included) is kept, and the capsule test drops most of the rest."""
+    rng = np.random.default_rng(seed)
+    g, F = 24, 8
+    radii = rng.uniform(0.02, 0.4, (g, 3))
+    radii[:4] = radii[:4, :1]  # spheres
+    radii[4:12, 1:] = rng.uniform(0.005, 0.03, (8, 2))  # rods
+    C = rng.uniform(-0.5, 0.5, (g, 3))[None] + np.cumsum(rng.normal(scale=0.08, size=(F, g, 3)), axis=0)
+    R = np.empty((F, g, 3, 3))
+    R[0] = random_rotations(rng, g)
+    for f in range(1, F):
+        turn = rng.uniform(0, 1.9, g)  # radians
+        turn[:3] = rng.choice([0.0, 2.2], 3)  # still, or beyond PLAIN_COS
+        w = rng.normal(size=(g, 3))
+        w *= (turn / np.linalg.norm(w, axis=1))[:, None]
+        R[f] = np.array([r @ Ellipsoids.from_quaternions(np.zeros(3), np.r_[math.cos(t / 2), math.sin(t / 2) * v / max(t, 1e-300)],
+                                                         np.ones(3)).rotations[0] for r, v, t in zip(R[f - 1], w, turn)])  # fmt: skip
+    rho = radii.max(axis=1) * 1.0000153
+    got = broadphase.swept_pairs(C, R, radii, rho)
+    assert np.all(np.diff(got[:, 0]) >= 0) and np.all(got[:, 1] < got[:, 2])
+    i, j = np.triu_indices(g, 1)
+    s = np.repeat(np.arange(F - 1), len(i))
+    i, j = np.tile(i, F - 1), np.tile(j, F - 1)
+    at = lambda f, k: Ellipsoids(C[f, k], R[f, k], radii[k])  # noqa: E731
+    toi = time_of_impact(at(s, i), at(s + 1, i), at(s, j), at(s + 1, j))
+    want = set(zip(s[np.isfinite(toi)].tolist(), i[np.isfinite(toi)].tolist(), j[np.isfinite(toi)].tolist()))
+    have = set(map(tuple, got.tolist()))
+    assert len(have) == len(got) and want <= have and len(want) >= 10
+    spheres = broadphase.swept_pairs(C, R, np.repeat(rho[:, None], 3, axis=1), rho)  # capsules = the spheres
+    assert have <= set(map(tuple, spheres.tolist())) and len(have) < 0.8 * len(spheres)
+
+
+def test_crossed_rods_turning_are_kept_and_apart_ones_dropped():
+    """A rod turning from -10 to +10 degrees about z over a still one crossing it (1 m long, 2 cm
+    thick): touching at every t when their axes are 1.9 cm apart in z, kept; 6 cm apart, dropped
+    (more than the thickness, the bend 0.49 m tan(10 deg)^2 / 2 = 7.6 mm and the slack, by enough for
+    CAPSULE_STEPS advancements at the tips' 17 cm a step), though the bounding spheres overlap."""
+    radii = np.array([[0.5, 0.01, 0.01], [0.5, 0.01, 0.01]])
+    rz = lambda deg: np.array([[math.cos(math.radians(deg)), -math.sin(math.radians(deg)), 0],  # noqa: E731
+                               [math.sin(math.radians(deg)), math.cos(math.radians(deg)), 0], [0, 0, 1]])  # fmt: skip
+    rho = radii.max(axis=1) * 1.0000153
+    R = np.array([[rz(-10), rz(90)], [rz(10), rz(90)]])
+    for gap, kept in ((0.019, True), (0.06, False)):
+        C = np.array([[[0, 0, 0], [0, 0, gap]]] * 2, dtype=float)
+        assert len(broadphase.swept_pairs(C, R, radii, rho)) == kept
+        assert len(broadphase.swept_pairs(C, R, np.full((2, 3), 0.5), rho)) == 1  # spheres: always
+        assert np.isfinite(time_of_impact(Ellipsoids(C[0, 0], R[0, 0], radii[0]), Ellipsoids(C[1, 0], R[1, 0], radii[0]),
+                                          Ellipsoids(C[0, 1], R[0, 1], radii[1]), Ellipsoids(C[1, 1], R[1, 1], radii[1])))[0] == kept  # fmt: skip
 
 
 # --- replay, run, compare ------------------------------------------------------------------------

@@ -7,13 +7,14 @@ angular velocity along the shortest arc).  That is an interpolation of the two p
 replay's own in-between poses nor a simulation's mj_step need follow it, so an event says "on the
 interpolated motion the pair touches between these frames", from `begin` to `end`.
 
-Per chunk of consecutive frames: a swept-sphere broad phase per step (sweep and prune over the
-sphere enclosing each bounding sphere's sweep), then, vectorised over every step's pairs, the closest
-approach of the two centres' straight paths against the sum of the bounding radii (conservative: a
-point of a moving ellipsoid stays within its bounding radius of its centre), MuJoCo's pair rules
-(geoms.PairRules), and pairs known to touch at either end dropped.  One time_of_impact call decides
-the rest; the contacts it finds get their end from the reversed motion (1 - toi(a1, a0, b1, b0),
-time_of_impact's docstring) and a contact point from core.signed_distance at the pose at toi.
+Per chunk of consecutive frames: core.broadphase.swept_pairs (one sweep and prune per block of steps
+over each geom's box of centres, MuJoCo's pair rules (geoms.PairRules) on the pairs it finds, then per
+step the closest approach of the two centres' straight paths against the sum of the bounding radii and
+enclosing capsules kept apart by conservative advancement; conservative, with room for rounding), and
+pairs known to touch at either end dropped.  The poses the pairs use are validated once each, and one
+time_of_impact call decides the pairs; the contacts it finds get their end from the reversed motion
+(1 - toi(a1, a0, b1, b0), time_of_impact's docstring) and a contact point from core.signed_distance
+at the pose at toi.
 """
 
 import dataclasses
@@ -21,12 +22,12 @@ import math
 
 import numpy as np
 
-from ..core.broadphase import sweep_and_prune
+from ..core.broadphase import swept_pairs as broadphase_swept_pairs
 from ..core.distance import signed_distance
-from ..core.ellipsoids import Ellipsoids
+from ..core.ellipsoids import Ellipsoids, orthonormality_defect
 from ..core.motion import poses_at
 from ..core.time_of_impact import Impact, time_of_impact
-from ..core.tolerances import BOUNDING_INFLATION, HALF_TURN_TOL, U
+from ..core.tolerances import BOUNDING_INFLATION, HALF_TURN_TOL, ORTHONORMAL_TOL
 
 #: A geom turning by more than pi - HALF_TURN_MARGIN between two frames has no well-defined
 #: interpolated motion (core.motion refuses turns within HALF_TURN_TOL = 1e-6 rad of pi): its pairs
@@ -86,40 +87,15 @@ class Events:
         return name + " (half turn between the frames)" if self.half_turn[e] else name
 
 
-def swept_pairs(c0, c1, rho, rules):
-    """(P, 3) int64 (step, i, j), i < j: the pairs `rules` allow whose bounding spheres may meet
-    while the centres move linearly from c0 to c1.  c0, c1 : (S, g, 3) metres; rho : (g,) bounding
-    radii (inflated); rules : geoms.PairRules.
+def swept_pairs(centers, rotations, radii, rules):
+    """(P, 3) int64 (step, i, j), i < j, sorted by step: the pairs `rules` allow that may touch between
+    frames step and step + 1 on the interpolated motion (conservative: core.broadphase.swept_pairs
+    over the bounding radii inflated by BOUNDING_INFLATION, MuJoCo's rules on its block pairs).
 
-    Necessary for touching at t: |d0 + t (d1 - d0)| <= rho_i + rho_j, d = c_j - c_i.  Sweep and
-    prune per step over spheres about the mid-points of radius rho + |c1 - c0| / 2 (each encloses its
-    bounding sphere's sweep), the rules, then the exact minimum over t in [0, 1], with room for the
-    rounding.  (A sweep of several steps with each geom's largest radius costs as much and passes more
-    pairs: measured, 16 figures.)"""
-    S, g = c0.shape[0], c0.shape[1]
-    if S == 0 or g < 2:
-        return np.zeros((0, 3), dtype=np.int64)
-    move = c1 - c0
-    mid = np.ascontiguousarray(c0 + 0.5 * move)
-    reach = rho[None, :] + 0.5 * np.sqrt(np.einsum("sgk,sgk->sg", move, move)) * (1 + 4 * U)
-    parts = []
-    for s in range(S):  # a sweep per step (its radii change with the motion), vectorised within
-        p = sweep_and_prune(mid[s : s + 1], np.ascontiguousarray(reach[s]))
-        p[:, 0] = s
-        parts.append(p)
-    pairs = np.concatenate(parts)
-    pairs = pairs[rules.allowed(pairs[:, 1], pairs[:, 2])]
-    a, b = pairs[:, 0] * g + pairs[:, 1], pairs[:, 0] * g + pairs[:, 2]
-    f0, f1 = c0.reshape(-1, 3), c1.reshape(-1, 3)
-    d0 = f0[b] - f0[a]
-    e = (f1[b] - f1[a]) - d0
-    ee = np.einsum("nk,nk->n", e, e)
-    t = np.clip(-np.einsum("nk,nk->n", d0, e) / np.where(ee > 0, ee, 1.0), 0.0, 1.0)
-    closest = d0 + t[:, None] * e
-    # rounding of the centres' differences and of `closest`: a few ulps of the coordinates involved
-    coord = np.maximum(np.abs(c0).max(axis=2), np.abs(c1).max(axis=2)).ravel()  # (S g,)
-    r = (rho[pairs[:, 1]] + rho[pairs[:, 2]]) * (1 + 8 * U) + 32 * U * (coord[a] + coord[b])
-    return pairs[np.einsum("nk,nk->n", closest, closest) <= r * r]
+    centers : (F, g, 3) metres; rotations : (F, g, 3, 3); radii : (g, 3) semi-axes; rules :
+    geoms.PairRules over the same g geoms."""
+    radii = np.asarray(radii, dtype=np.float64)
+    return broadphase_swept_pairs(centers, rotations, radii, radii.max(axis=1) * BOUNDING_INFLATION, rules.allowed)
 
 
 def turn_angles(R0, R1):
@@ -154,6 +130,8 @@ class BetweenFrames:
         contacts : optional (P, 3) int64 (frame, i, j), i < j: pairs known not to be separated at that
             frame (exact classify), skipped at its two steps; None: time_of_impact's own verdicts at
             the ends (toi = 0 forwards or backwards) drop them.
+        ValueError names a non-finite pose, or a rotation of a pair's geom that is not orthonormal
+        (validated once per pose the pairs use), by geom and frame.
         """
         frames = np.asarray(frames, dtype=np.int64)
         times = np.asarray(times, dtype=np.float64)
@@ -181,7 +159,11 @@ class BetweenFrames:
             contacts = np.concatenate([np.column_stack([np.full(len(last[4]), last[0]), last[4]]), contacts])
         if len(frames) < 2 or g < 2:
             return Events.empty()
-        pairs = swept_pairs(centers[:-1], centers[1:], self.rho, self.rules)
+        bad = ~(np.isfinite(centers).all(axis=2) & np.isfinite(rotations).all(axis=(2, 3)))
+        if bad.any():
+            f, x = np.argwhere(bad)[0]
+            raise ValueError(f"centers and rotations must be finite, got a non-finite pose of geom {x} at frame {frames[f]}")
+        pairs = swept_pairs(centers, rotations, self.radii, self.rules)
         if len(contacts):  # drop pairs touching at either end of their step
             first = frames[0]
             known = np.unique((contacts[:, 0] - first) * g * g + contacts[:, 1] * g + contacts[:, 2])
@@ -194,19 +176,30 @@ class BetweenFrames:
         if len(pairs) == 0:
             return Events.empty()
         s, i, j = pairs.T
+        # the poses the pairs use, validated once each (orthonormal rotations: Ellipsoids' check)
+        rows, inverse = np.unique(np.concatenate([s * g + i, (s + 1) * g + i, s * g + j, (s + 1) * g + j]), return_inverse=True)
+        flat_c, flat_r = centers.reshape(-1, 3)[rows], rotations.reshape(-1, 3, 3)[rows]
+        defect = orthonormality_defect(flat_r)
+        wrong = np.flatnonzero(defect > ORTHONORMAL_TOL)
+        if len(wrong):
+            f, x = divmod(int(rows[wrong[0]]), g)
+            raise ValueError(f"rotations of geom {x} at frame {frames[f]} must be orthonormal: max |R^T R - I| = "
+                             f"{defect[wrong[0]]:.3g} exceeds the tolerance {ORTHONORMAL_TOL:g}")  # fmt: skip
+        every = Ellipsoids(flat_c, flat_r, self.radii[rows % g])
+        at_i0, at_i1, at_j0, at_j1 = inverse.reshape(4, -1)
         # geoms turning by about a half turn in a step: cos of the angle (trace - 1) / 2 first, the
         # angle itself only where it is below -1/2 (more than 120 degrees)
-        cos = 0.5 * (np.einsum("sgij,sgij->sg", rotations[:-1], rotations[1:]) - 1.0)
-        wide = np.flatnonzero(cos.ravel() < -0.5)
-        flip = np.zeros(cos.shape, dtype=bool)
-        flip.ravel()[wide] = math.pi - turn_angles(rotations[:-1].reshape(-1, 3, 3)[wide], rotations[1:].reshape(-1, 3, 3)[wide]) < HALF_TURN_MARGIN
-        half = flip[s, i] | flip[s, j]
-        every = Ellipsoids(centers.reshape(-1, 3), rotations.reshape(-1, 3, 3),
-                           np.broadcast_to(self.radii, (len(frames), g, 3)).reshape(-1, 3))  # fmt: skip
+        steps = np.unique(np.concatenate([s * g + i, s * g + j]))
+        r0, r1 = rotations[:-1].reshape(-1, 3, 3)[steps], rotations[1:].reshape(-1, 3, 3)[steps]
+        cos = 0.5 * (np.einsum("nij,nij->n", r0, r1) - 1.0)
+        wide = np.flatnonzero(cos < -0.5)
+        flipped = steps[wide[math.pi - turn_angles(r0[wide], r1[wide]) < HALF_TURN_MARGIN]]
+        half = np.zeros(len(s), dtype=bool)
+        if len(flipped):
+            half = np.isin(s * g + i, flipped) | np.isin(s * g + j, flipped)
         ok = np.flatnonzero(~half)
         s_ok, i_ok, j_ok = s[ok], i[ok], j[ok]
-        a0, a1 = every[s_ok * g + i_ok], every[(s_ok + 1) * g + i_ok]
-        b0, b1 = every[s_ok * g + j_ok], every[(s_ok + 1) * g + j_ok]
+        a0, a1, b0, b1 = every[at_i0[ok]], every[at_i1[ok]], every[at_j0[ok]], every[at_j1[ok]]
         self.candidates += len(ok)
         toi, status = time_of_impact(a0, a1, b0, b1, return_status=True)
         hit = np.flatnonzero(np.isfinite(toi) & (toi > 0))  # toi = 0: not separated at frame k

@@ -100,6 +100,17 @@ NEWTON_STEP_TOL = 1e-5
 #: takes over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
 FIRST_RUN_ITER = 10
 
+# --- Warm start of the MuJoCo narrow phase (ellipsim/mujoco/callbacks.py, core/distance.py) -------
+
+#: distance.sigma_lower_bound: sigma along a stored normal minus this many ulps of the pair's scale
+#: |d|_1 + max r_A + max r_B (<= 34 u S counted in its docstring); a persistent pair is dropped as
+#: apart beyond the margin only when that bound is >= the margin.
+WARM_SIGMA_SLACK_ULPS = 64.0
+#: ... and only for semi-axes >= WARM_SCALE_MIN and a scale <= WARM_SCALE_MAX: squares of 2^-400
+#: (2^-800) are still normal floats and 2^400 squared does not overflow, so the ulp count holds.
+WARM_SCALE_MIN = 2.0**-400
+WARM_SCALE_MAX = 2.0**400
+
 # --- Proven global maximum for deep penetrations (ellipsim/core/global_max.py) -------------------
 # u = 2^-53; S = |e| + max semi-axis of A + max semi-axis of B in A's frame (the scale of sigma).
 

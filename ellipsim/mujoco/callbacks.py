@@ -18,6 +18,15 @@ and its normal is core.capsule's flipped.  A pair whose maximum is not proven gl
 UNPROVEN: the branch and bound's budget ran out; a non-finite capsule result) goes to MuJoCo's
 original function, and is counted.
 
+Warm start (issue 13): a data attached in mode "narrowphase" owns a table (attachment.py; layout in
+context.py, address and size in its registry row) of each ellipsoid pair's last normal, in the
+world frame, and whether that call made a contact.  A pair in contact at its last call goes straight
+to Newton from that normal (1-2 steps instead of 3-5 from the bisector); another pair is first tried
+against the separating axes and then against sigma along its last normal (a direction whose sigma
+exceeds the margin proves the pair apart beyond it: distance.sigma_lower_bound).  The seed never
+decides the proof (distance.pair_signed_distance_from), so warm results meet the cold contract; a
+capsule pair starts cold.  One data's table is read and written only by calls on that data.
+
 A data not attached in the callback's mode gets MuJoCo's own answer: the bitmask test, or MuJoCo's
 original function.  Both read geom arrays of whatever (model, data) they are given through struct
 offsets (structs.py) and keep no shared mutable state: counters live in per-data arrays of the
@@ -41,13 +50,13 @@ from numba.extending import intrinsic
 from ..core._jit import jit
 from ..core.capsule import capsule_ellipsoid, centre_line_bound
 from ..core.certified import separated_by_axes
-from ..core.distance import GLOBAL, pair_signed_distance
+from ..core.distance import GLOBAL, pair_signed_distance_from, sigma_lower_bound
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from .context import (
-    CALLS, CAPSULE, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_CAPSULE, FALLBACK_ELLIPSOID, FALLBACK_SPHERE,
+    APART, CAPSULE, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_CAPSULE, FALLBACK_ELLIPSOID, FALLBACK_SPHERE,
     FALLBACKS, FILTER,
     MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
-    REGISTRY_ROWS, SEEN, SEPARATED, SPHERE, SYMBOL, WORDS,
+    REGISTRY_ROWS, SEEN, SEPARATED, SPHERE, SYMBOL, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS, WORDS,
 )  # fmt: skip
 
 _TYPE, _CONTYPE, _CONAFF = MODEL_WORDS["geom_type"], MODEL_WORDS["geom_contype"], MODEL_WORDS["geom_conaffinity"]
@@ -168,6 +177,50 @@ def _ellipsoid(xpos, xmat, size, gtype, g, grow):
     return c, R, (r0 * s, r1 * s, r2 * s)
 
 
+@jit
+def _warm_set(g1, g2, mask):
+    """The first slot of the two-slot set of pair (g1, g2) in a table of mask + 1 slots (a power of two):
+    a multiplicative hash (g < 2^31 and constants < 2^31: no int64 overflow), folded once."""
+    h = g1 * 1540483477 + g2 * 668265261
+    h ^= h >> 17
+    return (h << 1) & mask
+
+
+@jit
+def _warm_find(table, first, key):
+    """The slot holding `key` in the set starting at `first`, or -1."""
+    if table[first, 0] >> 1 == key:
+        return first
+    if table[first + 1, 0] >> 1 == key:
+        return first + 1
+    return -1
+
+
+@jit
+def _warm_store(table, normals, first, k, key, normal, contact):
+    """Write (key, contact, normal) in slot k of its set, or, k < 0, in a free slot of the set; in a
+    full set the entry of the first slot moves to the second (whose entry is dropped: that pair
+    starts cold next time).
+
+    MuJoCo may run one data's collisions on several threads: different pairs then write different
+    sets, except for pairs whose keys share a set, whose writes can interleave.  A reader may then
+    see one pair's key with a normal made of another's words: only a worse seed, since the result is
+    proven whatever the seed (distance.pair_signed_distance_from), and a wrong contact bit only
+    chooses whether the separating axes are tried first (both paths are proofs)."""
+    if k < 0:
+        if table[first, 0] == 0:
+            k = first
+        elif table[first + 1, 0] == 0:
+            k = first + 1
+        else:
+            for w in range(1, WARM_SLOT_WORDS):
+                normals[first + 1, w] = normals[first, w]
+            table[first + 1, 0] = table[first, 0]
+            k = first
+    normals[k, 1], normals[k, 2], normals[k, 3] = normal
+    table[k, 0] = (key << 1) | (1 if contact else 0)
+
+
 def contact_filter(m, d, g1, g2):
     ctx = carray(_context(), (WORDS,))
     ma, da = address(m), address(d)
@@ -233,7 +286,6 @@ def narrowphase(m, d, con, g1, g2, margin):
     if slot == 0 or reg[slot, 2] != NARROW:  # not attached in this mode: MuJoCo's own function
         return call_collision(original, m, d, con, g1, g2, margin)
     counters = reg[slot, 1]
-    atomic_add(counters + 8 * CALLS, 1)
     if t1 == CAPSULE:  # g1 the capsule, g2 the ellipsoid
         E, K = _ellipsoid(xpos, xmat, size, t2, g2, 0.0), _geom(xpos, xmat, size, g1)
         if centre_line_bound(E, K) >= margin:  # a direction proves them apart beyond the margin
@@ -243,18 +295,37 @@ def narrowphase(m, d, con, g1, g2, margin):
         proven = math.isfinite(dist)
         normal = (-away[0], -away[1], -away[2])  # from the capsule (g1) to the ellipsoid (g2)
     else:
-        grow = 0.5 * max(margin, 0.0)
-        if separated_by_axes(_ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)):
-            atomic_add(counters + 8 * SEPARATED, 1)
-            return 0
-        status, dist, normal, pos, _ = pair_signed_distance(
-            _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
-        )
+        A, B = _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
+        # the pair's entry in this data's warm-start table (context.WARM_SLOT_WORDS): its normal of
+        # the last call, and whether that call made a contact
+        mask = reg[slot, WARM_MASK]
+        key, first, k = (g1 << 32) | g2, 0, -1
+        seed, touching = (0.0, 0.0, 0.0), False
+        table = carray(i64_pointer(reg[slot, WARM_ADDRESS]), (mask + 1, WARM_SLOT_WORDS))
+        normals = carray(f64_pointer(reg[slot, WARM_ADDRESS]), (mask + 1, WARM_SLOT_WORDS))
+        if mask:
+            first = _warm_set(g1, g2, mask)
+            k = _warm_find(table, first, key)
+            if k >= 0:
+                seed = (normals[k, 1], normals[k, 2], normals[k, 3])
+                touching = (table[k, 0] & 1) == 1
+        if not touching:  # in contact at the last call: most likely still, go straight to Newton
+            grow = 0.5 * max(margin, 0.0)
+            if separated_by_axes(_ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)):
+                atomic_add(counters + 8 * SEPARATED, 1)
+                return 0
+            if k >= 0 and sigma_lower_bound(A, B, seed) >= margin:  # the last normal proves it apart
+                atomic_add(counters + 8 * SEPARATED, 1)
+                return 0
+        status, dist, normal, pos, _ = pair_signed_distance_from(A, B, seed)
         proven = status == GLOBAL
+        if mask and proven:
+            _warm_store(table, normals, first, k, key, normal, dist < margin)
     if not proven:  # no proof that this is the global maximum: MuJoCo's own answer, counted
         atomic_add(counters + 8 * FALLBACKS, 1)
         return call_collision(original, m, d, con, g1, g2, margin)
     if dist >= margin:
+        atomic_add(counters + 8 * APART, 1)
         return 0
     c = carray(f64_pointer(address(con)), (_TANGENT + 3,))  # mjPreContact
     c[_DIST] = dist

@@ -21,7 +21,7 @@ an object built for the old layout then no longer links in a process with the ne
 import mujoco
 import numpy as np
 
-SYMBOL = "ellipsim_ctx_v2"  # v2: word 15 FALLBACK_CAPSULE
+SYMBOL = "ellipsim_ctx_v3"  # v2: word 15 FALLBACK_CAPSULE; v3: registry columns 5, 6 (warm-start table)
 
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
 FALLBACK_CAPSULE = 15
@@ -35,20 +35,30 @@ WORDS = 16
 CONTEXT = np.zeros(WORDS, dtype=np.int64)  # lives as long as the process: its address is published
 
 # Registry of attached datas.  Row 0: [highest slot ever used, ...]; slots 1..: [mjData address
-# (0: free), counters address, mode, pair buffer address, capacity].  A slot's other fields are
+# (0: free), counters address, mode, pair buffer address, capacity, warm-start table address,
+# warm-start table slots - 1 (0: no table, every pair starts cold)].  A slot's other fields are
 # written before its address and only change while that data is detached, and slots never move, so
 # a callback stepping one data never sees another's fields half-written (attachment.py writes them
 # under a lock).
 MAX_ATTACHED = 256
-REGISTRY_COLUMNS = 5
+REGISTRY_COLUMNS = 7
+WARM_ADDRESS, WARM_MASK = 5, 6
 FILTER, RECORD, NARROW = 1, 2, 3
 REGISTRY = np.zeros((MAX_ATTACHED + 1, REGISTRY_COLUMNS), dtype=np.int64)
 
-# Per-data counters (int64): filter: seen, discarded, passed; narrowphase: calls, separated,
-# contacts, -, fallbacks; record: the number of recorded pairs in word RECORDED.
+# Per-data counters (int64): filter: seen, discarded, passed; narrowphase: -, separated, contacts,
+# apart (measured apart beyond the margin), fallbacks: every call adds 1 to exactly one of words
+# 1-4, so the number of calls is their sum (one atomic add per call, not two); record: the number
+# of recorded pairs in word RECORDED.
 NCOUNTERS = 6
 SEEN, DISCARDED, PASSED, RECORDED = 0, 1, 2, 3
-CALLS, SEPARATED, CONTACTS, FALLBACKS = 0, 1, 2, 4
+SEPARATED, CONTACTS, APART, FALLBACKS = 1, 2, 3, 4
+
+# Warm-start table of a data attached in mode "narrowphase" (attachment.py owns it, callbacks.py reads
+# and writes it): WARM_SLOT_WORDS int64/float64 words per slot, [key << 1 | in contact, normal x, y, z]
+# (the key g1 << 32 | g2 as int64, the normal from g1 to g2 in the world frame as float64); slots
+# 2k and 2k + 1 form the set of the keys hashing to k.  Key word 0: empty.
+WARM_SLOT_WORDS = 4
 
 # MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
 SPHERE, CAPSULE, ELLIPSOID = (int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE),

@@ -213,8 +213,9 @@ def test_the_prefilter_drops_no_contact():
     assert len(want) >= 5, "the motion should have some contacts between frames"
     assert sorted(zip(got.frame.tolist(), got.pair[:, 0].tolist(), got.pair[:, 1].tolist())) == sorted(
         zip(s[want].tolist(), i[want].tolist(), j[want].tolist()))  # fmt: skip
-    # the prefilter does drop most pairs: fewer candidates than pairs
-    assert len(swept_pairs(C, R, radii, rules)) < len(s) / 2
+    # the prefilter does drop most pairs: fewer candidates than pairs; the rules as a matrix or not
+    kept = swept_pairs(C, R, radii, rules)
+    assert len(kept) < len(s) / 2 and np.array_equal(swept_pairs(C, R, radii, rules, rules.matrix()), kept)
 
 
 def random_rotations(rng, n):
@@ -255,7 +256,7 @@ def test_segment_distance_against_dense_sampling():
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_swept_pairs_keep_every_pair_time_of_impact_finds(seed):
+def test_swept_pairs_keep_every_pair_time_of_impact_finds(seed, monkeypatch):
     """Fast thin limbs (turning up to ~110 degrees a step, some more than 120: sphere tests only, and
     spheres, and a few still): every pair that touches at some t of a step by time_of_impact (toi
     finite, touching at the frames included) is kept, and the capsule test drops most of the rest."""
@@ -285,6 +286,8 @@ def test_swept_pairs_keep_every_pair_time_of_impact_finds(seed):
     want = set(zip(s[np.isfinite(toi)].tolist(), i[np.isfinite(toi)].tolist(), j[np.isfinite(toi)].tolist()))
     have = set(map(tuple, got.tolist()))
     assert len(have) == len(got) and want <= have and len(want) >= 10
+    monkeypatch.setattr(broadphase, "BLOCK_ROOM", 1)  # crowded blocks: swept again with room for all
+    assert np.array_equal(broadphase.swept_pairs(C, R, radii, rho), got)
     spheres = broadphase.swept_pairs(C, R, np.repeat(rho[:, None], 3, axis=1), rho)  # capsules = the spheres
     assert have <= set(map(tuple, spheres.tolist())) and len(have) < 0.8 * len(spheres)
 

@@ -14,8 +14,9 @@ import math
 
 import numpy as np
 
+from . import threads
 from ._jit import jit
-from .tolerances import U
+from .tolerances import PARALLEL_MIN_PAIRS, U
 
 
 @jit
@@ -67,6 +68,10 @@ def sweep_and_prune(centers, rho):
 #: passes more pairs to the per-step tests than it saves in sweeps).
 SWEEP_BLOCK = 4
 
+#: Pairs per geom each block's sweep has room for at first (a crowded block reruns the sweep with
+#: room for all; 16 figures: 2-8 pairs per geom).
+BLOCK_ROOM = 16
+
 #: Room the capsule test of swept_pairs leaves, relative to the pair's longest semi-axes: rotations are
 #: orthonormal only to ORTHONORMAL_TOL = 1e-6 (the ellipsoid of such an R lies within ~3e-6 r of its
 #: capsule), the interpolated rotation reaches R1 within that too, and the segment distance is rounded
@@ -97,17 +102,18 @@ def capsules(radii):
 
 
 @jit
-def _block_pairs(centers, rho, block):
-    """(P, 3) int64 (block, i, j), i < j: geoms whose boxes of centres over the block's frames, grown
-    by rho (and rounding room), overlap; sweep and prune along the axis of widest spread."""
+def _block_pairs(centers, rho, block, g_unit, allowed, out, count, lo, hi):
+    """Geoms whose boxes of centres over a block's frames, grown by rho (and rounding room), overlap
+    (and allowed[i, j], unless allowed is (0, 0)): sweep and prune along the axis of widest spread.
+    Block bk is swept by the call whose [lo, hi) holds bk * g_unit (threads.run's ranges); its pairs
+    (i, j), i < j, go to out[bk, :cap], their number to count[bk] (all of them: more than cap asks for
+    a rerun with more room)."""
     F, g = centers.shape[0], centers.shape[1]
-    nb = (F - 2) // block + 1
-    cap = 1024
-    out = np.empty((cap, 3), dtype=np.int64)
-    n = 0
+    cap = out.shape[1]
+    check = allowed.shape[0] > 0
     lo3 = np.empty((g, 3))
     hi3 = np.empty((g, 3))
-    for bk in range(nb):
+    for bk in range((lo + g_unit - 1) // g_unit, (hi + g_unit - 1) // g_unit):
         f0, f1 = bk * block, min((bk + 1) * block, F - 1)  # frames f0..f1
         for i in range(g):
             room = rho[i] * (1 + 8 * U)
@@ -120,10 +126,11 @@ def _block_pairs(centers, rho, block):
                 lo3[i, k], hi3[i, k] = a - r, b + r
         axis, widest = 0, -1.0
         for k in range(3):
-            spread = hi3[:, k].max() - lo3[:, k].min() if g else 0.0
+            spread = hi3[:, k].max() - lo3[:, k].min()
             if spread > widest:
                 axis, widest = k, spread
         order = np.argsort(lo3[:, axis])
+        n = 0
         for a in range(g):
             i = order[a]
             top = hi3[i, axis]
@@ -134,13 +141,22 @@ def _block_pairs(centers, rho, block):
                 if (lo3[j, 0] > hi3[i, 0] or lo3[i, 0] > hi3[j, 0] or lo3[j, 1] > hi3[i, 1] or lo3[i, 1] > hi3[j, 1]
                         or lo3[j, 2] > hi3[i, 2] or lo3[i, 2] > hi3[j, 2]):  # fmt: skip
                     continue
-                if n == cap:
-                    bigger = np.empty((2 * cap, 3), dtype=np.int64)
-                    bigger[:n] = out[:n]
-                    out, cap = bigger, 2 * cap
-                out[n, 0], out[n, 1], out[n, 2] = bk, min(i, j), max(i, j)
+                if check and not allowed[i, j]:
+                    continue
+                if n < cap:
+                    out[bk, n, 0], out[bk, n, 1] = min(i, j), max(i, j)
                 n += 1
-    return out[:n]
+        count[bk] = n
+
+
+@jit
+def _compact(out, count, blocks):
+    """blocks (sum(count), 3): (block, i, j) of out[bk, :count[bk]], block by block."""
+    n = 0
+    for bk in range(count.shape[0]):
+        for m in range(count[bk]):
+            blocks[n, 0], blocks[n, 1], blocks[n, 2] = bk, out[bk, m, 0], out[bk, m, 1]
+            n += 1
 
 
 @jit
@@ -227,16 +243,17 @@ def _capsules_apart(ea, eb, speed, reach):
 
 
 @jit
-def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big):
-    """The (step, i, j) of the block pairs `blocks` (block, i, j) that pass the per-step tests."""
+def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big, keep, lo, hi):
+    """keep[p, k]: block pair p = (block, i, j) of `blocks` passes the per-step tests at the block's
+    step k, for p in [lo, hi)."""
     F = centers.shape[0]
     ea, eb = np.empty((4, 3)), np.empty((4, 3))
-    cap_out = 1024
-    out = np.empty((cap_out, 3), dtype=np.int64)
-    n = 0
-    for p in range(blocks.shape[0]):
+    for p in range(lo, hi):
         bk, i, j = blocks[p, 0], blocks[p, 1], blocks[p, 2]
-        for s in range(bk * block, min((bk + 1) * block, F - 1)):
+        for s in range(bk * block, bk * block + block):
+            keep[p, s - bk * block] = False
+            if s >= F - 1:
+                continue
             # the closest approach of the centres' straight paths against the bounding radii, with
             # room for the rounding of the differences (a few ulps of the coordinates)
             d0x = centers[s, j, 0] - centers[s, i, 0]
@@ -274,13 +291,7 @@ def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big):
                 room = cap[i] + cap[j] + bend[s, i] + bend[s, j] + CAPSULE_SLACK * (big[i] + big[j]) + 1e-12 * coord
                 if _capsules_apart(ea, eb, speed * (1 + 1e-9), room):
                     continue
-            if n == cap_out:
-                bigger = np.empty((2 * cap_out, 3), dtype=np.int64)
-                bigger[:n] = out[:n]
-                out, cap_out = bigger, 2 * cap_out
-            out[n, 0], out[n, 1], out[n, 2] = s, i, j
-            n += 1
-    return out[:n]
+            keep[p, s - bk * block] = True
 
 
 def swept_pairs(centers, rotations, radii, rho, allowed=None):
@@ -289,8 +300,9 @@ def swept_pairs(centers, rotations, radii, rho, allowed=None):
     velocity): a necessary condition, with room for rounding.
 
     centers : (F, g, 3) metres; rotations : (F, g, 3, 3); radii : (g, 3) semi-axes, metres; rho : (g,)
-    bounding radii (at least the longest semi-axis); allowed : optional callable(i, j) -> (k,) bool,
-    which geom pairs may collide at all (the caller's rules).  Returns (P, 3) int64, sorted by step.
+    bounding radii (at least the longest semi-axis); allowed : which geom pairs may collide at all (the
+    caller's rules), optional: a (g, g) bool matrix, or a callable(i, j) -> (k,) bool for a g too large
+    for one.  Returns (P, 3) int64, sorted by step.
 
     Sweep and prune (I-COLLIDE, above) once per SWEEP_BLOCK steps over each geom's box of centres
     grown by rho; `allowed`; then per step the exact closest approach of the two centres' straight
@@ -305,12 +317,27 @@ def swept_pairs(centers, rotations, radii, rho, allowed=None):
     if F < 2 or g < 2:
         return np.zeros((0, 3), dtype=np.int64)
     rho = np.ascontiguousarray(rho, dtype=np.float64)
-    blocks = _block_pairs(centers, rho, SWEEP_BLOCK)
-    if allowed is not None:
-        blocks = blocks[allowed(blocks[:, 1], blocks[:, 2])]
+    nb = (F - 2) // SWEEP_BLOCK + 1
+    parallel = nb * g >= PARALLEL_MIN_PAIRS
+    matrix = allowed if isinstance(allowed, np.ndarray) else np.zeros((0, 0), dtype=bool)
+    if len(matrix) and matrix.shape != (g, g):
+        raise ValueError(f"allowed must be a ({g}, {g}) matrix or a callable, got shape {matrix.shape}")
+    out, count = np.empty((nb, BLOCK_ROOM * g, 2), dtype=np.int32), np.zeros(nb, dtype=np.int64)
+    threads.run(_block_pairs, nb * g, parallel, centers, rho, SWEEP_BLOCK, g, matrix, out, count)
+    if count.max() > out.shape[1]:  # a crowded block: all of them again with room for the most
+        out = np.empty((nb, int(count.max()), 2), dtype=np.int32)
+        threads.run(_block_pairs, nb * g, parallel, centers, rho, SWEEP_BLOCK, g, matrix, out, count)
+    blocks = np.empty((int(count.sum()), 3), dtype=np.int64)
+    _compact(out, count, blocks)
+    if callable(allowed):
+        blocks = np.ascontiguousarray(blocks[allowed(blocks[:, 1], blocks[:, 2])])
     axis, half, cap = capsules(radii)
     big = np.asarray(radii, dtype=np.float64).max(axis=1)
     ends, bend = np.empty((F, g, 2, 3)), np.empty((F - 1, g))
     _capsule_motion(centers, rotations, axis, half, ends, bend)
-    pairs = _step_pairs(np.ascontiguousarray(blocks), SWEEP_BLOCK, centers, rho, ends, bend, cap, big)
+    keep = np.empty((len(blocks), SWEEP_BLOCK), dtype=bool)
+    threads.run(_step_pairs, len(blocks), len(blocks) >= PARALLEL_MIN_PAIRS, blocks, SWEEP_BLOCK, centers, rho, ends, bend,
+                cap, big, keep)  # fmt: skip
+    p, k = np.nonzero(keep)
+    pairs = np.column_stack([blocks[p, 0] * SWEEP_BLOCK + k, blocks[p, 1], blocks[p, 2]])
     return pairs[np.argsort(pairs[:, 0], kind="stable")]

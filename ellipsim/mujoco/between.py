@@ -11,8 +11,8 @@ Per chunk of consecutive frames: core.broadphase.swept_pairs (one sweep and prun
 over each geom's box of centres, MuJoCo's pair rules (geoms.PairRules) on the pairs it finds, then per
 step the closest approach of the two centres' straight paths against the sum of the bounding radii and
 enclosing capsules kept apart by conservative advancement; conservative, with room for rounding), and
-pairs known to touch at either end dropped.  The poses the pairs use are validated once each, and one
-time_of_impact call decides the pairs; the contacts it finds get their end from the reversed motion
+pairs known to touch at either end dropped.  The pairs' poses are gathered and validated in one batch,
+and one time_of_impact call decides the pairs; the contacts it finds get their end from the reversed motion
 (1 - toi(a1, a0, b1, b0), time_of_impact's docstring) and a contact point from core.signed_distance
 at the pose at toi.
 """
@@ -87,15 +87,21 @@ class Events:
         return name + " (half turn between the frames)" if self.half_turn[e] else name
 
 
-def swept_pairs(centers, rotations, radii, rules):
+#: Up to this many geoms, the checker tests MuJoCo's pair rules from a (g, g) matrix inside the
+#: sweep (g^2 bytes: 1 MB); beyond, vectorised on the sweep's pairs (geoms.PairRules: no matrix).
+RULES_MATRIX_MAX = 1024
+
+
+def swept_pairs(centers, rotations, radii, rules, matrix=None):
     """(P, 3) int64 (step, i, j), i < j, sorted by step: the pairs `rules` allow that may touch between
     frames step and step + 1 on the interpolated motion (conservative: core.broadphase.swept_pairs
-    over the bounding radii inflated by BOUNDING_INFLATION, MuJoCo's rules on its block pairs).
+    over the bounding radii inflated by BOUNDING_INFLATION, MuJoCo's rules on the sweep's pairs).
 
     centers : (F, g, 3) metres; rotations : (F, g, 3, 3); radii : (g, 3) semi-axes; rules :
-    geoms.PairRules over the same g geoms."""
+    geoms.PairRules over the same g geoms; matrix : optional rules.matrix(), used instead of rules."""
     radii = np.asarray(radii, dtype=np.float64)
-    return broadphase_swept_pairs(centers, rotations, radii, radii.max(axis=1) * BOUNDING_INFLATION, rules.allowed)
+    rho = radii.max(axis=1) * BOUNDING_INFLATION
+    return broadphase_swept_pairs(centers, rotations, radii, rho, rules.allowed if matrix is None else matrix)
 
 
 def turn_angles(R0, R1):
@@ -121,6 +127,18 @@ class BetweenFrames:
         self.rho = self.radii.max(axis=1) * BOUNDING_INFLATION if len(self.radii) else np.zeros(0)
         self._last = None  # (frame, time, centres (g, 3), rotations (g, 3, 3), contact pairs (k, 2))
         self.candidates = 0  # pairs handed to time_of_impact, all chunks
+        self._matrix = rules.matrix() if len(self.radii) <= RULES_MATRIX_MAX else None
+
+    @staticmethod
+    def _explain(frames, rotations):
+        """Raise the ValueError naming the first geom and frame whose rotation is not orthonormal, if any."""
+        g = rotations.shape[1]
+        defect = orthonormality_defect(rotations.reshape(-1, 3, 3))
+        wrong = np.flatnonzero(defect > ORTHONORMAL_TOL)
+        if len(wrong):
+            f, x = divmod(int(wrong[0]), g)
+            raise ValueError(f"rotations of geom {x} at frame {frames[f]} must be orthonormal: max |R^T R - I| = "
+                             f"{defect[wrong[0]]:.3g} exceeds the tolerance {ORTHONORMAL_TOL:g}")  # fmt: skip
 
     def check(self, frames, times, centers, rotations, contacts=None):
         """Events of the steps into and within these frames.
@@ -131,7 +149,7 @@ class BetweenFrames:
             frame (exact classify), skipped at its two steps; None: time_of_impact's own verdicts at
             the ends (toi = 0 forwards or backwards) drop them.
         ValueError names a non-finite pose, or a rotation of a pair's geom that is not orthonormal
-        (validated once per pose the pairs use), by geom and frame.
+        (validated in one batch of the pairs' poses), by geom and frame.
         """
         frames = np.asarray(frames, dtype=np.int64)
         times = np.asarray(times, dtype=np.float64)
@@ -163,7 +181,7 @@ class BetweenFrames:
         if bad.any():
             f, x = np.argwhere(bad)[0]
             raise ValueError(f"centers and rotations must be finite, got a non-finite pose of geom {x} at frame {frames[f]}")
-        pairs = swept_pairs(centers, rotations, self.radii, self.rules)
+        pairs = swept_pairs(centers, rotations, self.radii, self.rules, self._matrix)
         if len(contacts):  # drop pairs touching at either end of their step
             first = frames[0]
             known = np.unique((contacts[:, 0] - first) * g * g + contacts[:, 1] * g + contacts[:, 2])
@@ -176,30 +194,27 @@ class BetweenFrames:
         if len(pairs) == 0:
             return Events.empty()
         s, i, j = pairs.T
-        # the poses the pairs use, validated once each (orthonormal rotations: Ellipsoids' check)
-        rows, inverse = np.unique(np.concatenate([s * g + i, (s + 1) * g + i, s * g + j, (s + 1) * g + j]), return_inverse=True)
-        flat_c, flat_r = centers.reshape(-1, 3)[rows], rotations.reshape(-1, 3, 3)[rows]
-        defect = orthonormality_defect(flat_r)
-        wrong = np.flatnonzero(defect > ORTHONORMAL_TOL)
-        if len(wrong):
-            f, x = divmod(int(rows[wrong[0]]), g)
-            raise ValueError(f"rotations of geom {x} at frame {frames[f]} must be orthonormal: max |R^T R - I| = "
-                             f"{defect[wrong[0]]:.3g} exceeds the tolerance {ORTHONORMAL_TOL:g}")  # fmt: skip
-        every = Ellipsoids(flat_c, flat_r, self.radii[rows % g])
-        at_i0, at_i1, at_j0, at_j1 = inverse.reshape(4, -1)
+        n = len(s)
+        # the four poses of every pair in one batch (validated once: finite, orthonormal rotations)
+        rows = np.concatenate([s * g + i, (s + 1) * g + i, s * g + j, (s + 1) * g + j])
+        try:
+            every = Ellipsoids(np.take(centers.reshape(-1, 3), rows, axis=0), np.take(rotations.reshape(-1, 3, 3), rows, axis=0),
+                               np.take(self.radii, np.concatenate([i, i, j, j]), axis=0))  # fmt: skip
+        except ValueError:
+            self._explain(frames, rotations)
+            raise
+        a0, a1, b0, b1 = every[:n], every[n : 2 * n], every[2 * n : 3 * n], every[3 * n :]
         # geoms turning by about a half turn in a step: cos of the angle (trace - 1) / 2 first, the
         # angle itself only where it is below -1/2 (more than 120 degrees)
-        steps = np.unique(np.concatenate([s * g + i, s * g + j]))
-        r0, r1 = rotations[:-1].reshape(-1, 3, 3)[steps], rotations[1:].reshape(-1, 3, 3)[steps]
-        cos = 0.5 * (np.einsum("nij,nij->n", r0, r1) - 1.0)
-        wide = np.flatnonzero(cos < -0.5)
-        flipped = steps[wide[math.pi - turn_angles(r0[wide], r1[wide]) < HALF_TURN_MARGIN]]
-        half = np.zeros(len(s), dtype=bool)
-        if len(flipped):
-            half = np.isin(s * g + i, flipped) | np.isin(s * g + j, flipped)
+        half = np.zeros(n, dtype=bool)
+        for x0, x1 in ((a0, a1), (b0, b1)):
+            cos = 0.5 * (np.einsum("nij,nij->n", x0.rotations, x1.rotations) - 1.0)
+            wide = np.flatnonzero(cos < -0.5)
+            half[wide] |= math.pi - turn_angles(x0.rotations[wide], x1.rotations[wide]) < HALF_TURN_MARGIN
         ok = np.flatnonzero(~half)
         s_ok, i_ok, j_ok = s[ok], i[ok], j[ok]
-        a0, a1, b0, b1 = every[at_i0[ok]], every[at_i1[ok]], every[at_j0[ok]], every[at_j1[ok]]
+        if len(ok) < n:
+            a0, a1, b0, b1 = a0[ok], a1[ok], b0[ok], b1[ok]
         self.candidates += len(ok)
         toi, status = time_of_impact(a0, a1, b0, b1, return_status=True)
         hit = np.flatnonzero(np.isfinite(toi) & (toi > 0))  # toi = 0: not separated at frame k

@@ -131,21 +131,24 @@ def _pair(A, B, max_iter, seed):
         bb, n, value, count, _ = global_max(n, value, run == CONVERGED, e, ra, Ub, rb, M, scale, tol_bb, BB_MAX_PATCHES)
         status = GLOBAL if bb == BB_GLOBAL or bb == SEPARATED_MAX else UNPROVEN
         steps += count
-    else:
-        # sigma at Newton's maximiser evaluated through U (errs by <= 11 u S) rather than through
-        # M = U diag(b^2) U^T (errs by ~u max b^2 / h_B: beyond 1e-12 r_min for 100:1 ellipsoids)
-        value = sigma_only(n, e, ra, Ub, rb)
-    # the support points at n, in A's frame, then world
-    a = (a2[0] * n[0], a2[1] * n[1], a2[2] * n[2])
-    b = matvec(M, n)
-    ha = math.sqrt(a[0] * n[0] + a[1] * n[1] + a[2] * n[2])
-    hb = math.sqrt(b[0] * n[0] + b[1] * n[1] + b[2] * n[2])
+    # h_A, h_B at n through U (as global_max.sigma_only: errs by <= 11 u S, where through
+    # M = U diag(b^2) U^T it errs by ~u max b^2 / h_B, beyond 1e-12 r_min for 100:1 ellipsoids) ...
+    x = (ra[0] * n[0], ra[1] * n[1], ra[2] * n[2])
+    w = rotate_t(Ub, n)
+    y = (rb[0] * w[0], rb[1] * w[1], rb[2] * w[2])
+    ha = math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
+    hb = math.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])
+    if k < 0 and shallow:  # sigma at Newton's maximiser (sigma_only's expression)
+        value = n[0] * e[0] + n[1] * e[1] + n[2] * e[2] - ha - hb
+    # ... and the support points grad h_A(n) = diag(a) x / h_A, grad h_B(n) = U diag(b) y / h_B, in A's
+    # frame, their midpoint with B's taken from its centre e, then world
     inv = 0.5 / (ha * hb)
     ia, ib = hb * inv, ha * inv
+    b = matvec(Ub, (rb[0] * y[0], rb[1] * y[1], rb[2] * y[2]))
     mid = (
-        a[0] * ia + 0.5 * e[0] - b[0] * ib,
-        a[1] * ia + 0.5 * e[1] - b[1] * ib,
-        a[2] * ia + 0.5 * e[2] - b[2] * ib,
+        ra[0] * x[0] * ia + 0.5 * e[0] - b[0] * ib,
+        ra[1] * x[1] * ia + 0.5 * e[1] - b[1] * ib,
+        ra[2] * x[2] * ia + 0.5 * e[2] - b[2] * ib,
     )
     normal = matvec(Ra, n)
     p = matvec(Ra, mid)

@@ -114,7 +114,7 @@ def _uninstall(attached_after):
 #: Warm-start table slots per geom that can take part in a narrow-phase pair (a settled pile has 2-3
 #: candidate pairs per geom: the table stays under 1/8 full, so few pairs share a set)
 WARM_SLOTS_PER_GEOM = 16
-#: ... at least this many, at most this many (2^20 slots: 32 MiB)
+#: ... at least this many, at most this many (2^20 slots of 64 bytes: 64 MiB)
 WARM_SLOTS_MIN, WARM_SLOTS_MAX = 64, 1 << 20
 
 

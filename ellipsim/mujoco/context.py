@@ -55,10 +55,11 @@ SEEN, DISCARDED, PASSED, RECORDED = 0, 1, 2, 3
 SEPARATED, CONTACTS, APART, FALLBACKS = 1, 2, 3, 4
 
 # Warm-start table of a data attached in mode "narrowphase" (attachment.py owns it, callbacks.py reads
-# and writes it): WARM_SLOT_WORDS int64/float64 words per slot, [key << 1 | in contact, normal x, y, z]
-# (the key g1 << 32 | g2 as int64, the normal from g1 to g2 in the world frame as float64); slots
-# 2k and 2k + 1 form the set of the keys hashing to k.  Key word 0: empty.
-WARM_SLOT_WORDS = 4
+# and writes it): WARM_SLOT_WORDS int64/float64 words per slot, [key << 1 | in contact, normal x, y, z,
+# the normal before it x, y, z, -] (the key g1 << 32 | g2 as int64, the normals of the pair's last two
+# calls, from g1 to g2 in the world frame, as float64); slots 2k and 2k + 1 form the set of the keys
+# hashing to k.  Key word 0: empty.
+WARM_SLOT_WORDS = 8
 
 # MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
 SPHERE, CAPSULE, ELLIPSOID = (int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE),

@@ -11,10 +11,10 @@ Per chunk of consecutive frames: core.broadphase.swept_pairs (one sweep and prun
 over each geom's box of centres, MuJoCo's pair rules (geoms.PairRules) on the pairs it finds, then per
 step the closest approach of the two centres' straight paths against the sum of the bounding radii and
 enclosing capsules kept apart by conservative advancement; conservative, with room for rounding), and
-pairs known to touch at either end dropped.  The pairs' poses are gathered and validated in one batch,
-and one time_of_impact call decides the pairs; the contacts it finds get their end from the reversed motion
-(1 - toi(a1, a0, b1, b0), time_of_impact's docstring) and a contact point from core.signed_distance
-at the pose at toi.
+pairs known to touch at either end dropped (or, not known, found so by exact classify).  The pairs'
+poses are gathered and validated in one batch, and one time_of_impact call decides the pairs; the
+contacts it finds get their end from the reversed motion (1 - toi(a1, a0, b1, b0), time_of_impact's
+docstring) and a contact point from core.signed_distance at the pose at toi.
 """
 
 import dataclasses
@@ -23,9 +23,11 @@ import math
 import numpy as np
 
 from ..core.broadphase import swept_pairs as broadphase_swept_pairs
+from ..core.classify import classify
 from ..core.distance import signed_distance
 from ..core.ellipsoids import Ellipsoids, orthonormality_defect
 from ..core.motion import poses_at
+from ..core.relation import Relation
 from ..core.time_of_impact import Impact, time_of_impact
 from ..core.tolerances import BOUNDING_INFLATION, HALF_TURN_TOL, ORTHONORMAL_TOL
 
@@ -146,8 +148,9 @@ class BetweenFrames:
         frames : (f,) int64 consecutive frame numbers (following the previous chunk's); times : (f,)
         seconds; centers : (f, g, 3) metres; rotations : (f, g, 3, 3) (or (f, g, 9): MuJoCo's geom_xmat).
         contacts : optional (P, 3) int64 (frame, i, j), i < j: pairs known not to be separated at that
-            frame (exact classify), skipped at its two steps; None: time_of_impact's own verdicts at
-            the ends (toi = 0 forwards or backwards) drop them.
+            frame (exact classify), skipped at its two steps; None: exact classify of the candidates at
+            both ends drops them (time_of_impact's verdict there, toi = 0, at a tenth of the cost when
+            they touch: a resting pile).
         ValueError names a non-finite pose, or a rotation of a pair's geom that is not orthonormal
         (validated in one batch of the pairs' poses), by geom and frame.
         """
@@ -162,6 +165,7 @@ class BetweenFrames:
             raise ValueError(f"centers, rotations and times must have shapes ({len(frames)}, {g}, 3), ({len(frames)}, {g}, 3, 3) "
                              f"and ({len(frames)},) for {len(frames)} frames of {g} geoms, got {centers.shape}, "
                              f"{rotations.shape} and {times.shape}")  # fmt: skip
+        classify_ends = contacts is None
         contacts = np.zeros((0, 3), dtype=np.int64) if contacts is None else np.asarray(contacts, dtype=np.int64)
         if len(frames) == 0:
             return Events.empty()
@@ -211,7 +215,11 @@ class BetweenFrames:
             cos = 0.5 * (np.einsum("nij,nij->n", x0.rotations, x1.rotations) - 1.0)
             wide = np.flatnonzero(cos < -0.5)
             half[wide] |= math.pi - turn_angles(x0.rotations[wide], x1.rotations[wide]) < HALF_TURN_MARGIN
-        ok = np.flatnonzero(~half)
+        if classify_ends:  # touching at frame k or k + 1: time_of_impact's toi = 0 either way, ~10x faster
+            apart = (classify(a0, b0) == Relation.SEPARATED) & (classify(a1, b1) == Relation.SEPARATED)
+            ok = np.flatnonzero(~half & apart)
+        else:
+            ok = np.flatnonzero(~half)
         s_ok, i_ok, j_ok = s[ok], i[ok], j[ok]
         if len(ok) < n:
             a0, a1, b0, b1 = a0[ok], a1[ok], b0[ok], b1[ok]

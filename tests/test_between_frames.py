@@ -3,6 +3,7 @@ between, against time_of_impact called directly, a dense sampling of the same mo
 classify, and a brute force without the prefilter; then replay, run and compare on the command line,
 the JSON and the recording's markers."""
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -14,7 +15,7 @@ import pytest
 from rerun.chunk import RrdReader
 
 from ellipsim import Ellipsoids, Impact, Relation, classify, time_of_impact
-from ellipsim.app import record, replay as rp, scenario, simulate
+from ellipsim.app import capture, record, replay as rp, scenario, simulate
 from ellipsim.core import broadphase
 from ellipsim.core.motion import poses_at
 from ellipsim.mujoco import validate
@@ -340,6 +341,29 @@ def test_replay_reports_and_records_the_contact_between_frames(plate, tmp_path):
     np.testing.assert_allclose(pos, event["point"], atol=1e-6)  # float32 in the file
     assert label == "plate / pellet" and points[round(0.2 * 1e9)] == ([], [])
     assert len(texts) == 1 and "plate / pellet" in texts[0][0] and "frames 1-2" in texts[0][0]
+
+
+def test_background_checks_equal_the_inline_ones(plate, monkeypatch):
+    """FrameBuffer(background=True): the same events, chunk by chunk (chunks of 2 frames here, so
+    the step from one chunk into the next is checked too), as Futures."""
+    monkeypatch.setattr(capture, "MAX_CHUNK_FRAMES", 2)
+    motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.26, 0.24, 0.5])  # through, and back between 4 and 5
+    data = mujoco.MjData(plate)
+    found = {}
+    for background in (False, True):
+        buffer = capture.FrameBuffer(plate, between=True, background=background)
+        chunks = []
+        for f, q in enumerate(motion):
+            data.qpos[:] = q
+            mujoco.mj_fwdPosition(plate, data)
+            if buffer.add(data, f / FPS):
+                chunks.append(buffer.flush())
+        chunks.append(buffer.flush())
+        buffer.close()
+        found[background] = Events.concatenate([c.events.result() if background else c.events for c in chunks])
+    assert found[False].frame.tolist() == [1, 4]
+    for f in dataclasses.fields(Events):
+        np.testing.assert_array_equal(getattr(found[True], f.name), getattr(found[False], f.name))
 
 
 def cli(*args, cwd=None):

@@ -10,6 +10,7 @@ the next included.
 """
 
 import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 from time import perf_counter
 
 import mujoco
@@ -139,7 +140,8 @@ class Chunk:
         or None when not asked for
     centers : (f, g, 3) the ellipsoids' centres, metres (a view of the buffer: copy to keep)
     events : between.Events of the steps into and within these frames (pairs index the g ellipsoid
-        geoms), or None when not asked for
+        geoms), or None when not asked for; with FrameBuffer(background=True) a
+        concurrent.futures.Future of them
     """
 
     frames: Frames
@@ -159,9 +161,12 @@ class FrameBuffer:
     depth : flush also measures the penetration depth of overlapping pairs (core.signed_distance).
     between : flush also finds the contacts that begin and end between two frames (between.Events,
         the step from the previous chunk included); between_seconds accumulates their wall time.
+    background : with between, each chunk's check runs on a thread of the buffer's own, in order,
+        while the next frames are collected (its kernels release the GIL): Chunk.events is a Future;
+        `close` waits for the last one and ends the thread.
     """
 
-    def __init__(self, model, *, record=False, depth=False, between=False):
+    def __init__(self, model, *, record=False, depth=False, between=False, background=False):
         self.model = model
         self.ids, self.radii, self.rules = ellipsoid_geoms(model)
         self.tested = np.zeros(model.ngeom, dtype=bool)
@@ -187,6 +192,7 @@ class FrameBuffer:
         self.next_frame = 0
         self.between = BetweenFrames(self.radii, self.rules) if between else None
         self.between_seconds = 0.0
+        self._worker = ThreadPoolExecutor(1, thread_name_prefix="ellipsim-between") if between and background else None
 
     def add(self, data, time):
         """Copy the current frame out of `data` (after mj_step, mj_forward or collision); True when
@@ -272,14 +278,29 @@ class FrameBuffer:
         out_pairs[:, 0] += first
         events = None
         if self.between is not None:
-            t0 = perf_counter()
-            events = self.between.check(frame, frames.times, centers, rotations, out_pairs[relation != Relation.SEPARATED])
-            self.between_seconds += perf_counter() - t0
+            contacts = out_pairs[relation != Relation.SEPARATED]
+            if self._worker is None:
+                events = self._check(frame, frames.times, centers, rotations, contacts)
+            else:  # the buffer's arrays fill up again meanwhile: the check gets copies
+                events = self._worker.submit(self._check, frame, frames.times, centers.copy(), rotations.copy(), contacts)
         chunk = Chunk(frames, out_pairs, relation, depth, centers, events)
         self.n = 0
         self.next_frame += f
         self.contacts = []
         return chunk
+
+    def _check(self, *args):
+        """between.check, timed (on the buffer's thread with background=True: one at a time)."""
+        t0 = perf_counter()
+        events = self.between.check(*args)
+        self.between_seconds += perf_counter() - t0
+        return events
+
+    def close(self):
+        """Wait for the background checks submitted so far and end their thread (no-op without)."""
+        if self._worker is not None:
+            self._worker.shutdown(wait=True)
+            self._worker = None
 
     def _relative_poses(self, f):
         """(f, M, 3), (f, M, 4): each moving body's pose relative to its parent, from world poses."""

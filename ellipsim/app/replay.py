@@ -140,7 +140,8 @@ class ReplayResult:
         `ellipsoid_ids`), or None when not looked for; between_candidates : the pairs whose motion
         between two frames time_of_impact decided
     seconds : wall time of kinematics and MuJoCo's collision; analysis_seconds : of ellipsim's verdicts
-        (between_seconds of it: the contacts between frames)
+        (and of waiting for the contacts between frames); between_seconds : the wall time of their
+        check, on a thread of its own while the next frames are posed (capture.FrameBuffer's background)
     """
 
     fps: float
@@ -225,7 +226,7 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     if isinstance(fps, bool) or not isinstance(fps, (int, float, np.floating)) or not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive finite number, got {fps!r}")
     data = make_data(model, name)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True, between=between)
+    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True, between=between, background=between)
     geom_names = capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
     body_names = ["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:]
     if recorder is not None:
@@ -233,8 +234,21 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     F = len(motion)
     per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
     pairs, relations, depths, events = [], [], [], []
+    pending = []  # Futures of the chunks' contacts between frames, in order (checked in the background)
     timers = {"analysis": 0.0, "record": 0.0}
     candidates = 0
+
+    def collect(wait):
+        """The finished contacts between frames, in chunk order (all of them when `wait`), recorded."""
+        while pending and (wait or pending[0].done()):
+            t0 = time.perf_counter()
+            found = pending.pop(0).result()
+            t1 = time.perf_counter()
+            timers["analysis"] += t1 - t0
+            events.append(found)
+            if recorder is not None:
+                capture.record_events(recorder, found, buffer.ids, geom_names, body_names, model.geom_bodyid)
+                timers["record"] += time.perf_counter() - t1
 
     def flush():
         nonlocal candidates
@@ -256,23 +270,26 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         relations.append(chunk.relation[hit])
         depths.append(chunk.depth[hit])
         if chunk.events is not None:
-            events.append(chunk.events)
+            pending.append(chunk.events)
         if recorder is not None:
             recorder.write(fr)
-            if chunk.events is not None:
-                capture.record_events(recorder, chunk.events, buffer.ids, geom_names, body_names, model.geom_bodyid)
             timers["record"] += time.perf_counter() - t1
+        collect(wait=False)
 
     t0 = time.perf_counter()
-    for f in range(F):
-        data.qpos[:] = motion[f]
-        data.time = f / fps
-        mujoco.mj_fwdPosition(model, data)
-        if buffer.add(data, data.time):
-            flush()
-        if progress is not None:
-            progress(f + 1, F)
-    flush()
+    try:
+        for f in range(F):
+            data.qpos[:] = motion[f]
+            data.time = f / fps
+            mujoco.mj_fwdPosition(model, data)
+            if buffer.add(data, data.time):
+                flush()
+            if progress is not None:
+                progress(f + 1, F)
+        flush()
+        collect(wait=True)
+    finally:
+        buffer.close()
     total = time.perf_counter() - t0
     pairs = np.concatenate(pairs) if pairs else np.zeros((0, 3), dtype=np.int64)
     relation = np.concatenate(relations) if relations else np.zeros(0, dtype=np.int8)

@@ -208,8 +208,9 @@ def _warm_store(table, normals, first, k, key, normal, contact):
     full set the entry of the first slot moves to the second (whose entry is dropped: that pair
     starts cold next time).
 
-    MuJoCo may run one data's collisions on several threads: different pairs then write different
-    sets, except for pairs whose keys share a set, whose writes can interleave.  A reader may then
+    MuJoCo runs one data's narrow phase on several threads when the data has a thread pool
+    (mju_threadpool; tests/test_warm_start.py): different pairs then write different slots, but
+    pairs whose keys share a set can interleave their writes (no lock, no sequence word).  A reader may then
     see one pair's key with a normal made of another's words: only a worse seed, since the result is
     proven whatever the seed (distance.pair_signed_distance_from), and a wrong contact bit only
     chooses whether the separating axes are tried first (both paths are proofs)."""
@@ -325,7 +326,8 @@ def narrowphase(m, d, con, g1, g2, margin):
             k = _warm_find(table, first, key)
             if k >= 0:  # the last normal extrapolated by the one before (smooth motion: 1.0-1.3
                 # Newton steps on the bench's settled scenes, 2.0 from the last normal alone)
-                seed = (2.0 * normals[k, 1] - normals[k, 4], 2.0 * normals[k, 2] - normals[k, 5], 2.0 * normals[k, 3] - normals[k, 6])
+                last, before = (normals[k, 1], normals[k, 2], normals[k, 3]), (normals[k, 4], normals[k, 5], normals[k, 6])
+                seed = (2.0 * last[0] - before[0], 2.0 * last[1] - before[1], 2.0 * last[2] - before[2])
                 touching = (table[k, 0] & 1) == 1
         if not touching:  # in contact at the last call: most likely still, go straight to Newton
             if separated_by_axes(Ag, Bg):

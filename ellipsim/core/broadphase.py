@@ -222,24 +222,40 @@ def _capsule_motion(centers, rotations, axis, half, ends, bend):
 
 
 @jit
-def _capsules_apart(ea, eb, speed, reach):
-    """True when the segments whose ends move linearly from ea[0:2] to ea[2:4] and from eb[0:2] to
-    eb[2:4] stay further apart than `reach` for every t in [0, 1]: conservative advancement, from t
-    with distance d > reach every t' < t + (d - reach) / speed is apart (`speed` bounds the rate of
-    change of their distance), at most CAPSULE_STEPS steps."""
-    t = 0.0
-    for _ in range(CAPSULE_STEPS):
-        pa0, pa1, pa2 = ea[0, 0] + t * (ea[2, 0] - ea[0, 0]), ea[0, 1] + t * (ea[2, 1] - ea[0, 1]), ea[0, 2] + t * (ea[2, 2] - ea[0, 2])
-        qa0, qa1, qa2 = ea[1, 0] + t * (ea[3, 0] - ea[1, 0]), ea[1, 1] + t * (ea[3, 1] - ea[1, 1]), ea[1, 2] + t * (ea[3, 2] - ea[1, 2])
-        pb0, pb1, pb2 = eb[0, 0] + t * (eb[2, 0] - eb[0, 0]), eb[0, 1] + t * (eb[2, 1] - eb[0, 1]), eb[0, 2] + t * (eb[2, 2] - eb[0, 2])
-        qb0, qb1, qb2 = eb[1, 0] + t * (eb[3, 0] - eb[1, 0]), eb[1, 1] + t * (eb[3, 1] - eb[1, 1]), eb[1, 2] + t * (eb[3, 2] - eb[1, 2])
-        d = _segment_distance(pa0, pa1, pa2, pb0, pb1, pb2, qa0 - pa0, qa1 - pa1, qa2 - pa2, qb0 - pb0, qb1 - pb1, qb2 - pb2)
-        if d <= reach:  # the capsules meet at t
-            return False
-        if speed * (1.0 - t) < d - reach:
+def _capsule_gap(a0, a1, b0, b1, t, reach):
+    """Distance less `reach` at t of the segments whose ends (2, 3) move linearly from a0 to a1 and
+    from b0 to b1."""
+    pa0, pa1, pa2 = a0[0, 0] + t * (a1[0, 0] - a0[0, 0]), a0[0, 1] + t * (a1[0, 1] - a0[0, 1]), a0[0, 2] + t * (a1[0, 2] - a0[0, 2])
+    qa0, qa1, qa2 = a0[1, 0] + t * (a1[1, 0] - a0[1, 0]), a0[1, 1] + t * (a1[1, 1] - a0[1, 1]), a0[1, 2] + t * (a1[1, 2] - a0[1, 2])
+    pb0, pb1, pb2 = b0[0, 0] + t * (b1[0, 0] - b0[0, 0]), b0[0, 1] + t * (b1[0, 1] - b0[0, 1]), b0[0, 2] + t * (b1[0, 2] - b0[0, 2])
+    qb0, qb1, qb2 = b0[1, 0] + t * (b1[1, 0] - b0[1, 0]), b0[1, 1] + t * (b1[1, 1] - b0[1, 1]), b0[1, 2] + t * (b1[1, 2] - b0[1, 2])
+    return _segment_distance(pa0, pa1, pa2, pb0, pb1, pb2, qa0 - pa0, qa1 - pa1, qa2 - pa2, qb0 - pb0, qb1 - pb1, qb2 - pb2) - reach
+
+
+@jit
+def _capsules_apart(a0, a1, b0, b1, speed, reach):
+    """True when the segments whose ends (2, 3) move linearly from a0 to a1 and from b0 to b1 stay
+    further apart than `reach` for every t in [0, 1]: conservative advancement (with a
+    gap d - reach > 0 at t, every t' within gap / speed of t is apart: `speed` bounds the rate of
+    change of their distance), from the middle outwards, CAPSULE_STEPS distances at most."""
+    gap = _capsule_gap(a0, a1, b0, b1, 0.5, reach)
+    if gap <= 0.0:  # the capsules meet at t = 1/2
+        return False
+    reach_up = 0.5 + gap / speed * (1 - 1e-9)  # proven: (0.5 - gap / speed, reach_up)
+    reach_down = 0.5 - gap / speed * (1 - 1e-9)
+    for _ in range(CAPSULE_STEPS - 1):
+        if reach_up >= 1.0 and reach_down <= 0.0:
             return True
-        t += (d - reach) / speed * (1 - 1e-9)
-    return False
+        up = reach_up < 1.0 and (reach_down <= 0.0 or 1.0 - reach_up <= reach_down)  # the shorter side first
+        t = reach_up if up else reach_down
+        gap = _capsule_gap(a0, a1, b0, b1, t, reach)
+        if gap <= 0.0:
+            return False
+        if up:
+            reach_up = t + gap / speed * (1 - 1e-9)
+        else:
+            reach_down = t - gap / speed * (1 - 1e-9)
+    return reach_up >= 1.0 and reach_down <= 0.0
 
 
 @jit
@@ -247,7 +263,6 @@ def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big, keep, lo, hi)
     """keep[p, k]: block pair p = (block, i, j) of `blocks` passes the per-step tests at the block's
     step k, for p in [lo, hi)."""
     F = centers.shape[0]
-    ea, eb = np.empty((4, 3)), np.empty((4, 3))
     for p in range(lo, hi):
         bk, i, j = blocks[p, 0], blocks[p, 1], blocks[p, 2]
         for s in range(bk * block, bk * block + block):
@@ -273,11 +288,7 @@ def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big, keep, lo, hi)
             if cx * cx + cy * cy + cz * cz > rr * rr:
                 continue
             if bend[s, i] < math.inf and bend[s, j] < math.inf:
-                for f in range(2):
-                    for e in range(2):
-                        for k in range(3):
-                            ea[2 * f + e, k] = ends[s + f, i, e, k]
-                            eb[2 * f + e, k] = ends[s + f, j, e, k]
+                a0, a1, b0, b1 = ends[s, i], ends[s + 1, i], ends[s, j], ends[s + 1, j]
                 # a point of one lerped segment less one of the other moves by a convex combination
                 # of the four differences of their ends' displacements: the distance's speed is at
                 # most the largest of them
@@ -286,10 +297,11 @@ def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big, keep, lo, hi)
                     for y in range(2):
                         m = 0.0
                         for k in range(3):
-                            m += ((ea[2 + x, k] - ea[x, k]) - (eb[2 + y, k] - eb[y, k])) ** 2
-                        speed = max(speed, math.sqrt(m))
+                            m += ((a1[x, k] - a0[x, k]) - (b1[y, k] - b0[y, k])) ** 2
+                        speed = max(speed, m)
+                speed = math.sqrt(speed)
                 room = cap[i] + cap[j] + bend[s, i] + bend[s, j] + CAPSULE_SLACK * (big[i] + big[j]) + 1e-12 * coord
-                if _capsules_apart(ea, eb, speed * (1 + 1e-9), room):
+                if _capsules_apart(a0, a1, b0, b1, speed * (1 + 1e-9), room):
                     continue
             keep[p, s - bk * block] = True
 

@@ -218,7 +218,8 @@ def test_run_and_compare_a_model_from_the_command_line(tmp_path):
     assert proc.returncode == 0, proc.stderr
     got = json.loads(report.read_text())
     assert {"scenario", "steps", "builtin_contacts", "ellipsim_overlaps", "missed", "extra", "near_tangent", "agreement",
-            "pairs", "per_frame", "disagreements"} == set(got)  # fmt: skip
+            "pairs", "per_frame", "disagreements", "passed_through"} == set(got)  # fmt: skip
+    assert got["passed_through"] is None or isinstance(got["passed_through"], list)  # None: not looked for
     assert got["scenario"] == "zoo" and got["steps"] == 100 and got["ellipsim_overlaps"] > 0
     assert got["missed"] == 0 and got["extra"] == 0
 

@@ -344,10 +344,12 @@ def test_replay_reports_and_records_the_contact_between_frames(plate, tmp_path):
 
 
 def test_background_checks_equal_the_inline_ones(plate, monkeypatch):
-    """FrameBuffer(background=True): the same events, chunk by chunk (chunks of 2 frames here, so
-    the step from one chunk into the next is checked too), as Futures."""
-    monkeypatch.setattr(capture, "MAX_CHUNK_FRAMES", 2)
-    motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.26, 0.24, 0.5])  # through, and back between 4 and 5
+    """FrameBuffer(background=True): the same events as the inline check, which is given the touching
+    pairs at the frames (the background one classifies the ends itself), in chunks of 3 frames
+    handed over 2 at a time (the step from one hand-over into the next is checked too)."""
+    monkeypatch.setattr(capture, "MAX_CHUNK_FRAMES", 3)
+    monkeypatch.setattr(capture, "BETWEEN_STRIDE", 2)
+    motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.26, 0.24, 0.5, 0.01, 0.3])  # through, back, into it at a frame
     data = mujoco.MjData(plate)
     found = {}
     for background in (False, True):
@@ -358,9 +360,10 @@ def test_background_checks_equal_the_inline_ones(plate, monkeypatch):
             mujoco.mj_fwdPosition(plate, data)
             if buffer.add(data, f / FPS):
                 chunks.append(buffer.flush())
-        chunks.append(buffer.flush())
+        chunks = [c for c in chunks + [buffer.flush()] if c is not None]
+        found[background] = Events.concatenate([c.events for c in chunks] if not background else buffer.collect(wait=True))
+        assert all((c.events is None) == background for c in chunks)
         buffer.close()
-        found[background] = Events.concatenate([c.events.result() if background else c.events for c in chunks])
     assert found[False].frame.tolist() == [1, 4]
     for f in dataclasses.fields(Events):
         np.testing.assert_array_equal(getattr(found[True], f.name), getattr(found[False], f.name))

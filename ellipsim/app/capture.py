@@ -31,6 +31,11 @@ from .trajectory import GEOM_KINDS, Frames, SceneGeometry
 CHUNK_VALUES = 2**23
 MAX_CHUNK_FRAMES = 1024
 
+#: Frames per background check of the contacts between frames (FrameBuffer(background=True)): only
+#: the last ones wait after the final frame (16 figures, 2000 frames: 256 hides all but ~1/8 of it;
+#: shorter costs more calls).
+BETWEEN_STRIDE = 256
+
 #: A height field is drawn with at most this many samples along each side (every k-th row and column).
 HFIELD_SAMPLES = 256
 
@@ -140,8 +145,7 @@ class Chunk:
         or None when not asked for
     centers : (f, g, 3) the ellipsoids' centres, metres (a view of the buffer: copy to keep)
     events : between.Events of the steps into and within these frames (pairs index the g ellipsoid
-        geoms), or None when not asked for; with FrameBuffer(background=True) a
-        concurrent.futures.Future of them
+        geoms), or None when not asked for (or checked in the background: FrameBuffer.collect)
     """
 
     frames: Frames
@@ -161,9 +165,10 @@ class FrameBuffer:
     depth : flush also measures the penetration depth of overlapping pairs (core.signed_distance).
     between : flush also finds the contacts that begin and end between two frames (between.Events,
         the step from the previous chunk included); between_seconds accumulates their wall time.
-    background : with between, each chunk's check runs on a thread of the buffer's own, in order,
-        while the next frames are collected (its kernels release the GIL): Chunk.events is a Future;
-        `close` waits for the last one and ends the thread.
+    background : with between, the check runs on a thread of the buffer's own every BETWEEN_STRIDE
+        frames, while the next frames are collected (its kernels release the GIL; the touching pairs
+        at the frames are found by its own exact classify): Chunk.events is None, `collect` returns
+        the Events found so far, `close` waits for the last ones and ends the thread.
     """
 
     def __init__(self, model, *, record=False, depth=False, between=False, background=False):
@@ -193,6 +198,8 @@ class FrameBuffer:
         self.between = BetweenFrames(self.radii, self.rules) if between else None
         self.between_seconds = 0.0
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="ellipsim-between") if between and background else None
+        self._futures = []  # the background checks, in order
+        self._sent = 0  # frames of the buffer handed to them
 
     def add(self, data, time):
         """Copy the current frame out of `data` (after mj_step, mj_forward or collision); True when
@@ -217,6 +224,8 @@ class FrameBuffer:
             self.xpos[k] = data.xpos[self.posed]
             self.xquat[k] = data.xquat[self.posed]
         self.n += 1
+        if self._worker is not None and self.n - self._sent >= BETWEEN_STRIDE:
+            self._submit()
         return self.n == self.capacity
 
     def flush(self):
@@ -278,13 +287,12 @@ class FrameBuffer:
         out_pairs[:, 0] += first
         events = None
         if self.between is not None:
-            contacts = out_pairs[relation != Relation.SEPARATED]
             if self._worker is None:
-                events = self._check(frame, frames.times, centers, rotations, contacts)
-            else:  # the buffer's arrays fill up again meanwhile: the check gets copies
-                events = self._worker.submit(self._check, frame, frames.times, centers.copy(), rotations.copy(), contacts)
+                events = self._check(frame, frames.times, centers, rotations, out_pairs[relation != Relation.SEPARATED])
+            else:
+                self._submit()
         chunk = Chunk(frames, out_pairs, relation, depth, centers, events)
-        self.n = 0
+        self.n = self._sent = 0
         self.next_frame += f
         self.contacts = []
         return chunk
@@ -295,6 +303,24 @@ class FrameBuffer:
         events = self.between.check(*args)
         self.between_seconds += perf_counter() - t0
         return events
+
+    def _submit(self):
+        """Hand the frames added since the last hand-over to the background check (copies: the
+        buffer fills up again meanwhile)."""
+        lo, hi, g = self._sent, self.n, len(self.ids)
+        if hi > lo:
+            frames = self.next_frame + np.arange(lo, hi, dtype=np.int64)
+            args = (frames, self.times[lo:hi].copy(), self.centers[lo:hi].copy(), self.rotations[lo:hi].reshape(hi - lo, g, 3, 3).copy())
+            self._futures.append(self._worker.submit(self._check, *args))
+            self._sent = hi
+
+    def collect(self, wait=False):
+        """The between.Events the background checks found since the last collect, in frame order: the
+        finished ones, or (wait) all those submitted."""
+        found = []
+        while self._futures and (wait or self._futures[0].done()):
+            found.append(self._futures.pop(0).result())
+        return found
 
     def close(self):
         """Wait for the background checks submitted so far and end their thread (no-op without)."""

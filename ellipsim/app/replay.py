@@ -234,21 +234,17 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     F = len(motion)
     per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
     pairs, relations, depths, events = [], [], [], []
-    pending = []  # Futures of the chunks' contacts between frames, in order (checked in the background)
     timers = {"analysis": 0.0, "record": 0.0}
     candidates = 0
 
-    def collect(wait):
-        """The finished contacts between frames, in chunk order (all of them when `wait`), recorded."""
-        while pending and (wait or pending[0].done()):
+    def collect(found):
+        """Keep and record contacts between frames (between.Events, in frame order)."""
+        events.extend(found)
+        if recorder is not None:
             t0 = time.perf_counter()
-            found = pending.pop(0).result()
-            t1 = time.perf_counter()
-            timers["analysis"] += t1 - t0
-            events.append(found)
-            if recorder is not None:
-                capture.record_events(recorder, found, buffer.ids, geom_names, body_names, model.geom_bodyid)
-                timers["record"] += time.perf_counter() - t1
+            for ev in found:
+                capture.record_events(recorder, ev, buffer.ids, geom_names, body_names, model.geom_bodyid)
+            timers["record"] += time.perf_counter() - t0
 
     def flush():
         nonlocal candidates
@@ -269,12 +265,10 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         pairs.append(chunk.pairs[hit])
         relations.append(chunk.relation[hit])
         depths.append(chunk.depth[hit])
-        if chunk.events is not None:
-            pending.append(chunk.events)
         if recorder is not None:
             recorder.write(fr)
             timers["record"] += time.perf_counter() - t1
-        collect(wait=False)
+        collect(buffer.collect())
 
     t0 = time.perf_counter()
     try:
@@ -287,7 +281,10 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
             if progress is not None:
                 progress(f + 1, F)
         flush()
-        collect(wait=True)
+        t1 = time.perf_counter()
+        found = buffer.collect(wait=True)
+        timers["analysis"] += time.perf_counter() - t1
+        collect(found)
     finally:
         buffer.close()
     total = time.perf_counter() - t0

@@ -386,15 +386,17 @@ def test_replay_and_compare_on_the_command_line(tmp_path):
     (event,) = json.loads((tmp_path / "r.json").read_text())["between_frames"]
     assert event["geoms"] == ["plate", "pellet"] and event["frame"] == 1 and event["status"] == "contact"
     assert event["t_begin"] == pytest.approx(0.149) and event["t_end"] == pytest.approx(0.155)
-    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--json", str(tmp_path / "n.json"))
+    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--json", str(tmp_path / "n.json"), "--no-between-frames")
     assert proc.returncode == 0 and "between two frames: not looked for (--between-frames)" in proc.stdout
     assert json.loads((tmp_path / "n.json").read_text())["between_frames"] is None
+    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--fps", str(FPS), "--json", str(tmp_path / "d.json"))
+    assert proc.returncode == 0 and len(json.loads((tmp_path / "d.json").read_text())["between_frames"]) == 1  # on by default
     proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "c.json"), "--between-frames")
     assert proc.returncode == 0, proc.stderr
     assert "steps 0-1: geoms plate / pellet (bodies board / bullet) touch from 0.0049 s to 0.0055 s (contact)" in proc.stdout
     (event,) = json.loads((tmp_path / "c.json").read_text())["passed_through"]
     assert event["step"] == 0 and event["bodies"] == ["board", "bullet"]
-    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "d.json"))
+    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "d.json"), "--no-between-frames")
     assert proc.returncode == 0 and json.loads((tmp_path / "d.json").read_text())["passed_through"] is None
 
 

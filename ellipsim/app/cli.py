@@ -791,9 +791,12 @@ def _model_options(p):
 
 
 #: Whether the contacts between frames (steps) are looked for unless --between-frames or
-#: --no-between-frames says.  Off: measured on 2 cores, they add 73-90% to `replay` (16 figures,
-#: 2000 frames: 1.07 -> 1.85 s and 1.11 -> 2.11 s) and 39-63% to `compare pile` / `compare crowd`.
-BETWEEN_DEFAULT = False
+#: --no-between-frames says.  On: measured on 2 cores (in-process replay, 16 figures, 2000 frames,
+#: gentle and violent sinusoidal hinge motions, min of 3), they add 2-6% and 5-14% to `replay` (0.69
+#: -> 0.71 s, 1.01 -> 1.15 s; checked in the background while frames are posed; on one core 20% and
+#: 50%; before the capsule broad phase: 67% and 109%), 5% to `compare pile` (4.25 -> 4.48 s) and 11%
+#: to `compare crowd` (3.70 -> 4.12 s).
+BETWEEN_DEFAULT = True
 
 
 def _between_option(p, what):

@@ -16,7 +16,7 @@ from rerun.chunk import RrdReader
 
 from ellipsim import Ellipsoids, Impact, Relation, classify, time_of_impact
 from ellipsim.app import capture, record, replay as rp, scenario, simulate
-from ellipsim.core import broadphase
+from ellipsim.core import broadphase, threads
 from ellipsim.core.motion import poses_at
 from ellipsim.mujoco import validate
 from ellipsim.mujoco.between import BetweenFrames, Events, swept_pairs
@@ -351,20 +351,23 @@ def test_background_checks_equal_the_inline_ones(plate, monkeypatch):
     monkeypatch.setattr(capture, "BETWEEN_STRIDE", 2)
     motion = pellet_motion([0.5, 0.26, -0.24, -0.5, -0.26, 0.24, 0.5, 0.01, 0.3])  # through, back, into it at a frame
     data = mujoco.MjData(plate)
-    found = {}
+    found, workers = {}, []
+    check = capture.FrameBuffer._check
+    monkeypatch.setattr(capture.FrameBuffer, "_check", lambda self, *args: workers.append(threads.workers()) or check(self, *args))
     for background in (False, True):
         buffer = capture.FrameBuffer(plate, between=True, background=background)
         chunks = []
-        for f, q in enumerate(motion):
-            data.qpos[:] = q
-            mujoco.mj_fwdPosition(plate, data)
-            if buffer.add(data, f / FPS):
-                chunks.append(buffer.flush())
-        chunks = [c for c in chunks + [buffer.flush()] if c is not None]
+        with threads.limit(1):  # the caller's limit holds on the buffer's thread too
+            for f, q in enumerate(motion):
+                data.qpos[:] = q
+                mujoco.mj_fwdPosition(plate, data)
+                if buffer.add(data, f / FPS):
+                    chunks.append(buffer.flush())
+            chunks = [c for c in chunks + [buffer.flush()] if c is not None]
         found[background] = Events.concatenate([c.events for c in chunks] if not background else buffer.collect(wait=True))
         assert all((c.events is None) == background for c in chunks)
         buffer.close()
-    assert found[False].frame.tolist() == [1, 4]
+    assert found[False].frame.tolist() == [1, 4] and workers and set(workers) == {1}
     for f in dataclasses.fields(Events):
         np.testing.assert_array_equal(getattr(found[True], f.name), getattr(found[False], f.name))
 

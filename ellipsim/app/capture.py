@@ -9,6 +9,7 @@ and end between two frames (mujoco.between, on the interpolated motion), the ste
 the next included.
 """
 
+import contextvars
 import dataclasses
 from concurrent.futures import ThreadPoolExecutor
 from time import perf_counter
@@ -311,7 +312,8 @@ class FrameBuffer:
         if hi > lo:
             frames = self.next_frame + np.arange(lo, hi, dtype=np.int64)
             args = (frames, self.times[lo:hi].copy(), self.centers[lo:hi].copy(), self.rotations[lo:hi].reshape(hi - lo, g, 3, 3).copy())
-            self._futures.append(self._worker.submit(self._check, *args))
+            # in the caller's context: a core.threads.limit around the caller holds for the check too
+            self._futures.append(self._worker.submit(contextvars.copy_context().run, self._check, *args))
             self._sent = hi
 
     def collect(self, wait=False):

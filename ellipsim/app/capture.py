@@ -311,7 +311,8 @@ class FrameBuffer:
         lo, hi, g = self._sent, self.n, len(self.ids)
         if hi > lo:
             frames = self.next_frame + np.arange(lo, hi, dtype=np.int64)
-            args = (frames, self.times[lo:hi].copy(), self.centers[lo:hi].copy(), self.rotations[lo:hi].reshape(hi - lo, g, 3, 3).copy())
+            rotations = self.rotations[lo:hi].reshape(hi - lo, g, 3, 3)
+            args = (frames, self.times[lo:hi].copy(), self.centers[lo:hi].copy(), rotations.copy())
             # in the caller's context: a core.threads.limit around the caller holds for the check too
             self._futures.append(self._worker.submit(contextvars.copy_context().run, self._check, *args))
             self._sent = hi

@@ -269,7 +269,7 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         if recorder is not None:
             recorder.write(fr)
             timers["record"] += time.perf_counter() - t1
-        collect(buffer.collect())
+        collect(([chunk.events] if chunk.events is not None else []) + buffer.collect())  # inline, or done in the background
 
     t0 = time.perf_counter()
     try:

@@ -792,10 +792,10 @@ def _model_options(p):
 
 #: Whether the contacts between frames (steps) are looked for unless --between-frames or
 #: --no-between-frames says.  On: measured on 2 cores (in-process replay, 16 figures, 2000 frames,
-#: gentle and violent sinusoidal hinge motions, min of 3), they add 2-6% and 5-14% to `replay` (0.69
-#: -> 0.71 s, 1.01 -> 1.15 s; checked in the background while frames are posed; on one core 20% and
-#: 50%; before the capsule broad phase: 67% and 109%), 5% to `compare pile` (4.25 -> 4.48 s) and 11%
-#: to `compare crowd` (3.70 -> 4.12 s).
+#: gentle and violent sinusoidal hinge motions, min of 3), they add 2-7% and 5-14% to `replay` (0.69
+#: -> 0.71 s, 1.01 -> 1.09-1.15 s; checked in the background while frames are posed; on one core 15-20%
+#: and 46-51%; before the capsule broad phase: 61-68% and 92-109%), 4-5% to `compare pile` (4.52 ->
+#: 4.68 s; before: 45%) and 11% to `compare crowd` (3.91 -> 4.35 s; before: 35%).
 BETWEEN_DEFAULT = True
 
 

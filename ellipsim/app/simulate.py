@@ -169,6 +169,19 @@ def check_steps(s, steps):
     limits.check_fits(frames * BYTES_PER_FRAME, f"{steps} steps ({frames} recorded frames of counts)")
 
 
+def advance(model, data, s, control, k):
+    """Step k of scenario s: a kinematic scenario's pose at k * timestep from its keyframes, then
+    forward kinematics and MuJoCo's collision; any other, the controls at data.time and one mj_step."""
+    if s.kinematic:
+        t = k * s.timestep
+        data.qpos[control.qadr] = control(t)
+        data.time = t
+        mujoco.mj_forward(model, data)
+    else:
+        data.ctrl[:] = control(data.time)
+        mujoco.mj_step(model, data)
+
+
 def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, between=False):
     """Simulate a scenario (or replay it, when kinematic); returns a Run.
 
@@ -224,14 +237,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
         t0 = time.perf_counter()  # after attaching: the first attach compiles the callback
         for k in range(steps):
             try:
-                if s.kinematic:  # pose from the keyframes, then forward kinematics and MuJoCo's collision
-                    t = k * s.timestep
-                    data.qpos[control.qadr] = control(t)
-                    data.time = t
-                    mujoco.mj_forward(model, data)
-                else:
-                    data.ctrl[:] = control(data.time)
-                    mujoco.mj_step(model, data)
+                advance(model, data, s, control, k)
             except mujoco.FatalError as exc:
                 raise ScenarioError(f"{_label(s)} MuJoCo stopped at step {k}: {mjcf.one_line(exc)}") from None
             ncon_sum += data.ncon

@@ -392,14 +392,7 @@ def _mode_pass(s, variant, recorder):
         t0 = time.perf_counter()
         for k in range(variant.steps):
             try:
-                if s.kinematic:
-                    t = k * s.timestep
-                    data.qpos[control.qadr] = control(t)
-                    data.time = t
-                    mujoco.mj_forward(model, data)
-                else:
-                    data.ctrl[:] = control(data.time)
-                    mujoco.mj_step(model, data)
+                simulate.advance(model, data, s, control, k)
             except mujoco.FatalError as exc:
                 raise scenarios.ScenarioError(f"MuJoCo stopped at step {k} of the {s.mode} pass: {one_line(exc)}") from None
             if k % every == 0 and buffer.add(data, data.time):

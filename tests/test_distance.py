@@ -95,6 +95,7 @@ def test_leaves_contacts_where_the_multistart_missed(pose):
     a = Ellipsoids(pose["ca"], pose["Ra"], pose["ra"])
     b = Ellipsoids(pose["cb"], pose["Rb"], pose["rb"])
     dist, status = assert_matches_reference(a, b)
+    assert status == GLOBAL
     assert dist >= pose["sigma_mujoco"]  # at least as high as sigma at MuJoCo's normal ...
     assert dist - pose["base"] > 1e-7  # ... and well above the first release's local maximum
 

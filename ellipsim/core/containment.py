@@ -46,7 +46,7 @@ from ._jit import jit, stage
 from .certified import _in_float_range, _positive, bounding_spheres_apart
 from .ellipsoids import check_pair, check_parallel
 from .pencil import invariants, offset, shape
-from .rational import _cofactor, _remainder, _strip
+from .rational import _remainder, _strip, exact_pair
 from .tolerances import (
     AXIS_SLACK,
     CONTAIN_NEWTON_STEPS,
@@ -339,12 +339,7 @@ def contains(a, b, *, parallel=None):
 
 def frame_matrices(ca, Ra, ra, cb, Rb, rb):
     """Exact K (3x3) and e of B in A's frame, as Fractions (any invertible rotations)."""
-    F = Fraction
-    ca, cb, ra, rb = ([F(float(x)) for x in v] for v in (ca, cb, ra, rb))
-    Ra = [[F(float(x)) for x in row] for row in Ra]
-    Rb = [[F(float(x)) for x in row] for row in Rb]
-    C = _cofactor(Ra)
-    det = sum(Ra[0][k] * C[0][k] for k in range(3))
+    ca, Ra, ra, cb, Rb, rb, C, det = exact_pair(ca, Ra, ra, cb, Rb, rb)
     # W = D_b^{-1} R_b^T R_a^{-T} D_a with R_a^{-T} = C / det
     W = [[sum(Rb[k][i] * C[k][j] for k in range(3)) * ra[j] / (rb[i] * det) for j in range(3)] for i in range(3)]
     d = [cb[k] - ca[k] for k in range(3)]

@@ -13,6 +13,16 @@ from fractions import Fraction
 from .relation import OVERLAPPING, SEPARATED, TOUCHING
 
 
+def exact_pair(ca, Ra, ra, cb, Rb, rb):
+    """The float inputs as Fractions (vectors as lists, rotations as lists of rows), with the
+    cofactor matrix C of R_a and det R_a (R_a^-T = C / det)."""
+    ca, cb, ra, rb = ([Fraction(float(x)) for x in v] for v in (ca, cb, ra, rb))
+    Ra = [[Fraction(float(x)) for x in row] for row in Ra]
+    Rb = [[Fraction(float(x)) for x in row] for row in Rb]
+    C = _cofactor(Ra)
+    return ca, Ra, ra, cb, Rb, rb, C, sum(Ra[0][k] * C[0][k] for k in range(3))
+
+
 def _cofactor(R):
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
     return [
@@ -28,12 +38,7 @@ def pencil_coefficients(ca, Ra, ra, cb, Rb, rb):
     Uses the plain matrix formulas (K = W^T W, principal minors, |K e|^2), not the sums of squares
     of the float path, so the two are independent.
     """
-    F = Fraction
-    ca, cb, ra, rb = ([F(float(x)) for x in v] for v in (ca, cb, ra, rb))
-    Ra = [[F(float(x)) for x in row] for row in Ra]
-    Rb = [[F(float(x)) for x in row] for row in Rb]
-    C = _cofactor(Ra)
-    det = sum(Ra[0][k] * C[0][k] for k in range(3))
+    ca, Ra, ra, cb, Rb, rb, C, det = exact_pair(ca, Ra, ra, cb, Rb, rb)
     alpha = det * det
     W = [[sum(Rb[k][i] * C[k][j] for k in range(3)) * ra[j] / rb[i] for j in range(3)] for i in range(3)]
     d = [cb[k] - ca[k] for k in range(3)]
@@ -49,7 +54,7 @@ def pencil_coefficients(ca, Ra, ra, cb, Rb, rb):
     p1 = sum(e[i] * Ke[i] for i in range(3))
     q = t1 * p1 - sum(x * x for x in Ke)
     s3 = t3 * sum(x * x for x in e)
-    return [F(-1), p1 - alpha - t1, q - alpha * t1 - t2, s3 - alpha * t2 - t3, -alpha * t3]
+    return [Fraction(-1), p1 - alpha - t1, q - alpha * t1 - t2, s3 - alpha * t2 - t3, -alpha * t3]
 
 
 def _strip(p):

@@ -93,7 +93,7 @@ import numpy as np
 from ._jit import jit, stage
 from .sigma import CONVERGED, newton, tangent_basis, unit
 from .tolerances import BB_ERR_SIGMA_ULPS, BB_MAX_PATCHES, BB_PATCH_SLACK_ULPS, NEWTON_MAX_ITER
-from .vec3 import matvec, norm2, rotate_t
+from .vec3 import cross3, matvec, norm2, rotate_t
 
 #: How global_max ends: the maximum found is proven global (GLOBAL), the budget ran out (UNPROVEN:
 #: the best found, no proof), or a climb reached sigma > 0 (SEPARATED_MAX: sigma is concave on the
@@ -225,11 +225,6 @@ def _sym2_max(p, q, r):
 
 
 @stage
-def _cross(x, y):
-    return (x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0])
-
-
-@stage
 def _dot(x, y):
     return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
 
@@ -255,12 +250,12 @@ def _plane_terms(m, t1, t2, e, a, U, b, amax, bmax, S):
     am = (a[0] * m[0], a[1] * m[1], a[2] * m[2])
     a1 = (a[0] * t1[0], a[1] * t1[1], a[2] * t1[2])
     a2 = (a[0] * t2[0], a[1] * t2[1], a[2] * t2[2])
-    j1, j2 = _cross(a1, am), _cross(a2, am)
+    j1, j2 = cross3(a1, am), cross3(a2, am)
     ha3 = ha * ha * ha
     HA = (_dot(j1, j1) / ha3, _dot(j1, j2) / ha3, _dot(j2, j2) / ha3)
     ga = 16.0 * U64 * amax * amax
     GA = (_dot(a1, a1) + ga, _dot(a1, a2), _dot(a2, a2) + ga)
-    nuA = math.sqrt(norm2(_cross(a1, a2))) * (1.0 + 4.0 * U64) + 8.0 * U64 * amax * amax
+    nuA = math.sqrt(norm2(cross3(a1, a2))) * (1.0 + 4.0 * U64) + 8.0 * U64 * amax * amax
     bvA = (_dot(a1, am), _dot(a2, am))
     A = (ha - 10.0 * U64 * amax, ha + 10.0 * U64 * amax, HA, GA, nuA, bvA, 12.0 * U64 * amax * ha)
     # B: L = diag(b) U^T
@@ -268,12 +263,12 @@ def _plane_terms(m, t1, t2, e, a, U, b, amax, bmax, S):
     bm = (b[0] * wm[0], b[1] * wm[1], b[2] * wm[2])
     b1 = (b[0] * w1[0], b[1] * w1[1], b[2] * w1[2])
     b2 = (b[0] * w2[0], b[1] * w2[1], b[2] * w2[2])
-    k1, k2 = _cross(b1, bm), _cross(b2, bm)
+    k1, k2 = cross3(b1, bm), cross3(b2, bm)
     hb3 = hb * hb * hb
     HB = (_dot(k1, k1) / hb3, _dot(k1, k2) / hb3, _dot(k2, k2) / hb3)
     gb = 48.0 * U64 * bmax * bmax
     GB = (_dot(b1, b1) + gb, _dot(b1, b2), _dot(b2, b2) + gb)
-    nuB = math.sqrt(norm2(_cross(b1, b2))) * (1.0 + 4.0 * U64) + 24.0 * U64 * bmax * bmax
+    nuB = math.sqrt(norm2(cross3(b1, b2))) * (1.0 + 4.0 * U64) + 24.0 * U64 * bmax * bmax
     bvB = (_dot(b1, bm), _dot(b2, bm))
     B = (hb - 16.0 * U64 * bmax, hb + 16.0 * U64 * bmax, HB, GB, nuB, bvB, 36.0 * U64 * bmax * bmax)
     H0 = (HA[0] + HB[0], HA[1] + HB[1], HA[2] + HB[2])

@@ -47,9 +47,15 @@ def _inverse_transpose_numerator(Ra, exact_inverse):
         C = Ra
         mC = (abs(C[0]), abs(C[1]), abs(C[2]), abs(C[3]), abs(C[4]), abs(C[5]), abs(C[6]), abs(C[7]), abs(C[8]))
         return C, mC, one, one
-    r00, r01, r02 = Ra[0], Ra[1], Ra[2]
-    r10, r11, r12 = Ra[3], Ra[4], Ra[5]
-    r20, r21, r22 = Ra[6], Ra[7], Ra[8]
+    C, mC, det, mdet = cofactors(Ra)
+    return C, mC, det * det, mdet * mdet
+
+
+@stage
+def cofactors(R):
+    """Cofactor matrix C of R (row-major 9-tuple; R^-1 = C^T / det), its mag, det R and its mag.
+    Depths: C [2], det [5]."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
     C = (
         r11 * r22 - r12 * r21, r12 * r20 - r10 * r22, r10 * r21 - r11 * r20,
         r02 * r21 - r01 * r22, r00 * r22 - r02 * r20, r01 * r20 - r00 * r21,
@@ -62,7 +68,7 @@ def _inverse_transpose_numerator(Ra, exact_inverse):
     )  # fmt: skip
     det = r00 * C[0] + r01 * C[1] + r02 * C[2]
     mdet = abs(r00) * mC[0] + abs(r01) * mC[1] + abs(r02) * mC[2]
-    return C, mC, det * det, mdet * mdet
+    return C, mC, det, mdet
 
 
 @stage

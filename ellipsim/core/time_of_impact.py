@@ -62,7 +62,7 @@ from .certified import (
 )
 from .ellipsoids import Ellipsoids, check_parallel
 from .motion import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
-from .pencil import invariants, offset, shape
+from .pencil import cofactors, invariants, offset, shape
 from .perram_wertheim import initial_mu, pw_maximize, pw_value
 from .relation import SEPARATED, UNDECIDED
 from .tolerances import (
@@ -83,7 +83,7 @@ from .tolerances import (
     TOI_STALL_LIMIT,
     U,
 )
-from .vec3 import matvec, norm2, reciprocal
+from .vec3 import cross3, cross3_mag, matvec, norm2, reciprocal
 
 # Statuses (int8), as `Impact` reports them; NEED_EXACT is internal (the kernel asks for rationals).
 NO_CONTACT, CONTACT, CONTACT_AT_FLOAT_POSE, UNRESOLVED = 0, 1, 2, 3
@@ -138,17 +138,6 @@ def _affine(x, f, y):
 
 
 @stage
-def _cross(x, y):
-    return (x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0])
-
-
-@stage
-def _cross_mag(x, y):
-    """The mag of a cross product of nonnegative vectors."""
-    return (x[1] * y[2] + x[2] * y[1], x[2] * y[0] + x[0] * y[2], x[0] * y[1] + x[1] * y[0])
-
-
-@stage
 def _abs3(x):
     return (abs(x[0]), abs(x[1]), abs(x[2]))
 
@@ -160,25 +149,6 @@ def _scaled_norm(r, x):
 
 
 # --- R_p^{-1} n -------------------------------------------------------------------------------
-
-
-@stage
-def _inverse_data(R):
-    """Cofactor matrix C of R (R^{-1} = C^T / det), its mag, det and the mag of det.  Depths: C [2], det [5]."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
-    C = (
-        r11 * r22 - r12 * r21, r12 * r20 - r10 * r22, r10 * r21 - r11 * r20,
-        r02 * r21 - r01 * r22, r00 * r22 - r02 * r20, r01 * r20 - r00 * r21,
-        r01 * r12 - r02 * r11, r02 * r10 - r00 * r12, r00 * r11 - r01 * r10,
-    )  # fmt: skip
-    mC = (
-        abs(r11 * r22) + abs(r12 * r21), abs(r12 * r20) + abs(r10 * r22), abs(r10 * r21) + abs(r11 * r20),
-        abs(r02 * r21) + abs(r01 * r22), abs(r00 * r22) + abs(r02 * r20), abs(r01 * r20) + abs(r00 * r21),
-        abs(r01 * r12) + abs(r02 * r11), abs(r02 * r10) + abs(r00 * r12), abs(r00 * r11) + abs(r01 * r10),
-    )  # fmt: skip
-    det = r00 * C[0] + r01 * C[1] + r02 * C[2]
-    mdet = abs(r00) * mC[0] + abs(r01) * mC[1] + abs(r02) * mC[2]
-    return C, mC, det, mdet
 
 
 @stage
@@ -213,11 +183,11 @@ def _body_terms(n, inv_p, w, rod, r):
     q = rodrigues_apply(rod, p)
     if rod[2] != 0.0 or rod[1] != 0.0:  # a turn (none: E = I, applied exactly)
         eps_q += (RODRIGUES_ERR + 12.0 * rod[4]) * U * _norm(p) * 1.01
-    x = _cross(w, q)
+    x = cross3(w, q)
     aq, aw = _abs3(q), _abs3(w)
-    mx = _cross_mag(aw, aq)
-    y = _cross(w, x)
-    my = _cross_mag(aw, _abs3(x))
+    mx = cross3_mag(aw, aq)
+    y = cross3(w, x)
+    my = cross3_mag(aw, _abs3(x))
     rm = max(r[0], r[1], r[2])
     th = _norm(w) * (1.0 + 8.0 * U)
     mxs = mx[0] + mx[1] + mx[2]
@@ -550,9 +520,9 @@ def _pair_data(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb):
     turn = 1.00001 * (dra * rma + drb * rmb)
     ec0 = 4.01 * U * (_norm(d0) + _norm(da) + _norm(db))
     ec1 = 4.01 * U * (_norm(d1) + _norm(da) + _norm(db))
-    half0 = (_inverse_data(Ra0), _inverse_data(Rb0), wa, wb, ra_s, rb_s, rma, rmb, tha, thb, d0, _abs3(d0), v, mv,
+    half0 = (cofactors(Ra0), cofactors(Rb0), wa, wb, ra_s, rb_s, rma, rmb, tha, thb, d0, _abs3(d0), v, mv,
              ec0 + turn, da, db)  # fmt: skip
-    half1 = (_inverse_data(Ra1), _inverse_data(Rb1), wa, wb, ra_s, rb_s, rma, rmb, tha, thb, d1, _abs3(d1), v, mv,
+    half1 = (cofactors(Ra1), cofactors(Rb1), wa, wb, ra_s, rb_s, rma, rmb, tha, thb, d1, _abs3(d1), v, mv,
              ec1 + turn, da, db)  # fmt: skip
     # _witness_relation's room per body: (DELTA_R r_max (1 + 1e-5) + 1.00001 |c - c~|) / r_min, rounded up
     ec = max(ec0, ec1) * 1.00001

@@ -1,4 +1,5 @@
-"""Slow, obvious references: exact relations (rationals) and signed distances (mpmath).
+"""Slow, obvious references: exact relations (rationals), signed distances (mpmath), and the maximum
+of a capsule or box pair's sigma over dense directions (dense_maximum).
 
 Independent of the library: it builds A = [[Q, -Q c], [-c^T Q, c^T Q c - 1]] with
 Q = R diag(1/r^2) R^T straight from the definition |diag(1/r) R^T (x - c)| <= 1, gets det(lambda A + B)
@@ -263,3 +264,130 @@ def contained(ca, Ra, ra, cb, Rb, rb, tie=1e-40):
     decided by more than that or built tangent)."""
     excess = max_qa_on_b(ca, Ra, ra, cb, Rb, rb)
     return bool(excess <= tie), float(excess)
+
+
+# --- the maximum of a pair's sigma over unit directions (ellipsoid x capsule, x box) -------------
+# Dense directions, then a finite-difference polish: 20 000 Fibonacci directions give the basin; damped
+# Newton with central differences (h = 1e-6 rad, a monotone line search: every accepted value is sigma
+# at a direction, a lower bound of the maximum) refines it freely and on each kink great circle near a
+# seed; extra candidate directions (box face normals) are evaluated as points.
+
+H = 1e-6
+
+
+def fibonacci(k):
+    i = np.arange(k) + 0.5
+    phi, th = np.arccos(1 - 2 * i / k), np.pi * (1 + 5**0.5) * i
+    return np.stack([np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)], 1)
+
+
+def _basis(n):
+    a = np.where(np.abs(n[:, :1]) < 0.6, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+    t1 = np.cross(n, a)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    return t1, np.cross(n, t1)
+
+
+def _line_search(f, val, candidate, x):
+    """Halve the step x until f(candidate(x)) >= val, per pose; the accepted points and values."""
+    done = np.zeros(len(val), bool)
+    point = candidate(np.zeros_like(x))
+    for _ in range(30):
+        c = candidate(x)
+        fc = f(c)
+        ok = (fc >= val) & ~done
+        point = np.where(ok[:, None], c, point) if point.ndim == 2 else np.where(ok, c, point)
+        val = np.where(ok, fc, val)
+        done |= ok
+        x = x * 0.5
+        if done.all():
+            break
+    return point, val
+
+
+def polish_free(sigma, P, n, iters=40):
+    f = lambda x: sigma(P, x[:, None, :])[:, 0]  # noqa: E731
+    val = f(n)
+    for _ in range(iters):
+        t1, t2 = _basis(n)
+        steps = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, -1), (1, -1), (-1, 1))
+        fp = [f(n + H * (a * t1 + b * t2)) for a, b in steps]
+        g1, g2 = (fp[0] - fp[1]) / (2 * H), (fp[2] - fp[3]) / (2 * H)
+        h11, h22 = (fp[0] - 2 * val + fp[1]) / H**2, (fp[2] - 2 * val + fp[3]) / H**2
+        h12 = (fp[4] + fp[5] - fp[6] - fp[7]) / (4 * H**2)
+        det = h11 * h22 - h12 * h12
+        nd = (h11 < 0) & (det > 0)
+        x1 = np.where(nd, -(h22 * g1 - h12 * g2) / np.where(nd, det, 1), 0.05 * g1)
+        x2 = np.where(nd, -(h11 * g2 - h12 * g1) / np.where(nd, det, 1), 0.05 * g2)
+        cap = np.minimum(1.0, 0.3 / np.maximum(np.hypot(x1, x2), 1e-300))
+        x = np.stack([x1 * cap, x2 * cap], 1)
+
+        def candidate(x, n=n, t1=t1, t2=t2):
+            c = n + x[:, :1] * t1 + x[:, 1:] * t2
+            return c / np.linalg.norm(c, axis=1)[:, None]
+
+        n, val = _line_search(f, val, candidate, x)
+    return n, val
+
+
+def polish_circle(sigma, P, w, n, iters=40):
+    """The same on the great circle perpendicular to w: n(theta) = cos p1 + sin p2."""
+    p1 = n - np.sum(n * w, 1)[:, None] * w
+    bad = np.linalg.norm(p1, axis=1) < 1e-12
+    p1[bad] = _basis(w[bad])[0]
+    p1 /= np.linalg.norm(p1, axis=1)[:, None]
+    p2 = np.cross(w, p1)
+    at = lambda th: np.cos(th)[:, None] * p1 + np.sin(th)[:, None] * p2  # noqa: E731
+    f = lambda th: sigma(P, at(th)[:, None, :])[:, 0]  # noqa: E731
+    th = np.zeros(len(n))
+    val = f(th)
+    for _ in range(iters):
+        fp, fm = f(th + H), f(th - H)
+        g, hh = (fp - fm) / (2 * H), (fp - 2 * val + fm) / H**2
+        x = np.clip(np.where(hh < 0, -g / np.where(hh < 0, hh, 1), 0.05 * g), -0.3, 0.3)
+        th, val = _line_search(f, val, lambda x, th=th: th + x, x)
+    return at(th), val
+
+
+def dense_maximum(sigma, P, kinks, points=None):
+    """(value (m,), normal (m, 3)): max over unit n of sigma(P, n) for the m poses of P (dict of (m, ...)
+    arrays; sigma(P, n) takes directions (m, k, 3)), the best of the dense grid, of the polished seeds
+    (free, and on every kink circle n.w = 0, w in kinks (m, j, 3), that passes within 0.15 of a seed)
+    and of the candidate directions `points` (m, p, 3)."""
+    M = fibonacci(20_000)
+    m = len(P["cE"])
+    value, normal = np.full(m, -np.inf), np.zeros((m, 3))
+    seeds = np.zeros((m, 3, 3))
+    for s in range(0, m, 50):
+        idx = np.arange(s, min(m, s + 50))
+        v = sigma({k: a[idx] for k, a in P.items()}, np.broadcast_to(M, (len(idx),) + M.shape))
+        order = np.argsort(-v, axis=1)[:, :200]
+        for r, i in enumerate(idx):
+            value[i], normal[i] = v[r, order[r, 0]], M[order[r, 0]]
+            chosen = [M[order[r, 0]]]
+            for o in order[r]:  # up to 3 seeds at least 0.3 rad apart
+                if len(chosen) < 3 and all(M[o] @ c < np.cos(0.3) for c in chosen):
+                    chosen.append(M[o])
+            seeds[i] = chosen + [chosen[0]] * (3 - len(chosen))
+
+    def take(n, v):
+        better = v > value
+        value[better], normal[better] = v[better], n[better]
+
+    if points is not None:
+        pv = sigma(P, points)
+        best = np.argmax(pv, axis=1)
+        take(points[np.arange(m), best], pv[np.arange(m), best])
+    for k in range(3):
+        n0 = seeds[:, k]
+        take(*polish_free(sigma, P, n0))
+        for j in range(kinks.shape[1]):
+            w = kinks[:, j]
+            near = np.abs(np.sum(n0 * w, 1)) < 0.15
+            if near.any():
+                sub = {key: a[near] for key, a in P.items()}
+                nc, vc = polish_circle(sigma, sub, w[near], n0[near])
+                full_n, full_v = normal.copy(), np.full(m, -np.inf)
+                full_n[near], full_v[near] = nc, vc
+                take(full_n, full_v)
+    return value, normal

@@ -14,22 +14,13 @@ import ellipsim.mujoco as em
 from ellipsim.core import capsule
 from ellipsim.core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL
 from ellipsim.mujoco import callbacks, nativecache, scenes, structs
+from reference import dense_maximum
 
 CAP, ELL = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 
-# --- an independent reference: dense directions, then a finite-difference polish ----------------
+# --- an independent reference (reference.dense_maximum) ------------------------------------------
 # sigma(n) = n.(cK - cE) - |rE (RE^T n)| - L |n.z| - r written out in world coordinates with numpy,
-# nothing of ellipsim.  20 000 Fibonacci directions give the basin; damped Newton with central
-# differences (h = 1e-6 rad, a monotone line search: every accepted value is sigma at a direction,
-# a lower bound of the maximum) refines it freely and on the kink circle n.z = 0.
-
-H = 1e-6
-
-
-def fibonacci(k):
-    i = np.arange(k) + 0.5
-    phi, th = np.arccos(1 - 2 * i / k), np.pi * (1 + 5**0.5) * i
-    return np.stack([np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)], 1)
+# nothing of ellipsim; its kink is the great circle n.z = 0.
 
 
 def ref_sigma(P, n):
@@ -41,106 +32,8 @@ def ref_sigma(P, n):
     return v - np.sqrt(np.sum(loc * loc, -1)) - P["sK"][:, None, 1] * np.abs(a) - P["sK"][:, None, 0]
 
 
-def _basis(n):
-    a = np.where(np.abs(n[:, :1]) < 0.6, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-    t1 = np.cross(n, a)
-    t1 /= np.linalg.norm(t1, axis=1)[:, None]
-    return t1, np.cross(n, t1)
-
-
-def _line_search(f, val, candidate, x, accept):
-    """Halve the step x until f(candidate(x)) >= val, per pose; the accepted points and values."""
-    done = np.zeros(len(val), bool)
-    point = candidate(np.zeros_like(x))
-    for _ in range(30):
-        c = candidate(x)
-        fc = f(c)
-        ok = (fc >= val) & ~done
-        point = np.where(ok[:, None], c, point) if point.ndim == 2 else np.where(ok, c, point)
-        val = np.where(ok, fc, val)
-        done |= ok
-        x = x * 0.5
-        if done.all():
-            break
-    return accept(point, done), val
-
-
-def polish_free(P, n, iters=40):
-    f = lambda x: ref_sigma(P, x[:, None, :])[:, 0]  # noqa: E731
-    val = f(n)
-    for _ in range(iters):
-        t1, t2 = _basis(n)
-        steps = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, -1), (1, -1), (-1, 1))
-        fp = [f(n + H * (a * t1 + b * t2)) for a, b in steps]
-        g1, g2 = (fp[0] - fp[1]) / (2 * H), (fp[2] - fp[3]) / (2 * H)
-        h11, h22 = (fp[0] - 2 * val + fp[1]) / H**2, (fp[2] - 2 * val + fp[3]) / H**2
-        h12 = (fp[4] + fp[5] - fp[6] - fp[7]) / (4 * H**2)
-        det = h11 * h22 - h12 * h12
-        nd = (h11 < 0) & (det > 0)
-        x1 = np.where(nd, -(h22 * g1 - h12 * g2) / np.where(nd, det, 1), 0.05 * g1)
-        x2 = np.where(nd, -(h11 * g2 - h12 * g1) / np.where(nd, det, 1), 0.05 * g2)
-        cap = np.minimum(1.0, 0.3 / np.maximum(np.hypot(x1, x2), 1e-300))
-        x = np.stack([x1 * cap, x2 * cap], 1)
-
-        def candidate(x, n=n, t1=t1, t2=t2):
-            c = n + x[:, :1] * t1 + x[:, 1:] * t2
-            return c / np.linalg.norm(c, axis=1)[:, None]
-
-        n, val = _line_search(f, val, candidate, x, lambda p, done: p)
-    return n, val
-
-
-def polish_circle(P, w, n, iters=40):
-    """The same on the great circle perpendicular to w: n(theta) = cos p1 + sin p2."""
-    p1 = n - np.sum(n * w, 1)[:, None] * w
-    bad = np.linalg.norm(p1, axis=1) < 1e-12
-    p1[bad] = _basis(w[bad])[0]
-    p1 /= np.linalg.norm(p1, axis=1)[:, None]
-    p2 = np.cross(w, p1)
-    at = lambda th: np.cos(th)[:, None] * p1 + np.sin(th)[:, None] * p2  # noqa: E731
-    f = lambda th: ref_sigma(P, at(th)[:, None, :])[:, 0]  # noqa: E731
-    th = np.zeros(len(n))
-    val = f(th)
-    for _ in range(iters):
-        fp, fm = f(th + H), f(th - H)
-        g, hh = (fp - fm) / (2 * H), (fp - 2 * val + fm) / H**2
-        x = np.clip(np.where(hh < 0, -g / np.where(hh < 0, hh, 1), 0.05 * g), -0.3, 0.3)
-        th, val = _line_search(f, val, lambda x, th=th: th + x, x, lambda p, done: p)
-    return at(th), val
-
-
 def reference(P):
-    """(value (m,), normal (m, 3)): the best of the dense grid and of the polished seeds."""
-    M = fibonacci(20_000)
-    m = len(P["cE"])
-    value, normal = np.full(m, -np.inf), np.zeros((m, 3))
-    seeds = np.zeros((m, 3, 3))
-    for s in range(0, m, 50):
-        idx = np.arange(s, min(m, s + 50))
-        v = ref_sigma({k: a[idx] for k, a in P.items()}, np.broadcast_to(M, (len(idx),) + M.shape))
-        order = np.argsort(-v, axis=1)[:, :200]
-        for r, i in enumerate(idx):
-            value[i], normal[i] = v[r, order[r, 0]], M[order[r, 0]]
-            chosen = [M[order[r, 0]]]
-            for o in order[r]:  # up to 3 seeds at least 0.3 rad apart
-                if len(chosen) < 3 and all(M[o] @ c < np.cos(0.3) for c in chosen):
-                    chosen.append(M[o])
-            seeds[i] = chosen + [chosen[0]] * (3 - len(chosen))
-    for k in range(3):
-        n0 = seeds[:, k]
-        candidates = [polish_free(P, n0)]
-        w = P["RK"][:, :, 2]
-        near = np.abs(np.sum(n0 * w, 1)) < 0.15
-        if near.any():
-            sub = {key: a[near] for key, a in P.items()}
-            nc, vc = polish_circle(sub, w[near], n0[near])
-            full_n, full_v = normal.copy(), np.full(m, -np.inf)
-            full_n[near], full_v[near] = nc, vc
-            candidates.append((full_n, full_v))
-        for n, v in candidates:
-            better = v > value
-            value[better], normal[better] = v[better], n[better]
-    return value, normal
+    return dense_maximum(ref_sigma, P, P["RK"][:, None, :, 2])
 
 
 # --- poses ------------------------------------------------------------------------------------
@@ -230,7 +123,7 @@ def test_kernel_matches_the_reference_within_1e12_of_the_smaller_half_size(poses
     status, dist, ub = out[:, 0], out[:, 1], out[:, 2]
     s_min = np.minimum(P["rE"].min(1), P["sK"][:, 0])
     scale = np.linalg.norm(P["cK"] - P["cE"], axis=1) + np.maximum(P["rE"].max(1), P["sK"][:, :2].max(1))
-    slack = 64 * 2.0**-53 * scale  # the rounding allowance of sigma (tolerances.CAPSULE_SIGMA_SLACK_ULPS)
+    slack = 64 * 2.0**-53 * scale  # the rounding allowance of sigma (tolerances.PAIR_SIGMA_SLACK_ULPS)
     below = (ref - dist) / s_min  # ours below the reference: a missed maximum
     above = (dist - ref) / s_min  # ours above it: the reference's polish stopped short, or ours is wrong
     for k, name in enumerate(names):

@@ -131,18 +131,18 @@ BB_FRAME_ULPS = 16.0
 #: concentric coaxial spheroids (sigma constant on a circle, no isolated maximum) ran out.
 BB_MAX_PATCHES = 6000
 
-# --- Ellipsoid x capsule (ellipsim/core/capsule.py) ------------------------------------------------
+# --- Ellipsoid x capsule and box (ellipsim/core/capsule.py, box.py, point_ellipsoid.py) ------------
 
-#: The contract: a capsule distance is certified when its upper bound is within this fraction of the
-#: smaller shortest half-size of the pair (ellipsoid semi-axis or capsule radius) of the value
+#: The contract: a capsule or box distance is certified when its upper bound is within this fraction
+#: of the smaller shortest half-size of the pair (ellipsoid semi-axis, capsule radius, box half-size) of the value
 #: returned: the issue's 1e-12, as BB_TOL_REL for two ellipsoids.  The float evaluation of both
 #: sides errs by a few ulps of the pair's scale, far below it for sizes within 1e3 of the distance.
-CAPSULE_CERT_REL = 1e-12
+PAIR_CERT_REL = 1e-12
 #: Rounding allowance of sigma along a direction, in ulps of the pair's scale |e| + largest size
 #: (a few dozen operations on quantities of that size; the prototype's 10 000-pose validation saw
 #: at most 1.4e-15 of the scale, /work/scratch/pairtypes/results/validation_capsule.md): the MuJoCo
 #: glue drops a pair only when sigma at some direction minus this much is beyond the margin.
-CAPSULE_SIGMA_SLACK_ULPS = 64.0
+PAIR_SIGMA_SLACK_ULPS = 64.0
 #: Newton on the point-ellipsoid secular equation takes its last step once a step is below this
 #: fraction of |t| + min(a2) (quadratic convergence: the next would be ~1e-16 of it); 2-6 steps
 #: on random pairs, SECULAR_MAX_ITER never reached there.

@@ -19,8 +19,8 @@ import numpy as np
 
 from . import nativecache, structs
 from .context import (
-    APART, CAPSULE, CONTACTS, ELLIPSOID, FALLBACKS, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY, SEPARATED,
-    SPHERE, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS,
+    APART, BOX, CAPSULE, CONTACTS, ELLIPSOID, FALLBACKS, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY,
+    SEPARATED, SPHERE, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS,
 )  # fmt: skip
 
 MODES = ("filter", "narrowphase")
@@ -30,13 +30,13 @@ _state = {"previous": None, "filter_installed": False, "table": None, "attached"
 
 def ellipsoid_pair_possible(model, mode="filter"):
     """True when the model has a geom pair the mode's callback handles: ellipsoid with ellipsoid or
-    sphere, and in mode "narrowphase" also capsule with ellipsoid."""
+    sphere, and in mode "narrowphase" also capsule or box with ellipsoid."""
     t = model.geom_type
     collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     n_ell = int(np.count_nonzero((t == ELLIPSOID) & collides))
     n_other = int(np.count_nonzero((t == SPHERE) & collides))
     if mode == "narrowphase":
-        n_other += int(np.count_nonzero((t == CAPSULE) & collides))
+        n_other += int(np.count_nonzero(((t == CAPSULE) | (t == BOX)) & collides))
     return n_ell >= 2 or (n_ell >= 1 and n_other >= 1)
 
 
@@ -93,7 +93,9 @@ def _install(attached_before, attachment):
     if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
         fn = nativecache.function("narrowphase")
         table, ntypes = structs.collision_table()
-        entries = (ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID, CAPSULE * ntypes + ELLIPSOID)
+        entries = (
+            ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID, CAPSULE * ntypes + ELLIPSOID, ELLIPSOID * ntypes + BOX
+        )  # fmt: skip
         _state["table"] = {k: table[k] for k in entries}
         for k in entries:
             table[k] = fn.address
@@ -143,7 +145,7 @@ class Attachment:
 
     @property
     def counters(self):
-        """Per-data counts of the ellipsoid (and, narrowphase, capsule-ellipsoid) pairs ellipsim handled.
+        """Per-data counts of the ellipsoid (and, narrowphase, capsule and box with ellipsoid) pairs ellipsim handled.
 
         filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (proven apart
         beyond the margin, no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured
@@ -188,8 +190,8 @@ def attach(model, data, *, mode="filter", warm_start=True):
     """Attach ellipsim to mj_step of (model, data) for the duration of a `with` block.
 
     mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs;
-    mode "narrowphase": ellipsim computes the contacts of those pairs and of capsule-ellipsoid pairs
-    in place of GJK/EPA.
+    mode "narrowphase": ellipsim computes the contacts of those pairs and of capsule-ellipsoid and
+    ellipsoid-box pairs in place of GJK/EPA.
     warm_start (narrowphase): start each ellipsoid pair's Newton run from its normal of the previous
     call on this data (a table owned by the returned object, never shared with another data); the
     results satisfy the same contract as cold starts (proven global maximum, distance within 1e-12

@@ -9,14 +9,14 @@ and discarded only when a separating axis is certified (certified.separated_by_a
 MuJoCo would make is lost, so trajectories are bit-identical.
 
 mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid,
-sphere x ellipsoid and capsule x ellipsoid (where MuJoCo has mjc_Convex: GJK, then EPA).  It returns
-no contact for pairs certified separated beyond the margin, else the signed distance, normal and
-contact point of core.distance (core.capsule for a capsule), filling the mjPreContact as mjc_Convex
-does (dist, pos, normal from g1 to g2; tangent zero: mj_setContact completes the frame).  The table
-is indexed type1 <= type2 (engine_collision_driver.c swaps the pair by type), so the capsule is g1
-and its normal is core.capsule's flipped.  A pair whose maximum is not proven global (core.distance
-UNPROVEN: the branch and bound's budget ran out; a non-finite capsule result) goes to MuJoCo's
-original function, and is counted.
+sphere x ellipsoid, capsule x ellipsoid and ellipsoid x box (where MuJoCo has mjc_Convex: GJK, then
+EPA).  It returns no contact for pairs certified separated beyond the margin, else the signed
+distance, normal and contact point of core.distance (core.capsule for a capsule, core.box for a box),
+filling the mjPreContact as mjc_Convex does (dist, pos, normal from g1 to g2; tangent zero:
+mj_setContact completes the frame).  The table is indexed type1 <= type2 (engine_collision_driver.c
+swaps the pair by type), so the capsule is g1 (its normal is core.capsule's flipped) and the box is
+g2.  A pair whose maximum is not proven global (core.distance UNPROVEN: the branch and bound's budget
+ran out; a non-finite capsule or box result) goes to MuJoCo's original function, and is counted.
 
 Warm start (issue 13): a data attached in mode "narrowphase" owns a table (attachment.py; layout in
 context.py, address and size in its registry row) of each ellipsoid pair's last two normals, in the
@@ -26,7 +26,7 @@ from the bisector).  A pair in contact at its last call goes straight to Newton 
 first tried against the separating axes and then against sigma along the seed (a direction whose
 sigma exceeds the margin proves the pair apart beyond it: distance.sigma_lower_bound).  The seed
 never decides the proof (distance.pair_signed_distance_from), so warm results meet the cold
-contract; a capsule pair starts cold.  One data's table is read and written only by calls on that
+contract; capsule and box pairs start cold (a box's local solve starts at its best face normal).  One data's table is read and written only by calls on that
 data.
 
 A data not attached in the callback's mode gets MuJoCo's own answer: the bitmask test, or MuJoCo's
@@ -50,14 +50,14 @@ from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
 from ..core._jit import jit
-from ..core.capsule import capsule_ellipsoid, centre_line_bound
+from ..core import box, capsule
 from ..core.certified import bounding_spheres_apart, separated_by_axes
 from ..core.distance import GLOBAL, pair_signed_distance_from, sigma_lower_bound
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from ..core.vec3 import norm2
 from .context import (
-    APART, CAPSULE, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_CAPSULE, FALLBACK_ELLIPSOID, FALLBACK_SPHERE,
-    FALLBACKS, FILTER,
+    APART, BOX, CAPSULE, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE, FALLBACK_ELLIPSOID,
+    FALLBACK_SPHERE, FALLBACKS, FILTER,
     MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
     REGISTRY_ROWS, SEEN, SEPARATED, SPHERE, SYMBOL, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS, WORDS,
 )  # fmt: skip
@@ -291,6 +291,8 @@ def narrowphase(m, d, con, g1, g2, margin):
     t1, t2 = gtype[g1], gtype[g2]
     if t1 == CAPSULE:
         original = ctx[FALLBACK_CAPSULE]
+    elif t2 == BOX:
+        original = ctx[FALLBACK_BOX]
     else:
         original = ctx[FALLBACK_SPHERE] if t1 == SPHERE else ctx[FALLBACK_ELLIPSOID]
     if slot == 0 or reg[slot, 2] != NARROW:  # not attached in this mode: MuJoCo's own function
@@ -298,12 +300,19 @@ def narrowphase(m, d, con, g1, g2, margin):
     counters = reg[slot, 1]
     if t1 == CAPSULE:  # g1 the capsule, g2 the ellipsoid
         E, K = _ellipsoid(xpos, xmat, size, t2, g2, 0.0), _geom(xpos, xmat, size, g1)
-        if centre_line_bound(E, K) >= margin:  # a direction proves them apart beyond the margin
+        if capsule.centre_line_bound(E, K) >= margin:  # a direction proves them apart beyond the margin
             atomic_add(counters + 8 * SEPARATED, 1)
             return 0
-        _, dist, away, pos, _ = capsule_ellipsoid(E, K)  # CERTIFIED or ENUMERATED: both proven
+        _, dist, away, pos, _ = capsule.capsule_ellipsoid(E, K)  # CERTIFIED or ENUMERATED: both proven
         proven = math.isfinite(dist)
         normal = (-away[0], -away[1], -away[2])  # from the capsule (g1) to the ellipsoid (g2)
+    elif t2 == BOX:  # g1 the ellipsoid, g2 the box
+        E, K = _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _geom(xpos, xmat, size, g2)
+        if box.centre_line_bound(E, K) >= margin:
+            atomic_add(counters + 8 * SEPARATED, 1)
+            return 0
+        _, dist, normal, pos, _ = box.box_ellipsoid(E, K)  # CERTIFIED or ENUMERATED: both proven
+        proven = math.isfinite(dist)
     else:
         A, B = _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
         grow = 0.5 * max(margin, 0.0)
@@ -411,13 +420,14 @@ def _wrapper_for(kind, pyfunc, original):
                 both = builder.or_(builder.and_(ct1, ca2), builder.and_(ct2, ca1))
                 builder.ret(builder.zext(builder.icmp_signed("==", both, ir.Constant(ir.IntType(32), 0)), ir.IntType(32)))
             else:  # MuJoCo's own function for this pair
-                t1 = _geom_int(builder, ctx, m, _TYPE, g1)
+                t1, t2 = _geom_int(builder, ctx, m, _TYPE, g1), _geom_int(builder, ctx, m, _TYPE, g2)
                 i32 = ir.IntType(32)
                 word = builder.select(
                     builder.icmp_signed("==", t1, ir.Constant(i32, CAPSULE)),
                     ir.Constant(i32, FALLBACK_CAPSULE), ir.Constant(i32, FALLBACK_ELLIPSOID),
                 )  # fmt: skip
                 word = builder.select(builder.icmp_signed("==", t1, ir.Constant(i32, SPHERE)), ir.Constant(i32, FALLBACK_SPHERE), word)
+                word = builder.select(builder.icmp_signed("==", t2, ir.Constant(i32, BOX)), ir.Constant(i32, FALLBACK_BOX), word)
                 fn = builder.inttoptr(builder.load(builder.gep(ctx, [word])), _collision_type().as_pointer())
                 builder.ret(builder.call(fn, list(wrapfn.args)))
         builder.ret(out)

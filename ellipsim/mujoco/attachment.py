@@ -19,7 +19,7 @@ import numpy as np
 
 from . import nativecache, structs
 from .context import (
-    APART, BOX, CAPSULE, CONTACTS, ELLIPSOID, FALLBACKS, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY,
+    APART, BOX, CAPSULE, CONTACTS, CYLINDER, ELLIPSOID, FALLBACKS, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY,
     SEPARATED, SPHERE, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS,
 )  # fmt: skip
 
@@ -30,13 +30,13 @@ _state = {"previous": None, "filter_installed": False, "table": None, "attached"
 
 def ellipsoid_pair_possible(model, mode="filter"):
     """True when the model has a geom pair the mode's callback handles: ellipsoid with ellipsoid or
-    sphere, and in mode "narrowphase" also capsule or box with ellipsoid."""
+    sphere, and in mode "narrowphase" also capsule, box or cylinder with ellipsoid."""
     t = model.geom_type
     collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     n_ell = int(np.count_nonzero((t == ELLIPSOID) & collides))
     n_other = int(np.count_nonzero((t == SPHERE) & collides))
     if mode == "narrowphase":
-        n_other += int(np.count_nonzero(((t == CAPSULE) | (t == BOX)) & collides))
+        n_other += int(np.count_nonzero(((t == CAPSULE) | (t == BOX) | (t == CYLINDER)) & collides))
     return n_ell >= 2 or (n_ell >= 1 and n_other >= 1)
 
 
@@ -94,7 +94,8 @@ def _install(attached_before, attachment):
         fn = nativecache.function("narrowphase")
         table, ntypes = structs.collision_table()
         entries = (
-            ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID, CAPSULE * ntypes + ELLIPSOID, ELLIPSOID * ntypes + BOX
+            ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID, CAPSULE * ntypes + ELLIPSOID,
+            ELLIPSOID * ntypes + BOX, ELLIPSOID * ntypes + CYLINDER,
         )  # fmt: skip
         _state["table"] = {k: table[k] for k in entries}
         for k in entries:
@@ -145,7 +146,7 @@ class Attachment:
 
     @property
     def counters(self):
-        """Per-data counts of the ellipsoid (and, narrowphase, capsule and box with ellipsoid) pairs ellipsim handled.
+        """Per-data counts of the ellipsoid (and, narrowphase, capsule, box and cylinder with ellipsoid) pairs ellipsim handled.
 
         filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (proven apart
         beyond the margin, no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured
@@ -190,8 +191,9 @@ def attach(model, data, *, mode="filter", warm_start=True):
     """Attach ellipsim to mj_step of (model, data) for the duration of a `with` block.
 
     mode "filter": certified contact pre-filter for ellipsoid and sphere-ellipsoid pairs;
-    mode "narrowphase": ellipsim computes the contacts of those pairs and of capsule-ellipsoid and
-    ellipsoid-box pairs in place of GJK/EPA.
+    mode "narrowphase": ellipsim computes the contacts of those pairs and of ellipsoids with capsules,
+    boxes and cylinders in place of GJK/EPA (deep ellipsoid-cylinder rim contacts it cannot prove go
+    to MuJoCo's function, counted as fallbacks).
     warm_start (narrowphase): start each ellipsoid pair's Newton run from its normal of the previous
     call on this data (a table owned by the returned object, never shared with another data); the
     results satisfy the same contract as cold starts (proven global maximum, distance within 1e-12

@@ -9,14 +9,15 @@ and discarded only when a separating axis is certified (certified.separated_by_a
 MuJoCo would make is lost, so trajectories are bit-identical.
 
 mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid,
-sphere x ellipsoid, capsule x ellipsoid and ellipsoid x box (where MuJoCo has mjc_Convex: GJK, then
-EPA).  It returns no contact for pairs certified separated beyond the margin, else the signed
-distance, normal and contact point of core.distance (core.capsule for a capsule, core.box for a box),
+sphere x ellipsoid, capsule x ellipsoid, ellipsoid x box and ellipsoid x cylinder (where MuJoCo has
+mjc_Convex: GJK, then EPA).  It returns no contact for pairs certified separated beyond the margin, else the signed
+distance, normal and contact point of core.distance (core.capsule, core.box, core.cylinder for those),
 filling the mjPreContact as mjc_Convex does (dist, pos, normal from g1 to g2; tangent zero:
 mj_setContact completes the frame).  The table is indexed type1 <= type2 (engine_collision_driver.c
-swaps the pair by type), so the capsule is g1 (its normal is core.capsule's flipped) and the box is
-g2.  A pair whose maximum is not proven global (core.distance UNPROVEN: the branch and bound's budget
-ran out; a non-finite capsule or box result) goes to MuJoCo's original function, and is counted.
+swaps the pair by type), so the capsule is g1 (its normal is core.capsule's flipped) and the box or
+cylinder is g2.  A pair whose maximum is not proven global (core.distance UNPROVEN: the branch and
+bound's budget ran out; core.cylinder UNPROVEN: a deep rim contact; a non-finite result) goes to
+MuJoCo's original function, and is counted.
 
 Warm start (issue 13): a data attached in mode "narrowphase" owns a table (attachment.py; layout in
 context.py, address and size in its registry row) of each ellipsoid pair's last two normals, in the
@@ -26,7 +27,8 @@ from the bisector).  A pair in contact at its last call goes straight to Newton 
 first tried against the separating axes and then against sigma along the seed (a direction whose
 sigma exceeds the margin proves the pair apart beyond it: distance.sigma_lower_bound).  The seed
 never decides the proof (distance.pair_signed_distance_from), so warm results meet the cold
-contract; capsule and box pairs start cold (a box's local solve starts at its best face normal).  One data's table is read and written only by calls on that
+contract; capsule, box and cylinder pairs start cold (a box's local solve starts at its best face
+normal).  One data's table is read and written only by calls on that
 data.
 
 A data not attached in the callback's mode gets MuJoCo's own answer: the bitmask test, or MuJoCo's
@@ -50,14 +52,14 @@ from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
 from ..core._jit import jit
-from ..core import box, capsule
+from ..core import box, capsule, cylinder
 from ..core.certified import bounding_spheres_apart, separated_by_axes
 from ..core.distance import GLOBAL, pair_signed_distance_from, sigma_lower_bound
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from ..core.vec3 import norm2
 from .context import (
-    APART, BOX, CAPSULE, CONTACTS, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE, FALLBACK_ELLIPSOID,
-    FALLBACK_SPHERE, FALLBACKS, FILTER,
+    APART, BOX, CAPSULE, CONTACTS, CYLINDER, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE,
+    FALLBACK_CYLINDER, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER,
     MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
     REGISTRY_ROWS, SEEN, SEPARATED, SPHERE, SYMBOL, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS, WORDS,
 )  # fmt: skip
@@ -293,6 +295,8 @@ def narrowphase(m, d, con, g1, g2, margin):
         original = ctx[FALLBACK_CAPSULE]
     elif t2 == BOX:
         original = ctx[FALLBACK_BOX]
+    elif t2 == CYLINDER:
+        original = ctx[FALLBACK_CYLINDER]
     else:
         original = ctx[FALLBACK_SPHERE] if t1 == SPHERE else ctx[FALLBACK_ELLIPSOID]
     if slot == 0 or reg[slot, 2] != NARROW:  # not attached in this mode: MuJoCo's own function
@@ -313,6 +317,13 @@ def narrowphase(m, d, con, g1, g2, margin):
             return 0
         _, dist, normal, pos, _ = box.box_ellipsoid(E, K)  # CERTIFIED or ENUMERATED: both proven
         proven = math.isfinite(dist)
+    elif t2 == CYLINDER:  # g1 the ellipsoid, g2 the cylinder
+        E, K = _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _geom(xpos, xmat, size, g2)
+        if cylinder.centre_line_bound(E, K) >= margin:
+            atomic_add(counters + 8 * SEPARATED, 1)
+            return 0
+        status, dist, normal, pos, _ = cylinder.cylinder_ellipsoid(E, K, False)  # no climb: MuJoCo instead
+        proven = status != cylinder.UNPROVEN and math.isfinite(dist)
     else:
         A, B = _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)
         grow = 0.5 * max(margin, 0.0)
@@ -428,6 +439,9 @@ def _wrapper_for(kind, pyfunc, original):
                 )  # fmt: skip
                 word = builder.select(builder.icmp_signed("==", t1, ir.Constant(i32, SPHERE)), ir.Constant(i32, FALLBACK_SPHERE), word)
                 word = builder.select(builder.icmp_signed("==", t2, ir.Constant(i32, BOX)), ir.Constant(i32, FALLBACK_BOX), word)
+                word = builder.select(
+                    builder.icmp_signed("==", t2, ir.Constant(i32, CYLINDER)), ir.Constant(i32, FALLBACK_CYLINDER), word
+                )  # fmt: skip
                 fn = builder.inttoptr(builder.load(builder.gep(ctx, [word])), _collision_type().as_pointer())
                 builder.ret(builder.call(fn, list(wrapfn.args)))
         builder.ret(out)

@@ -8,8 +8,9 @@ external global, which the JIT linker resolves each time the code is loaded:
 
     CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS]       the registry below
     CONTEXT[FALLBACK_ELLIPSOID], CONTEXT[FALLBACK_SPHERE],  MuJoCo's own mjCOLLISIONFUNC entries for
-    CONTEXT[FALLBACK_CAPSULE], CONTEXT[FALLBACK_BOX]        ellipsoid x ellipsoid, sphere x ellipsoid,
-                                                           capsule x ellipsoid, ellipsoid x box
+    CONTEXT[FALLBACK_CAPSULE], CONTEXT[FALLBACK_BOX],       ellipsoid x ellipsoid, sphere x ellipsoid,
+    CONTEXT[FALLBACK_CYLINDER]                             capsule x ellipsoid, ellipsoid x box,
+                                                           ellipsoid x cylinder
     CONTEXT[MODEL_WORDS[field]], CONTEXT[DATA_WORDS[field]] byte offsets of mjModel / mjData fields
                                                            (structs.py)
 
@@ -21,17 +22,17 @@ an object built for the old layout then no longer links in a process with the ne
 import mujoco
 import numpy as np
 
-SYMBOL = "ellipsim_ctx_v4"  # v2: word 15 FALLBACK_CAPSULE; v3: registry columns 5, 6 (warm-start table); v4: word 16 FALLBACK_BOX
+SYMBOL = "ellipsim_ctx_v4"  # v2: word 15 FALLBACK_CAPSULE; v3: registry columns 5, 6 (warm-start table); v4: words 16, 17 FALLBACK_BOX, _CYLINDER
 
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
-FALLBACK_CAPSULE, FALLBACK_BOX = 15, 16
+FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER = 15, 16, 17
 #: pointer fields (the word at the offset holds the array's address) and, dotted, mjOption scalars
 MODEL_WORDS = {
     "geom_type": 4, "geom_contype": 5, "geom_conaffinity": 6, "geom_size": 7, "geom_margin": 8, "geom_gap": 9,
     "opt.ccd_tolerance": 10, "opt.o_margin": 11, "opt.enableflags": 12,
 }  # fmt: skip
 DATA_WORDS = {"geom_xpos": 13, "geom_xmat": 14}
-WORDS = 17
+WORDS = 18
 CONTEXT = np.zeros(WORDS, dtype=np.int64)  # lives as long as the process: its address is published
 
 # Registry of attached datas.  Row 0: [highest slot ever used, ...]; slots 1..: [mjData address
@@ -62,8 +63,10 @@ SEPARATED, CONTACTS, APART, FALLBACKS = 1, 2, 3, 4
 WARM_SLOT_WORDS = 8
 
 # MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
-SPHERE, CAPSULE, ELLIPSOID, BOX = (int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE),
-                                  int(mujoco.mjtGeom.mjGEOM_ELLIPSOID), int(mujoco.mjtGeom.mjGEOM_BOX))  # fmt: skip
+SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
+    int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_BOX),
+)  # fmt: skip
 OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 #: mjPreContact as the narrow phase writes it: float64 words dist, pos[3], normal[3], tangent[3]
 PRECONTACT_WORDS = {"dist": 0, "pos": 1, "normal": 4, "tangent": 7}

@@ -9,6 +9,7 @@
    1e-10.
 4. Deep crossings of elongated ellipsoids: the narrow phase's maximum against the best of 300
    gradient-ascent starts.
+4b. Other pair types: ellipsoid x capsule, box, cylinder per call against MuJoCo's (pair_types.py).
 5. Long runs: plain and narrowphase from the same drop; kinetic energy, depth, bodies leaving.
 """
 
@@ -30,6 +31,7 @@ from ...mujoco.attachment import attach
 from ...mujoco.callbacks import callback, narrowphase_function
 from ...mujoco.compare import compare_narrowphase
 from ...mujoco.geoms import candidate_pairs
+from . import pair_types
 from .common import STEP_MODES, STEP_STATE, interleaved, relative, say, settled, step_segment, timed_steps
 
 SCENES = {
@@ -250,16 +252,18 @@ def measure(size):
     twin = (heap, *capsule_twin(heap, size))
     say("inside MuJoCo: deep crossings ...")
     deep = deep_crossings(size["deep_pairs"])
+    say("inside MuJoCo: other pair types ...")
+    types = pair_types.measure(size)
     for name in LONG_RUNS:
         if name in names:
             say(f"inside MuJoCo: long runs of {name} ...")
             longs[name] = long_run(SCENES[name][0](), size["long_seconds"])
-    return rows, compared, deep, longs, twin
+    return rows, compared, deep, longs, twin, types
 
 
 def write(result, size, out, plt):
     """The section's markdown, and mujoco.png in `out`."""
-    rows, compared, deep, longs, twin = result
+    rows, compared, deep, longs, twin, types = result
     _plot(plt, out, rows)
     L = [
         "## 5. Inside MuJoCo",
@@ -335,6 +339,7 @@ def write(result, size, out, plt):
         f"0.02-0.06, centres within ~7 cm): the proof of the global maximum ran out of budget on {unproven}; ellipsim's "
         f"maximum fell short of the best of 300 gradient-ascent starts by more than 1e-9 r_min in **{misses}** "
         f"(largest shortfall {max(worst, 0.0):.1e}).",
+        *pair_types.write(types),
         "",
     ]
     if longs:

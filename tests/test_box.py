@@ -8,10 +8,12 @@ import mujoco
 import numpy as np
 import pytest
 
-import ellipsim.mujoco as em
 from ellipsim.core import box
-from ellipsim.core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL
-from ellipsim.mujoco import callbacks, nativecache, scenes, structs
+from ellipsim.mujoco import scenes
+from pair_types import (
+    entry_installed_and_restored, error_status_answers_as_mujoco, pile_agrees_with_tight_mujoco, random_rotations,
+    unattached_is_plain_mujoco,
+)  # fmt: skip
 from reference import dense_maximum
 
 ELL, BOX = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID), int(mujoco.mjtGeom.mjGEOM_BOX)
@@ -34,17 +36,6 @@ def reference(P):
     return dense_maximum(ref_sigma, P, axes, np.concatenate([axes, -axes], 1))
 
 
-def _rotations(rng, m):
-    q = rng.normal(size=(m, 4))
-    q /= np.linalg.norm(q, axis=1)[:, None]
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], 1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], 1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], 1),
-    ], 1)  # fmt: skip
-
-
 def _kernel(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
     K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
@@ -61,7 +52,7 @@ def make_poses(seed=0, per=60):
     cat = np.repeat(np.arange(len(names)), per)
     rE = rng.uniform(0.02, 0.3, (m, 3))
     sK = rng.uniform(0.01, 0.3, (m, 3))
-    RE, RK = _rotations(rng, m), _rotations(rng, m)
+    RE, RK = random_rotations(rng, m), random_rotations(rng, m)
     cE = rng.uniform(-1, 1, (m, 3))
     d = rng.normal(size=(m, 3))
     d /= np.linalg.norm(d, axis=1)[:, None]
@@ -168,15 +159,6 @@ def _corner_rotation():
 # --- inside MuJoCo ------------------------------------------------------------------------------
 
 
-def _box_contacts(model, data):
-    """{(g1, g2): (dist, normal, pos, includemargin)} of the ellipsoid x box contacts."""
-    out = {}
-    for c in data.contact[: data.ncon]:
-        if model.geom_type[c.geom1] == ELL and model.geom_type[c.geom2] == BOX:
-            out[(int(c.geom1), int(c.geom2))] = (c.dist, c.frame[:3].copy(), c.pos.copy(), c.includemargin)
-    return out
-
-
 def box_pile_xml(n=30, seed=2, margin=0.0):
     """scenes.pile_xml (ellipsoids falling into a bin of four box walls), the bin narrow enough that
     the pile leans on its walls, with `margin` on every wall."""
@@ -188,86 +170,27 @@ def box_pile_xml(n=30, seed=2, margin=0.0):
 
 @pytest.mark.parametrize("margin", [0.0, 0.01])
 def test_pile_agrees_with_tight_mujoco(margin):
-    """Each step's ellipsoid x box contacts of the attached data against MuJoCo's mjc_Convex run tight
-    (ccd_tolerance 1e-10, 1000 iterations) at the same state: within the issue's 2e-6 m, 1e-3 rad,
-    1e-3 m (tolerances.py); near-tangent pairs (|dist| < 2e-6) may exist on one side only."""
-    xml = box_pile_xml(margin=margin)
-    model = mujoco.MjModel.from_xml_string(xml)
-    tight = mujoco.MjModel.from_xml_string(xml)
-    tight.opt.ccd_tolerance, tight.opt.ccd_iterations = 1e-10, 1000
-    data, check = mujoco.MjData(model), mujoco.MjData(tight)
-    compared = 0
-    with em.attach(model, data, mode="narrowphase") as att:
-        for step in range(600):
-            qpos, qvel = data.qpos.copy(), data.qvel.copy()
-            mujoco.mj_step(model, data)
-            if step % 4:
-                continue
-            check.qpos[:], check.qvel[:] = qpos, qvel
-            mujoco.mj_forward(tight, check)  # not attached: MuJoCo's own function
-            ours, theirs = _box_contacts(model, data), _box_contacts(tight, check)
-            for key in ours.keys() | theirs.keys():
-                if key not in ours or key not in theirs:
-                    dist, _, _, inc = ours.get(key) or theirs.get(key)
-                    assert dist >= inc - NEAR_TANGENT, f"step {step} pair {key}: contact on one side only, dist {dist}"
-                    continue
-                (d1, n1, p1, _), (d2, n2, p2, _) = ours[key], theirs[key]
-                assert abs(d1 - d2) <= DIST_TOL, f"step {step} pair {key}: dist {d1} vs {d2}"
-                if abs(d1) < NEAR_TANGENT:
-                    continue  # MuJoCo's normal is arbitrary at a tangency
-                angle = math.acos(min(1.0, float(n1 @ n2)))
-                assert angle <= ANGLE_TOL, f"step {step} pair {key}: normals {angle} rad apart"
-                assert np.linalg.norm(p1 - p2) <= POS_TOL, f"step {step} pair {key}: pos {p1} vs {p2}"
-                compared += 1
-    counts = att.counters
-    assert compared > 100 and counts["fallbacks"] == 0 and counts["contacts"] > 100
+    """The ellipsoid x box contacts of a pile against MuJoCo run tight
+    (pair_types.pile_agrees_with_tight_mujoco)."""
+    compared, counts = pile_agrees_with_tight_mujoco(box_pile_xml(margin=margin), ELL, BOX, steps=600)
+    assert compared > 100 and counts["contacts"] > 100 and counts["fallbacks"] == 0
 
 
 def test_unattached_data_is_plain_mujoco_on_a_box_pile():
-    """While another data of the same model is attached in mode narrowphase, a data not attached
-    steps bit for bit as MuJoCo alone does."""
-    model = mujoco.MjModel.from_xml_string(box_pile_xml(n=20))
-    alone, other, attached = mujoco.MjData(model), mujoco.MjData(model), mujoco.MjData(model)
-    for _ in range(300):
-        mujoco.mj_step(model, alone)
-    with em.attach(model, attached, mode="narrowphase") as att:
-        for _ in range(300):
-            mujoco.mj_step(model, other)
-            mujoco.mj_step(model, attached)
-    assert att.counters["contacts"] > 0
-    np.testing.assert_array_equal(other.qpos, alone.qpos)
-    np.testing.assert_array_equal(other.qvel, alone.qvel)
+    assert unattached_is_plain_mujoco(box_pile_xml(n=20))["contacts"] > 0
 
 
 def test_box_entry_is_installed_and_restored():
-    model = mujoco.MjModel.from_xml_string(
+    entry_installed_and_restored(
         '<mujoco><worldbody><body><freejoint/><geom type="box" size=".05 .1 .2"/></body>'
-        '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>'
-    )
-    table, n = structs.collision_table()
-    before = table[ELL * n + BOX]
-    with em.attach(model, mujoco.MjData(model), mode="narrowphase") as att:
-        assert att.installed and table[ELL * n + BOX] == nativecache.function("narrowphase").address
-    assert table[ELL * n + BOX] == before
+        '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>',
+        ELL, BOX,
+    )  # fmt: skip
 
 
 def test_an_error_status_answers_with_mujocos_box_function():
-    """The wrapper's error path (callbacks._wrapper_for) for an ellipsoid x box pair: MuJoCo's own
-    contact, from the ellipsoid x box entry."""
-    from test_startup import failing_narrowphase
-
-    nativecache.fill_context()
-    narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)
-    model = mujoco.MjModel.from_xml_string(
+    error_status_answers_as_mujoco(
         '<mujoco><worldbody><geom type="ellipsoid" size=".1 .2 .3" euler="30 0 0"/>'
-        '<geom type="box" size=".1 .2 .05" pos=".1 .02 .05"/></worldbody></mujoco>'
-    )
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    table, n = structs.collision_table()
-    ours = nativecache._CTYPES["narrowphase"](narrow.address)
-    theirs = nativecache._CTYPES["narrowphase"](table[ELL * n + BOX])
-    got, want = np.zeros(64), np.zeros(64)
-    assert ours(model._address, data._address, got.ctypes.data, 0, 1, 0.0) == 1
-    assert theirs(model._address, data._address, want.ctypes.data, 0, 1, 0.0) == 1
-    np.testing.assert_array_equal(got[:10], want[:10])
+        '<geom type="box" size=".1 .2 .05" pos=".1 .02 .05"/></worldbody></mujoco>',
+        ELL, BOX,
+    )  # fmt: skip

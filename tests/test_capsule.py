@@ -3,7 +3,6 @@ narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight.  That a data 
 plain MuJoCo to the bit on a capsule pile is tested with the other scope tests (test_scope.py)."""
 
 import itertools
-import math
 import re
 
 import mujoco
@@ -12,8 +11,10 @@ import pytest
 
 import ellipsim.mujoco as em
 from ellipsim.core import capsule
-from ellipsim.core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL
-from ellipsim.mujoco import callbacks, nativecache, scenes, structs
+from ellipsim.mujoco import scenes
+from pair_types import (
+    entry_installed_and_restored, error_status_answers_as_mujoco, pile_agrees_with_tight_mujoco, random_rotations,
+)  # fmt: skip
 from reference import dense_maximum
 
 CAP, ELL = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
@@ -39,17 +40,6 @@ def reference(P):
 # --- poses ------------------------------------------------------------------------------------
 
 
-def _rotations(rng, m):
-    q = rng.normal(size=(m, 4))
-    q /= np.linalg.norm(q, axis=1)[:, None]
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], 1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], 1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], 1),
-    ], 1)  # fmt: skip
-
-
 def _kernel(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
     K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
@@ -65,7 +55,7 @@ def make_poses(seed=0, per=60):
     cat = np.repeat(np.arange(len(names)), per)
     rE = rng.uniform(0.02, 0.3, (m, 3))
     sK = np.stack([rng.uniform(0.01, 0.1, m), rng.uniform(0.02, 0.3, m), np.zeros(m)], 1)
-    RE, RK = _rotations(rng, m), _rotations(rng, m)
+    RE, RK = random_rotations(rng, m), random_rotations(rng, m)
     cE = rng.uniform(-1, 1, (m, 3))
     d = rng.normal(size=(m, 3))
     d /= np.linalg.norm(d, axis=1)[:, None]
@@ -171,83 +161,29 @@ def capsule_pile_xml(n=30, seed=1, margin=0.0):
     return re.sub(r'type="ellipsoid" size="(\S+) (\S+) \S+"', swap, scenes.pile_xml(n, seed=seed))
 
 
-def _capsule_contacts(model, data):
-    """{(g1, g2): (dist, normal, pos, includemargin)} of the capsule x ellipsoid contacts."""
-    out = {}
-    for c in data.contact[: data.ncon]:
-        if model.geom_type[c.geom1] == CAP and model.geom_type[c.geom2] == ELL:
-            out[(int(c.geom1), int(c.geom2))] = (c.dist, c.frame[:3].copy(), c.pos.copy(), c.includemargin)
-    return out
-
-
 @pytest.mark.parametrize("margin", [0.0, 0.01])
 def test_pile_agrees_with_tight_mujoco(margin):
-    """Each step's capsule x ellipsoid contacts of the attached data against MuJoCo's mjc_Convex run
-    tight (ccd_tolerance 1e-10, 1000 iterations) at the same state: within the issue's 2e-6 m, 1e-3
-    rad, 1e-3 m (tolerances.py); near-tangent pairs (|dist| < 2e-6) may exist on one side only."""
-    xml = capsule_pile_xml(margin=margin)
-    model = mujoco.MjModel.from_xml_string(xml)
-    tight = mujoco.MjModel.from_xml_string(xml)
-    tight.opt.ccd_tolerance, tight.opt.ccd_iterations = 1e-10, 1000
-    data, check = mujoco.MjData(model), mujoco.MjData(tight)
-    compared = 0
-    with em.attach(model, data, mode="narrowphase") as att:
-        for step in range(500):
-            qpos, qvel = data.qpos.copy(), data.qvel.copy()
-            mujoco.mj_step(model, data)  # data.contact: the contacts at qpos
-            if step % 4:
-                continue
-            check.qpos[:], check.qvel[:] = qpos, qvel
-            mujoco.mj_forward(tight, check)  # not attached: MuJoCo's own function
-            ours, theirs = _capsule_contacts(model, data), _capsule_contacts(tight, check)
-            for key in ours.keys() | theirs.keys():
-                if key not in ours or key not in theirs:
-                    dist, _, _, inc = ours.get(key) or theirs.get(key)
-                    assert dist >= inc - NEAR_TANGENT, f"step {step} pair {key}: contact on one side only, dist {dist}"
-                    continue
-                (d1, n1, p1, _), (d2, n2, p2, _) = ours[key], theirs[key]
-                assert abs(d1 - d2) <= DIST_TOL, f"step {step} pair {key}: dist {d1} vs {d2}"
-                if abs(d1) < NEAR_TANGENT:
-                    continue  # MuJoCo's normal is arbitrary at a tangency
-                angle = math.acos(min(1.0, float(n1 @ n2)))
-                assert angle <= ANGLE_TOL, f"step {step} pair {key}: normals {angle} rad apart"
-                assert np.linalg.norm(p1 - p2) <= POS_TOL, f"step {step} pair {key}: pos {p1} vs {p2}"
-                compared += 1
-    counts = att.counters
+    """The capsule x ellipsoid contacts of a capsule pile against MuJoCo run tight
+    (pair_types.pile_agrees_with_tight_mujoco)."""
+    compared, counts = pile_agrees_with_tight_mujoco(capsule_pile_xml(margin=margin), CAP, ELL)
     assert compared > 100 and counts["fallbacks"] == 0 and counts["contacts"] > 100
     assert counts["calls"] >= counts["separated"] + counts["contacts"]
 
 
 def test_capsule_entry_is_installed_and_restored():
-    model = mujoco.MjModel.from_xml_string(
+    xml = (
         '<mujoco><worldbody><body><freejoint/><geom type="capsule" size=".05 .1"/></body>'
         '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>'
     )
-    table, n = structs.collision_table()
-    before = table[CAP * n + ELL]
-    with em.attach(model, mujoco.MjData(model), mode="narrowphase") as att:
-        assert att.installed and table[CAP * n + ELL] == nativecache.function("narrowphase").address
-    assert table[CAP * n + ELL] == before
+    entry_installed_and_restored(xml, CAP, ELL)
+    model = mujoco.MjModel.from_xml_string(xml)
     with em.attach(model, mujoco.MjData(model), mode="filter") as att:
         assert not att.installed  # the filter handles no capsule pair
 
 
 def test_an_error_status_answers_with_mujocos_capsule_function():
-    """The wrapper's error path (callbacks._wrapper_for) for a capsule pair: MuJoCo's own contact."""
-    from test_startup import failing_narrowphase
-
-    nativecache.fill_context()
-    narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)
-    model = mujoco.MjModel.from_xml_string(
+    error_status_answers_as_mujoco(
         '<mujoco><worldbody><geom type="capsule" size=".05 .1" euler="30 0 0"/>'
-        '<geom type="ellipsoid" size=".1 .2 .3" pos=".1 .02 .05"/></worldbody></mujoco>'
-    )
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    table, n = structs.collision_table()
-    ours = nativecache._CTYPES["narrowphase"](narrow.address)
-    theirs = nativecache._CTYPES["narrowphase"](table[CAP * n + ELL])
-    got, want = np.zeros(64), np.zeros(64)
-    assert ours(model._address, data._address, got.ctypes.data, 0, 1, 0.0) == 1
-    assert theirs(model._address, data._address, want.ctypes.data, 0, 1, 0.0) == 1
-    np.testing.assert_array_equal(got[:10], want[:10])
+        '<geom type="ellipsoid" size=".1 .2 .3" pos=".1 .02 .05"/></worldbody></mujoco>',
+        CAP, ELL,
+    )  # fmt: skip

@@ -38,12 +38,12 @@ import math
 
 from ._jit import jit, stage
 from .point_ellipsoid import (
-    circle_max_bound, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2, secular_roots,
-    support,
+    circle_max_bound, contact_in_world, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2,
+    secular_roots, support,
 )  # fmt: skip
 from .sigma import rolling_radius, unit
 from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from .vec3 import column, matvec, norm2, rotate_t
+from .vec3 import column, norm2, rotate_t
 
 #: How box_ellipsoid proved its maximum (as capsule.py): CERTIFIED or ENUMERATED, both proofs.
 CERTIFIED, ENUMERATED = 0, 1
@@ -320,9 +320,5 @@ def box_ellipsoid(E, K):
         else:
             status = ENUMERATED
             ub = math.inf
-    _, s = support(a2, n)
-    half = 0.5 * value
-    ce, Re, _ = E
-    normal = matvec(Re, n)
-    p = matvec(Re, (s[0] + half * n[0], s[1] + half * n[1], s[2] + half * n[2]))
-    return status, value, normal, (ce[0] + p[0], ce[1] + p[1], ce[2] + p[2]), ub
+    normal, pos = contact_in_world(E, a2, n, value)
+    return status, value, normal, pos, ub

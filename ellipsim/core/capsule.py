@@ -42,9 +42,11 @@ import math
 
 from ._jit import jit, stage
 from .sigma import rolling_radius, tangent_basis, unit
-from .point_ellipsoid import circle_max_bound, foot3, pole_normal, sd_upper, secular_roots, support
+from .point_ellipsoid import (
+    circle_max_bound, contact_in_world, foot3, pole_normal, sd_upper, secular_roots, support,
+)  # fmt: skip
 from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from .vec3 import column, dot3, matvec, norm2, rotate_t
+from .vec3 import column, dot3, norm2, rotate_t
 
 #: How capsule_ellipsoid proved its maximum: CERTIFIED (an upper bound within PAIR_CERT_REL of the
 #: smaller shortest half-size of the value) or ENUMERATED (every critical point of every smooth piece
@@ -198,10 +200,5 @@ def capsule_ellipsoid(E, K):
         else:
             status = ENUMERATED
             ub = math.inf
-    # E's witness s(n) and K's s(n) + value n: their midpoint, in world coordinates
-    _, s = support(a2, n)
-    half = 0.5 * value
-    ce, Re, _ = E
-    normal = matvec(Re, n)
-    p = matvec(Re, (s[0] + half * n[0], s[1] + half * n[1], s[2] + half * n[2]))
-    return status, value, normal, (ce[0] + p[0], ce[1] + p[1], ce[2] + p[2]), ub
+    normal, pos = contact_in_world(E, a2, n, value)
+    return status, value, normal, pos, ub

@@ -1,6 +1,6 @@
 """Signed distance of an ellipsoid and a cylinder (MuJoCo's ellipsoid x cylinder narrow phase): the
-maximum proven global, or reported UNPROVEN (deep rim contacts only; the MuJoCo glue then falls back
-to MuJoCo's own function and counts it).
+maximum proven global, or reported UNPROVEN (a rim branch and bound out of budget; the MuJoCo glue
+then falls back to MuJoCo's own function and counts it).
 
 Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (distance.py), with the cylinder
 K = segment [-L, L] u + disc(r) (the disc perpendicular to u) centred at e in E's principal frame:
@@ -24,20 +24,26 @@ Certificates (global upper bounds on max sigma):
   when the chords of E along u, lengthened by L, cover it (_sweep_bound).
 When none closes: caps and side are exact; a rim piece is bounded above by the maximum of f_{q - r c}
 over its closed hemisphere (h_K(m) >= m.(s L u + r c) for any unit c perpendicular to u), tried for c
-at the incumbent's azimuth, the centre's and 6 around (every critical point, point_ellipsoid); a rim
-piece this does not prune is climbed by Newton from 7 starts and the result is UNPROVEN.
+on lunes of azimuths about u: c at the incumbent's azimuth on the lune holding it, at the lune's
+middle elsewhere, the maximum of f_{q - r c} over the lune found from every critical point on its
+boundary arcs and inside it; lunes are bisected until each bound is within the tolerance of the
+incumbent (_rim_bb).  A rim whose branch and bound runs out of budget leaves the pair UNPROVEN.
 
 Ported from the pair-type prototype (10 000 poses: never below a 20 000-direction reference by more
-than 1e-12 of the smaller shortest half-size; half of its deep crossings UNPROVEN).
+than 1e-12 of the smaller shortest half-size), with the rim's branch and bound in place of its
+bounds at 8 fixed azimuths and 7-start Newton climb, which left half of its deep crossings unproven.
 """
 
 import math
 
 from ._jit import jit, stage
-from .point_ellipsoid import circle_max_bound, foot3, pole_normal, sd_upper, secular_roots, support
+from .point_ellipsoid import (
+    circle_max_bound, contact_in_world, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2,
+    secular_roots, support,
+)  # fmt: skip
 from .sigma import rolling_radius, tangent_basis, unit
-from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from .vec3 import column, cross3, matvec, norm2, rotate_t
+from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
+from .vec3 import column, cross3, norm2, rotate_t
 
 #: How cylinder_ellipsoid ended: CERTIFIED (an upper bound within PAIR_CERT_REL of the smaller
 #: shortest half-size of the value), ENUMERATED (every piece bounded or solved) or UNPROVEN.
@@ -327,37 +333,174 @@ def upper_bound(a2, e, u, L, r, rho, n, value, tol):
 
 
 @stage
-def _rim_bound(a2, e, u, L, r, sg, c, slack):
-    """Upper bound on sigma over the rim piece sg (the hemisphere sg n.u >= 0): there
-    h_K(m) >= m.(sg L u + r c) for any unit c perpendicular to u, so sigma <= f_p with p = e - sg L u - r c,
-    and the maximum of f_p over the closed hemisphere is the global one if its maximiser lies there, else
-    the larger of the interior local maxima (secular_roots, maxima only) and the maximum over
-    the bounding great circle n.u = 0 (2-D, certified by weak duality)."""
-    p = (e[0] - sg * L * u[0] - r * c[0], e[1] - sg * L * u[1] - r * c[1], e[2] - sg * L * u[2] - r * c[2])
-    t, n = foot3(a2, p)
-    if sg * _dot(n, u) >= 0.0:
-        return sd_upper(a2, p, t)
-    w1, w2 = tangent_basis(u)
-    _, best = circle_max_bound(a2, p, w1, w2)
-    for tt in secular_roots(a2, p):
-        if tt == tt:
-            m = unit((p[0] / (tt + a2[0]), p[1] / (tt + a2[1]), p[2] / (tt + a2[2])))
-            if sg * _dot(m, u) > 0.0:
-                h = math.sqrt(a2[0] * m[0] * m[0] + a2[1] * m[1] * m[1] + a2[2] * m[2] * m[2])
-                best = max(best, _dot(m, p) - h + slack)
-    for i in range(3):
-        for sign in (1.0, -1.0):
-            ok, m = pole_normal(a2, p, i, sign)
-            if ok and sg * _dot(m, u) > 0.0:
-                h = math.sqrt(a2[0] * m[0] * m[0] + a2[1] * m[1] * m[1] + a2[2] * m[2] * m[2])
-                best = max(best, _dot(m, p) - h + slack)
-    return best
+def _f(a2, p, m):
+    """f_p(m) = m.p - h_E(m)."""
+    return _dot(m, p) - math.sqrt(a2[0] * m[0] * m[0] + a2[1] * m[1] * m[1] + a2[2] * m[2] * m[2])
+
+
+@stage
+def _on_arc(m, v1, v2, span):
+    """Whether the unit m of the plane span(v1, v2) is cos t v1 + sin t v2 with t in [0, span]."""
+    y = _dot(m, v2)
+    return y >= 0.0 and math.atan2(y, _dot(m, v1)) <= span
+
+
+@stage
+def _turn(v1, v2, t):
+    """cos t v1 + sin t v2."""
+    ct, st = math.cos(t), math.sin(t)
+    return (ct * v1[0] + st * v2[0], ct * v1[1] + st * v2[1], ct * v1[2] + st * v2[2])
 
 
 @jit
-def deep_search(a2, e, u, L, r, best, bn, tol, slack, climb):
-    """Caps and side exactly; each rim pruned by _rim_bound at a few rim points, else climbed from
-    several starts (climb; else the search stops there, unproven).  Returns (value, n, proven)."""
+def _arc_max(a2, p, v1, v2, span, slack, floor):
+    """(bound, m): the maximum of f_p over the arc {cos t v1 + sin t v2 : t in [0, span]} (v1, v2
+    orthonormal, span <= pi) and where it is attained: the two ends and every local maximum of f_p on
+    the great circle that lies on the arc (the 2-D point-ellipse problem in the plane; its secular
+    roots through the 3-D enumeration with a third axis longer than both, as in box.enumerate_max),
+    the latter plus slack (their rounding).  First, the circle's global maximum (foot2, its
+    weak-duality bound sd_upper2) when it lies on the arc or is already below `floor`."""
+    lam, mu, c, s = project_ellipse(a2, v1, v2)
+    p1, p2 = _dot(p, v1), _dot(p, v2)
+    q = (c * p1 + s * p2, -s * p1 + c * p2, 0.0)
+    t, m0, m1 = foot2(lam, mu, q[0], q[1])
+    top = sd_upper2(lam, mu, q[0], q[1], t)
+    m = from_plane(m0, m1, c, s, v1, v2)
+    if top <= floor or _on_arc(m, v1, v2, span):
+        return top, m
+    best, bm = _f(a2, p, v1), v1
+    end = _turn(v1, v2, span)
+    v = _f(a2, p, end)
+    if v > best:
+        best, bm = v, end
+    b3 = (lam, mu, 2.0 * max(lam, mu))
+    for t in secular_roots(b3, q):
+        if t == t:
+            mm = unit((q[0] / (t + lam), q[1] / (t + mu), 0.0))
+            m = from_plane(mm[0], mm[1], c, s, v1, v2)
+            if _on_arc(m, v1, v2, span):
+                v = _f(a2, p, m) + slack
+                if v > best:
+                    best, bm = v, m
+    for i in range(2):
+        for sign in (1.0, -1.0):
+            ok, mm = pole_normal(b3, q, i, sign)
+            if ok:
+                m = from_plane(mm[0], mm[1], c, s, v1, v2)
+                if _on_arc(m, v1, v2, span):
+                    v = _f(a2, p, m) + slack
+                    if v > best:
+                        best, bm = v, m
+    return best, bm
+
+
+@jit
+def _lune_bound(a2, p, su, ca, cq, width, slack, floor):
+    """(bound, m): the maximum of f_p over the lune {n : n.su >= 0, azimuth about su in [0, width]
+    from ca} (su the rim's half axis sg u, ca and cq = su x ca unit and perpendicular to it, width <=
+    pi/2) and where it is attained: the maxima over its two meridian arcs (pole to equator) and its
+    equator arc, and every local maximum of f_p on the sphere (secular_roots, pole_normal) inside it;
+    first, the global maximum of f_p (foot3, its weak-duality bound sd_upper) when it lies in the lune
+    or is already below `floor`."""
+    t, m = foot3(a2, p)
+    top = sd_upper(a2, p, t)
+    if top <= floor or (_dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width)):
+        return top, m
+    best, bm = _arc_max(a2, p, su, ca, 0.5 * math.pi, slack, floor)
+    v, m = _arc_max(a2, p, su, _turn(ca, cq, width), 0.5 * math.pi, slack, floor)
+    if v > best:
+        best, bm = v, m
+    v, m = _arc_max(a2, p, ca, cq, width, slack, floor)
+    if v > best:
+        best, bm = v, m
+    for t in secular_roots(a2, p):
+        if t == t:
+            m = unit((p[0] / (t + a2[0]), p[1] / (t + a2[1]), p[2] / (t + a2[2])))
+            if _dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width):
+                v = _f(a2, p, m) + slack
+                if v > best:
+                    best, bm = v, m
+    for i in range(3):
+        for sign in (1.0, -1.0):
+            ok, m = pole_normal(a2, p, i, sign)
+            if ok and _dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width):
+                v = _f(a2, p, m) + slack
+                if v > best:
+                    best, bm = v, m
+    return best, bm
+
+
+@jit
+def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
+    """Branch and bound over the azimuth of the rim piece sg (the hemisphere sg n.u >= 0), where
+    sigma(n) = f_q(n) - r |P n| with q = e - sg L u.  For any unit c perpendicular to u, r |P n| >= r n.c,
+    so on a lune of azimuths sigma <= f_{q - r c}, whose maximum over the lune is found exactly
+    (_lune_bound).  c is the incumbent's azimuth on the lunes that contain it -- the bound there is
+    sigma's own maximum once the lune is narrow enough to hold no other local maximum of f_{q - r c}
+    -- and the lune's end nearer to it elsewhere (the bound equals sigma along that meridian and
+    exceeds it by r |P n| (1 - cos) of the azimuth from it).
+    Four quarter lunes from the incumbent's azimuth, each split in two depth first (no allocation: a
+    node is its level and index) until its bound is within tol of the incumbent; a lune whose
+    maximiser beats the incumbent starts a rim Newton run there.  Returns (best, bn, proven): proven
+    False when RIM_BB_NODES lunes or RIM_BB_LEVELS levels did not settle it."""
+    q = (e[0] - sg * L * u[0], e[1] - sg * L * u[1], e[2] - sg * L * u[2])
+    su = (sg * u[0], sg * u[1], sg * u[2])
+    w1, w2 = tangent_basis(su)
+    quarter = 0.5 * math.pi
+    phi = 0.0
+    has = perp(bn, u) > 0.0  # an azimuth: on this rim, on the side circle, or on the other rim
+    if has:
+        phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
+    start = phi - 0.5 * quarter
+    nodes = 0
+    for k in range(4):
+        a0 = start + k * quarter
+        lev, idx = 0, 0
+        while True:
+            width = math.ldexp(quarter, -lev)
+            a = a0 + idx * width
+            ca = _turn(w1, w2, a)
+            cq = _turn(w1, w2, a + quarter)
+            off = (phi - a) % (2.0 * math.pi)
+            if not has:
+                at = a + 0.5 * width
+            elif off <= width:
+                at = a + off  # the incumbent's azimuth
+            else:  # the end nearer the incumbent: the bound is sigma itself along that meridian
+                at = a + width if off - width < 2.0 * math.pi - off else a
+            c = _turn(w1, w2, at)
+            p = (q[0] - r * c[0], q[1] - r * c[1], q[2] - r * c[2])
+            bound, m = _lune_bound(a2, p, su, ca, cq, width, slack, best + tol)
+            nodes += 1
+            if bound > best + tol:
+                v = sigma_cylinder(a2, e, u, L, r, m)
+                if v > best and sg * _dot(m, u) > 0.0 and perp(m, u) > 0.0:
+                    mn, _, code = _rim_newton(a2, e, u, L, r, sg, m)
+                    vn = sigma_cylinder(a2, e, u, L, r, mn)
+                    if vn > v:
+                        v, m = vn, mn
+                if v > best:  # the children take c from the new incumbent
+                    best, bn = v, m
+                    has = perp(bn, u) > 0.0
+                    if has:
+                        phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
+            if bound > best + tol:
+                if nodes >= RIM_BB_NODES or lev >= RIM_BB_LEVELS:
+                    return best, bn, False
+                lev, idx = lev + 1, 2 * idx
+                continue
+            while lev > 0 and idx % 2 == 1:
+                lev, idx = lev - 1, idx // 2
+            if lev == 0:
+                break
+            idx += 1
+    return best, bn, True
+
+
+@jit
+def deep_search(a2, e, u, L, r, best, bn, tol, slack):
+    """Caps and side exactly, then each rim piece by its azimuth branch and bound (_rim_bb).
+    Returns (value, n, proven)."""
     for sg in (1.0, -1.0):
         m = (sg * u[0], sg * u[1], sg * u[2])
         v = sigma_cylinder(a2, e, u, L, r, m)
@@ -370,55 +513,19 @@ def deep_search(a2, e, u, L, r, best, bn, tol, slack, climb):
         best, bn = v, m
     proven = True
     for sg in (1.0, -1.0):
-        # rim points to bound with: towards the incumbent's and towards the centre's azimuth, and 6 around
-        pruned = False
-        for k in range(8):
-            if k == 0:
-                c = (bn[0] - _dot(bn, u) * u[0], bn[1] - _dot(bn, u) * u[1], bn[2] - _dot(bn, u) * u[2])
-            elif k == 1:
-                c = (e[0] - _dot(e, u) * u[0], e[1] - _dot(e, u) * u[1], e[2] - _dot(e, u) * u[2])
-            else:
-                ang = (k - 2) * (math.pi / 3.0)
-                c = (math.cos(ang) * w1[0] + math.sin(ang) * w2[0], math.cos(ang) * w1[1] + math.sin(ang) * w2[1],
-                     math.cos(ang) * w1[2] + math.sin(ang) * w2[2])  # fmt: skip
-            cc = _dot(c, c)
-            if not cc > 1e-24:
-                continue
-            c = unit(c)
-            if _rim_bound(a2, e, u, L, r, sg, c, slack) <= best + tol:
-                pruned = True
-                break
-        if pruned:
-            continue
-        proven = False
-        if not climb:
-            break
-        for k in range(7):
-            if k == 6:
-                start = unit((sg * u[0] + bn[0], sg * u[1] + bn[1], sg * u[2] + bn[2]))
-            else:
-                ang = k * (math.pi / 3.0)
-                start = unit((0.7 * sg * u[0] + math.cos(ang) * w1[0] + math.sin(ang) * w2[0],
-                              0.7 * sg * u[1] + math.cos(ang) * w1[1] + math.sin(ang) * w2[1],
-                              0.7 * sg * u[2] + math.cos(ang) * w1[2] + math.sin(ang) * w2[2]))  # fmt: skip
-            m, v, code = _rim_newton(a2, e, u, L, r, sg, start)
-            if code == CONVERGED and sg * _dot(m, u) > 0.0:
-                v = sigma_cylinder(a2, e, u, L, r, m)
-                if v > best:
-                    best, bn = v, m
+        best, bn, ok = _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack)
+        proven = proven and ok
     return best, bn, proven
 
 
 @jit
-def cylinder_ellipsoid(E, K, climb=True):
+def cylinder_ellipsoid(E, K):
     """(status, dist, normal (3,), pos (3,), ub) for the ellipsoid E and the cylinder K, tuples (centre
     (3,) metres, rotation row-major (9,), sizes (3,) metres; K's sizes (radius, half-length, unused),
     its axis its local z, as MuJoCo's cylinder geom).  dist: sigma at the returned normal (a lower bound
     of the exact signed distance, metres); normal: unit, from E to K; pos: the midpoint of the witness
     points; ub: the certified upper bound (inf unless CERTIFIED); status: CERTIFIED, ENUMERATED (both
-    proofs) or UNPROVEN (a deep rim piece neither bound pruned: the best of several Newton climbs, or,
-    climb False, whatever the search had when it met that piece -- for callers that discard unproven
-    results, as the MuJoCo glue does)."""
+    proofs) or UNPROVEN (a rim branch and bound out of budget: the best maximum found)."""
     e, a2, u = to_frame(E, K)
     r, L = K[2][0], K[2][1]
     ra = E[2]
@@ -431,19 +538,15 @@ def cylinder_ellipsoid(E, K, climb=True):
     if ub - value > tol:
         scale = math.sqrt(norm2(e)) + max(ra[0], ra[1], ra[2], r, L)
         slack = PAIR_SIGMA_SLACK_ULPS * U * scale
-        value, n, proven = deep_search(a2, e, u, L, r, value, n, tol, slack, climb)
+        value, n, proven = deep_search(a2, e, u, L, r, value, n, tol, slack)
         ub2 = upper_bound(a2, e, u, L, r, rho, n, value, tol)
         if ub2 - value <= tol:
             ub = ub2
         else:
             status = ENUMERATED if proven else UNPROVEN
             ub = math.inf
-    _, s = support(a2, n)
-    half = 0.5 * value
-    ce, Re, _ = E
-    normal = matvec(Re, n)
-    p = matvec(Re, (s[0] + half * n[0], s[1] + half * n[1], s[2] + half * n[2]))
-    return status, value, normal, (ce[0] + p[0], ce[1] + p[1], ce[2] + p[2]), ub
+    normal, pos = contact_in_world(E, a2, n, value)
+    return status, value, normal, pos, ub
 
 
 @stage

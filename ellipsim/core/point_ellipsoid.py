@@ -19,7 +19,19 @@ import math
 from ._jit import jit, stage
 from .sigma import unit
 from .tolerances import CRITICAL_MAX_ITER, POLE_RTOL, SECULAR_LAST, SECULAR_MAX_ITER
-from .vec3 import dot3, norm2
+from .vec3 import dot3, matvec, norm2
+
+@stage
+def contact_in_world(E, a2, n, value):
+    """(normal, pos) in world coordinates for the ellipsoid E (centre, rotation row-major, sizes) of a
+    pair, the maximiser n in E's principal frame and the signed distance value: E's witness s(n) and
+    the other body's s(n) + value n, pos their midpoint (MuJoCo's contact position, mjc_penetration)."""
+    _, s = support(a2, n)
+    half = 0.5 * value
+    ce, Re, _ = E
+    p = matvec(Re, (s[0] + half * n[0], s[1] + half * n[1], s[2] + half * n[2]))
+    return matvec(Re, n), (ce[0] + p[0], ce[1] + p[1], ce[2] + p[2])
+
 
 @stage
 def support(a2, n):

@@ -143,6 +143,10 @@ PAIR_CERT_REL = 1e-12
 #: at most 1.4e-15 of the scale, /work/scratch/pairtypes/results/validation_capsule.md): the MuJoCo
 #: glue drops a pair only when sigma at some direction minus this much is beyond the margin.
 PAIR_SIGMA_SLACK_ULPS = 64.0
+#: Budget of the cylinder rim's azimuth branch and bound (cylinder._rim_bb): lunes per rim, and
+#: bisections of a quarter lune (pi/2 / 2^40 ~ 1.4e-12 rad); beyond either the pair is UNPROVEN.
+RIM_BB_NODES = 400
+RIM_BB_LEVELS = 40
 #: Newton on the point-ellipsoid secular equation takes its last step once a step is below this
 #: fraction of |t| + min(a2) (quadratic convergence: the next would be ~1e-16 of it); 2-6 steps
 #: on random pairs, SECULAR_MAX_ITER never reached there.

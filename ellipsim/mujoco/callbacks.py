@@ -16,7 +16,7 @@ filling the mjPreContact as mjc_Convex does (dist, pos, normal from g1 to g2; ta
 mj_setContact completes the frame).  The table is indexed type1 <= type2 (engine_collision_driver.c
 swaps the pair by type), so the capsule is g1 (its normal is core.capsule's flipped) and the box or
 cylinder is g2.  A pair whose maximum is not proven global (core.distance UNPROVEN: the branch and
-bound's budget ran out; core.cylinder UNPROVEN: a deep rim contact; a non-finite result) goes to
+bound's budget ran out, for two ellipsoids or a cylinder's rim; a non-finite result) goes to
 MuJoCo's original function, and is counted.
 
 Warm start (issue 13): a data attached in mode "narrowphase" owns a table (attachment.py; layout in
@@ -322,7 +322,7 @@ def narrowphase(m, d, con, g1, g2, margin):
         if cylinder.centre_line_bound(E, K) >= margin:
             atomic_add(counters + 8 * SEPARATED, 1)
             return 0
-        status, dist, normal, pos, _ = cylinder.cylinder_ellipsoid(E, K, False)  # no climb: MuJoCo instead
+        status, dist, normal, pos, _ = cylinder.cylinder_ellipsoid(E, K)
         proven = status != cylinder.UNPROVEN and math.isfinite(dist)
     else:
         A, B = _ellipsoid(xpos, xmat, size, t1, g1, 0.0), _ellipsoid(xpos, xmat, size, t2, g2, 0.0)

@@ -8,7 +8,7 @@ placed exactly: the other body is translated along the normal of a separated con
 distance of convex bodies shrinks by exactly the translation while they stay apart).  Each pose is a
 pair of geoms of one model; both functions are called in a compiled loop over the pairs (margin 0),
 ellipsim's on a data attached in mode "narrowphase", in interleaved rounds.  ellipsim's time includes
-its fallbacks to MuJoCo's function (deep cylinder rims it cannot prove), counted in the table.
+its fallbacks to MuJoCo's function (pairs whose maximum it could not prove), counted in the table.
 """
 
 import ctypes
@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from ...core import box, capsule, cylinder
+from ...core.rotations import quaternions_to_rotations
 from ...mujoco import structs
 from ...mujoco.attachment import attach
 from ...mujoco.callbacks import narrowphase_function
@@ -27,8 +28,7 @@ KINDS = ("capsule", "box", "cylinder")
 CATEGORIES = ("separated", "touching", "penetrating", "deep")
 _TYPE = {"capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "box": mujoco.mjtGeom.mjGEOM_BOX,
          "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER}  # fmt: skip
-_KERNEL = {"capsule": capsule.capsule_ellipsoid, "box": box.box_ellipsoid,
-           "cylinder": lambda E, K: cylinder.cylinder_ellipsoid(E, K, True)}  # fmt: skip
+_KERNEL = {"capsule": capsule.capsule_ellipsoid, "box": box.box_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid}
 _FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double)
 
 
@@ -43,13 +43,7 @@ def _calls(fn, m, d, con, pairs, reps):
 
 def _rotations(rng, n):
     q = rng.normal(size=(n, 4))
-    q /= np.linalg.norm(q, axis=1)[:, None]
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], 1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], 1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], 1),
-    ], 1)  # fmt: skip
+    return quaternions_to_rotations(q / np.linalg.norm(q, axis=1)[:, None])
 
 
 def poses(kind, category, n, rng):

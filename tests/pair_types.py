@@ -1,0 +1,109 @@
+"""What the capsule, box and cylinder tests check alike inside MuJoCo: agreement with MuJoCo run
+tight on a pile, bit-identical plain datas, the table entry installed and restored, and the error
+path answering with MuJoCo's own function.  Each takes the pair's geom types (t1 <= t2, MuJoCo's
+table order)."""
+
+import math
+
+import mujoco
+import numpy as np
+
+import ellipsim.mujoco as em
+from ellipsim.core.rotations import quaternions_to_rotations
+from ellipsim.core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL
+from ellipsim.mujoco import callbacks, nativecache, structs
+
+
+def random_rotations(rng, m):
+    q = rng.normal(size=(m, 4))
+    return quaternions_to_rotations(q / np.linalg.norm(q, axis=1)[:, None])
+
+
+def contacts_of(model, data, t1, t2):
+    """{(g1, g2): (dist, normal, pos, includemargin)} of the contacts between geom types t1 and t2."""
+    out = {}
+    for c in data.contact[: data.ncon]:
+        if model.geom_type[c.geom1] == t1 and model.geom_type[c.geom2] == t2:
+            out[(int(c.geom1), int(c.geom2))] = (c.dist, c.frame[:3].copy(), c.pos.copy(), c.includemargin)
+    return out
+
+
+def pile_agrees_with_tight_mujoco(xml, t1, t2, steps=500):
+    """Every 4th step's (t1, t2) contacts of the attached data against MuJoCo's mjc_Convex run tight
+    (ccd_tolerance 1e-10, 1000 iterations) at the same state: within the issue's 2e-6 m, 1e-3 rad,
+    1e-3 m (tolerances.py); near-tangent pairs (|dist| < 2e-6) may exist on one side only.  Returns
+    (contacts compared, the attachment's counters)."""
+    model = mujoco.MjModel.from_xml_string(xml)
+    tight = mujoco.MjModel.from_xml_string(xml)
+    tight.opt.ccd_tolerance, tight.opt.ccd_iterations = 1e-10, 1000
+    data, check = mujoco.MjData(model), mujoco.MjData(tight)
+    compared = 0
+    with em.attach(model, data, mode="narrowphase") as att:
+        for step in range(steps):
+            qpos, qvel = data.qpos.copy(), data.qvel.copy()
+            mujoco.mj_step(model, data)  # data.contact: the contacts at qpos
+            if step % 4:
+                continue
+            check.qpos[:], check.qvel[:] = qpos, qvel
+            mujoco.mj_forward(tight, check)  # not attached: MuJoCo's own function
+            ours, theirs = contacts_of(model, data, t1, t2), contacts_of(tight, check, t1, t2)
+            for key in ours.keys() | theirs.keys():
+                if key not in ours or key not in theirs:
+                    dist, _, _, inc = ours.get(key) or theirs.get(key)
+                    assert dist >= inc - NEAR_TANGENT, f"step {step} pair {key}: contact on one side only, dist {dist}"
+                    continue
+                (d1, n1, p1, _), (d2, n2, p2, _) = ours[key], theirs[key]
+                assert abs(d1 - d2) <= DIST_TOL, f"step {step} pair {key}: dist {d1} vs {d2}"
+                if abs(d1) < NEAR_TANGENT:
+                    continue  # MuJoCo's normal is arbitrary at a tangency
+                angle = math.acos(min(1.0, float(n1 @ n2)))
+                assert angle <= ANGLE_TOL, f"step {step} pair {key}: normals {angle} rad apart"
+                assert np.linalg.norm(p1 - p2) <= POS_TOL, f"step {step} pair {key}: pos {p1} vs {p2}"
+                compared += 1
+    return compared, att.counters
+
+
+def unattached_is_plain_mujoco(xml, steps=300):
+    """While another data of the same model is attached in mode narrowphase, a data not attached
+    steps bit for bit as MuJoCo alone does; returns the attached data's counters."""
+    model = mujoco.MjModel.from_xml_string(xml)
+    alone, other, attached = mujoco.MjData(model), mujoco.MjData(model), mujoco.MjData(model)
+    for _ in range(steps):
+        mujoco.mj_step(model, alone)
+    with em.attach(model, attached, mode="narrowphase") as att:
+        for _ in range(steps):
+            mujoco.mj_step(model, other)
+            mujoco.mj_step(model, attached)
+    np.testing.assert_array_equal(other.qpos, alone.qpos)
+    np.testing.assert_array_equal(other.qvel, alone.qvel)
+    return att.counters
+
+
+def entry_installed_and_restored(xml, t1, t2):
+    """The narrow phase sits in the (t1, t2) entry of MuJoCo's table while a data is attached, and
+    MuJoCo's function is back after."""
+    model = mujoco.MjModel.from_xml_string(xml)
+    table, n = structs.collision_table()
+    before = table[t1 * n + t2]
+    with em.attach(model, mujoco.MjData(model), mode="narrowphase") as att:
+        assert att.installed and table[t1 * n + t2] == nativecache.function("narrowphase").address
+    assert table[t1 * n + t2] == before
+
+
+def error_status_answers_as_mujoco(xml, t1, t2):
+    """The wrapper's error path (callbacks._wrapper_for) for geoms 0 and 1 of xml (types t1, t2):
+    MuJoCo's own contact, from the (t1, t2) entry."""
+    from test_startup import failing_narrowphase
+
+    nativecache.fill_context()
+    narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    table, n = structs.collision_table()
+    ours = nativecache._CTYPES["narrowphase"](narrow.address)
+    theirs = nativecache._CTYPES["narrowphase"](table[t1 * n + t2])
+    got, want = np.zeros(64), np.zeros(64)
+    assert ours(model._address, data._address, got.ctypes.data, 0, 1, 0.0) == 1
+    assert theirs(model._address, data._address, want.ctypes.data, 0, 1, 0.0) == 1
+    np.testing.assert_array_equal(got[:10], want[:10])

@@ -374,7 +374,7 @@ def _arc_max(a2, p, v1, v2, span, slack, floor):
     if v > best:
         best, bm = v, end
     b3 = (lam, mu, 2.0 * max(lam, mu))
-    for t in secular_roots(b3, q):
+    for t in secular_roots(b3, q, False):  # the largest root is foot2's, off the arc
         if t == t:
             mm = unit((q[0] / (t + lam), q[1] / (t + mu), 0.0))
             m = from_plane(mm[0], mm[1], c, s, v1, v2)
@@ -413,7 +413,7 @@ def _lune_bound(a2, p, su, ca, cq, width, slack, floor):
     v, m = _arc_max(a2, p, ca, cq, width, slack, floor)
     if v > best:
         best, bm = v, m
-    for t in secular_roots(a2, p):
+    for t in secular_roots(a2, p, False):  # the largest root is foot3's, outside the lune
         if t == t:
             m = unit((p[0] / (t + a2[0]), p[1] / (t + a2[1]), p[2] / (t + a2[2])))
             if _dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width):

@@ -352,11 +352,12 @@ def _split(a2, c, lo, hi, cl, cr, scale):
 
 
 @jit
-def secular_roots(a2, q):
+def secular_roots(a2, q, largest=True):
     """The roots of S(t) = 1 that can be local maxima of f_q on the sphere (local minima of the
-    distance from q to E's boundary), a 3-tuple with nan where there is none: the largest root and
-    the two between the two largest poles.  (The Lagrangian |x - q|^2 + t (x^T A^-1 x - 1) has the
-    tangent Hessian 2 (I + t A^-1), with a descent direction of the distance for t < -a2_mid.)"""
+    distance from q to E's boundary), a 3-tuple with nan where there is none: the largest root (nan
+    unless `largest`: foot3's root, for callers that have it) and the two between the two largest
+    poles.  (The Lagrangian |x - q|^2 + t (x^T A^-1 x - 1) has the tangent Hessian 2 (I + t A^-1), with
+    a descent direction of the distance for t < -a2_mid.)"""
     i0, i1, i2 = 0, 1, 2  # poles -a2_i ascending
     if a2[i1] > a2[i0]:
         i0, i1 = i1, i0
@@ -373,7 +374,9 @@ def secular_roots(a2, q):
     for i in range(3):
         t = max(t, -a2[i] + abs(c[i]))
     S, _, _ = _S3(a2, c, t)
-    if S > 1.0:
+    if not largest:
+        pass
+    elif S > 1.0:
         r1 = _root(a2, c, t, p, math.inf, scale)
     elif S == 1.0 or t > p + 1e-300:
         r1 = t

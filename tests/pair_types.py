@@ -107,3 +107,54 @@ def error_status_answers_as_mujoco(xml, t1, t2):
     assert ours(model._address, data._address, got.ctypes.data, 0, 1, 0.0) == 1
     assert theirs(model._address, data._address, want.ctypes.data, 0, 1, 0.0) == 1
     np.testing.assert_array_equal(got[:10], want[:10])
+
+
+# --- the kernels' poses and their check against the dense reference ------------------------------
+
+
+def far_poses(rng, rE, sK):
+    """Pose dict (cE, RE, rE, cK, RK, sK) of m pairs with random rotations, E's centre in [-1, 1]^3
+    and K's far from it in a random direction."""
+    m = len(rE)
+    RE, RK = random_rotations(rng, m), random_rotations(rng, m)
+    cE = rng.uniform(-1, 1, (m, 3))
+    d = rng.normal(size=(m, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    cK = cE + d * (2 * (np.linalg.norm(rE, axis=1) + np.linalg.norm(sK, axis=1)) + 0.1)[:, None]
+    return dict(cE=cE, RE=RE, rE=rE, cK=cK, RK=RK, sK=sK)
+
+
+def place_gaps(P, cat, kernel, small, rng):
+    """Categories 0 (separated: gap log-uniform in [1e-6, 0.1] m), 1 (touching: gap 0 or +-1e-9) and
+    2 (shallow: pushed in by up to half of `small`): K translated along the kernel's normal of the far
+    pose (the distance of convex bodies shrinks by exactly the translation while they stay apart; the
+    reference measures the result, nothing assumes it).  kernel(P, i) -> (status, dist, normal, ...)."""
+    m = len(cat)
+    gap = np.where(cat == 0, 10 ** rng.uniform(-6, -1, m), 0.0)
+    gap = np.where(cat == 1, rng.choice([0.0, 1e-9, -1e-9], m), gap)
+    gap = np.where(cat == 2, -rng.uniform(1e-6, 0.5, m) * small, gap)
+    for i in np.flatnonzero(cat <= 2):
+        _, dist, normal, _, _ = kernel(P, i)
+        P["cK"][i] = P["cK"][i] - np.array(normal) * (dist - gap[i])
+
+
+def check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, statuses, certified_status):
+    """The kernel's value within 1e-12 of s_min of the dense reference in every category, on either
+    side; statuses among `statuses`; the certificate (ub) above the reference and within 1e-12 s_min
+    of the value where certified; the value equal to the reference's sigma at the kernel's normal.
+    out: (status, dist, ub) rows."""
+    status, dist, ub = out[:, 0], out[:, 1], out[:, 2]
+    scale = np.linalg.norm(P["cK"] - P["cE"], axis=1) + np.maximum(P["rE"].max(1), P["sK"].max(1))
+    slack = 64 * 2.0**-53 * scale  # the rounding allowance of sigma (tolerances.PAIR_SIGMA_SLACK_ULPS)
+    below = (ref - dist) / s_min  # ours below the reference: a missed maximum
+    above = (dist - ref) / s_min  # ours above it: the reference's polish stopped short, or ours is wrong
+    for k, name in enumerate(names):
+        sel = cat == k
+        assert below[sel].max() <= 1e-12, f"{name}: {below[sel].max():.3g} s_min below the reference"
+        assert above[sel].max() <= 1e-12, f"{name}: {above[sel].max():.3g} s_min above the reference"
+    assert set(np.unique(status)) <= set(statuses)
+    certified = status == certified_status
+    assert np.all(ref[certified] <= ub[certified] + slack[certified])  # the certificate holds
+    assert np.all(ub[certified] - dist[certified] <= 1e-12 * s_min[certified] + slack[certified])
+    at_ours = ref_sigma(P, normals[:, None, :])[:, 0]  # our dist is sigma at our normal, independently
+    np.testing.assert_allclose(at_ours, dist, rtol=0, atol=1e-14 * scale.max())

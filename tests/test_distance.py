@@ -186,16 +186,21 @@ def test_contact_by_contact_against_mujoco(xml):
 
 
 def test_narrowphase_steps_stay_physical():
+    """A pile of 40 dropped into a box-walled bin settles: over the last 500 of 3000 steps |qvel| stays
+    below 1 (0.45-0.53 measured; plain MuJoCo is still at 1.1-2.3 then, and both pass through bursts
+    of 8-10 while the pile topples, so a single step's value is no test)."""
     model = mujoco.MjModel.from_xml_string(figures.pile_xml(40, seed=3))
     data = mujoco.MjData(model)
+    speeds = []
     with plugin.attach(model, data, mode="narrowphase") as att:
-        for _ in range(1500):
+        for _ in range(3000):
             mujoco.mj_step(model, data)
+            speeds.append(np.linalg.norm(data.qvel))
     assert att.counters["contacts"] > 1000 and att.counters["fallbacks"] == 0
     assert data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0
     pos = data.xpos[1:]
     assert np.all(np.isfinite(pos)) and np.all(np.abs(pos[:, :2]) < 0.55) and np.all(pos[:, 2] > 0)
-    assert np.linalg.norm(data.qvel) < 1.0  # settled, not exploding
+    assert max(speeds[-500:]) < 1.0  # settled, not exploding
 
 
 def test_attach_detach_restores_the_collision_table():

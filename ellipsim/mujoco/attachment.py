@@ -28,16 +28,43 @@ _lock = threading.Lock()
 _state = {"previous": None, "filter_installed": False, "table": None, "attached": []}
 
 
+#: (type1, type2), type1 <= type2 (MuJoCo's table order): the mjCOLLISIONFUNC entries the narrow
+#: phase replaces, and so the explicit pairs it covers
+_NARROW_TYPES = ((ELLIPSOID, ELLIPSOID), (SPHERE, ELLIPSOID), (CAPSULE, ELLIPSOID), (ELLIPSOID, BOX), (ELLIPSOID, CYLINDER))
+
+
+def explicit_pairs(model, mode="narrowphase"):
+    """Indices into the model's `<contact><pair>` elements (model.pair_geom1 / pair_geom2) whose geom
+    types the mode's callback handles: (k,) int array.
+
+    Explicit pairs skip the contype/conaffinity test and mjcb_contactfilter (engine_collision_driver.c,
+    filterCollisionPair with ipair >= 0) and go straight to mjCOLLISIONFUNC with the pair's own
+    margin + gap; mj_setContact then gives the contact the pair's margin, condim, solref, solimp and
+    friction.  So the narrow phase covers them; a contact filter never sees them, so for modes
+    "filter" and "record" there are none."""
+    if mode != "narrowphase" or model.npair == 0:
+        return np.zeros(0, dtype=np.int64)
+    t1, t2 = model.geom_type[model.pair_geom1], model.geom_type[model.pair_geom2]
+    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
+    handled = np.zeros(model.npair, dtype=bool)
+    for a, b in _NARROW_TYPES:
+        handled |= (lo == a) & (hi == b)
+    return np.flatnonzero(handled)
+
+
 def ellipsoid_pair_possible(model, mode="filter"):
     """True when the model has a geom pair the mode's callback handles: ellipsoid with ellipsoid or
-    sphere, and in mode "narrowphase" also capsule, box or cylinder with ellipsoid."""
+    sphere, and in mode "narrowphase" also capsule, box or cylinder with ellipsoid.  Dynamic pairs are
+    counted by contype/conaffinity; in mode "narrowphase" explicit `<pair>` elements of those types
+    count too, whatever their geoms' contype and conaffinity (explicit_pairs: the filter never sees
+    them)."""
     t = model.geom_type
     collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     n_ell = int(np.count_nonzero((t == ELLIPSOID) & collides))
     n_other = int(np.count_nonzero((t == SPHERE) & collides))
     if mode == "narrowphase":
         n_other += int(np.count_nonzero(((t == CAPSULE) | (t == BOX) | (t == CYLINDER)) & collides))
-    return n_ell >= 2 or (n_ell >= 1 and n_other >= 1)
+    return n_ell >= 2 or (n_ell >= 1 and n_other >= 1) or len(explicit_pairs(model, mode)) > 0
 
 
 def check_model_data(model, data):
@@ -93,10 +120,7 @@ def _install(attached_before, attachment):
     if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
         fn = nativecache.function("narrowphase")
         table, ntypes = structs.collision_table()
-        entries = (
-            ELLIPSOID * ntypes + ELLIPSOID, SPHERE * ntypes + ELLIPSOID, CAPSULE * ntypes + ELLIPSOID,
-            ELLIPSOID * ntypes + BOX, ELLIPSOID * ntypes + CYLINDER,
-        )  # fmt: skip
+        entries = tuple(t1 * ntypes + t2 for t1, t2 in _NARROW_TYPES)
         _state["table"] = {k: table[k] for k in entries}
         for k in entries:
             table[k] = fn.address
@@ -123,10 +147,13 @@ WARM_SLOTS_MIN, WARM_SLOTS_MAX = 64, 1 << 20
 
 def warm_slots(model):
     """Slots of a narrow-phase warm-start table for `model`: a power of two, WARM_SLOTS_PER_GEOM per
-    colliding ellipsoid, sphere or capsule geom, within [WARM_SLOTS_MIN, WARM_SLOTS_MAX]."""
+    ellipsoid, sphere or capsule geom that collides (contype or conaffinity) or belongs to a handled
+    explicit pair, within [WARM_SLOTS_MIN, WARM_SLOTS_MAX]."""
     t = model.geom_type
-    collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
-    n = int(np.count_nonzero(((t == ELLIPSOID) | (t == SPHERE) | (t == CAPSULE)) & collides))
+    counted = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    k = explicit_pairs(model)
+    counted[model.pair_geom1[k]] = counted[model.pair_geom2[k]] = True
+    n = int(np.count_nonzero(((t == ELLIPSOID) | (t == SPHERE) | (t == CAPSULE)) & counted))
     want = min(max(WARM_SLOTS_PER_GEOM * n, WARM_SLOTS_MIN), WARM_SLOTS_MAX)
     return 1 << (want - 1).bit_length()
 
@@ -198,6 +225,10 @@ def attach(model, data, *, mode="filter", warm_start=True):
     call on this data (a table owned by the returned object, never shared with another data); the
     results satisfy the same contract as cold starts (proven global maximum, distance within 1e-12
     of the smaller shortest semi-axis), but are not bit-identical to them.
+    Explicit `<contact><pair>` elements of those geom types are covered in mode "narrowphase" (MuJoCo
+    sends them through the same collision table with the pair's margin + gap, and gives their contacts
+    the pair's margin, friction and solver parameters); they never reach a contact filter, so mode
+    "filter" leaves them to MuJoCo.
     A model without such pairs installs nothing.  Per-data counters are on the returned object.
     """
     check_model_data(model, data)

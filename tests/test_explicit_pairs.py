@@ -1,13 +1,16 @@
-"""Explicit `<contact><pair>` elements (issue 18).
+"""Explicit `<contact><pair>` elements and recompiled models (issue 18).
 
 MuJoCo sends an explicit pair straight to mjCOLLISIONFUNC with the pair's margin + gap, skipping the
 contype/conaffinity test and mjcb_contactfilter, and mj_setContact gives the contact the pair's margin
 (includemargin), condim, solref, solimp and friction (engine_collision_driver.c: filterCollisionPair,
 collisionTask, mj_narrowphase).  So the narrow phase covers explicit pairs whose geoms have
-contype = conaffinity = 0, and the filter never sees them.
+contype = conaffinity = 0, and the filter never sees them.  `spec.recompile(model, data)` returns a
+new model and data: `att.reattach` moves an attachment to them, and a mixed-up pair is refused.
 """
 
+import copy
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -249,3 +252,85 @@ def test_which_explicit_pairs_count():
     # extra ellipsoids, which collide with nothing): 48 -> 64 slots; 12 such geoms -> 192 -> 256
     assert attachment.warm_slots(m) == 64
     assert attachment.warm_slots(model(*[("ellipsoid", "ellipsoid")] * 6)) == 256
+
+
+# --- recompiled models -----------------------------------------------------------------------------
+
+SPEC_XML = """<mujoco><option timestep="0.002"/><worldbody><geom type="plane" size="2 2 .1"/>
+  <body pos="0 0 .1"><freejoint/><geom type="ellipsoid" size=".1 .07 .05"/></body>
+  <body pos=".03 .01 .3" euler="20 30 0"><freejoint/><geom type="ellipsoid" size=".08 .06 .05"/></body>
+</worldbody></mujoco>"""
+
+
+def add_ellipsoid(spec, z):
+    body = spec.worldbody.add_body(pos=[-0.02, 0.02, z], quat=[0.9, 0.3, 0.2, 0.1])
+    body.add_freejoint()
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, size=[0.07, 0.05, 0.06])
+
+
+def test_recompile_mixed_up_pairs_are_refused_and_reattach_redoes_the_attachment():
+    spec = mujoco.MjSpec.from_string(SPEC_XML)
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    with em.attach(m, d, mode="narrowphase") as att:
+        for _ in range(200):
+            mujoco.mj_step(m, d)
+        calls = att.counters["calls"]
+        assert calls > 100 and att.counters["contacts"] > 100  # 127 and 113 measured
+        add_ellipsoid(spec, 0.5)
+        m2, d2 = spec.recompile(m, d)
+        assert m2.ngeom == 4 and m2.signature != m.signature
+        # the new pair is not covered by the old attachment: plain MuJoCo, no word from ellipsim
+        probe = copy.copy(d2)
+        for _ in range(5):
+            mujoco.mj_step(m2, probe)
+        assert att.counters["calls"] == calls
+        # a model and data from different compiles are refused, with both signatures named
+        stale = f"data belongs to another model: data.signature {d.signature} != model.signature {m2.signature}"
+        with pytest.raises(ValueError, match=re.escape(stale)):
+            em.attach(m2, d)
+        with pytest.raises(ValueError, match=re.escape(stale)):
+            att.reattach(m2, d)
+        with pytest.raises(ValueError, match=re.escape(f"data.signature {d2.signature} != model.signature {m.signature}")):
+            att.reattach(m, d2)
+        assert att.data is d and att.installed  # a refused reattach changes nothing
+        fresh = copy.copy(d2)  # the same state, for a fresh attachment below
+        before = copy.copy(d)
+        assert att.reattach(m2, d2) is att and att.model is m2 and att.data is d2 and att.installed
+        for _ in range(300):
+            mujoco.mj_step(m2, d2)
+            mujoco.mj_step(m, d)  # released: plain MuJoCo from now on
+            mujoco.mj_step(m, before)
+        assert att.counters["calls"] > calls + 200  # counters keep counting, now on the new data (+260)
+    np.testing.assert_array_equal(d.qpos, before.qpos)
+    assert not att.installed and not attachment._state["attached"]
+    # attaching the new pair anew gives the same trajectory to the bit (both warm tables start empty)
+    with em.attach(m2, fresh, mode="narrowphase") as again:
+        for _ in range(300):
+            mujoco.mj_step(m2, fresh)
+    np.testing.assert_array_equal(fresh.qpos, d2.qpos)
+    assert again.counters["calls"] == att.counters["calls"] - calls
+
+
+def test_reattach_installs_what_the_recompiled_model_needs_and_refuses_a_held_data():
+    spec = mujoco.MjSpec.from_string(
+        '<mujoco><worldbody><geom type="plane" size="1 1 .1"/><body pos="0 0 .1"><freejoint/>'
+        '<geom type="ellipsoid" size=".1 .07 .05"/></body></worldbody></mujoco>'
+    )
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    with em.attach(m, d, mode="narrowphase") as att:
+        assert not att.installed  # one ellipsoid: nothing to do
+        add_ellipsoid(spec, 0.3)
+        m2, d2 = spec.recompile(m, d)
+        with em.attach(m2, d2, mode="narrowphase"):
+            with pytest.raises(ValueError, match="data is already attached to ellipsim by another attachment"):
+                att.reattach(m2, d2)
+        att.reattach(m2, d2)
+        assert att.installed and att._warm.shape == (64, 8)
+        for _ in range(200):
+            mujoco.mj_step(m2, d2)
+        assert att.counters["contacts"] > 20
+    assert not att.installed and not attachment._state["attached"]
+    att.reattach(m, d)  # outside the block: only swaps what the next `with` covers
+    assert att.model is m and att.data is d and not att.installed

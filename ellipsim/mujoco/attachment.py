@@ -9,7 +9,8 @@ The callbacks themselves are in callbacks.py, their machine code comes from nati
 without numba when cached; only the mode's callback, and none for a model without ellipsoid pairs).
 This module installs them in MuJoCo's process-global hooks (mjcb_contactfilter, the mjCOLLISIONFUNC
 table) while at least one data needs them, writes the registry rows they read (context.py), and puts
-MuJoCo's originals back when the last attachment ends.
+MuJoCo's originals back when the last attachment ends.  An attachment covers one mjData by address:
+after `spec.recompile(model, data)`, `att.reattach(new_model, new_data)` moves it to the new pair.
 """
 
 import threading
@@ -68,13 +69,16 @@ def ellipsoid_pair_possible(model, mode="filter"):
 
 
 def check_model_data(model, data):
+    """ValueError unless model is an MjModel and data an MjData made for it (same signature: a model
+    recompiled from its spec has a new one, and so has the data recompile returns with it)."""
     if not isinstance(model, mujoco.MjModel):
         raise ValueError(f"model must be a mujoco.MjModel, got {type(model).__name__}")
     if not isinstance(data, mujoco.MjData):
         raise ValueError(f"data must be a mujoco.MjData, got {type(data).__name__}")
-    if data.signature != model.signature:
+    if data.signature != model.signature:  # e.g. one of the pair spec.recompile(model, data) returned, one old
         raise ValueError(
             f"data belongs to another model: data.signature {data.signature} != model.signature {model.signature}"
+            " (after spec.recompile, pass the model and data it returned together)"
         )
 
 
@@ -162,14 +166,41 @@ class Attachment:
     """ellipsim attached to one (model, data) while the `with` block runs; see attach()."""
 
     def __init__(self, model, data, mode, capacity=0, warm_start=True):
-        self.model, self.data, self.mode = model, data, mode
+        self.model, self.data, self.mode, self.warm_start = model, data, mode, warm_start
         self.installed = False
+        self._open = False  # inside the `with` block (installed or not)
         self._counters = np.zeros(NCOUNTERS, dtype=np.int64)
         self._pairs = np.zeros((max(capacity, 1), 2), dtype=np.int32)
-        # the narrow phase's warm-start table (context.WARM_SLOT_WORDS), this data's only: every pair's
-        # last normal, read back as the next call's Newton seed; (1, 4) zeros for no warm start
-        slots = warm_slots(model) if mode == "narrowphase" and warm_start else 1
-        self._warm = np.zeros((slots, WARM_SLOT_WORDS), dtype=np.int64)
+        self._warm = self._warm_table(model)
+
+    def _warm_table(self, model):
+        """The narrow phase's warm-start table (context.WARM_SLOT_WORDS) for `model`, this data's only:
+        every pair's last normal, read back as the next call's Newton seed; (1, 8) zeros for no warm start."""
+        slots = warm_slots(model) if self.mode == "narrowphase" and self.warm_start else 1
+        return np.zeros((slots, WARM_SLOT_WORDS), dtype=np.int64)
+
+    def reattach(self, model, data):
+        """Point this attachment at another (model, data), e.g. the pair `spec.recompile(model, data)`
+        returned; same mode and warm_start, counters kept counting.  Inside the `with` block it takes
+        effect at once: the old data is released (plain MuJoCo from now on) and the new one attached.
+        The warm-start table starts empty (geom ids may have moved).  Returns self.
+
+        A model and data that do not belong together (the new model with the old data, or the other
+        way round) are refused (check_model_data), and so is a data another attachment holds."""
+        check_model_data(model, data)
+        with _lock:
+            if any(a is not self and a.data._address == data._address for a in _state["attached"]):
+                raise ValueError(
+                    "data is already attached to ellipsim by another attachment; leave its `with` block first"
+                )
+        was_open = self._open
+        if was_open:
+            self.__exit__(None, None, None)
+        self.model, self.data = model, data
+        self._warm = self._warm_table(model)
+        if was_open:
+            self.__enter__()
+        return self
 
     @property
     def counters(self):
@@ -187,6 +218,7 @@ class Attachment:
 
     def __enter__(self):
         if self.mode != "record" and not ellipsoid_pair_possible(self.model, self.mode):
+            self._open = True
             return self  # skip what the scene does not need: nothing is installed
         structs.checked_layout()  # MuJoCo's version and struct layout, once per process (~8 ms)
         structs.verify_fields(self.model, self.data)  # the offsets hold for this (model, data) (~0.3 ms)
@@ -199,10 +231,11 @@ class Attachment:
             _install(attached, self)
             self._slot = _claim_slot(self)
             attached.append(self)
-            self.installed = True
+            self.installed = self._open = True
         return self
 
     def __exit__(self, *exc):
+        self._open = False
         if not self.installed:
             return False
         with _lock:
@@ -230,6 +263,10 @@ def attach(model, data, *, mode="filter", warm_start=True):
     the pair's margin, friction and solver parameters); they never reach a contact filter, so mode
     "filter" leaves them to MuJoCo.
     A model without such pairs installs nothing.  Per-data counters are on the returned object.
+
+    `spec.recompile(model, data)` returns a new model and data, which an attachment made for the old
+    ones does not cover (the old data stays attached; the new one runs plain MuJoCo): call
+    `att.reattach(new_model, new_data)` inside the block, or attach the new pair anew.
     """
     check_model_data(model, data)
     if mode not in MODES:

@@ -17,7 +17,10 @@ One Newton run (sigma.py) from the bisector seed finds a local maximum; it is th
 * for two spheres (sigma = n.d - r_a - r_b);
 * for concentric ellipsoids with the same axes, or spheroids about a common axis (pair_signed_distance:
   a concave function's minimum over a simplex lies at a vertex).
-Deeper penetrations, and a first run that does not converge, go to global_max.py: a branch and bound
+Deeper penetrations, and a first run that does not converge, go to spheroids.py when the two are
+spheroids (or a sphere and a spheroid) with parallel axes of revolution, to within the tolerance (the
+maximum is then one of two ellipses in a plane: a branch and bound over one angle proves it, circles
+of maxima included), and otherwise to global_max.py: a branch and bound
 over the sphere with concave majorants that proves its answer within
 TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of the global maximum, or reports UNPROVEN
 when its budget runs out (the MuJoCo glue then calls MuJoCo's own function).
@@ -31,7 +34,8 @@ from . import threads
 from ._jit import jit, stage
 from .ellipsoids import check_pair, check_parallel
 from .global_max import GLOBAL as BB_GLOBAL
-from .global_max import SEPARATED_MAX, global_max, sigma_only
+from .spheroids import parallel_max
+from .global_max import SEPARATED_MAX, climb, global_max, sigma_only
 from .sigma import CONVERGED, a_frame, bisector_seed, newton, rolling_radius, unit
 from .tolerances import (
     BB_FRAME_ULPS, BB_MAX_PATCHES, BB_TOL_REL, BB_TOL_ULPS, FIRST_RUN_ITER, NEWTON_MAX_ITER, U, WARM_SCALE_MAX, WARM_SCALE_MIN,
@@ -85,6 +89,28 @@ def _concentric_coaxial_axis(d, Ra, Rb, ra, rb):
         if j >= 0 and ra[k1] == ra[k2] and rb[j1] == rb[j2]:
             return k if -(ra[k] + rb[j]) >= -(ra[k1] + rb[j1]) else k1
     return -1
+
+
+@stage
+def _parallel_spheroids(d, Ra, ra, Rb, rb, e, Ub, tol_bb, S, rmin):
+    """spheroids.parallel_max for the pair in A's frame, or, when A is a sphere (MuJoCo passes a sphere geom
+    as g1, its frame the body's, unrelated to the limb's axis), in B's frame (a sphere is one in any
+    frame): (proven, unit n in A's frame, nodes).  In B's frame the tolerance is B's (its rotation's
+    defect in place of A's), less 16 u S for taking n back to A's frame (sigma is S-Lipschitz, n moves by ~4 u); n is
+    (0, 0, 0) when parallel_max gives no direction."""
+    if not (ra[0] == ra[1] == ra[2]):
+        return parallel_max(e, ra, Ub, rb, tol_bb, S)
+    if rb[0] == rb[1] == rb[2]:
+        return False, (0.0, 0.0, 0.0), 0
+    eb, _, _, Ua = a_frame(((0.0, 0.0, 0.0), Rb, rb), ((-d[0], -d[1], -d[2]), Ra, ra))
+    delta = rotation_defect(Rb) + 4.0 * U
+    tol = max(BB_TOL_REL * rmin, (BB_TOL_ULPS * U + 6.0 * delta) * S)
+    ok, nb, count = parallel_max(eb, rb, Ua, ra, tol - (BB_FRAME_ULPS * U + 6.0 * delta + 16.0 * U) * S, S)
+    if norm2(nb) < 0.5:
+        return False, nb, count
+    # from B to A in B's frame -> from A to B in A's frame
+    w = matvec(Rb, nb)
+    return ok, unit(rotate_t(Ra, (-w[0], -w[1], -w[2]))), count
 
 
 @jit
@@ -142,14 +168,29 @@ def _pair(A, B, max_iter, seed):
         n = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
         value = sigma_only(n, e, ra, Ub, rb)
     elif not shallow:
-        # deep, or the first run stalled: the branch and bound, seeded with the first run's maximum
+        # deep, or the first run stalled: spheroids with parallel axes (maxima on circles, or nearly
+        # flat along them) by the 1-D branch and bound of spheroids.py, else the branch and bound
+        # over the sphere, seeded with the first run's maximum
         rmin = min(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2])
         S = math.sqrt(norm2(e)) + max(ra[0], ra[1], ra[2]) + max(rb[0], rb[1], rb[2])
         delta = rotation_defect(Ra) + 4.0 * U
         tol = max(BB_TOL_REL * rmin, (BB_TOL_ULPS * U + 6.0 * delta) * S)
         tol_bb = tol - (BB_FRAME_ULPS * U + 6.0 * delta) * S
-        bb, n, value, count, _ = global_max(n, value, run == CONVERGED, e, ra, Ub, rb, M, scale, tol_bb, BB_MAX_PATCHES)
-        status = GLOBAL if bb == BB_GLOBAL or bb == SEPARATED_MAX else UNPROVEN
+        ok, nc, count = _parallel_spheroids(d, Ra, ra, Rb, rb, e, Ub, tol_bb, S, rmin)
+        if ok:
+            n = nc
+            value = sigma_only(n, e, ra, Ub, rb)
+        else:
+            have = run == CONVERGED
+            if norm2(nc) > 0.5:  # nearly parallel spheroids: a climb from the parallel model's maximiser
+                _, m, _ = climb(nc, e, a2, M, scale)  # converged or not (along the circle sigma is
+                vc, v = sigma_only(nc, e, ra, Ub, rb), sigma_only(m, e, ra, Ub, rb)  # flat), the better
+                if vc > v:
+                    m, v = nc, vc
+                if not have or v > value:
+                    n, value, have = m, v, True
+            bb, n, value, count, _ = global_max(n, value, have, e, ra, Ub, rb, M, scale, tol_bb, BB_MAX_PATCHES)
+            status = GLOBAL if bb == BB_GLOBAL or bb == SEPARATED_MAX else UNPROVEN
         steps += count
     # h_A, h_B at n through U (as global_max.sigma_only: errs by <= 11 u S, where through
     # M = U diag(b^2) U^T it errs by ~u max b^2 / h_B, beyond 1e-12 r_min for 100:1 ellipsoids) ...

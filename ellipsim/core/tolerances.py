@@ -130,6 +130,14 @@ BB_FRAME_ULPS = 16.0
 #: leaves.xml contacts and random 25:1 and 100:1 crossings needed at most a few hundred; only
 #: concentric coaxial spheroids (sigma constant on a circle, no isolated maximum) ran out.
 BB_MAX_PATCHES = 6000
+#: Budget of arcs for near-coaxial spheroids (core/coaxial.py; ~25 ns each): the arcs undecided at a
+#: level are those around the maximum, 2-4 a level down to widths of ~sqrt(tol / curvature).
+COAXIAL_MAX_NODES = 2000
+#: Spheroids whose axes are this close to parallel (radians, and semi-axes / offsets within this of
+#: the parallel model, relative to S) but not close enough for its proof: the model's maximiser seeds
+#: global_max (a heuristic, the proof does not use it): tilts of 1e-12-1e-1 rad left global_max with
+#: a lower local maximum (off by up to 0.35 r_min) on deep prolate pairs (issue 18).
+PARALLEL_CANDIDATE_TILT = 0.2
 
 # --- Ellipsoid x capsule and box (ellipsim/core/capsule.py, box.py, point_ellipsoid.py) ------------
 

@@ -1,26 +1,168 @@
-"""Ellipsoid geoms of a MuJoCo model, and the pairs MuJoCo's broad phase would collide."""
+"""Ellipsoid geoms of a MuJoCo model, the pairs MuJoCo collides (dynamic and <pair> elements), their
+margins and gaps, and the exact verdict on MuJoCo's contact test `signed distance < margin`.
+
+How MuJoCo 4.0 treats a geom pair (src/engine/engine_collision_driver.c, mj_collision,
+filterCollisionPair, mj_narrowphase, mj_setContact; checked on the 4.0.0 wheel):
+* margin (getMargin): a <pair> element's pair_margin, else geom_margin[g1] + geom_margin[g2];
+  opt.o_margin replaces either under mjENBL_OVERRIDE (mj_assignMargin).  gap (getGap): pair_gap, else
+  geom_gap[g1] + geom_gap[g2], never overridden.
+* the collision function is called with margin + gap: a contact is made when dist < margin + gap;
+  mj_setContact sets includemargin = margin and exclude = (dist >= margin), so the gap only adds
+  contacts that stay out of the constraints.  The contact is active when dist < margin.
+* <pair> elements are merged into the broad phase's body pairs by signature and always collided
+  (bounding spheres with margin + gap; both bodies asleep under mjENBL_SLEEP drops them); they never
+  reach mjcb_contactfilter nor the contype/conaffinity test.  A dynamic geom pair that a <pair>
+  element also names is skipped (filterCollisionPair with `merged`, before the contact filter): each
+  geom pair is collided once per <pair> element naming it, or once as a dynamic pair, never both.
+"""
 
 import mujoco
 import numpy as np
 
 from ..core.broadphase import sweep_and_prune
-from ..core.ellipsoids import Ellipsoids
+from ..core.classify import classify
+from ..core.distance import GLOBAL, signed_distance
+from ..core.ellipsoids import Ellipsoids, orthonormality_defect
+from ..core.relation import Relation
+from ..core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
 from .attachment import Attachment, check_model_data
 from .callbacks import ELLIPSOID, SPHERE
 
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
+_SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
 _FILTERPARENT = int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+_NO_CONTACTS = int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+_AWAKE = int(mujoco.mjtSleepState.mjS_AWAKE)
 
 #: Bounding spheres of the broad phase are the largest semi-axis times this (one part in 1e9 more,
 #: so that rounding in the sphere test never drops a pair whose ellipsoids touch).
 _SPHERE_SLACK = 1 + 1e-9
 
 
+def ellipsim_pair_types(model, g1, g2):
+    """(k,) bool: are geoms g1, g2 (k,) a pair ellipsim tests (ellipsoid x ellipsoid or x sphere)?"""
+    t1, t2 = model.geom_type[g1], model.geom_type[g2]
+    return ((t1 == ELLIPSOID) & ((t2 == ELLIPSOID) | (t2 == SPHERE))) | ((t1 == SPHERE) & (t2 == ELLIPSOID))
+
+
+def _keys(model, pairs):
+    """(k,) int64 key min(g) * ngeom + max(g) of geom pairs (k, 2), whichever order they name them in."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    return np.minimum(pairs[:, 0], pairs[:, 1]) * model.ngeom + np.maximum(pairs[:, 0], pairs[:, 1])
+
+
+def _explicit(model):
+    """The model's <pair> elements as (keys (p,) int64 sorted, unique; margin (p,); gap (p,)), margin
+    before the override; a geom pair named by several elements (MuJoCo collides it once per element,
+    and it is in contact when any contact is) gets the largest margin and the largest gap."""
+    keys = _keys(model, np.stack([model.pair_geom1, model.pair_geom2], axis=1))
+    unique, at = np.unique(keys, return_inverse=True)
+    margin, gap = np.full(len(unique), -np.inf), np.full(len(unique), -np.inf)
+    np.maximum.at(margin, at, model.pair_margin)
+    np.maximum.at(gap, at, model.pair_gap)
+    return unique, margin, gap
+
+
+def _explicit_lookup(model, pairs):
+    """(at (k,), named (k,) bool): the index into _explicit of each geom pair (k, 2), and whether a
+    <pair> element names it."""
+    unique = _explicit(model)[0]
+    key = _keys(model, pairs)
+    if len(unique) == 0:
+        return np.zeros(len(key), dtype=np.intp), np.zeros(len(key), dtype=bool)
+    at = np.minimum(np.searchsorted(unique, key), len(unique) - 1)
+    return at, unique[at] == key
+
+
 def pair_margins(model, pairs):
-    """(k,) margin of each geom pair (k, 2): opt.o_margin under mjENBL_OVERRIDE, else the geoms' sum."""
+    """(k,) margin MuJoCo gives each geom pair (k, 2): the <pair> element's margin when one names the
+    pair, else the geoms' sum; opt.o_margin instead of either under mjENBL_OVERRIDE (getMargin)."""
+    pairs = np.asarray(pairs).reshape(-1, 2)
     if model.opt.enableflags & _OVERRIDE:
         return np.full(len(pairs), float(model.opt.o_margin))
-    return model.geom_margin[pairs[:, 0]] + model.geom_margin[pairs[:, 1]]
+    out = model.geom_margin[pairs[:, 0]] + model.geom_margin[pairs[:, 1]]
+    at, named = _explicit_lookup(model, pairs)
+    out[named] = _explicit(model)[1][at[named]]
+    return out
+
+
+def pair_gaps(model, pairs):
+    """(k,) gap MuJoCo gives each geom pair (k, 2): the <pair> element's gap when one names the pair,
+    else the geoms' sum (getGap; not overridden).  MuJoCo makes a contact below margin + gap and
+    excludes it from the constraints at or above margin."""
+    pairs = np.asarray(pairs).reshape(-1, 2)
+    out = model.geom_gap[pairs[:, 0]] + model.geom_gap[pairs[:, 1]]
+    at, named = _explicit_lookup(model, pairs)
+    out[named] = _explicit(model)[2][at[named]]
+    return out
+
+
+def explicit_pairs(model, data=None):
+    """(p, 2) int32: the geom pairs of the model's <contact><pair> elements that ellipsim tests
+    (ellipsoid x ellipsoid, sphere x ellipsoid), each once, g1 < g2, sorted.
+
+    With data: only those MuJoCo collides at data's state (none when contacts or constraints are
+    disabled; under mjENBL_SLEEP not those with both bodies asleep), as mj_collision does; the
+    bounding-sphere test is left out (a pair it drops is farther apart than margin + gap anyway)."""
+    if model.npair == 0:
+        return np.zeros((0, 2), dtype=np.int32)
+    keys = _explicit(model)[0]
+    pairs = np.stack(divmod(keys, model.ngeom), axis=1).astype(np.int32)
+    pairs = pairs[ellipsim_pair_types(model, pairs[:, 0], pairs[:, 1])]
+    if data is None:
+        return pairs
+    check_model_data(model, data)
+    if model.opt.disableflags & _NO_CONTACTS or model.nbody + model.nflex < 2:
+        return pairs[:0]
+    if model.opt.enableflags & _SLEEP:
+        awake = data.body_awake[model.geom_bodyid[pairs]] == _AWAKE
+        pairs = pairs[awake.any(axis=1)]
+    return pairs
+
+
+def proof_tolerance(a, b):
+    """(k,) metres: how close core.distance proves a GLOBAL signed distance of the pairs (a[i], b[i])
+    to the true one, TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of its docstring (r_min
+    the shortest of the six semi-axes, S = |c_b - c_a| + the two largest, delta the larger rotation's
+    orthonormality defect + 4 u; the larger of the two rotations' defects, as either may be A's)."""
+    rmin = np.minimum(a.radii.min(axis=1), b.radii.min(axis=1))
+    S = np.linalg.norm(b.centers - a.centers, axis=1) + a.radii.max(axis=1) + b.radii.max(axis=1)
+    delta = np.maximum(orthonormality_defect(a.rotations), orthonormality_defect(b.rotations)) + 4.0 * U
+    return np.maximum(BB_TOL_REL * rmin, (BB_TOL_ULPS * U + 6.0 * delta) * S)
+
+
+def within_threshold(model, data, pairs, threshold):
+    """MuJoCo's contact test, signed distance of the geoms < threshold, decided pair by pair.
+
+    pairs : (k, 2) ellipsoid or sphere geom ids; threshold : (k,) metres (the pair's margin, or
+    margin + gap).  returns (within, decided, dist, relation):
+    within (k,) bool, ellipsim's verdict (its float estimate where not decided); decided (k,) bool;
+    dist (k,) the geoms' signed distance where it was needed (core.distance), else nan;
+    relation (k,) int8, the exact Relation of the bare geoms.
+
+    Exact wherever classify settles it, on every float input: threshold == 0 (interiors overlap iff the
+    signed distance is < 0), overlapping with threshold > 0, separated or touching with threshold < 0,
+    touching (distance exactly 0).  Elsewhere the proven signed distance: decided when its status is
+    GLOBAL and it is more than proof_tolerance from threshold; an UNPROVEN maximum is never a verdict.
+    """
+    pairs = np.asarray(pairs).reshape(-1, 2)
+    threshold = np.asarray(threshold, dtype=np.float64)
+    k = len(pairs)
+    zero = np.zeros(k)
+    a, b = enclosing(model, data, pairs[:, 0], zero), enclosing(model, data, pairs[:, 1], zero)
+    relation = classify(a, b) if k else np.zeros(0, dtype=np.int8)
+    overlap, touching = relation == Relation.OVERLAPPING, relation == Relation.TOUCHING
+    within = np.where(touching, threshold > 0, overlap)
+    decided = np.ones(k, dtype=bool)
+    dist = np.full(k, np.nan)
+    dist[touching] = 0.0
+    i = np.flatnonzero(~touching & (((threshold > 0) & ~overlap) | ((threshold < 0) & overlap)))
+    if len(i):
+        d, _, _, status = signed_distance(a[i], b[i])
+        dist[i] = d
+        within[i] = d < threshold[i]
+        decided[i] = (status == GLOBAL) & (np.abs(d - threshold[i]) > proof_tolerance(a[i], b[i]))
+    return within, decided, dist, relation
 
 
 def pair_contact_dist(model, data, pairs):

@@ -6,12 +6,15 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from ..core.classify import classify
+from ..core.distance import signed_distance
 from ..core.perram_wertheim import contact_scale
 from ..core.relation import Relation
 from .attachment import check_model_data
 from .between import BetweenFrames, Events
-from .geoms import PairRecorder, ellipsoid_geoms, enclosing, pair_contact_dist, pair_margins
+from .geoms import (
+    PairRecorder, ellipsoid_geoms, enclosing, explicit_pairs, pair_contact_dist, pair_gaps, pair_margins, proof_tolerance,
+    within_threshold,
+)  # fmt: skip
 
 #: Values (float64) of ellipsoid poses `validate` holds before looking between the steps: 2^22 = 32 MB
 #: (12 per ellipsoid and step; at most 1024 steps at a time).
@@ -26,20 +29,29 @@ class Disagreement:
     geom1: int
     geom2: int
     names: tuple
-    mujoco_contact: bool  # MuJoCo has a contact with dist < margin
-    mujoco_dist: float  # that contact's dist (nan if none)
-    relation: str  # ellipsim's exact relation of the margin-enclosing ellipsoids
-    contact_scale: float  # Perram-Wertheim scale of the margin-enclosing ellipsoids
+    mujoco_contact: bool  # MuJoCo has a contact with dist < margin (active: not excluded by the gap)
+    mujoco_dist: float  # the smallest dist of its contacts on the pair (nan if none)
+    relation: str  # ellipsim's exact relation of the geoms themselves (no margin)
+    contact_scale: float  # Perram-Wertheim scale of the geoms themselves
     geom_distance: float  # mujoco.mj_geomDistance (signed; capped at 1)
     right: str  # "ellipsim", "mujoco" or "undetermined", per the exact test
     reason: str
+    margin: float = 0.0  # the pair's margin, as MuJoCo applies it (geoms.pair_margins)
+    gap: float = 0.0  # the pair's gap (geoms.pair_gaps): contacts below margin + gap, excluded above margin
+    signed_distance: float = float("nan")  # ellipsim's signed distance of the geoms (core.distance)
+    explicit: bool = False  # the pair is a <contact><pair> element
 
 
 @dataclasses.dataclass
 class Validation:
     """Per-step agreement of MuJoCo's contacts with ellipsim's exact verdicts.
 
-    counts : (steps, 4) int64, columns COLUMNS: candidate ellipsoid pairs per step
+    counts : (steps, 4) int64, columns COLUMNS: candidate ellipsoid pairs per step, dynamic and <pair>
+        elements, by MuJoCo's contact (dist < margin) and ellipsim's verdict (signed distance < margin)
+    explicit : (steps,) int64, how many of a step's candidates are <contact><pair> elements
+    undetermined : (steps,) int64, candidates whose verdict is not proven (within the proof tolerance
+        of the margin, or an UNPROVEN maximum): counted in `counts` by ellipsim's float estimate, and
+        reported as right = "undetermined" when that disagrees with MuJoCo
     passed_through : between.Events, ellipsoid pairs separated at step k and at step k + 1 that touch in
         between on the interpolated motion (pairs index `ellipsoid_ids`; the geoms themselves, margins
         not included); None when not looked for.  mj_step's motion between two steps is not that
@@ -55,6 +67,8 @@ class Validation:
     passed_through: Events = None
     ellipsoid_ids: np.ndarray = None
     between_candidates: int = 0
+    explicit: np.ndarray = None
+    undetermined: np.ndarray = None
 
     def totals(self):
         return {name: int(self.counts[:, k].sum()) for k, name in enumerate(self.COLUMNS)}
@@ -63,11 +77,16 @@ class Validation:
 def validate(model, data, nstep, *, control=None, advance=True, progress=None, between=False):
     """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
 
-    At each step, before mj_step, mj_forward runs collision; every candidate ellipsoid pair MuJoCo's
-    broad phase produced (recorded by the callback, which otherwise behaves exactly like MuJoCo) is
-    classified: MuJoCo says contact when it made one with dist < margin; ellipsim says contact when
-    the ellipsoids grown by margin/2 each (enclosing the margin bodies; exact when margin = 0)
-    overlap.  Disagreements carry contact_scale, mj_geomDistance and who is right by the exact test.
+    At each step, before mj_step, mj_forward runs collision; every candidate ellipsoid pair (those
+    MuJoCo's broad phase produced, recorded by the callback, which otherwise behaves exactly like
+    MuJoCo, and the model's <pair> elements MuJoCo collides: geoms.explicit_pairs) is judged with the
+    pair's margin (geoms.pair_margins: the <pair> element's, the geoms' sum, or opt.o_margin under
+    override): MuJoCo says contact when it made one with dist < margin (an active contact; one in the
+    gap, margin <= dist < margin + gap, is excluded); ellipsim says contact when the geoms' signed
+    distance is < margin (geoms.within_threshold: exact classification at margin 0 and for
+    overlapping pairs; else the proven signed distance, decided unless within the proof tolerance of
+    the margin).  Disagreements carry contact_scale, mj_geomDistance, the signed distance and who is
+    right by the exact test.
 
     control : optional callable(model, data, step) run before each mj_forward (set ctrl, or a pose)
     advance : mj_step after each comparison (False for kinematic replays that set every pose)
@@ -79,7 +98,7 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
     if not isinstance(nstep, (int, np.integer)) or nstep < 1:
         raise ValueError(f"nstep must be a positive integer, got {nstep!r}")
     counts = np.zeros((nstep, 4), dtype=np.int64)
-    ncon = np.zeros(nstep, dtype=np.int64)
+    ncon, n_explicit, n_open = (np.zeros(nstep, dtype=np.int64) for _ in range(3))
     disagreements = []
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
     ids, radii, rules = ellipsoid_geoms(model)
@@ -91,8 +110,8 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
         for step in range(nstep):
             if control is not None:
                 control(model, data, step)
-            pairs = recorder.forward()
-            ncon[step] = data.ncon
+            pairs, explicit = _candidates(model, data, recorder.forward())
+            ncon[step], n_explicit[step] = data.ncon, int(explicit.sum())
             if checker is not None:
                 centers[held], rotations[held], times[held] = data.geom_xpos[ids], data.geom_xmat[ids], data.time
                 held += 1
@@ -100,42 +119,72 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
                     events.append(checker.check(np.arange(first, first + held), times[:held], centers[:held], rotations[:held]))
                     first, held = first + held, 0
             if len(pairs):
-                margin = pair_margins(model, pairs)
-                a = enclosing(model, data, pairs[:, 0], np.maximum(margin, 0) / 2)
-                b = enclosing(model, data, pairs[:, 1], np.maximum(margin, 0) / 2)
-                relation = classify(a, b)
+                margin, gap = pair_margins(model, pairs), pair_gaps(model, pairs)
+                el, decided, sd, relation = within_threshold(model, data, pairs, margin)
                 dist = pair_contact_dist(model, data, pairs)
                 mj = dist < margin
-                el = relation == Relation.OVERLAPPING
                 counts[step] = np.bincount(np.where(mj, np.where(el, 0, 2), np.where(el, 3, 1)), minlength=4)
+                n_open[step] = int((~decided).sum())
                 for i in np.flatnonzero(mj != el):
                     g1, g2 = int(pairs[i, 0]), int(pairs[i, 1])
-                    disagreements.append(_explain(model, data, step, g1, g2, names, bool(mj[i]), dist[i], relation[i], margin[i], a[i], b[i]))
+                    facts = (bool(mj[i]), dist[i], relation[i], margin[i], gap[i], sd[i], bool(decided[i]), bool(explicit[i]))
+                    disagreements.append(_explain(model, data, step, g1, g2, names, *facts))
             if advance:
                 mujoco.mj_step(model, data)
             if progress is not None:
                 progress(step + 1, nstep)
     passed = Events.concatenate(events) if checker is not None else None
     return Validation(nstep, counts, ncon, disagreements, passed, ids.astype(np.int64),
-                      checker.candidates if checker is not None else 0)  # fmt: skip
+                      checker.candidates if checker is not None else 0, n_explicit, n_open)  # fmt: skip
 
 
-def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, a, b):
+def _candidates(model, data, dynamic):
+    """The step's candidates: (pairs (k, 2), g1 < g2, sorted; explicit (k,) bool), the dynamic pairs the
+    recorder saw and the <pair> elements MuJoCo collides, each geom pair once (MuJoCo skips a dynamic
+    pair a <pair> element names before the filter sees it; the drop here only guards that)."""
+    if model.npair == 0:
+        return dynamic, np.zeros(len(dynamic), dtype=bool)
+    named = explicit_pairs(model, data)
+    dynamic = dynamic[~np.isin(_key(model, dynamic), _key(model, explicit_pairs(model)))]
+    pairs = np.concatenate([dynamic, named]).astype(np.int32)
+    order = np.argsort(_key(model, pairs), kind="stable")
+    return pairs[order], np.concatenate([np.zeros(len(dynamic), dtype=bool), np.ones(len(named), dtype=bool)])[order]
+
+
+def _key(model, pairs):
+    """(k,) int64 g1 * ngeom + g2 of pairs (k, 2) with g1 < g2: their order as pair_contact_dist needs it."""
+    return pairs[:, 0].astype(np.int64) * model.ngeom + pairs[:, 1]
+
+
+def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, gap, sd, decided, explicit):
     geom_distance = float(mujoco.mj_geomDistance(model, data, g1, g2, 1.0, None))
+    zero = np.zeros(1)
+    a, b = enclosing(model, data, np.array([g1]), zero), enclosing(model, data, np.array([g2]), zero)
     scale = float(contact_scale(a, b)[0])
     rel = Relation(int(relation)).name.lower()
-    if mj:  # MuJoCo made a contact the exact test rules out
-        right, reason = "ellipsim", f"exact: {rel} at margin {margin:g}; MuJoCo's contact is within its ccd tolerance"
-    elif margin <= 0 or _bare_overlap(model, data, g1, g2):
-        right, reason = "ellipsim", "exact: overlapping; MuJoCo made no contact"
-    else:
+    if sd != sd:  # settled by classify alone: the signed distance is for the report
+        sd = signed_distance(a, b)[0][0]
+    sd = float(sd)
+    tol = float(proof_tolerance(a, b)[0])
+    kind = "<pair>" if explicit else "dynamic pair"
+    if not decided:
         right = "undetermined"
-        reason = f"ellipsim tested an ellipsoid enclosing the margin body; mj_geomDistance {geom_distance:.3g} vs margin {margin:g}"
-    return Disagreement(step, g1, g2, (names[g1], names[g2]), mj, float(dist), rel, scale, geom_distance, right, reason)
-
-
-def _bare_overlap(model, data, g1, g2):
-    zero = np.zeros(1)
-    a = enclosing(model, data, np.array([g1]), zero)
-    b = enclosing(model, data, np.array([g2]), zero)
-    return classify(a, b)[0] == Relation.OVERLAPPING
+        why = f"within the proof tolerance {tol:.2g}" if abs(sd - margin) <= tol else "an UNPROVEN maximum"
+        reason = f"{kind}: signed distance {sd:.12g} against margin {margin:g}, {why}; MuJoCo's dist {dist:.12g}"
+    elif margin == 0:
+        right = "ellipsim"
+        if mj:  # MuJoCo made a contact the exact test rules out
+            reason = f"exact: {rel} at margin 0; MuJoCo's contact is within its ccd tolerance"
+        else:
+            reason = "exact: overlapping; MuJoCo made no contact"
+    else:
+        right = "ellipsim"
+        if mj:
+            reason = (f"{kind}: proven signed distance {sd:.12g} >= margin {margin:g} (proof tolerance {tol:.2g}); "
+                      f"MuJoCo's contact (dist {dist:.12g}) is within its ccd tolerance")  # fmt: skip
+        elif relation == Relation.OVERLAPPING:
+            reason = f"{kind}: exact: overlapping, below margin {margin:g}; MuJoCo made no contact"
+        else:
+            reason = f"{kind}: proven signed distance {sd:.12g} < margin {margin:g} (proof tolerance {tol:.2g}); MuJoCo made no contact"
+    return Disagreement(step, g1, g2, (names[g1], names[g2]), mj, float(dist), rel, scale, geom_distance, right, reason,
+                        float(margin), float(gap), sd, explicit)  # fmt: skip

@@ -1,4 +1,10 @@
-"""MuJoCo's GJK/EPA contacts against ellipsim's narrow phase on the same states, refereed."""
+"""MuJoCo's GJK/EPA contacts against ellipsim's narrow phase on the same states, refereed.
+
+Every ellipsoid and sphere-ellipsoid contact of the data is compared, those of <contact><pair>
+elements included; a contact exists when the signed distance is below the pair's margin + gap (MuJoCo
+4.0 calls the collision function with margin + gap: geoms.py), so a contact on one side only is judged
+against that threshold, by the proven signed distance.
+"""
 
 import copy
 import dataclasses
@@ -10,7 +16,7 @@ from ..core.distance import GLOBAL, signed_distance
 from ..core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL, TIGHT_CCD_ITERATIONS, TIGHT_CCD_TOLERANCE
 from .attachment import Attachment, check_model_data
 from .callbacks import ELLIPSOID, SPHERE
-from .geoms import enclosing
+from .geoms import enclosing, explicit_pairs, pair_gaps, pair_margins, proof_tolerance
 
 
 @dataclasses.dataclass
@@ -31,6 +37,8 @@ class ContactDifference:
     proven: bool  # ellipsim's maximum is proven global (core.distance GLOBAL)
     right: str  # "ellipsim", "mujoco" or "undetermined"
     reason: str
+    threshold: float = 0.0  # the pair's margin + gap: a contact exists below it (geoms.pair_margins, pair_gaps)
+    explicit: bool = False  # the pair is a <contact><pair> element
 
 
 @dataclasses.dataclass
@@ -39,11 +47,12 @@ class NarrowphaseComparison:
 
     steps: int
     matched: int  # ellipsoid pairs in contact on both sides
-    near_tangent: int  # pairs in contact on one side only, with |dist| < NEAR_TANGENT
+    near_tangent: int  # pairs in contact on one side only, with |dist - (margin + gap)| < NEAR_TANGENT
     max_ddist: float  # over matched pairs
     max_angle: float
     max_dpos: float
     differences: list  # ContactDifference beyond DIST_TOL / ANGLE_TOL / POS_TOL, or unmatched
+    explicit_matched: int = 0  # of `matched`, the pairs of <contact><pair> elements
 
 
 @dataclasses.dataclass
@@ -94,10 +103,14 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
     At every step the same state is collided twice (mj_forward): with MuJoCo's functions and with
     mode="narrowphase"; then plain mj_step advances.  Pairs in contact on both sides are compared
     (dist, normal angle, position); a difference beyond the bounds in tolerances.py, or a contact on
-    one side only with |dist| >= NEAR_TANGENT, is reported with the referee: the signed distance is
-    the maximum over n of sigma(n), so sigma at each side's normal shows whose is better, and when
-    ellipsim's maximum is proven global it is the exact answer to rounding.  Deep penetrations that
-    sigma cannot settle are re-collided by MuJoCo at ccd_tolerance TIGHT_CCD_TOLERANCE.
+    one side only with |dist - threshold| >= NEAR_TANGENT (threshold: the pair's margin + gap, below
+    which MuJoCo makes a contact; the <pair> element's for explicit pairs), is reported with the
+    referee: the signed distance is the maximum over n of sigma(n), so sigma at each side's normal
+    shows whose is better, and when ellipsim's maximum is proven global it is the exact answer to
+    rounding (a contact on one side only: the side whose contact agrees with `proven signed distance
+    < threshold` is right; within the proof tolerance of the threshold, or unproven, undetermined).
+    Deep penetrations that sigma cannot settle are re-collided by MuJoCo at ccd_tolerance
+    TIGHT_CCD_TOLERANCE.
     """
     check_model_data(model, data)
     if not isinstance(nstep, (int, np.integer)) or nstep < 1:
@@ -105,7 +118,9 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(model, spec))
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
-    matched = near = 0
+    matched = near = explicit_matched = 0
+    named = explicit_pairs(model)
+    named = named[:, 0].astype(np.int64) * model.ngeom + named[:, 1]
     worst = [0.0, 0.0, 0.0]
     differences = []
     tight = copy.copy(model)  # a third opinion for what sigma cannot settle: GJK/EPA run to 1e-11
@@ -122,6 +137,9 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
         mujoco.mj_setState(model, data, state, spec)
         mujoco.mj_forward(model, data)
         keys = np.union1d(theirs.key, ours.key)
+        g = np.stack(divmod(keys, model.ngeom), axis=1)
+        threshold = pair_margins(model, g) + pair_gaps(model, g)
+        explicit = np.isin(np.minimum(g[:, 0], g[:, 1]) * model.ngeom + np.maximum(g[:, 0], g[:, 1]), named)
         i_mj, i_el = np.searchsorted(theirs.key, keys), np.searchsorted(ours.key, keys)
         on_mj, on_el = np.isin(keys, theirs.key), np.isin(keys, ours.key)
         both = on_mj & on_el
@@ -132,17 +150,19 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
         dp = theirs.pos[m] - ours.pos[e]
         dpos = np.sqrt(np.vecdot(dp, dp))
         matched += int(both.sum())
+        explicit_matched += int((both & explicit).sum())
         worst = [float(np.fmax.reduce(x, initial=w)) for w, x in zip(worst, (ddist, angle, dpos))]  # fmax: as max()
         within = np.zeros(len(keys), dtype=bool)
         within[both] = (ddist <= DIST_TOL) & (angle <= ANGLE_TOL) & (dpos <= POS_TOL)
         one_dist = np.empty(len(keys))  # the dist of the one side in contact
         one_dist[on_el], one_dist[on_mj] = ours.dist[i_el[on_el]], theirs.dist[i_mj[on_mj]]
-        tangent = ~both & (np.abs(one_dist) < NEAR_TANGENT)
+        tangent = ~both & (np.abs(one_dist - threshold) < NEAR_TANGENT)
         near += int(tangent.sum())
         for j in np.flatnonzero(~(within | tangent)):
             mj = theirs.at(i_mj[j]) if on_mj[j] else None
             el = ours.at(i_el[j]) if on_el[j] else None
-            differences.append(_referee(model, data, step, divmod(int(keys[j]), model.ngeom), names, mj, el))
+            key = divmod(int(keys[j]), model.ngeom)
+            differences.append(_referee(model, data, step, key, names, mj, el, float(threshold[j]), bool(explicit[j])))
         undetermined = [x for x in differences if x.step == step and x.right == "undetermined"]
         if undetermined:
             mujoco.mj_setState(tight, tight_data, state, spec)
@@ -160,16 +180,17 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
         mujoco.mj_step(model, data)
         if progress is not None:
             progress(step + 1, nstep)
-    return NarrowphaseComparison(nstep, matched, near, *worst, differences)
+    return NarrowphaseComparison(nstep, matched, near, *worst, differences, explicit_matched)
 
 
-def _referee(model, data, step, key, names, mj, el):
+def _referee(model, data, step, key, names, mj, el, threshold, explicit):
     g1, g2 = key
     zero = np.zeros(1)
     a = enclosing(model, data, np.array([g1]), zero)
     b = enclosing(model, data, np.array([g2]), zero)
     dist, normal, pos, status = signed_distance(a, b)
     proven = bool(status[0] == GLOBAL)
+    tol = float(proof_tolerance(a, b)[0])
     s_el = _sigma(model, data, g1, g2, normal[0])
     s_mj = _sigma(model, data, g1, g2, mj[1]) if mj else float("nan")
     ddist = abs(mj[0] - el[0]) if mj and el else float("nan")
@@ -178,16 +199,26 @@ def _referee(model, data, step, key, names, mj, el):
     eps = 1e-12 * float(np.abs(model.geom_size[[g1, g2]]).max())
     if mj and s_mj > s_el + eps:
         right, reason = "mujoco", f"MuJoCo's normal reaches sigma {s_mj:.9g} > ellipsim's {s_el:.9g}"
+    elif proven and not (mj and el):
+        side = "MuJoCo only" if mj else "ellipsim only"
+        sd = float(dist[0])
+        below = sd < threshold
+        if abs(sd - threshold) <= tol:
+            right = "undetermined"
+        else:  # a contact belongs below the threshold: the side with one is right iff the pair is below
+            right = "ellipsim" if below == bool(el) else "mujoco"
+        reason = (
+            f"contact on {side}; proven signed distance {sd:.12g} {'<' if below else '>='} threshold {threshold:g} "
+            f"(margin + gap{' of the <pair>' if explicit else ''}; proof tolerance {tol:.2g})"
+        )
     elif proven:
         right = "ellipsim"
-        if mj and el:
-            reason = (
-                f"ellipsim's maximum is proven global: signed distance {s_el:.9g}; MuJoCo reports {mj[0]:.9g} "
-                f"and its normal reaches only sigma {s_mj:.9g} (ccd_tolerance {model.opt.ccd_tolerance:g})"
-            )
-        else:
-            side = "MuJoCo only" if mj else "ellipsim only"
-            reason = f"contact on {side}; proven signed distance {s_el:.9g}"
+        reason = (
+            f"ellipsim's maximum is proven global: signed distance {s_el:.9g}; MuJoCo reports {mj[0]:.9g} "
+            f"and its normal reaches only sigma {s_mj:.9g} (ccd_tolerance {model.opt.ccd_tolerance:g})"
+        )
+    elif not (mj and el):
+        right, reason = "undetermined", f"contact on one side only, no proof in budget: sigma {s_el:.9g} against threshold {threshold:g}"
     elif mj and mj[0] < s_el - eps:
         right = "ellipsim"
         reason = (
@@ -196,5 +227,6 @@ def _referee(model, data, step, key, names, mj, el):
         )
     else:
         right, reason = "undetermined", f"deep penetration, no proof in budget: sigma {s_el:.9g}"
-    return ContactDifference(step, g1, g2, (names[g1], names[g2]), mj, el, ddist, angle, dpos, s_mj, s_el, proven, right, reason)
+    return ContactDifference(step, g1, g2, (names[g1], names[g2]), mj, el, ddist, angle, dpos, s_mj, s_el, proven, right, reason,
+                             threshold, explicit)  # fmt: skip
 

@@ -192,6 +192,13 @@ def _pair(A, B, max_iter, seed):
             bb, n, value, count, _ = global_max(n, value, have, e, ra, Ub, rb, M, scale, tol_bb, BB_MAX_PATCHES)
             status = GLOBAL if bb == BB_GLOBAL or bb == SEPARATED_MAX else UNPROVEN
         steps += count
+    return _contact_at(ca, Ra, ra, rb, e, Ub, n, u, value, k < 0 and shallow, status, steps)
+
+
+@stage
+def _contact_at(ca, Ra, ra, rb, e, Ub, n, u, value, recompute, status, steps):
+    """(status, dist, normal, pos, steps) at the unit n of A's frame: dist the given value, or, with
+    recompute, sigma(n); the contact point the midpoint of the support points (pair_signed_distance)."""
     # h_A, h_B at n through U (as global_max.sigma_only: errs by <= 11 u S, where through
     # M = U diag(b^2) U^T it errs by ~u max b^2 / h_B, beyond 1e-12 r_min for 100:1 ellipsoids) ...
     x = (ra[0] * n[0], ra[1] * n[1], ra[2] * n[2])
@@ -199,7 +206,7 @@ def _pair(A, B, max_iter, seed):
     y = (rb[0] * w[0], rb[1] * w[1], rb[2] * w[2])
     ha = math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
     hb = math.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])
-    if k < 0 and shallow:  # sigma at Newton's maximiser (sigma_only's expression)
+    if recompute:  # sigma at Newton's maximiser (sigma_only's expression)
         value = n[0] * e[0] + n[1] * e[1] + n[2] * e[2] - ha - hb
     # ... and the support points grad h_A(n) = diag(a) x / h_A, grad h_B(n) = U diag(b) y / h_B, in A's
     # frame, their midpoint with B's taken from its centre e, then world
@@ -216,6 +223,22 @@ def _pair(A, B, max_iter, seed):
     iu = 1.0 / u  # exact: u is a power of two
     pos = (ca[0] + p[0] * iu, ca[1] + p[1] * iu, ca[2] + p[2] * iu)
     return status, value * iu, normal, pos, steps
+
+
+@jit
+def contact_at(A, B, n):
+    """(sigma, normal, pos) of two ellipsoids at the direction n (world frame, nonzero, any length):
+    the lower bound sigma(n / |n|) on their signed distance (no proof it is the maximum), the unit
+    normal and the contact point as pair_signed_distance gives them at its maximiser.  The MuJoCo
+    glue's answer for a pair whose maximum is not proven, at the better of ellipsim's and MuJoCo's
+    normals."""
+    (ca, Ra, ra), (cb, Rb, rb) = A, B
+    u = unit_scale(ra, rb)
+    ra, rb = scaled(ra, u), scaled(rb, u)
+    d = ((cb[0] - ca[0]) * u, (cb[1] - ca[1]) * u, (cb[2] - ca[2]) * u)
+    e, _, _, Ub = a_frame(((0.0, 0.0, 0.0), Ra, ra), (d, Rb, rb))
+    _, value, normal, pos, _ = _contact_at(ca, Ra, ra, rb, e, Ub, unit(rotate_t(Ra, n)), u, 0.0, True, UNPROVEN, 0)
+    return value, normal, pos
 
 
 @jit

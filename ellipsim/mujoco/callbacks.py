@@ -6,7 +6,9 @@ the callback first repeats that test exactly.  Ellipsoid-ellipsoid and sphere-el
 then tested on ellipsoids that enclose the bodies MuJoCo collides (each grown by half of margin +
 gap + 2 ccd_tolerance: GJK reports contact once the margin-grown bodies are within ccd_tolerance),
 and discarded only when a separating axis is certified (certified.separated_by_axes).  No contact
-MuJoCo would make is lost, so trajectories are bit-identical.
+MuJoCo would make is lost, so trajectories are bit-identical.  With speculative contacts on
+(mjENBL_SPECULATIVE) no pair is discarded: MuJoCo's conservative advancement runs only for pairs that
+reach its narrow phase, and a pair apart now may meet within the step.
 
 mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid,
 sphere x ellipsoid, capsule x ellipsoid, ellipsoid x box and ellipsoid x cylinder (where MuJoCo has
@@ -17,7 +19,9 @@ mj_setContact completes the frame).  The table is indexed type1 <= type2 (engine
 swaps the pair by type), so the capsule is g1 (its normal is core.capsule's flipped) and the box or
 cylinder is g2.  A pair whose maximum is not proven global (core.distance UNPROVEN: the branch and
 bound's budget ran out, for two ellipsoids or a cylinder's rim; a non-finite result) goes to
-MuJoCo's original function, and is counted.
+MuJoCo's original function, and is counted; for two ellipsoids the contact it makes then carries the
+better of MuJoCo's normal and ellipsim's best, sigma evaluated by ellipsim at both (each is a lower
+bound on the signed distance), so the answer is never worse than ellipsim's best.
 
 Warm start (issue 13): a data attached in mode "narrowphase" owns a table (attachment.py; layout in
 context.py, address and size in its registry row) of each ellipsoid pair's last two normals, in the
@@ -27,7 +31,9 @@ from the bisector).  A pair in contact at its last call goes straight to Newton 
 first tried against the separating axes and then against sigma along the seed (a direction whose
 sigma exceeds the margin proves the pair apart beyond it: distance.sigma_lower_bound).  The seed
 never decides the proof (distance.pair_signed_distance_from), so warm results meet the cold
-contract; capsule, box and cylinder pairs start cold (a box's local solve starts at its best face
+contract; the table has epochs (context.py): when the data's time goes back or jumps ahead (a reset,
+mj_setState, a rollout's next initial state) the next trajectory starts cold, bit-identical to a
+fresh data's; capsule, box and cylinder pairs start cold (a box's local solve starts at its best face
 normal).  One data's table is read and written only by calls on that
 data.
 
@@ -54,20 +60,21 @@ from numba.extending import intrinsic
 from ..core._jit import jit
 from ..core import box, capsule, cylinder
 from ..core.certified import bounding_spheres_apart, separated_by_axes
-from ..core.distance import GLOBAL, pair_signed_distance_from, sigma_lower_bound
+from ..core.distance import GLOBAL, contact_at, pair_signed_distance_from, sigma_lower_bound
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from ..core.vec3 import norm2
 from .context import (
     APART, BOX, CAPSULE, CONTACTS, CYLINDER, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE,
     FALLBACK_CYLINDER, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER,
     MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
-    REGISTRY_ROWS, SEEN, SEPARATED, SPHERE, SYMBOL, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS, WORDS,
+    REGISTRY_ROWS, SEEN, SEPARATED, SPECULATIVE, SPHERE, SYMBOL, WARM_ADDRESS, WARM_EPOCH, WARM_JUMP, WARM_MASK,
+    WARM_SLOT_WORDS, WARM_TIME, WORDS,
 )  # fmt: skip
 
 _TYPE, _CONTYPE, _CONAFF = MODEL_WORDS["geom_type"], MODEL_WORDS["geom_contype"], MODEL_WORDS["geom_conaffinity"]
 _SIZE, _MARGIN, _GAP = MODEL_WORDS["geom_size"], MODEL_WORDS["geom_margin"], MODEL_WORDS["geom_gap"]
 _CCD, _OMARGIN, _ENABLE = MODEL_WORDS["opt.ccd_tolerance"], MODEL_WORDS["opt.o_margin"], MODEL_WORDS["opt.enableflags"]
-_XPOS, _XMAT = DATA_WORDS["geom_xpos"], DATA_WORDS["geom_xmat"]
+_XPOS, _XMAT, _TIME, _STEP = DATA_WORDS["geom_xpos"], DATA_WORDS["geom_xmat"], DATA_WORDS["time"], MODEL_WORDS["opt.timestep"]
 _DIST, _POS, _NORMAL, _TANGENT = (PRECONTACT_WORDS[k] for k in ("dist", "pos", "normal", "tangent"))
 
 # --- numba intrinsics: the context, typed pointers from addresses, atomics, calls through pointers
@@ -194,17 +201,34 @@ def _warm_set(g1, g2, mask):
 
 
 @jit
-def _warm_find(table, first, key):
-    """The slot holding `key` in the set starting at `first`, or -1."""
-    if table[first, 0] >> 1 == key:
+def _warm_epoch(counters, t, step):
+    """The table's epoch for a call at data time t, advanced when t goes back or jumps ahead by more
+    than WARM_JUMP timesteps since the table's last read (context.py): a new trajectory starts cold.
+    Plain reads and writes: one data is stepped by one thread (mujoco.rollout gives each thread its
+    own data); under mju_threadpool two threads may both advance it, which only starts more pairs
+    cold (the seed never decides the proof)."""
+    words = carray(i64_pointer(counters), (WARM_EPOCH + 1,))
+    clock = carray(f64_pointer(counters), (WARM_EPOCH + 1,))
+    last = clock[WARM_TIME]
+    if t < last or t > last + WARM_JUMP * step:
+        words[WARM_EPOCH] += 1
+    if t != last:
+        clock[WARM_TIME] = t
+    return words[WARM_EPOCH]
+
+
+@jit
+def _warm_find(table, first, key, epoch):
+    """The slot holding `key` of this epoch in the set starting at `first`, or -1."""
+    if table[first, 0] >> 1 == key and table[first, WARM_SLOT_WORDS - 1] == epoch:
         return first
-    if table[first + 1, 0] >> 1 == key:
+    if table[first + 1, 0] >> 1 == key and table[first + 1, WARM_SLOT_WORDS - 1] == epoch:
         return first + 1
     return -1
 
 
 @jit
-def _warm_store(table, normals, first, k, key, normal, contact):
+def _warm_store(table, normals, first, k, key, normal, contact, epoch):
     """Write (key, contact, normal) in slot k of its set (its last normal kept as the one before), or,
     k < 0, in a free slot of the set; in a
     full set the entry of the first slot moves to the second (whose entry is dropped: that pair
@@ -218,10 +242,10 @@ def _warm_store(table, normals, first, k, key, normal, contact):
     chooses whether the separating axes are tried first (both paths are proofs)."""
     if k >= 0:  # the last normal becomes the one before
         normals[k, 4], normals[k, 5], normals[k, 6] = normals[k, 1], normals[k, 2], normals[k, 3]
-    else:
-        if table[first, 0] == 0:
+    else:  # a slot of another epoch is free (as on a fresh table: reruns are bit-identical)
+        if table[first, 0] == 0 or table[first, WARM_SLOT_WORDS - 1] != epoch:
             k = first
-        elif table[first + 1, 0] == 0:
+        elif table[first + 1, 0] == 0 or table[first + 1, WARM_SLOT_WORDS - 1] != epoch:
             k = first + 1
         else:
             for w in range(1, WARM_SLOT_WORDS):
@@ -230,6 +254,7 @@ def _warm_store(table, normals, first, k, key, normal, contact):
             k = first
         normals[k, 4], normals[k, 5], normals[k, 6] = normal  # a new entry: no motion yet
     normals[k, 1], normals[k, 2], normals[k, 3] = normal
+    table[k, WARM_SLOT_WORDS - 1] = epoch
     table[k, 0] = (key << 1) | (1 if contact else 0)
 
 
@@ -261,6 +286,14 @@ def contact_filter(m, d, g1, g2):
     margin = carray(f64_pointer(_word(ma + ctx[_MARGIN])), (n,))
     gap = carray(f64_pointer(_word(ma + ctx[_GAP])), (n,))
     enable = carray(i32_pointer(ma + ctx[_ENABLE]), (1,))[0]
+    counters = reg[slot, 1]
+    if enable & SPECULATIVE:
+        # speculative contacts: MuJoCo runs its conservative advancement only for pairs that reach
+        # its narrow phase; a pair proven apart now may still meet within the step, so none is
+        # discarded (issue 18: a 50 m/s ellipsoid tunnelled through a thin plate otherwise)
+        atomic_add(counters + 8 * SEEN, 1)
+        atomic_add(counters + 8 * PASSED, 1)
+        return 0
     if enable & OVERRIDE:
         total = carray(f64_pointer(ma + ctx[_OMARGIN]), (1,))[0]
     else:
@@ -274,7 +307,6 @@ def contact_filter(m, d, g1, g2):
     A = _ellipsoid(xpos, xmat, size, t1, g1, grow)
     B = _ellipsoid(xpos, xmat, size, t2, g2, grow)
     discard = separated_by_axes(A, B)
-    counters = reg[slot, 1]
     atomic_add(counters + 8 * SEEN, 1)
     atomic_add(counters + 8 * (DISCARDED if discard else PASSED), 1)
     return 1 if discard else 0
@@ -337,13 +369,15 @@ def narrowphase(m, d, con, g1, g2, margin):
         # the pair's entry in this data's warm-start table (context.WARM_SLOT_WORDS): its normal of
         # the last call, and whether that call made a contact
         mask = reg[slot, WARM_MASK]
-        key, first, k = (g1 << 32) | g2, 0, -1
+        key, first, k, epoch = (g1 << 32) | g2, 0, -1, 0
         seed, touching = (0.0, 0.0, 0.0), False
         table = carray(i64_pointer(reg[slot, WARM_ADDRESS]), (mask + 1, WARM_SLOT_WORDS))
         normals = carray(f64_pointer(reg[slot, WARM_ADDRESS]), (mask + 1, WARM_SLOT_WORDS))
         if mask:
+            t = carray(f64_pointer(da + ctx[_TIME]), (1,))[0]
+            epoch = _warm_epoch(counters, t, carray(f64_pointer(ma + ctx[_STEP]), (1,))[0])
             first = _warm_set(g1, g2, mask)
-            k = _warm_find(table, first, key)
+            k = _warm_find(table, first, key, epoch)
             if k >= 0:  # the last normal extrapolated by the one before (smooth motion: 1.0-1.3
                 # Newton steps on the bench's settled scenes, 2.0 from the last normal alone)
                 last, before = (normals[k, 1], normals[k, 2], normals[k, 3]), (normals[k, 4], normals[k, 5], normals[k, 6])
@@ -359,7 +393,26 @@ def narrowphase(m, d, con, g1, g2, margin):
         status, dist, normal, pos, _ = pair_signed_distance_from(A, B, seed)
         proven = status == GLOBAL
         if mask and proven:
-            _warm_store(table, normals, first, k, key, normal, dist < margin)
+            _warm_store(table, normals, first, k, key, normal, dist < margin, epoch)
+        if not proven and math.isfinite(dist):
+            # no proof (nearly parallel spheroids, tilted by 1e-12-0.1 rad): MuJoCo's function runs, and
+            # the answer is the better of its normal and ellipsim's, sigma evaluated by ellipsim at both
+            # (each a lower bound on the signed distance), so never worse than either; counted
+            atomic_add(counters + 8 * FALLBACKS, 1)
+            made = call_collision(original, m, d, con, g1, g2, margin)
+            if made == 0:
+                return 0  # MuJoCo makes no contact: none is dropped that it would have made
+            c = carray(f64_pointer(address(con)), (_TANGENT + 3,))
+            v, nv, pv = contact_at(A, B, (c[_NORMAL], c[_NORMAL + 1], c[_NORMAL + 2]))
+            if v > dist:
+                dist, normal, pos = v, nv, pv
+            if dist >= margin:
+                return 0  # ellipsim's lower bound already puts them apart beyond the margin
+            c[_DIST] = dist
+            c[_POS], c[_POS + 1], c[_POS + 2] = pos
+            c[_NORMAL], c[_NORMAL + 1], c[_NORMAL + 2] = normal
+            c[_TANGENT], c[_TANGENT + 1], c[_TANGENT + 2] = 0.0, 0.0, 0.0
+            return 1
     if not proven:  # no proof that this is the global maximum: MuJoCo's own answer, counted
         atomic_add(counters + 8 * FALLBACKS, 1)
         return call_collision(original, m, d, con, g1, g2, margin)

@@ -22,17 +22,18 @@ an object built for the old layout then no longer links in a process with the ne
 import mujoco
 import numpy as np
 
-SYMBOL = "ellipsim_ctx_v4"  # v2: word 15 FALLBACK_CAPSULE; v3: registry columns 5, 6 (warm-start table); v4: words 16, 17 FALLBACK_BOX, _CYLINDER
+SYMBOL = "ellipsim_ctx_v5"  # v2: word 15 FALLBACK_CAPSULE; v3: registry columns 5, 6 (warm-start table); v4: words 16, 17 FALLBACK_BOX, _CYLINDER; v5: words 18, 19 (data time, opt.timestep), warm-start epochs
 
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
 FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER = 15, 16, 17
 #: pointer fields (the word at the offset holds the array's address) and, dotted, mjOption scalars
 MODEL_WORDS = {
     "geom_type": 4, "geom_contype": 5, "geom_conaffinity": 6, "geom_size": 7, "geom_margin": 8, "geom_gap": 9,
-    "opt.ccd_tolerance": 10, "opt.o_margin": 11, "opt.enableflags": 12,
+    "opt.ccd_tolerance": 10, "opt.o_margin": 11, "opt.enableflags": 12, "opt.timestep": 19,
 }  # fmt: skip
-DATA_WORDS = {"geom_xpos": 13, "geom_xmat": 14}
-WORDS = 18
+#: pointer fields, and "time", a scalar (the word at the offset is the float64 itself)
+DATA_WORDS = {"geom_xpos": 13, "geom_xmat": 14, "time": 18}
+WORDS = 20
 CONTEXT = np.zeros(WORDS, dtype=np.int64)  # lives as long as the process: its address is published
 
 # Registry of attached datas.  Row 0: [highest slot ever used, ...]; slots 1..: [mjData address
@@ -50,16 +51,21 @@ REGISTRY = np.zeros((MAX_ATTACHED + 1, REGISTRY_COLUMNS), dtype=np.int64)
 # Per-data counters (int64): filter: seen, discarded, passed; narrowphase: -, separated, contacts,
 # apart (measured apart beyond the margin), fallbacks: every call adds 1 to exactly one of words
 # 1-4, so the number of calls is their sum (one atomic add per call, not two); record: the number
-# of recorded pairs in word RECORDED.
+# of recorded pairs in word RECORDED.  Narrowphase words 0 and 5 are the warm-start table's clock:
+# the data's time at the last call that read the table (float64 bits) and the table's epoch.
 NCOUNTERS = 6
 SEEN, DISCARDED, PASSED, RECORDED = 0, 1, 2, 3
 SEPARATED, CONTACTS, APART, FALLBACKS = 1, 2, 3, 4
+WARM_TIME, WARM_EPOCH = 0, 5
 
 # Warm-start table of a data attached in mode "narrowphase" (attachment.py owns it, callbacks.py reads
 # and writes it): WARM_SLOT_WORDS int64/float64 words per slot, [key << 1 | in contact, normal x, y, z,
-# the normal before it x, y, z, -] (the key g1 << 32 | g2 as int64, the normals of the pair's last two
-# calls, from g1 to g2 in the world frame, as float64); slots 2k and 2k + 1 form the set of the keys
-# hashing to k.  Key word 0: empty.
+# the normal before it x, y, z, epoch] (the key g1 << 32 | g2 as int64, the normals of the pair's last
+# two calls, from g1 to g2 in the world frame, as float64, the table's epoch when written, int64);
+# slots 2k and 2k + 1 form the set of the keys hashing to k.  Key word 0, or an epoch other than the
+# table's: empty.  The epoch advances when the data's time goes back or jumps ahead by more than
+# WARM_JUMP timesteps (mj_resetData, mj_setState, a rollout's next initial state): a new trajectory
+# then starts cold, as on a fresh data, so identical initial states give bit-identical trajectories.
 WARM_SLOT_WORDS = 8
 
 # MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
@@ -68,5 +74,8 @@ SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
     int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_BOX),
 )  # fmt: skip
 OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
+SPECULATIVE = int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE)
+#: a call this many timesteps after the table's last read starts a new epoch (RK4 moves by at most 1)
+WARM_JUMP = 1.5
 #: mjPreContact as the narrow phase writes it: float64 words dist, pos[3], normal[3], tangent[3]
 PRECONTACT_WORDS = {"dist": 0, "pos": 1, "normal": 4, "tangent": 7}

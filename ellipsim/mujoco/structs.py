@@ -231,6 +231,7 @@ def _probe():
     """A probe (model, data): every geom kind the callbacks read, mjOption fields set to distinctive values."""
     m = mujoco.MjModel.from_xml_string(_PROBE)
     m.opt.ccd_tolerance, m.opt.o_margin = 1.2345678912345679e-77, 9.8765432198765432e-77
+    m.opt.timestep = 2.7182818284590452e-77
     m.opt.enableflags, m.opt.disableflags = 0x5A5A3C3C, 0x3C3C5A5A
     return m, mujoco.MjData(m)
 
@@ -278,8 +279,10 @@ def scan():
     m, d = _probe()
     arrays = [name for name in MODEL_WORDS if "." not in name]
     model = _scan_words(m._address, ctypes.c_uint64, {getattr(m, n).ctypes.data: n for n in arrays})
-    data = _scan_words(d._address, ctypes.c_uint64, {getattr(d, n).ctypes.data: n for n in DATA_WORDS})
-    doubles = {m.opt.ccd_tolerance: "opt.ccd_tolerance", m.opt.o_margin: "opt.o_margin"}
+    data = _scan_words(d._address, ctypes.c_uint64, {getattr(d, n).ctypes.data: n for n in DATA_WORDS if n != "time"})
+    d.time = 3.1415926535897932e-77
+    data.update(_scan_words(d._address, ctypes.c_double, {d.time: "time"}))
+    doubles = {m.opt.ccd_tolerance: "opt.ccd_tolerance", m.opt.o_margin: "opt.o_margin", m.opt.timestep: "opt.timestep"}
     model.update(_scan_words(m._address, ctypes.c_double, doubles))
     model.update(_scan_words(m._address, ctypes.c_int32, {int(m.opt.enableflags): "opt.enableflags"}))
     return {"model": model, "data": data}

@@ -1,0 +1,193 @@
+"""Issue 18: trajectories that ellipsim cannot make depend on anything but the state and controls.
+
+* Warm start: a data's table of recent normals starts a new epoch when the data's time goes back or
+  jumps ahead (mj_resetData, mj_setState, mujoco.rollout's next initial state), so identical initial
+  states give bit-identical trajectories, as MuJoCo's own rollouts are (the first release: 1.4e-9 to
+  3.9e-9 apart after 200 steps).
+* Filter under speculative contacts: nothing is discarded, so trajectories are plain MuJoCo's to the
+  bit and fast bodies stop at thin ellipsoids as they do without ellipsim (the first release: the
+  filter discarded the pair 39 times of 40 and the body tunnelled, final x 3.28 against 0.45).
+* A maximum that cannot be proven (nearly parallel spheroids) gets the better of MuJoCo's and
+  ellipsim's normals, never MuJoCo's answer when ellipsim's is better.
+"""
+
+import mujoco
+import mujoco.rollout as rollout
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation as Rot
+
+import ellipsim.mujoco as em
+from ellipsim import Ellipsoids, signed_distance
+from ellipsim.core.distance import GLOBAL, UNPROVEN, contact_at
+from ellipsim.mujoco import scenes
+
+FULL = mujoco.mjtState.mjSTATE_INTEGRATION  # FULLPHYSICS and MuJoCo's own solver warm start
+PHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+def _pile(n=30, seed=5):
+    return mujoco.MjModel.from_xml_string(scenes.pile_xml(n, seed=seed))
+
+
+def _state(model, data):
+    s = np.empty(mujoco.mj_stateSize(model, FULL))
+    mujoco.mj_getState(model, data, s, FULL)
+    return s
+
+
+def _run(model, data, steps):
+    out = np.empty((steps, model.nq))
+    for i in range(steps):
+        mujoco.mj_step(model, data)
+        out[i] = data.qpos
+    return out
+
+
+def test_reset_and_set_state_rerun_bit_identical():
+    """A pile stepped 200 steps, reset, stepped again; then set back to a state of the first run
+    and stepped again: each rerun equals a fresh data's run to the bit, and warm start still acts
+    (the trajectory is not the cold one)."""
+    model = _pile()
+    fresh = mujoco.MjData(model)
+    with em.attach(model, fresh, mode="narrowphase"):
+        expected = _run(model, fresh, 200)
+    data = mujoco.MjData(model)
+    with em.attach(model, data, mode="narrowphase") as att:
+        first = _run(model, data, 200)
+        mujoco.mj_resetData(model, data)
+        again = _run(model, data, 200)
+    np.testing.assert_array_equal(first, expected)
+    np.testing.assert_array_equal(again, expected)
+    assert att.counters["contacts"] > 1000
+    cold_data = mujoco.MjData(model)
+    with em.attach(model, cold_data, mode="narrowphase", warm_start=False):
+        cold = _run(model, cold_data, 200)
+    assert not np.array_equal(cold, expected)
+
+    # mj_setState to a state of a run (at step 100), from the end of another run (time goes back)
+    mid = mujoco.MjData(model)
+    with em.attach(model, mid, mode="narrowphase"):
+        _run(model, mid, 100)
+        s100 = _state(model, mid)
+    probe = mujoco.MjData(model)
+    with em.attach(model, probe, mode="narrowphase"):
+        _run(model, probe, 150)
+        mujoco.mj_setState(model, probe, s100, FULL)
+        out = _run(model, probe, 100)
+    fresh2 = mujoco.MjData(model)
+    with em.attach(model, fresh2, mode="narrowphase"):
+        mujoco.mj_setState(model, fresh2, s100, FULL)
+        ref = _run(model, fresh2, 100)
+    np.testing.assert_array_equal(out, ref)
+    # and ahead in time: from step 50 of one run to the state at step 100 (a jump of 50 steps)
+    ahead = mujoco.MjData(model)
+    with em.attach(model, ahead, mode="narrowphase"):
+        _run(model, ahead, 50)
+        mujoco.mj_setState(model, ahead, s100, FULL)
+        np.testing.assert_array_equal(_run(model, ahead, 100), ref)
+
+
+@pytest.mark.parametrize("nthread", [1, 2, 8])
+def test_rollouts_are_bit_identical(nthread):
+    """mujoco.rollout from the same initial states twice (and in a different order) on attached
+    datas: bit-identical trajectories with 1, 2 and 8 threads."""
+    model = _pile(20, seed=7)
+    base = mujoco.MjData(model)
+    s0 = np.empty(mujoco.mj_stateSize(model, PHYSICS))
+    mujoco.mj_getState(model, base, s0, PHYSICS)  # rollout's initial states
+    rng = np.random.default_rng(0)
+    states = np.tile(s0, (8, 1))
+    nq = model.nq
+    states[:, 1 + nq: 1 + nq + model.nv] = rng.normal(0, 0.5, (8, model.nv))  # initial velocities
+    datas = [mujoco.MjData(model) for _ in range(nthread)]
+    atts = [em.attach(model, d, mode="narrowphase") for d in datas]
+    for a in atts:
+        a.__enter__()
+    try:
+        one, _ = rollout.rollout(model, datas, states, nstep=120)
+        two, _ = rollout.rollout(model, datas, states[::-1].copy(), nstep=120)
+    finally:
+        for a in atts:
+            a.__exit__(None, None, None)
+    assert sum(a.counters["contacts"] for a in atts) > 0
+    np.testing.assert_array_equal(one, two[::-1])
+
+
+def _fast_ellipsoid_xml(speed, target):
+    plate = '<geom type="ellipsoid" size=".3 .3 .004" pos=".5 0 0" euler="0 90 0"/>' if target == "plate" else (
+        '<geom type="ellipsoid" size=".03 .03 .03" pos=".5 0 0"/>')
+    return f"""<mujoco><option timestep="0.002" gravity="0 0 0"><flag speculative="enable"/></option>
+      <worldbody>{plate}
+        <body pos="0 0 0"><freejoint/><geom type="ellipsoid" size=".05 .04 .03"/></body>
+      </worldbody>
+      <keyframe><key qvel="{speed} 0 0 0 0 0"/></keyframe></mujoco>"""
+
+
+@pytest.mark.parametrize("target", ["plate", "small"])
+def test_filter_under_speculative_contacts_is_plain_mujoco(target):
+    """A 0.05 m ellipsoid at 50 m/s at a thin ellipsoid plate or a small ellipsoid, speculative
+    contacts on: with the filter, bit-identical to plain MuJoCo, and it stops (does not tunnel)."""
+    model = mujoco.MjModel.from_xml_string(_fast_ellipsoid_xml(50.0, target))
+    plain, mine = mujoco.MjData(model), mujoco.MjData(model)
+    for d in (plain, mine):
+        mujoco.mj_resetDataKeyframe(model, d, 0)
+    ref = _run(model, plain, 40)
+    with em.attach(model, mine, mode="filter") as att:
+        out = _run(model, mine, 40)
+    np.testing.assert_array_equal(out, ref)
+    assert att.counters["discarded"] == 0 and att.counters["seen"] > 0
+    assert ref[-1, 0] < 0.58  # MuJoCo's speculative contact stops it: not past the target's far side
+    # (0.5 + 0.03 + 0.05; 40 steps at 50 m/s would carry it 4 m)
+
+    # without the flag the filter still discards pairs proven apart (and the body tunnels, in plain
+    # MuJoCo too: that is what the flag is for)
+    model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE)
+    mine2 = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, mine2, 0)
+    with em.attach(model, mine2, mode="filter") as att2:
+        _run(model, mine2, 40)
+    assert att2.counters["discarded"] > 0
+
+
+def _tilted_pair():
+    """Two prolate spheroids crossing deep with their axes 1e-8 rad apart: the maximum lies on a
+    nearly flat circle, which neither proof isolates (UNPROVEN)."""
+    Rb = Rot.from_rotvec(np.array([1.0, 1.0, 0.0]) / np.sqrt(2) * 1e-8).as_matrix()
+    a = Ellipsoids([0.0, 0.0, 0.0], np.eye(3), [0.1, 0.1, 0.29159314])
+    b = Ellipsoids([1.32036099e-08, 6.33352623e-09, 2.99272946e-02], Rb, [0.0590753, 0.0590753, 0.12965822])
+    return a, b
+
+
+def test_unproven_pairs_get_the_better_of_both_normals():
+    """The glue's answer for an UNPROVEN pair: MuJoCo's function runs (counted as a fallback), and the
+    contact carries whichever of MuJoCo's and ellipsim's normals has the higher sigma (ellipsim's
+    evaluation), with that sigma as its distance: never below ellipsim's best, never below sigma at
+    MuJoCo's own normal."""
+    a, b = _tilted_pair()
+    dist, normal, pos, status = signed_distance(a, b)
+    assert status[0] == UNPROVEN
+    q = Rot.from_matrix(b.rotations[0]).as_quat(scalar_first=True)
+    xml = f"""<mujoco><worldbody>
+      <body><freejoint/><geom type="ellipsoid" size="0.1 0.1 0.29159314"/></body>
+      <body pos="{' '.join(map(str, b.centers[0].tolist()))}" quat="{' '.join(map(str, q.tolist()))}"><freejoint/>
+        <geom type="ellipsoid" size="0.0590753 0.0590753 0.12965822"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    plain, mine = mujoco.MjData(model), mujoco.MjData(model)
+    mujoco.mj_forward(model, plain)
+    with em.attach(model, mine, mode="narrowphase") as att:
+        mujoco.mj_forward(model, mine)
+    assert att.counters["fallbacks"] == 1
+    assert plain.ncon == mine.ncon == 1
+    A = Ellipsoids(mine.geom_xpos[0], mine.geom_xmat[0].reshape(3, 3), model.geom_size[0])
+    B = Ellipsoids(mine.geom_xpos[1], mine.geom_xmat[1].reshape(3, 3), model.geom_size[1])
+    best, _, _, st = signed_distance(A, B)
+    loadA = ((*A.centers[0],), tuple(A.rotations[0].ravel()), (*A.radii[0],))
+    loadB = ((*B.centers[0],), tuple(B.rotations[0].ravel()), (*B.radii[0],))
+    at_mujoco, _, _ = contact_at(loadA, loadB, tuple(plain.contact.frame[0, :3]))
+    got = mine.contact.dist[0]
+    assert st[0] == UNPROVEN
+    assert got == max(best[0], at_mujoco)
+    at_mine, nrm, _ = contact_at(loadA, loadB, tuple(mine.contact.frame[0, :3]))
+    assert abs(at_mine - got) <= 1e-15  # the distance is sigma at the normal handed to MuJoCo

@@ -8,6 +8,7 @@ import re
 import mujoco
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation as Rot
 
 from ellipsim.core import cylinder
 from ellipsim.mujoco import scenes
@@ -102,6 +103,45 @@ def test_kernel_matches_the_reference_within_1e12_of_the_smaller_half_size(poses
     check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, proofs, cylinder.CERTIFIED)
     assert (dist[cat == 3] < 0).all() and (dist[cat == 6] < 0).all() and (dist[cat == 0] > 0).all()
     assert (status[cat == 3] == cylinder.ENUMERATED).any()  # the branch and bound is exercised
+
+
+def coaxial_poses(seed, m=200):
+    """A spheroid E (prolate or oblate, aspect 1.15-6, a random rotation) and a cylinder whose axis is
+    E's, exactly or tilted by 1e-12 to 1e-2 rad, centred on the axis or a hair off it, deep to touching:
+    sigma is (nearly) constant along the rim facing E (limbs of one straight chain)."""
+    rng = np.random.default_rng(seed)
+    rE, cK, RK, sK = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3, 3)), np.zeros((m, 3))
+    RE = Rot.random(m, random_state=rng).as_matrix()
+    for i in range(m):
+        s, aspect = rng.uniform(0.05, 0.3), rng.uniform(1.15, 6.0)
+        rE[i] = (s, s, s * aspect) if i % 2 else (s * aspect, s * aspect, s)
+        tilt = [0.0, 1e-12, 1e-8, 1e-4, 1e-2][i % 5]
+        axis = rng.normal(size=3)
+        RK[i] = RE[i] @ Rot.from_rotvec(axis / np.linalg.norm(axis) * tilt).as_matrix()
+        sK[i, 0], sK[i, 1] = rng.uniform(0.02, 0.4), rng.uniform(0.01, 0.4)
+        off = rng.normal(size=3) * tilt if i % 3 == 0 else np.zeros(3)
+        cK[i] = RE[i] @ (np.array([0.0, 0.0, rng.uniform(0.0, 1.05) * (rE[i, 2] + sK[i, 1])]) + off)
+    return dict(cE=np.zeros((m, 3)), RE=RE, rE=rE, cK=cK, RK=RK, sK=sK)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_coaxial_spheroid_and_cylinder_are_proven(seed):
+    """Issue 18: a cylinder on a spheroid's axis had a third of such deep pairs UNPROVEN (the rim's lunes
+    cannot settle a rim along which sigma is constant); cylinder.axis_max proves them, within the
+    tolerance of the dense reference."""
+    P = coaxial_poses(seed)
+    results = [_kernel(P, i) for i in range(len(P["cE"]))]
+    status = np.array([r[0] for r in results])
+    dist = np.array([r[1] for r in results])
+    assert (status != cylinder.UNPROVEN).all(), np.flatnonzero(status == cylinder.UNPROVEN)
+    assert (dist < -0.05).sum() > 50
+    ref, _ = reference(P)
+    scale = np.linalg.norm(P["cK"], axis=1) + np.maximum(P["rE"].max(1), P["sK"].max(1))
+    tol = np.maximum(1e-12 * np.minimum(P["rE"].min(1), P["sK"][:, :2].min(1)), 192 * 2.0**-53 * scale)
+    assert (ref - dist <= tol + 64 * 2.0**-53 * scale).all(), (ref - dist).max()
+    # above the reference only where its polish stops short on the flat rim: ours is sigma at our normal
+    normals = np.array([r[2] for r in results])
+    np.testing.assert_allclose(ref_sigma(P, normals[:, None, :])[:, 0], dist, rtol=0, atol=1e-14 * scale.max())
 
 
 def test_kernel_hand_picked_cases():

@@ -42,7 +42,8 @@ from .point_ellipsoid import (
     secular_roots, support,
 )  # fmt: skip
 from .sigma import rolling_radius, tangent_basis, unit
-from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
+from .spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, axis_bb
+from .tolerances import BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
 from .vec3 import column, cross3, norm2, rotate_t
 
 #: How cylinder_ellipsoid ended: CERTIFIED (an upper bound within PAIR_CERT_REL of the smaller
@@ -519,6 +520,45 @@ def deep_search(a2, e, u, L, r, best, bn, tol, slack):
 
 
 @jit
+def axis_max(a2, e, u, L, r, tol, scale, n0):
+    """A second chance for a rim left unproven when E is a spheroid whose axis is (nearly) along the
+    cylinder's: sigma is then (nearly) constant along the rim, which no lune is short enough to settle.
+    spheroids.axis_bb about u (h_K = L |cos t| + r sin t in polar coordinates about u, E a spheroid
+    about its axis j: the model's errors delta0 below), in the frame B = (u, w1, w2) (tangent_basis):
+    sigma(B nu) for unit nu differs from the model by the rounding of B^T e and B^T e_j and by B's
+    orthonormality defect def (|B nu|^2 = 1 +- 3 def: sigma, 1-homogeneous, moves by <= 1.5 def S, h_E's
+    model by 3 pb^2 def / min(qb, pb)), and by the axis u / |u| in place of u (|u| = 1 to ~1e-15).  Returns (proven, n, value): max sigma <= value + tol when proven."""
+    ra = (math.sqrt(a2[0]), math.sqrt(a2[1]), math.sqrt(a2[2]))
+    j, db = 0, math.inf
+    for jj in range(3):
+        d = 0.5 * abs(ra[(jj + 1) % 3] - ra[(jj + 2) % 3])
+        if d < db:
+            j, db = jj, d
+    j1, j2 = (j + 1) % 3, (j + 2) % 3
+    qb, pb = ra[j], 0.5 * (ra[j1] + ra[j2])
+    uu = math.sqrt(_dot(u, u))  # u from to_frame is unit to ~1e-15: the model's axis is u / |u|
+    u0 = u
+    u = (u[0] / uu, u[1] / uu, u[2] / uu)
+    w1, w2 = tangent_basis(u)
+    dfu = max(abs(_dot(u, u) - 1.0), abs(_dot(w1, w1) - 1.0), abs(_dot(w2, w2) - 1.0))
+    dfu = max(dfu, abs(_dot(u, w1)), abs(_dot(u, w2)), abs(_dot(w1, w2))) + 3.0 * U  # + the dots' rounding
+    delta0 = db * (1.0 + 3.0 * dfu) + 3.0 * pb * pb * dfu / min(qb, pb) + 3.0 * dfu * scale
+    delta0 += 3.0 * (L + r) * (abs(uu - 1.0) + 2.0 * U) + 12.0 * U * scale
+    tol1 = tol - 2.0 * delta0 - (ERR_C_ULPS + BB_ERR_SIGMA_ULPS + 8.0) * U * scale
+    nu = (_dot(n0, u), _dot(n0, w1), _dot(n0, w2))
+    t0, p0 = math.atan2(math.sqrt(nu[1] * nu[1] + nu[2] * nu[2]), nu[0]), math.atan2(nu[2], nu[1])
+    ok, t, p, moved, _ = axis_bb(
+        _dot(e, u), _dot(e, w1), _dot(e, w2), 1, L, r, qb * qb - pb * pb, pb * pb, u[j], w1[j], w2[j], tol1, scale, 0.0, t0, p0
+    )
+    n = n0
+    if moved:
+        ct, st, cp, sp = math.cos(t), math.sin(t), math.cos(p), math.sin(p)
+        n = unit((ct * u[0] + st * (cp * w1[0] + sp * w2[0]), ct * u[1] + st * (cp * w1[1] + sp * w2[1]),
+                  ct * u[2] + st * (cp * w1[2] + sp * w2[2])))  # fmt: skip
+    return ok, n, sigma_cylinder(a2, e, u0, L, r, n)
+
+
+@jit
 def cylinder_ellipsoid(E, K):
     """(status, dist, normal (3,), pos (3,), ub) for the ellipsoid E and the cylinder K, tuples (centre
     (3,) metres, rotation row-major (9,), sizes (3,) metres; K's sizes (radius, half-length, unused),
@@ -530,17 +570,27 @@ def cylinder_ellipsoid(E, K):
     r, L = K[2][0], K[2][1]
     ra = E[2]
     rho = rolling_radius(ra)
-    tol = PAIR_CERT_REL * min(ra[0], ra[1], ra[2], r, L)
+    scale = math.sqrt(norm2(e)) + max(ra[0], ra[1], ra[2], r, L)
+    # the contract's 1e-12 of the smallest size, floored (as two ellipsoids' in distance.py) by what
+    # float64 evaluates sigma to: a 0.02 m thin disc on a 1.3 m limb asks for 1e-14 m, 100 ulps of the
+    # pair's scale, less than axis_max's own rounding budget (~110 u S); twice the ellipsoids' floor
+    tol = max(PAIR_CERT_REL * min(ra[0], ra[1], ra[2], r, L), 2.0 * BB_TOL_ULPS * U * scale)
     n, _, _ = local_max(a2, e, u, L, r)
     value = sigma_cylinder(a2, e, u, L, r, n)
     ub = upper_bound(a2, e, u, L, r, rho, n, value, tol)
     status = CERTIFIED
     if ub - value > tol:
-        scale = math.sqrt(norm2(e)) + max(ra[0], ra[1], ra[2], r, L)
         slack = PAIR_SIGMA_SLACK_ULPS * U * scale
         value, n, proven = deep_search(a2, e, u, L, r, value, n, tol, slack)
         ub2 = upper_bound(a2, e, u, L, r, rho, n, value, tol)
-        if ub2 - value <= tol:
+        by_axis = False
+        if not proven and ub2 - value > tol:  # a flat rim: E a spheroid about (nearly) the cylinder's axis
+            by_axis, m, v = axis_max(a2, e, u, L, r, tol, scale, n)
+            if by_axis and v > value:  # (else proven from the incumbent itself: max <= v + tol <= value + tol)
+                value, n = v, m
+        if by_axis:
+            ub = value + tol
+        elif ub2 - value <= tol:
             ub = ub2
         else:
             status = ENUMERATED if proven else UNPROVEN

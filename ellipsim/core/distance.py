@@ -20,10 +20,13 @@ One Newton run (sigma.py) from the bisector seed finds a local maximum; it is th
 Deeper penetrations, and a first run that does not converge, go to spheroids.py when the two are
 spheroids (or a sphere and a spheroid) with parallel axes of revolution, to within the tolerance (the
 maximum is then one of two ellipses in a plane: a branch and bound over one angle proves it, circles
-of maxima included), and otherwise to global_max.py: a branch and bound
+of maxima included); spheroids whose axes are nearly parallel go to spheroids.tilted_max (a branch and
+bound over the angles about A's axis with second-order bounds: along the circle the maxima are flat,
+across it they are not), and the rest to global_max.py: a branch and bound
 over the sphere with concave majorants that proves its answer within
 TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of the global maximum, or reports UNPROVEN
-when its budget runs out (the MuJoCo glue then calls MuJoCo's own function).
+when its budget runs out (two spheroids at any angle then get tilted_max as a second chance; still
+UNPROVEN, the MuJoCo glue calls MuJoCo's own function and keeps the better of both normals).
 """
 
 import math
@@ -33,8 +36,8 @@ import numpy as np
 from . import threads
 from ._jit import jit, stage
 from .ellipsoids import check_pair, check_parallel
-from .global_max import GLOBAL as BB_GLOBAL
-from .spheroids import parallel_max
+from .global_max import GLOBAL as BB_GLOBAL, UNPROVEN as BB_UNPROVEN
+from .spheroids import parallel_max, tilted_max
 from .global_max import SEPARATED_MAX, climb, global_max, sigma_only
 from .sigma import CONVERGED, a_frame, bisector_seed, newton, rolling_radius, unit
 from .tolerances import (
@@ -189,7 +192,22 @@ def _pair(A, B, max_iter, seed):
                     m, v = nc, vc
                 if not have or v > value:
                     n, value, have = m, v, True
-            bb, n, value, count, _ = global_max(n, value, have, e, ra, Ub, rb, M, scale, tol_bb, BB_MAX_PATCHES)
+            bb = BB_UNPROVEN
+            near = norm2(nc) > 0.5
+            if have and near:  # nearly parallel: the 2-D branch and bound first (spheroids.tilted_max)
+                ok, n, c2 = tilted_max(e, ra, Ub, rb, tol_bb, S, n)
+                count += c2
+                value = sigma_only(n, e, ra, Ub, rb)
+                if ok:
+                    bb = BB_GLOBAL
+            if bb != BB_GLOBAL:
+                bb, n, value, c2, _ = global_max(n, value, have, e, ra, Ub, rb, M, scale, tol_bb, BB_MAX_PATCHES)
+                count += c2
+            if bb == BB_UNPROVEN and not near:  # two spheroids at any angle: the 2-D one as a second chance
+                ok, m, c2 = tilted_max(e, ra, Ub, rb, tol_bb, S, n)
+                count += c2
+                if ok:
+                    bb, n, value = BB_GLOBAL, m, sigma_only(m, e, ra, Ub, rb)
             status = GLOBAL if bb == BB_GLOBAL or bb == SEPARATED_MAX else UNPROVEN
         steps += count
     return _contact_at(ca, Ra, ra, rb, e, Ub, n, u, value, k < 0 and shallow, status, steps)

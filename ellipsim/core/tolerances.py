@@ -133,6 +133,8 @@ BB_MAX_PATCHES = 6000
 #: Budget of arcs for near-coaxial spheroids (core/coaxial.py; ~25 ns each): the arcs undecided at a
 #: level are those around the maximum, 2-4 a level down to widths of ~sqrt(tol / curvature).
 COAXIAL_MAX_NODES = 2000
+#: Budget of cells for spheroids with nearly parallel axes (core/spheroids.tilted_max; ~0.3 us each).
+TILTED_MAX_NODES = 20000
 #: Spheroids whose axes are this close to parallel (radians, and semi-axes / offsets within this of
 #: the parallel model, relative to S) but not close enough for its proof: the model's maximiser seeds
 #: global_max (a heuristic, the proof does not use it): tilts of 1e-12-1e-1 rad left global_max with

@@ -20,10 +20,10 @@ two semi-axes, qb = b_j for B's axis j nearest to w, pb = the mean of B's other 
 not be exactly of revolution nor exactly parallel: for every unit n, with n's own (z, r) in the plane,
 sigma(n) <= g(z, r) + delta and sigma(n*) >= g(z*, r*) - delta at the returned n* (in the plane), with
   delta = |a_k1 - a_k2| / 2                                 (A not exactly of revolution)
-        + max|b - b0| (1 + 3 def) + (|qb^2 - pb^2| eps (2 + eps) + 3 pb^2 def) / min(qb, pb)
+        + max|b - b0| (1 + 3 def) + |qb^2 - pb^2| eps (2 + eps) / min(qb, pb) + 1.5 pb^2 def / min(qb, pb)
 b0 = (qb, pb, pb) in B's order, eps = |u_j - s e_k| (B's axis off w, s its sign) and def =
 max |U U^T - I| (h_B(n)^2 - h_B0(n)^2 = (qb^2 - pb^2)((u_j.n)^2 - n_k^2) + pb^2 (|U^T n|^2 - 1) for
-B's semi-axes made b0; |(u_j.n)^2 - n_k^2| <= eps (|u_j| + 1), and |x - y| <= |x^2 - y^2| / y), plus
+B's semi-axes made b0; |(u_j.n)^2 - n_k^2| <= eps (|u_j| + 1), and |x - y| <= |x^2 - y^2| / (x + y)), plus
 the roundings of the means, squares and |e_perp| (6 u S, S = |e| + max a + max b).  The answer is
 proven within tol when the 1-D branch and bound is run to tol - 2 delta - ERR_G - ERR_SIGMA (g at the
 returned angle and sigma at the returned n as computed): axes tilted by more than about tol / max b
@@ -95,8 +95,9 @@ def _delta(e, a, U, b, k, S):
         for q in range(p, 3):
             v = U[3 * p] * U[3 * q] + U[3 * p + 1] * U[3 * q + 1] + U[3 * p + 2] * U[3 * q + 2] - (1.0 if p == q else 0.0)
             dfu = max(dfu, abs(v))
-    dfu += 8.0 * U64
-    delta0 = 0.5 * abs(a[k1] - a[k2]) + db * (1.0 + 3.0 * dfu) + 3.0 * pb * pb * dfu / min(qb, pb)
+    dfu += 4.0 * U64  # each entry: three products and their sums, <= 3 u, and the - 1
+    # |U^T n|^2 = 1 +- 3 def moves h_B^2 by <= 3 pb^2 def, so h_B by that over h_B + its model >= 2 min(qb, pb)
+    delta0 = 0.5 * abs(a[k1] - a[k2]) + db * (1.0 + 3.0 * dfu) + 1.5 * pb * pb * dfu / (min(qb, pb) * (1.0 - 1e-9))
     tilt = abs(qb * qb - pb * pb) * eps * (2.0 + eps) / min(qb, pb)
     return j, qb, pb, delta0 * (1.0 + 1e-12) + 6.0 * U64 * S, tilt * (1.0 + 1e-12), eps
 

@@ -15,6 +15,8 @@ each:
    (compiling), warm cache, shipped prebuilt objects
 7. motion: time_of_impact against checking sampled instants with the exact classify, the samples a
    sampling checker needs to find the same contacts; contains
+8. speculative: MuJoCo 4.0's speculative contacts against time_of_impact on fast ellipsoids: missed
+   impacts, where the body ends after the step, cost
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -23,11 +25,11 @@ import datetime
 import os
 import time
 
-from . import accuracy, inside_mujoco, motion, scaling, startup, stress, table1
+from . import accuracy, inside_mujoco, motion, scaling, speculative, startup, stress, table1
 from .common import SIZES, machine_description, plt
 
 SECTIONS = {"accuracy": accuracy, "stress": stress, "scaling": scaling, "table1": table1, "mujoco": inside_mujoco,
-            "startup": startup, "motion": motion}
+            "startup": startup, "motion": motion, "speculative": speculative}
 
 
 def run(out_dir, *, quick=False, only=None):

@@ -30,11 +30,11 @@ SIZES = {
                   figures=(1, 4, 16), replay_figures=(1, 4, 16), rounds=5, steps=100, coal=1_000,
                   scenes=("pile of 40 ellipsoids", "4 figures in a heap"), step_rounds=8, compare_steps=10,
                   deep_pairs=200, pair_types=100, long_seconds=1.0, motion=1_000, motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024),
-                  motion_contains=20_000),
+                  motion_contains=20_000, speculative=60),
     "full": dict(generic=1_000_000, near=100_000, mujoco=20_000, stress=5_000, reference=200, batch_max=1_000_000,
                  figures=(1, 4, 16, 64), replay_figures=(1, 4, 16, 64), rounds=15, steps=200, coal=5_000,
                  scenes=None, step_rounds=30, compare_steps=30, deep_pairs=2_000, pair_types=400, long_seconds=10.0, motion=4_000,
-                 motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096), motion_contains=200_000),
+                 motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096), motion_contains=200_000, speculative=400),
 }  # fmt: skip
 FLOAT_METHODS = [(m, s, d) for m in ("descartes", "sturm") for s in ("rearranged", "cofactor") for d in ("float64", "float32")]
 

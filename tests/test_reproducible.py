@@ -150,12 +150,24 @@ def test_filter_under_speculative_contacts_is_plain_mujoco(target):
     assert att2.counters["discarded"] > 0
 
 
-def _tilted_pair():
-    """Two prolate spheroids crossing deep with their axes 1e-8 rad apart: the maximum lies on a
-    nearly flat circle, which neither proof isolates (UNPROVEN)."""
-    Rb = Rot.from_rotvec(np.array([1.0, 1.0, 0.0]) / np.sqrt(2) * 1e-8).as_matrix()
-    a = Ellipsoids([0.0, 0.0, 0.0], np.eye(3), [0.1, 0.1, 0.29159314])
-    b = Ellipsoids([1.32036099e-08, 6.33352623e-09, 2.99272946e-02], Rb, [0.0590753, 0.0590753, 0.12965822])
+def _unprovable_pair():
+    """A needle 1.6 m x 1.6 um x 2.4 um touching a 5 um ellipsoid to 1e-6 of their contact scale
+    (aspect 1e6, beyond the stress suite's 1e4): the branch and bound runs out of its budget (UNPROVEN).
+    Nearly parallel spheroids, this test's first pair, are proven now (spheroids.tilted_max)."""
+    a = Ellipsoids(
+        [0.0, 0.0, 0.0],
+        [[-0.8858523243500376, -0.4506434993467114, -0.11039065150721275],
+         [0.41799977102158176, -0.8784223908338515, 0.23162533261205656],
+         [-0.2013500704483154, 0.15904257221980264, 0.9665213962205738]],
+        [1.6224973443468789, 1.6224973443468789e-06, 2.4427303617707426e-06],
+    )
+    b = Ellipsoids(
+        [-6.24467982719238e-06, -4.052033129888916e-07, 6.337104017519303e-07],
+        [[0.8411274064382803, -0.07250239556231587, -0.535955304830671],
+         [0.21159180117918552, 0.95610043430146, 0.20273349304519864],
+         [0.4977284358082829, -0.28392844550394214, 0.8195431910653367]],
+        [5.108196567307761e-06, 1.9218478692137188e-07, 1.921847869213719e-06],
+    )
     return a, b
 
 
@@ -164,15 +176,17 @@ def test_unproven_pairs_get_the_better_of_both_normals():
     contact carries whichever of MuJoCo's and ellipsim's normals has the higher sigma (ellipsim's
     evaluation), with that sigma as its distance: never below ellipsim's best, never below sigma at
     MuJoCo's own normal."""
-    a, b = _tilted_pair()
+    a, b = _unprovable_pair()
     dist, normal, pos, status = signed_distance(a, b)
     assert status[0] == UNPROVEN
-    q = Rot.from_matrix(b.rotations[0]).as_quat(scalar_first=True)
-    xml = f"""<mujoco><worldbody>
-      <body><freejoint/><geom type="ellipsoid" size="0.1 0.1 0.29159314"/></body>
-      <body pos="{' '.join(map(str, b.centers[0].tolist()))}" quat="{' '.join(map(str, q.tolist()))}"><freejoint/>
-        <geom type="ellipsoid" size="0.0590753 0.0590753 0.12965822"/></body>
-    </worldbody></mujoco>"""
+
+    def body(e):
+        f = lambda v: " ".join(repr(float(x)) for x in v)
+        q = Rot.from_matrix(e.rotations[0]).as_quat(scalar_first=True)
+        return (f'<body pos="{f(e.centers[0])}" quat="{f(q)}"><freejoint/><inertial pos="0 0 0" mass="1" '
+                f'diaginertia="1 1 1"/><geom type="ellipsoid" size="{f(e.radii[0])}"/></body>')
+
+    xml = f"<mujoco><worldbody>{body(a)}{body(b)}</worldbody></mujoco>"
     model = mujoco.MjModel.from_xml_string(xml)
     plain, mine = mujoco.MjData(model), mujoco.MjData(model)
     mujoco.mj_forward(model, plain)

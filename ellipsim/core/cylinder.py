@@ -544,6 +544,7 @@ def axis_max(a2, e, u, L, r, tol, scale, n0):
     dfu = max(dfu, abs(_dot(u, w1)), abs(_dot(u, w2)), abs(_dot(w1, w2))) + 3.0 * U  # + the dots' rounding
     delta0 = db * (1.0 + 3.0 * dfu) + 3.0 * pb * pb * dfu / min(qb, pb) + 3.0 * dfu * scale
     delta0 += 3.0 * (L + r) * (abs(uu - 1.0) + 2.0 * U) + 12.0 * U * scale
+    delta0 += 4.0 * U * L  # the cells at t = T/2 reach ~2e-16 past pi / 2, where a piece exceeds sigma by 2 L |cos t|
     tol1 = tol - 2.0 * delta0 - (ERR_C_ULPS + BB_ERR_SIGMA_ULPS + 8.0) * U * scale
     nu = (_dot(n0, u), _dot(n0, w1), _dot(n0, w2))
     t0, p0 = math.atan2(math.sqrt(nu[1] * nu[1] + nu[2] * nu[2]), nu[0]), math.atan2(nu[2], nu[1])

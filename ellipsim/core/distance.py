@@ -186,7 +186,7 @@ def _pair(A, B, max_iter, seed):
         else:
             have = run == CONVERGED
             if norm2(nc) > 0.5:  # nearly parallel spheroids: a climb from the parallel model's maximiser
-                _, m, _ = climb(nc, e, a2, M, scale)  # converged or not (along the circle sigma is
+                _, m, _ = climb(nc, e, ra, M, scale)  # converged or not (along the circle sigma is
                 vc, v = sigma_only(nc, e, ra, Ub, rb), sigma_only(m, e, ra, Ub, rb)  # flat), the better
                 if vc > v:
                     m, v = nc, vc

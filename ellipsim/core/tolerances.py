@@ -127,14 +127,17 @@ BB_PATCH_SLACK_ULPS = 48.0
 #: a rotation orthonormal only to delta.
 BB_FRAME_ULPS = 16.0
 #: Budget of branch-and-bound nodes per pair (a node: a patch and its antipode; ~55 ns each).  Deep
-#: leaves.xml contacts and random 25:1 and 100:1 crossings needed at most a few hundred; only
-#: concentric coaxial spheroids (sigma constant on a circle, no isolated maximum) ran out.
-BB_MAX_PATCHES = 6000
+#: leaves.xml contacts and random 25:1 and 100:1 crossings need at most a few hundred; the stress
+#: suite's near-tangent pairs of aspect up to 1e3 / 1e4 need up to 22 538 / 70 558 (5000 each; at 6000,
+#: 14 and 2137 of them were UNPROVEN): about twice the most seen, ~8 ms for a pair that uses it all.
+BB_MAX_PATCHES = 150000
 #: Budget of arcs for near-coaxial spheroids (core/coaxial.py; ~25 ns each): the arcs undecided at a
 #: level are those around the maximum, 2-4 a level down to widths of ~sqrt(tol / curvature).
 COAXIAL_MAX_NODES = 2000
-#: Budget of cells for spheroids with nearly parallel axes (core/spheroids.tilted_max; ~0.3 us each).
-TILTED_MAX_NODES = 20000
+#: Budget of cells for spheroids with nearly parallel axes and a cylinder on a spheroid's axis
+#: (core/spheroids.axis_bb; ~0.3 us each): 230-3400 for tilted spheroids; a cylinder whose side and
+#: rim maxima are within 1e-10 of each other took 10 000-30 000 (the side's kink is refined to ~tol / L).
+TILTED_MAX_NODES = 60000
 #: Spheroids whose axes are this close to parallel (radians, and semi-axes / offsets within this of
 #: the parallel model, relative to S) but not close enough for its proof: the model's maximiser seeds
 #: global_max (a heuristic, the proof does not use it): tilts of 1e-12-1e-1 rad left global_max with

@@ -20,8 +20,14 @@ GLUE = pathlib.Path(em.__file__).parent
 #: (module, top-level function, module it imports): ellipsim/app/bench imports callback() and
 #: narrowphase_function() from callbacks, which hand out nativecache.function; no other back edge
 BACK_EDGES = {("callbacks", "callback", "nativecache"), ("callbacks", "narrowphase_function", "nativecache")}
-TYPES = {"plane": 0, "sphere": context.SPHERE, "capsule": context.CAPSULE, "ellipsoid": context.ELLIPSOID,
-         "cylinder": context.CYLINDER, "box": context.BOX}  # fmt: skip
+TYPES = {
+    "plane": int(mujoco.mjtGeom.mjGEOM_PLANE),
+    "sphere": context.SPHERE,
+    "capsule": context.CAPSULE,
+    "ellipsoid": context.ELLIPSOID,
+    "cylinder": context.CYLINDER,
+    "box": context.BOX,
+}
 SIZES = {"sphere": ".12", "capsule": ".08 .15", "ellipsoid": ".1 .15 .2", "cylinder": ".1 .15", "box": ".1 .12 .14"}
 NAMES = {v: k for k, v in TYPES.items()}
 
@@ -160,12 +166,12 @@ def test_a_model_is_handled_exactly_when_a_row_covers_its_pair(a, b):
     model = _model([a, b])
     assert attachment.ellipsoid_pair_possible(model, "narrowphase") == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
     assert attachment.ellipsoid_pair_possible(model, "filter") == (t in {(r.type1, r.type2) for r in FILTER_PAIR_TYPES})
-    apart = _model([a, b], extra='<contact><pair geom1="g1" geom2="g0"/></contact>')
+    paired = _model([a, b], extra='<contact><pair geom1="g1" geom2="g0"/></contact>')
     for g in range(2):
-        apart.geom_contype[g] = apart.geom_conaffinity[g] = 0
-    assert attachment.ellipsoid_pair_possible(apart, "narrowphase") == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
-    assert len(attachment.explicit_pairs(apart)) == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
-    assert len(geoms.explicit_pairs(apart)) == (t in {(r.type1, r.type2) for r in FILTER_PAIR_TYPES})
+        paired.geom_contype[g] = paired.geom_conaffinity[g] = 0
+    assert attachment.ellipsoid_pair_possible(paired, "narrowphase") == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
+    assert len(attachment.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
+    assert len(geoms.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in FILTER_PAIR_TYPES})
 
 
 def test_warm_start_slots_count_the_types_of_the_warm_rows():

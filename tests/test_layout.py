@@ -94,7 +94,7 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.split() == [
         "ellipsim", "ellipsim.mujoco", "ellipsim.mujoco.attachment", "ellipsim.mujoco.context",
-        "ellipsim.mujoco.nativecache", "ellipsim.mujoco.structs",
+        "ellipsim.mujoco.nativecache", "ellipsim.mujoco.publish", "ellipsim.mujoco.structs",
     ]  # fmt: skip
 
 

@@ -6,8 +6,9 @@
     ellipsim.mujoco.compare_narrowphase(model, data, 100)  # contact by contact, refereed
 
 Modules: structs (mjModel/mjData field offsets from MuJoCo's introspection, verified), context (what
-the compiled callbacks read per process), callbacks (the cfuncs), nativecache (their machine code,
-cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
+the compiled callbacks read per process; geom type codes and PAIR_TYPES, the pair types ellipsim
+handles), publish (filling the context, publishing it to LLVM's linker), callbacks (the cfuncs),
+nativecache (their machine code, cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
 (installing them for one data), geoms (ellipsoid geoms and candidate pairs), between (contacts that
 begin and end between two frames or steps), validate, compare, scenes (MJCF builders: figures, piles,
 chains, capsule twins).

@@ -20,18 +20,16 @@ import numpy as np
 
 from . import nativecache, structs
 from .context import (
-    APART, BOX, CAPSULE, CONTACTS, CYLINDER, ELLIPSOID, FALLBACKS, FILTER, MAX_ATTACHED, NARROW, NCOUNTERS, RECORD, REGISTRY,
-    SEPARATED, SPHERE, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS,
+    APART, CONTACTS, FALLBACKS, FILTER, FILTER_PAIR_TYPES, MAX_ATTACHED, NARROW, NCOUNTERS, PAIR_TYPES, RECORD, REGISTRY,
+    SEPARATED, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS,
 )  # fmt: skip
 
 MODES = ("filter", "narrowphase")
 _lock = threading.Lock()
 _state = {"previous": None, "filter_installed": False, "table": None, "attached": []}
 
-
-#: (type1, type2), type1 <= type2 (MuJoCo's table order): the mjCOLLISIONFUNC entries the narrow
-#: phase replaces, and so the explicit pairs it covers
-_NARROW_TYPES = ((ELLIPSOID, ELLIPSOID), (SPHERE, ELLIPSOID), (CAPSULE, ELLIPSOID), (ELLIPSOID, BOX), (ELLIPSOID, CYLINDER))
+#: the rows of context.PAIR_TYPES each mode's callback handles
+_MODE_PAIR_TYPES = {"filter": FILTER_PAIR_TYPES, "record": FILTER_PAIR_TYPES, "narrowphase": PAIR_TYPES}
 
 
 def explicit_pairs(model, mode="narrowphase"):
@@ -48,24 +46,24 @@ def explicit_pairs(model, mode="narrowphase"):
     t1, t2 = model.geom_type[model.pair_geom1], model.geom_type[model.pair_geom2]
     lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
     handled = np.zeros(model.npair, dtype=bool)
-    for a, b in _NARROW_TYPES:
-        handled |= (lo == a) & (hi == b)
+    for row in PAIR_TYPES:
+        handled |= (lo == row.type1) & (hi == row.type2)
     return np.flatnonzero(handled)
 
 
 def ellipsoid_pair_possible(model, mode="filter"):
     """True when the model has a geom pair the mode's callback handles: ellipsoid with ellipsoid or
-    sphere, and in mode "narrowphase" also capsule, box or cylinder with ellipsoid.  Dynamic pairs are
+    sphere, and in mode "narrowphase" also capsule, box or cylinder with ellipsoid (the mode's rows of
+    context.PAIR_TYPES).  Dynamic pairs are
     counted by contype/conaffinity; in mode "narrowphase" explicit `<pair>` elements of those types
     count too, whatever their geoms' contype and conaffinity (explicit_pairs: the filter never sees
     them)."""
-    t = model.geom_type
     collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
-    n_ell = int(np.count_nonzero((t == ELLIPSOID) & collides))
-    n_other = int(np.count_nonzero((t == SPHERE) & collides))
-    if mode == "narrowphase":
-        n_other += int(np.count_nonzero(((t == CAPSULE) | (t == BOX) | (t == CYLINDER)) & collides))
-    return n_ell >= 2 or (n_ell >= 1 and n_other >= 1) or len(explicit_pairs(model, mode)) > 0
+    n = np.bincount(model.geom_type[collides], minlength=int(mujoco.mjtGeom.mjNGEOMTYPES))
+    for row in _MODE_PAIR_TYPES[mode]:
+        if n[row.type1] >= 1 + (row.type1 == row.type2) and n[row.type2] >= 1:
+            return True
+    return len(explicit_pairs(model, mode)) > 0
 
 
 def check_model_data(model, data):
@@ -124,7 +122,7 @@ def _install(attached_before, attachment):
     if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
         fn = nativecache.function("narrowphase")
         table, ntypes = structs.collision_table()
-        entries = tuple(t1 * ntypes + t2 for t1, t2 in _NARROW_TYPES)
+        entries = tuple(row.type1 * ntypes + row.type2 for row in PAIR_TYPES)
         _state["table"] = {k: table[k] for k in entries}
         for k in entries:
             table[k] = fn.address
@@ -147,17 +145,17 @@ def _uninstall(attached_after):
 WARM_SLOTS_PER_GEOM = 16
 #: ... at least this many, at most this many (2^20 slots of 64 bytes: 64 MiB)
 WARM_SLOTS_MIN, WARM_SLOTS_MAX = 64, 1 << 20
+_WARM_TYPES = sorted({t for row in PAIR_TYPES if row.warm for t in (row.type1, row.type2)})
 
 
 def warm_slots(model):
     """Slots of a narrow-phase warm-start table for `model`: a power of two, WARM_SLOTS_PER_GEOM per
-    ellipsoid, sphere or capsule geom that collides (contype or conaffinity) or belongs to a handled
-    explicit pair, within [WARM_SLOTS_MIN, WARM_SLOTS_MAX]."""
-    t = model.geom_type
+    geom of a type in a `warm` row of context.PAIR_TYPES (ellipsoid, sphere, capsule) that collides
+    (contype or conaffinity) or belongs to a handled explicit pair, within [WARM_SLOTS_MIN, WARM_SLOTS_MAX]."""
     counted = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     k = explicit_pairs(model)
     counted[model.pair_geom1[k]] = counted[model.pair_geom2[k]] = True
-    n = int(np.count_nonzero(((t == ELLIPSOID) | (t == SPHERE) | (t == CAPSULE)) & counted))
+    n = int(np.count_nonzero(np.isin(model.geom_type, _WARM_TYPES) & counted))
     want = min(max(WARM_SLOTS_PER_GEOM * n, WARM_SLOTS_MIN), WARM_SLOTS_MAX)
     return 1 << (want - 1).bit_length()
 

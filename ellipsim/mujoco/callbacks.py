@@ -65,7 +65,7 @@ from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from ..core.vec3 import norm2
 from .context import (
     APART, BOX, CAPSULE, CONTACTS, CYLINDER, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE,
-    FALLBACK_CYLINDER, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER,
+    FALLBACK_CYLINDER, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER, PAIR_TYPES,
     MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
     REGISTRY_ROWS, SEEN, SEPARATED, SPECULATIVE, SPHERE, SYMBOL, WARM_ADDRESS, WARM_EPOCH, WARM_JUMP, WARM_MASK,
     WARM_SLOT_WORDS, WARM_TIME, WORDS,
@@ -267,7 +267,7 @@ def contact_filter(m, d, g1, g2):
     if (contype[g1] & conaff[g2]) == 0 and (contype[g2] & conaff[g1]) == 0:
         return 1  # MuJoCo's own bitmask test, which this callback replaces
     gtype = carray(i32_pointer(_word(ma + ctx[_TYPE])), (n,))
-    t1, t2 = gtype[g1], gtype[g2]
+    t1, t2 = gtype[g1], gtype[g2]  # in either order: context.FILTER_PAIR_TYPES (tests/test_pair_table.py)
     if not ((t1 == ELLIPSOID and (t2 == ELLIPSOID or t2 == SPHERE)) or (t1 == SPHERE and t2 == ELLIPSOID)):
         return 0
     reg = carray(i64_pointer(ctx[REGISTRY_ADDRESS]), (ctx[REGISTRY_ROWS], REGISTRY_COLUMNS))
@@ -322,7 +322,7 @@ def narrowphase(m, d, con, g1, g2, margin):
     xmat = carray(f64_pointer(_word(da + ctx[_XMAT])), (9 * n,))
     reg = carray(i64_pointer(ctx[REGISTRY_ADDRESS]), (ctx[REGISTRY_ROWS], REGISTRY_COLUMNS))
     slot = _slot(reg, da)
-    t1, t2 = gtype[g1], gtype[g2]
+    t1, t2 = gtype[g1], gtype[g2]  # the rows of context.PAIR_TYPES, written out (tests/test_pair_table.py)
     if t1 == CAPSULE:
         original = ctx[FALLBACK_CAPSULE]
     elif t2 == BOX:
@@ -483,18 +483,16 @@ def _wrapper_for(kind, pyfunc, original):
                 ca1, ca2 = (_geom_int(builder, ctx, m, _CONAFF, g) for g in (g1, g2))
                 both = builder.or_(builder.and_(ct1, ca2), builder.and_(ct2, ca1))
                 builder.ret(builder.zext(builder.icmp_signed("==", both, ir.Constant(ir.IntType(32), 0)), ir.IntType(32)))
-            else:  # MuJoCo's own function for this pair
+            else:  # MuJoCo's own function for this pair: the fallback word of its row of PAIR_TYPES
                 t1, t2 = _geom_int(builder, ctx, m, _TYPE, g1), _geom_int(builder, ctx, m, _TYPE, g2)
                 i32 = ir.IntType(32)
-                word = builder.select(
-                    builder.icmp_signed("==", t1, ir.Constant(i32, CAPSULE)),
-                    ir.Constant(i32, FALLBACK_CAPSULE), ir.Constant(i32, FALLBACK_ELLIPSOID),
-                )  # fmt: skip
-                word = builder.select(builder.icmp_signed("==", t1, ir.Constant(i32, SPHERE)), ir.Constant(i32, FALLBACK_SPHERE), word)
-                word = builder.select(builder.icmp_signed("==", t2, ir.Constant(i32, BOX)), ir.Constant(i32, FALLBACK_BOX), word)
-                word = builder.select(
-                    builder.icmp_signed("==", t2, ir.Constant(i32, CYLINDER)), ir.Constant(i32, FALLBACK_CYLINDER), word
-                )  # fmt: skip
+                word = ir.Constant(i32, PAIR_TYPES[0].fallback)
+                for row in PAIR_TYPES[1:]:
+                    match = builder.and_(
+                        builder.icmp_signed("==", t1, ir.Constant(i32, row.type1)),
+                        builder.icmp_signed("==", t2, ir.Constant(i32, row.type2)),
+                    )
+                    word = builder.select(match, ir.Constant(i32, row.fallback), word)
                 fn = builder.inttoptr(builder.load(builder.gep(ctx, [word])), _collision_type().as_pointer())
                 builder.ret(builder.call(fn, list(wrapfn.args)))
         builder.ret(out)
@@ -529,9 +527,9 @@ def compile_callback(kind, pyfunc=None):
     filter, from an empty numba cache on the 2-core VM (ellipsim/app/bench/startup.py)."""
     from numba.core.compiler_lock import global_compiler_lock
 
-    from . import nativecache
+    from . import publish
 
-    nativecache.publish_context()  # numba links the code now: SYMBOL must resolve
+    publish.publish_context()  # numba links the code now: SYMBOL must resolve
     t0 = time.perf_counter()
     default, sig = CALLBACKS[kind]
     pyfunc = pyfunc or default
@@ -547,14 +545,15 @@ def compile_callback(kind, pyfunc=None):
 
 
 def callback():
-    """The contact filter (loaded from ellipsim's cache, or compiled on first use): .address, .ctypes."""
+    """nativecache.function("filter"), for ellipsim/app/bench, which imports it from here: the one import
+    of nativecache by this module (tests/test_pair_table.py allows it as the one back edge)."""
     from . import nativecache
 
     return nativecache.function("filter")
 
 
 def narrowphase_function():
-    """The narrow-phase function (loaded from ellipsim's cache, or compiled on first use): .address, .ctypes."""
+    """nativecache.function("narrowphase"), for ellipsim/app/bench, as callback()."""
     from . import nativecache
 
     return nativecache.function("narrowphase")

@@ -15,8 +15,8 @@ import numpy as np
 from ..core.distance import GLOBAL, signed_distance
 from ..core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL, TIGHT_CCD_ITERATIONS, TIGHT_CCD_TOLERANCE
 from .attachment import Attachment, check_model_data
-from .callbacks import ELLIPSOID, SPHERE
-from .geoms import enclosing, explicit_pairs, pair_gaps, pair_margins, proof_tolerance
+from .context import ELLIPSOID
+from .geoms import ellipsim_pair_types, enclosing, explicit_pairs, pair_gaps, pair_margins, proof_tolerance
 
 
 @dataclasses.dataclass
@@ -79,8 +79,7 @@ def _ellipsoid_contacts(model, data):
     """_Contacts of the ellipsoid and sphere-ellipsoid contacts in data."""
     con, n = data.contact, data.ncon
     geom = con.geom[:n].astype(np.int64)
-    t = model.geom_type[geom]
-    kept = np.flatnonzero(((t == ELLIPSOID) | (t == SPHERE)).all(axis=1) & (t == ELLIPSOID).any(axis=1))
+    kept = np.flatnonzero(ellipsim_pair_types(model, geom[:, 0], geom[:, 1]))
     key, first_from_end = np.unique((geom[kept, 0] * model.ngeom + geom[kept, 1])[::-1], return_index=True)
     last = kept[::-1][first_from_end]
     return _Contacts(key, con.dist[:n][last], con.frame[:n][last, :3], con.pos[:n][last])

@@ -2,7 +2,7 @@
 
 The callbacks (callbacks.py) are compiled once per machine and their machine code is cached across
 processes (nativecache.py), so they contain no per-process constant.  Everything that changes from
-one process to the next they read from CONTEXT, an int64 array whose address the loader publishes to
+one process to the next they read from CONTEXT, an int64 array whose address publish.py publishes to
 LLVM's symbol table under SYMBOL (`llvmlite.binding.add_symbol`); their code declares SYMBOL as an
 external global, which the JIT linker resolves each time the code is loaded:
 
@@ -17,7 +17,12 @@ external global, which the JIT linker resolves each time the code is loaded:
 This module is the compiled code's ABI, so its text is part of the cache keys (nativecache.py hashes
 every module callbacks.py imports).  A change of the word layout must also change SYMBOL (`_v2`):
 an object built for the old layout then no longer links in a process with the new one.
+
+It also holds MuJoCo's geom type codes and PAIR_TYPES, the geom-type pairs ellipsim handles, for
+the whole glue: it imports nothing but mujoco and numpy.
 """
+
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -73,6 +78,40 @@ SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
     int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
     int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_BOX),
 )  # fmt: skip
+
+
+class PairType(NamedTuple):
+    """A geom-type pair ellipsim handles, as a row of PAIR_TYPES."""
+
+    name: str
+    #: MuJoCo's table order, type1 <= type2 (engine_collision_driver.c swaps a pair by type)
+    type1: int
+    type2: int
+    #: the CONTEXT word holding MuJoCo's own mjCOLLISIONFUNC entry for the pair (publish.fill_context)
+    fallback: int
+    #: the contact filter (modes "filter", "record"; geoms.candidate_pairs, validate, compare) covers it
+    filter: bool
+    #: its geoms count towards the warm-start table's size (attachment.warm_slots)
+    warm: bool
+    #: the kernel the narrow phase calls for it (callbacks.narrowphase)
+    kernel: str
+
+
+#: Every geom-type pair ellipsim handles: the narrow phase replaces MuJoCo's table entry of each
+#: (attachment.py), the context holds MuJoCo's function for each (publish.py), the filter covers those
+#: marked `filter`.  callbacks.py dispatches on geom types in compiled code, written out there;
+#: tests/test_pair_table.py checks that code against these rows.  Capsule geoms size the warm-start
+#: table though capsule pairs start cold: kept, as the table's size decides which pairs share a set,
+#: and so the trajectories.
+PAIR_TYPES = (
+    PairType("ellipsoid x ellipsoid", ELLIPSOID, ELLIPSOID, FALLBACK_ELLIPSOID, True, True, "core.distance"),
+    PairType("sphere x ellipsoid", SPHERE, ELLIPSOID, FALLBACK_SPHERE, True, True, "core.distance"),
+    PairType("capsule x ellipsoid", CAPSULE, ELLIPSOID, FALLBACK_CAPSULE, False, True, "core.capsule"),
+    PairType("ellipsoid x box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.box"),
+    PairType("ellipsoid x cylinder", ELLIPSOID, CYLINDER, FALLBACK_CYLINDER, False, False, "core.cylinder"),
+)
+FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
+
 OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 SPECULATIVE = int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE)
 #: a call this many timesteps after the table's last read starts a new epoch (RK4 moves by at most 1)

@@ -26,7 +26,7 @@ from ..core.ellipsoids import Ellipsoids, orthonormality_defect
 from ..core.relation import Relation
 from ..core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
 from .attachment import Attachment, check_model_data
-from .callbacks import ELLIPSOID, SPHERE
+from .context import ELLIPSOID, FILTER_PAIR_TYPES, SPHERE
 
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 _SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
@@ -40,9 +40,14 @@ _SPHERE_SLACK = 1 + 1e-9
 
 
 def ellipsim_pair_types(model, g1, g2):
-    """(k,) bool: are geoms g1, g2 (k,) a pair ellipsim tests (ellipsoid x ellipsoid or x sphere)?"""
+    """(k,) bool: are geoms g1, g2 (k,) a pair ellipsim tests (ellipsoid x ellipsoid or x sphere: the
+    rows of context.FILTER_PAIR_TYPES), in either order?"""
     t1, t2 = model.geom_type[g1], model.geom_type[g2]
-    return ((t1 == ELLIPSOID) & ((t2 == ELLIPSOID) | (t2 == SPHERE))) | ((t1 == SPHERE) & (t2 == ELLIPSOID))
+    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
+    out = np.zeros(np.shape(lo), dtype=bool)
+    for row in FILTER_PAIR_TYPES:
+        out |= (lo == row.type1) & (hi == row.type2)
+    return out
 
 
 def _keys(model, pairs):

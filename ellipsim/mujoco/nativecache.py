@@ -23,8 +23,9 @@ key, or a needed symbol that does not resolve in this process (finalising would 
 "not cached", never stale or broken code.  The cache directory holds machine code that ellipsim
 runs: the same trust as numba's cache, which unpickles.
 
-Per process, before any function is handed out, the context (context.py) is filled: the offsets of
-structs.checked_layout(), the registry, and MuJoCo's collision functions as found in mjCOLLISIONFUNC.
+Per process, before any function is handed out, the context (context.py) is filled (publish.py): the
+offsets of structs.checked_layout(), the registry, and MuJoCo's collision functions as found in
+mjCOLLISIONFUNC.
 """
 
 import bisect
@@ -41,10 +42,8 @@ import sys
 import threading
 
 from . import structs
-from .context import (
-    BOX, CAPSULE, CONTEXT, CYLINDER, DATA_WORDS, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE, FALLBACK_CYLINDER,
-    FALLBACK_ELLIPSOID, FALLBACK_SPHERE, MODEL_WORDS, REGISTRY, REGISTRY_ADDRESS, REGISTRY_ROWS, SPHERE, SYMBOL,
-)  # fmt: skip
+from .context import SYMBOL
+from .publish import fill_context, publish_context
 
 KINDS = ("filter", "narrowphase")
 FORMAT = 1  # of a .code file; part of every key
@@ -68,7 +67,6 @@ _log = logging.getLogger(__name__)
 _lock = threading.RLock()
 _functions = {}  # kind -> Function
 _engines = []  # MCJIT engines holding loaded code, kept for the life of the process
-_state = {"published": False, "filled": False}
 
 
 class Function:
@@ -114,45 +112,6 @@ def _obtain(kind):
     code = callbacks.compile_callback(kind)
     write(path, host, code)
     return Function(kind, code.address, "compiled", keep=code)
-
-
-# --- the context ---------------------------------------------------------------------------------
-
-
-def publish_context():
-    """Make SYMBOL resolve to context.CONTEXT in this process's JIT linker (once; on first use, not
-    on import: it is process-wide)."""
-    with _lock:
-        if _state["published"]:
-            return
-        import llvmlite.binding as llb
-
-        existing = llb.address_of_symbol(SYMBOL)
-        if existing is not None and existing != CONTEXT.ctypes.data:
-            raise RuntimeError(f"{SYMBOL} is already defined in this process, at {existing:#x}: two copies of ellipsim?")
-        llb.add_symbol(SYMBOL, CONTEXT.ctypes.data)
-        _state["published"] = True
-
-
-def fill_context():
-    """Write the per-process values the callbacks read (once): struct offsets (verified layout),
-    the registry, MuJoCo's collision functions for the pairs ellipsim handles (the fallbacks)."""
-    with _lock:
-        if _state["filled"]:
-            return
-        lay = structs.checked_layout()
-        table, ntypes = structs.collision_table()
-        for name, word in MODEL_WORDS.items():
-            CONTEXT[word] = lay["model"][name]
-        for name, word in DATA_WORDS.items():
-            CONTEXT[word] = lay["data"][name]
-        CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS] = REGISTRY.ctypes.data, REGISTRY.shape[0]
-        CONTEXT[FALLBACK_ELLIPSOID] = table[ELLIPSOID * ntypes + ELLIPSOID]
-        CONTEXT[FALLBACK_SPHERE] = table[SPHERE * ntypes + ELLIPSOID]
-        CONTEXT[FALLBACK_CAPSULE] = table[CAPSULE * ntypes + ELLIPSOID]
-        CONTEXT[FALLBACK_BOX] = table[ELLIPSOID * ntypes + BOX]
-        CONTEXT[FALLBACK_CYLINDER] = table[ELLIPSOID * ntypes + CYLINDER]
-        _state["filled"] = True
 
 
 # --- keys ----------------------------------------------------------------------------------------

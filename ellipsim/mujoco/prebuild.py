@@ -16,7 +16,7 @@ import os
 import sys
 import tempfile
 
-from . import nativecache
+from . import nativecache, publish
 
 
 def build(outdir):
@@ -26,7 +26,7 @@ def build(outdir):
 
     if os.environ.get("NUMBA_CPU_NAME") != "generic" or os.environ.get("NUMBA_CPU_FEATURES") != "":
         raise RuntimeError("build() must run with NUMBA_CPU_NAME=generic and NUMBA_CPU_FEATURES='' (use main())")
-    nativecache.fill_context()
+    publish.fill_context()
     paths = []
     for kind in nativecache.KINDS:
         path = nativecache.prebuilt_path(kind, outdir)

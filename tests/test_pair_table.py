@@ -1,0 +1,294 @@
+"""The glue's one table of pair types (context.PAIR_TYPES) against the code that uses it, and the
+glue's import graph: no cycle, and the Python-side modules load no callback code."""
+
+import ast
+import ctypes
+import pathlib
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+import ellipsim.mujoco as em
+from ellipsim.core.tolerances import DIST_TOL
+from ellipsim.mujoco import attachment, context, geoms, nativecache, publish, structs
+from ellipsim.mujoco.context import FILTER_PAIR_TYPES, PAIR_TYPES, RECORDED
+
+GLUE = pathlib.Path(em.__file__).parent
+#: (module, top-level function, module it imports): ellipsim/app/bench imports callback() and
+#: narrowphase_function() from callbacks, which hand out nativecache.function; no other back edge
+BACK_EDGES = {("callbacks", "callback", "nativecache"), ("callbacks", "narrowphase_function", "nativecache")}
+TYPES = {
+    "plane": int(mujoco.mjtGeom.mjGEOM_PLANE),
+    "sphere": context.SPHERE,
+    "capsule": context.CAPSULE,
+    "ellipsoid": context.ELLIPSOID,
+    "cylinder": context.CYLINDER,
+    "box": context.BOX,
+}
+SIZES = {"sphere": ".12", "capsule": ".08 .15", "ellipsoid": ".1 .15 .2", "cylinder": ".1 .15", "box": ".1 .12 .14"}
+NAMES = {v: k for k, v in TYPES.items()}
+
+
+def _glue_imports(path):
+    """{(top-level function or "", glue module)}: every import of a module of ellipsim.mujoco in the
+    file at `path`, at module level or inside a function."""
+    tree = ast.parse(path.read_text())
+    found = set()
+    for top in tree.body:
+        where = top.name if isinstance(top, (ast.FunctionDef, ast.ClassDef)) else ""
+        for node in ast.walk(top):
+            if isinstance(node, ast.ImportFrom):
+                if node.level == 1:
+                    targets = [a.name for a in node.names] if node.module is None else [node.module.split(".")[0]]
+                elif node.level == 0 and (node.module or "").startswith("ellipsim.mujoco."):
+                    targets = [node.module.split(".")[2]]
+                else:
+                    targets = []
+            elif isinstance(node, ast.Import):
+                targets = [a.name.split(".")[2] for a in node.names if a.name.startswith("ellipsim.mujoco.")]
+            else:
+                continue
+            found |= {(where, t) for t in targets if (GLUE / f"{t}.py").is_file()}
+    return found
+
+
+def _cycle(edges):
+    """A cycle [a, b, ..., a] in the directed graph {a: {b, ...}}, or None."""
+    state = {}
+
+    def visit(node, path):
+        state[node] = "open"
+        for nxt in sorted(edges.get(node, ())):
+            if state.get(nxt) == "open":
+                return path[path.index(nxt) :] + [nxt]
+            if nxt not in state:
+                found = visit(nxt, path + [nxt])
+                if found:
+                    return found
+        state[node] = "done"
+        return None
+
+    for start in sorted(edges):
+        if start not in state:
+            found = visit(start, [start])
+            if found:
+                return found
+    return None
+
+
+def test_no_import_cycle_among_glue_modules():
+    edges, back = {}, set()
+    for path in sorted(GLUE.glob("*.py")):
+        module = path.stem
+        for where, target in _glue_imports(path):
+            if (module, where, target) in BACK_EDGES:
+                back.add((module, where, target))
+            elif target != module:
+                edges.setdefault(module, set()).add(target)
+    assert back == BACK_EDGES  # each allowed back edge still exists (else drop it from the list)
+    assert _cycle(edges) is None, f"import cycle {' -> '.join(_cycle(edges))}"
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+
+
+@pytest.mark.parametrize("module", ["geoms", "compare", "validate"])
+def test_python_side_glue_loads_no_callback_code(module):
+    """geoms, compare and validate use core's kernels (numba, and so llvmlite) but not the cfuncs."""
+    code = (
+        f"import sys, ellipsim.mujoco.{module}\n"
+        "print(' '.join(m for m in ('ellipsim.mujoco.callbacks', 'numba.core.ccallback', 'ellipsim.core.box')"
+        " if m in sys.modules))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.split() == []
+
+
+@pytest.mark.parametrize("module", ["context", "publish"])
+def test_context_and_its_publishing_load_neither_numba_nor_llvmlite(module):
+    code = (
+        f"import sys, ellipsim.mujoco.{module}\n"
+        "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite'))))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.split() == []
+
+
+def test_rows_are_in_mujocos_order_and_name_distinct_words():
+    pairs = [(row.type1, row.type2) for row in PAIR_TYPES]
+    assert all(t1 <= t2 for t1, t2 in pairs) and len(set(pairs)) == len(pairs)
+    fallbacks = [row.fallback for row in PAIR_TYPES]
+    used = {*context.MODEL_WORDS.values(), *context.DATA_WORDS.values(), context.REGISTRY_ADDRESS, context.REGISTRY_ROWS}
+    assert len(set(fallbacks)) == len(fallbacks) and not set(fallbacks) & used
+    assert all(0 <= w < context.WORDS for w in fallbacks)
+    assert [row.name for row in PAIR_TYPES] == [f"{NAMES[row.type1]} x {NAMES[row.type2]}" for row in PAIR_TYPES]
+    sources = nativecache.kernel_sources()  # the kernel of each row is compiled into the narrow phase
+    assert all(f"core/{row.kernel.split('.')[1]}.py" in sources for row in PAIR_TYPES)
+
+
+def test_context_holds_mujocos_function_of_every_row():
+    publish.fill_context()
+    assert attachment._state["table"] is None  # nothing attached: the table holds MuJoCo's own functions
+    table, n = structs.collision_table()
+    for row in PAIR_TYPES:
+        assert context.CONTEXT[row.fallback] == table[row.type1 * n + row.type2], row.name
+
+
+def _model(types, spacing=1.0, extra=""):
+    """A model of world geoms of `types` (names of TYPES), one every `spacing` metres along x."""
+    geoms_xml = "".join(
+        f'<geom name="g{i}" type="{t}" size="{SIZES.get(t, "5 5 .1")}" pos="{i * spacing} 0 {-1 if t == "plane" else 0}"/>'
+        for i, t in enumerate(types)
+    )
+    return mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{geoms_xml}</worldbody>{extra}</mujoco>")
+
+
+def test_every_row_and_no_other_entry_is_installed_and_restored():
+    model = _model(["ellipsoid", "sphere", "capsule", "cylinder", "box", "ellipsoid"])
+    table, n = structs.collision_table()
+    before = list(table)
+    rows = {(row.type1, row.type2) for row in PAIR_TYPES}
+    with em.attach(model, mujoco.MjData(model), mode="narrowphase") as att:
+        assert att.installed
+        fn = nativecache.function("narrowphase").address
+        for t1 in range(n):
+            for t2 in range(n):
+                want = fn if (t1, t2) in rows else before[t1 * n + t2]
+                assert table[t1 * n + t2] == want, (t1, t2)
+    assert list(table) == before
+
+
+@pytest.mark.parametrize("a", ["sphere", "capsule", "ellipsoid", "cylinder", "box"])
+@pytest.mark.parametrize("b", ["sphere", "capsule", "ellipsoid", "cylinder", "box"])
+def test_a_model_is_handled_exactly_when_a_row_covers_its_pair(a, b):
+    t = tuple(sorted((TYPES[a], TYPES[b])))
+    model = _model([a, b])
+    assert attachment.ellipsoid_pair_possible(model, "narrowphase") == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
+    assert attachment.ellipsoid_pair_possible(model, "filter") == (t in {(r.type1, r.type2) for r in FILTER_PAIR_TYPES})
+    paired = _model([a, b], extra='<contact><pair geom1="g1" geom2="g0"/></contact>')
+    for g in range(2):
+        paired.geom_contype[g] = paired.geom_conaffinity[g] = 0
+    assert attachment.ellipsoid_pair_possible(paired, "narrowphase") == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
+    assert len(attachment.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
+    assert len(geoms.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in FILTER_PAIR_TYPES})
+
+
+def test_warm_start_slots_count_the_types_of_the_warm_rows():
+    warm = {t for row in PAIR_TYPES if row.warm for t in (row.type1, row.type2)}
+    for name in ("sphere", "capsule", "ellipsoid", "cylinder", "box"):
+        model = _model([name] * 8)
+        expected = 8 * attachment.WARM_SLOTS_PER_GEOM if TYPES[name] in warm else attachment.WARM_SLOTS_MIN
+        assert attachment.warm_slots(model) == expected, name
+
+
+def test_the_filter_covers_exactly_the_filter_rows_in_either_order():
+    """The compiled filter in mode "record" records a pair exactly when geoms.ellipsim_pair_types
+    and a row of FILTER_PAIR_TYPES (either order) say ellipsim tests it."""
+    names = ["plane", "sphere", "capsule", "ellipsoid", "cylinder", "box"]
+    model = _model(names)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    rows = {(r.type1, r.type2) for r in FILTER_PAIR_TYPES}
+    fn = nativecache.function("filter").ctypes
+    with attachment.Attachment(model, data, "record", capacity=64) as att:
+        for g1 in range(len(names)):
+            for g2 in range(len(names)):
+                if g1 == g2:
+                    continue
+                before = int(att._counters[RECORDED])
+                assert fn(model._address, data._address, g1, g2) == 0
+                recorded = int(att._counters[RECORDED]) - before
+                want = tuple(sorted((int(model.geom_type[g1]), int(model.geom_type[g2])))) in rows
+                assert recorded == want, (names[g1], names[g2])
+                assert bool(geoms.ellipsim_pair_types(model, np.array([g1]), np.array([g2]))[0]) == want
+
+
+def _row_model():
+    """Each row's pair, overlapping, 2 m from the next pair: (model, [(g1, g2) per row])."""
+    body = []
+    for k, row in enumerate(PAIR_TYPES):
+        for j, t in enumerate((row.type1, row.type2)):
+            name = NAMES[t]
+            pos = f"{2 * k + 0.15 * j} {0.04 * j} {0.03 * j}"
+            body.append(f'<geom type="{name}" size="{SIZES[name]}" pos="{pos}" euler="{20 * j} {35 * j} {10 + 15 * j}"/>')
+    model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{''.join(body)}</worldbody></mujoco>")
+    model.opt.ccd_tolerance, model.opt.ccd_iterations = 1e-10, 1000  # MuJoCo's side run tight
+    return model, [(2 * k, 2 * k + 1) for k in range(len(PAIR_TYPES))]
+
+
+class _Markers:
+    """Stand-ins for MuJoCo's functions in the context's fallback words: the one of row k writes
+    1000 + k as the contact's dist; the words are put back on exit."""
+
+    def __enter__(self):
+        proto = nativecache._CTYPES["narrowphase"]
+        self._keep, self._saved = [], context.CONTEXT.copy()
+        for k, row in enumerate(PAIR_TYPES):
+
+            def marker(m, d, con, g1, g2, margin, k=k):
+                ctypes.cast(con, ctypes.POINTER(ctypes.c_double))[0] = 1000.0 + k
+                return 1
+
+            self._keep.append(proto(marker))
+            context.CONTEXT[row.fallback] = ctypes.cast(self._keep[-1], ctypes.c_void_p).value
+        return self
+
+    def __exit__(self, *exc):
+        context.CONTEXT[:] = self._saved
+        return False
+
+
+def _call(fn, model, data, g1, g2):
+    con = np.zeros(64)
+    return fn(model._address, data._address, con.ctypes.data, g1, g2, 0.0), con
+
+
+def test_the_narrow_phase_falls_back_through_each_rows_word():
+    """A data not attached gets MuJoCo's function from its row's context word."""
+    model, pairs = _row_model()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    fn = nativecache.function("narrowphase").ctypes
+    with _Markers():
+        for k, (g1, g2) in enumerate(pairs):
+            made, con = _call(fn, model, data, g1, g2)
+            assert made == 1 and con[0] == 1000 + k, PAIR_TYPES[k].name
+
+
+def test_the_error_path_falls_back_through_each_rows_word():
+    """The wrapper's error status (callbacks._wrapper_for) answers with its row's context word."""
+    from test_startup import failing_narrowphase
+
+    from ellipsim.mujoco import callbacks
+
+    publish.fill_context()
+    narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)
+    fn = nativecache._CTYPES["narrowphase"](narrow.address)
+    model, pairs = _row_model()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    with _Markers():
+        for k, (g1, g2) in enumerate(pairs):
+            made, con = _call(fn, model, data, g1, g2)
+            assert made == 1 and con[0] == 1000 + k, PAIR_TYPES[k].name
+
+
+def test_the_narrow_phase_computes_and_counts_every_row():
+    """Attached, each row's pair gets one counted call and a contact within DIST_TOL of MuJoCo's
+    mjc_Convex run tight (ccd_tolerance 1e-10): the row's kernel ran on the geoms in its order."""
+    model, pairs = _row_model()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    table, n = structs.collision_table()
+    theirs = {row: nativecache._CTYPES["narrowphase"](table[row.type1 * n + row.type2]) for row in PAIR_TYPES}
+    fn = nativecache.function("narrowphase").ctypes
+    with em.attach(model, data, mode="narrowphase") as att:
+        for row, (g1, g2) in zip(PAIR_TYPES, pairs):
+            calls = att.counters["calls"]
+            made, ours = _call(fn, model, data, g1, g2)
+            assert att.counters["calls"] == calls + 1, row.name
+            want_made, want = _call(theirs[row], model, data, g1, g2)
+            assert made == want_made == 1, row.name
+            assert abs(ours[0] - want[0]) <= DIST_TOL, f"{row.name}: dist {ours[0]} vs MuJoCo's {want[0]}"
+            assert ours[0] < -0.01, row.name  # overlapping by more than 1 cm: the pose means something

@@ -35,6 +35,7 @@ import ellipsim
 
 from .. import shipped
 from ..core.tolerances import NEAR_TANGENT
+from .errors import UserError
 
 #: Memory `demo` needs per pair: two validated batches, the generator's draws and the relations
 #: (measured: 1.16 GB peak for 1e6 pairs, 0.37 GB for 2e5: 990 bytes per pair).
@@ -46,10 +47,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
-class UserError(Exception):
-    """A mistake in what the user asked for: reported in one line, exit status 2."""
 
 
 class Terminated(BaseException):
@@ -220,22 +217,7 @@ def _load(args):
     """The Scenario of args.scenario (a name, a .toml or an MJCF .xml), with --key / --ctrl applied."""
     from . import scenario
 
-    try:
-        s = scenario.load(args.scenario)
-        return scenario.with_model_options(s, key=args.key, ctrl=args.ctrl)
-    except scenario.ScenarioError as exc:
-        raise UserError(str(exc)) from None
-
-
-def _simulated(fn, *args, **kwargs):
-    """fn(*args, **kwargs), a scenario's run or validation: a scene the model builder refuses
-    (ScenarioError, raised before any step, or MuJoCo out of memory) is a user mistake."""
-    from . import scenario
-
-    try:
-        return fn(*args, **kwargs)
-    except scenario.ScenarioError as exc:
-        raise UserError(str(exc)) from None
+    return scenario.with_model_options(scenario.load(args.scenario), key=args.key, ctrl=args.ctrl)
 
 
 def _steps(s, args, check):
@@ -350,8 +332,8 @@ def run(args):
     print(f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}", flush=True)
     recorder = _recorder(args.record) if args.record else None
     t0 = time.perf_counter()
-    result, size = _recorded(recorder, _simulated, simulate.run, s, steps=steps, mode=mode,
-                             progress=_bar(f"  {s.name}", steps), between=_between(args))  # fmt: skip
+    result, size = _recorded(recorder, simulate.run, s, steps=steps, mode=mode, progress=_bar(f"  {s.name}", steps),
+                             between=_between(args))
     wall = time.perf_counter() - t0
     fr = result.frames
     rate = steps / max(result.seconds, 1e-9)
@@ -414,7 +396,7 @@ def compare(args):
     steps = _steps(s, args, _check_validation)
     _header(s)
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
-    v, model = _simulated(simulate.validation, s, steps, progress=_bar(f"  {s.name}", steps), between=_between(args))
+    v, model = simulate.validation(s, steps, progress=_bar(f"  {s.name}", steps), between=_between(args))
     builtin, ours, missed, extra, near = _compare_summary(v)
     agree = int(v.counts[:, 0].sum() + v.counts[:, 1].sum())
     pairs = int(v.counts.sum())
@@ -524,21 +506,15 @@ def replay(args):
     for path, option in ((args.record, "--record"), (args.json, "--json")):
         if path:
             _check_output(path, ".rrd" if option == "--record" else ".json", option)
-    try:
-        model = mjcf.load_model(args.model)
-        layout = rp.qpos_layout(model)
-        motion = rp.load_motion(args.motion, model.nq, layout=layout)
-    except (mjcf.ModelError, rp.MotionError) as exc:
-        raise UserError(str(exc)) from None
+    model = mjcf.load_model(args.model)
+    layout = rp.qpos_layout(model)
+    motion = rp.load_motion(args.motion, model.nq, layout=layout)
     name = os.path.splitext(os.path.basename(args.model))[0]
     F = len(motion)
     print(f"{name}: {F} frames of qpos (nq = {model.nq}: {layout}) at {args.fps:g} fps ({F / args.fps:.2f} s) from {args.motion}")
     recorder = _recorder(args.record) if args.record else None
-    try:
-        result, size = _recorded(recorder, rp.replay, model, motion, fps=args.fps, name=name,
-                                 progress=_bar(f"  {name}", F, unit="frames"), between=_between(args))  # fmt: skip
-    except mjcf.ModelError as exc:
-        raise UserError(str(exc)) from None
+    result, size = _recorded(recorder, rp.replay, model, motion, fps=args.fps, name=name,
+                             progress=_bar(f"  {name}", F, unit="frames"), between=_between(args))  # fmt: skip
     over = np.flatnonzero(result.overlapping)
     touch_only = np.flatnonzero((result.touching > 0) & (result.overlapping == 0))
     print(f"  kinematics and MuJoCo's collision {result.seconds:.2f} s; ellipsim's exact verdicts on "
@@ -664,26 +640,21 @@ def sweep(args):
     """Many variants of a scenario: DIR/results.csv (a row each), DIR/sweep.png, optional recordings."""
     from . import scenario, sweep as sw
 
-    try:
-        vary = {}
-        for text in args.vary:
-            key, values = sw.parse_vary(text)
-            if key in vary:
-                raise UserError(f"--vary {key}: given twice; put all its values in one --vary")
-            vary[key] = values
-        sw.check_out(args.out)
-        if args.backend == "ray":
-            try:
-                import ray  # noqa: F401
-            except ImportError:
-                raise UserError(f"--backend ray needs Ray: {install_hint('ray')}") from None
-        variants = sw.plan(args.scenario, vary, seeds=args.seeds, steps=args.steps, mode=args.mode,
-                           record_dir=args.out if args.record else None)  # fmt: skip
-        done = sw.already_done(variants, args.out)
-    except sw.SweepError as exc:
-        raise UserError(f"--{exc}") from None
-    except scenario.ScenarioError as exc:
-        raise UserError(str(exc)) from None
+    vary = {}
+    for text in args.vary:
+        key, values = sw.parse_vary(text)
+        if key in vary:
+            raise UserError(f"--vary {key}: given twice; put all its values in one --vary")
+        vary[key] = values
+    sw.check_out(args.out)
+    if args.backend == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise UserError(f"--backend ray needs Ray: {install_hint('ray')}") from None
+    variants = sw.plan(args.scenario, vary, seeds=args.seeds, steps=args.steps, mode=args.mode,
+                       record_dir=args.out if args.record else None)  # fmt: skip
+    done = sw.already_done(variants, args.out)
     plot = sw.plot_available()
     s = scenario.from_table(variants[0].table, variants[0].path)
     _header(s)
@@ -700,8 +671,6 @@ def sweep(args):
     try:
         rows = sw.sweep(args.scenario, vary, seeds=args.seeds, steps=args.steps, mode=args.mode, out=args.out,
                         backend=args.backend, workers=args.workers, record=args.record, plot=plot, progress=bar)  # fmt: skip
-    except sw.SweepError as exc:
-        raise UserError(f"--{exc}") from None
     except OSError as exc:
         raise _write_error("--out", args.out, exc) from None
     _print_rows(rows, list(variants[0].values))
@@ -920,9 +889,9 @@ def main(argv=None):
     _progress.clear()
     try:
         return args.run(args)
-    except UserError as exc:
+    except UserError as exc:  # errors.UserError: the scenario's, model's, motion's, sweep's errors too
         _end_lines()
-        print(f"ellipsim: error: {exc}", file=sys.stderr)
+        print(f"ellipsim: error: {exc.cli_prefix}{exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         _end_lines()

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..mujoco import between as between_events
 from . import capture, limits
+from .errors import UserError
 from .mjcf import make_data
 
 MOTION_FORMATS = (".npy", ".csv")
@@ -31,7 +32,7 @@ _JOINT_NAMES = {int(mujoco.mjtJoint.mjJNT_FREE): "free", int(mujoco.mjtJoint.mjJ
 _QPOS_WIDTH = {"free": 7, "ball": 4, "slide": 1, "hinge": 1}
 
 
-class MotionError(ValueError):
+class MotionError(UserError):
     """A motion file that cannot be played on the model; the message names the file (one line)."""
 
 

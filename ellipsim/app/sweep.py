@@ -59,6 +59,7 @@ import numpy as np
 from ..core import threads
 from ..core.tolerances import NEAR_TANGENT
 from . import scenario as scenarios
+from .errors import UserError
 from .mjcf import one_line
 
 BACKENDS = ("local", "ray")
@@ -104,8 +105,11 @@ TIMING = ("wall_seconds", "steps_per_second")
 _KEY = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")
 
 
-class SweepError(ValueError):
-    """A sweep that cannot run; the message starts with the argument it is about."""
+class SweepError(UserError):
+    """A sweep that cannot run; the message starts with the argument it is about (the command line's
+    option of that name: `ellipsim sweep` writes it as --vary, --seeds, ...)."""
+
+    cli_prefix = "--"
 
 
 @dataclasses.dataclass(frozen=True)

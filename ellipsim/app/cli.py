@@ -445,15 +445,11 @@ def compare(args):
 def _passed_through(v, model):
     """The pairs that passed through each other within one step as event dicts with "step" for
     "frame" (None when not looked for)."""
-    import mujoco
-
-    from .capture import describe_events, names_of
+    from .capture import ModelNames, describe_events
 
     if v.passed_through is None:
         return None
-    geom_names = names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
-    body_names = ["world"] + names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:]
-    out = describe_events(v.passed_through, v.ellipsoid_ids, geom_names, body_names, model.geom_bodyid)
+    out = describe_events(v.passed_through, v.ellipsoid_ids, ModelNames.of(model))
     return [{("step" if k == "frame" else k): value for k, value in d.items()} for d in out]
 
 

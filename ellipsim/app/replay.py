@@ -6,7 +6,7 @@ ellipsoid geoms touch or overlap.
 
 Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPosition, for its contact
 count on the same frames), then ellipsim's verdict on every candidate pair of every frame in one
-batched exact classify per chunk of frames (capture.FrameBuffer: sweep and prune per frame, MuJoCo's
+batched exact classify per chunk of frames (stepping.FrameLoop over a capture.FrameBuffer: sweep and prune per frame, MuJoCo's
 pair rules, core.classify), and the penetration depth of the overlapping pairs
 (core.signed_distance).  Only the touching and overlapping pairs are kept.  With between=True, also
 the contacts that begin and end between two frames (pairs separated at both frames that touch in
@@ -15,15 +15,14 @@ between on the interpolated motion: mujoco.between, core.time_of_impact).
 
 import dataclasses
 import os
-import time
 
 import mujoco
 import numpy as np
 
-from ..mujoco import between as between_events
 from . import capture, limits
 from .errors import UserError
 from .mjcf import make_data
+from .stepping import FrameLoop
 
 MOTION_FORMATS = (".npy", ".csv")
 
@@ -173,6 +172,11 @@ class ReplayResult:
     def frames(self):
         return len(self.touching)
 
+    @property
+    def names(self):
+        """geom_names, body_names and geom_body as a capture.ModelNames."""
+        return capture.ModelNames(self.geom_names, self.body_names, self.geom_body)
+
     def body_pairs(self):
         """Per pair of bodies that touch or overlap in some frame, most overlapping frames first:
         list of dicts {bodies, geoms (the deepest pair's), frames_overlapping, frames_touching,
@@ -206,7 +210,7 @@ class ReplayResult:
         looked for."""
         if self.between is None:
             return []
-        return capture.describe_events(self.between, self.ellipsoid_ids, self.geom_names, self.body_names, self.geom_body)
+        return capture.describe_events(self.between, self.ellipsoid_ids, self.names)
 
 
 def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay", between=False):
@@ -228,34 +232,13 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     if isinstance(fps, bool) or not isinstance(fps, (int, float, np.floating)) or not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive finite number, got {fps!r}")
     data = make_data(model, name)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True, between=between, background=between)
-    geom_names = capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
-    body_names = ["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:]
-    if recorder is not None:
-        recorder.begin(capture.geometry(model, name))
     F = len(motion)
     per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
-    pairs, relations, depths, events = [], [], [], []
-    timers = {"analysis": 0.0, "record": 0.0}
+    pairs, relations, depths = [], [], []
     candidates = 0
 
-    def collect(found):
-        """Keep and record contacts between frames (between.Events, in frame order)."""
-        events.extend(found)
-        if recorder is not None:
-            t0 = time.perf_counter()
-            for ev in found:
-                capture.record_events(recorder, ev, buffer.ids, geom_names, body_names, model.geom_bodyid)
-            timers["record"] += time.perf_counter() - t0
-
-    def flush():
+    def on_chunk(chunk):
         nonlocal candidates
-        t0 = time.perf_counter()
-        chunk = buffer.flush()
-        t1 = time.perf_counter()
-        timers["analysis"] += t1 - t0
-        if chunk is None:
-            return
         fr = chunk.frames
         at = fr.frame
         per_frame["touching"][at] = fr.touching_counts
@@ -267,29 +250,18 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         pairs.append(chunk.pairs[hit])
         relations.append(chunk.relation[hit])
         depths.append(chunk.depth[hit])
-        if recorder is not None:
-            recorder.write(fr)
-            timers["record"] += time.perf_counter() - t1
-        collect(([chunk.events] if chunk.events is not None else []) + buffer.collect())  # inline, or done in the background
 
-    t0 = time.perf_counter()
-    try:
-        for f in range(F):
-            data.qpos[:] = motion[f]
-            data.time = f / fps
-            mujoco.mj_fwdPosition(model, data)
-            if buffer.add(data, data.time):
-                flush()
-            if progress is not None:
-                progress(f + 1, F)
-        flush()
-        t1 = time.perf_counter()
-        found = buffer.collect(wait=True)
-        timers["analysis"] += time.perf_counter() - t1
-        collect(found)
-    finally:
-        buffer.close()
-    total = time.perf_counter() - t0
+    loop = FrameLoop(
+        model, recorder=recorder, title=name, on_chunk=on_chunk, depth=True, between=between, background=between
+    )
+
+    def pose(f):
+        data.qpos[:] = motion[f]
+        data.time = f / fps
+        mujoco.mj_fwdPosition(model, data)
+
+    loop.run(data, F, pose, progress=progress)
+    buffer, names = loop.buffer, loop.names
     pairs = np.concatenate(pairs) if pairs else np.zeros((0, 3), dtype=np.int64)
     relation = np.concatenate(relations) if relations else np.zeros(0, dtype=np.int8)
     depth = np.where(relation == 2, np.concatenate(depths), np.nan) if len(relation) else np.zeros(0)
@@ -305,11 +277,9 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         fps=float(fps), touching=per_frame["touching"], overlapping=per_frame["overlapping"], deepest=deepest,
         deepest_pair=deepest_pair, mujoco_contacts=per_frame["mujoco_contacts"], mujoco_pairs=per_frame["mujoco_pairs"],
         pair_frame=pairs[:, 0].copy(), pair_geoms=geoms, pair_relation=relation, pair_depth=depth,
-        geom_names=geom_names, body_names=body_names,
-        geom_body=model.geom_bodyid.astype(np.int64), ellipsoids=len(buffer.ids), candidates=candidates,
-        seconds=total - timers["analysis"] - timers["record"], analysis_seconds=timers["analysis"],
-        record_seconds=timers["record"], ellipsoid_ids=buffer.ids.astype(np.int64),
-        between=between_events.Events.concatenate(events) if between else None,
+        geom_names=names.geoms, body_names=names.bodies, geom_body=names.geom_body, ellipsoids=len(buffer.ids),
+        candidates=candidates, seconds=loop.seconds, analysis_seconds=loop.analysis_seconds,
+        record_seconds=loop.record_seconds, ellipsoid_ids=buffer.ids.astype(np.int64), between=loop.events(),
         between_candidates=buffer.between.candidates if between else 0, between_seconds=buffer.between_seconds,
     )  # fmt: skip
 

@@ -365,46 +365,37 @@ def _measure(variant):
 
 
 def _mode_pass(s, variant, recorder):
-    """Step scenario `s` in its mode as simulate.run does, with a FrameBuffer that also measures
-    the depth of every overlapping pair (simulate.run keeps counts only)."""
+    """Step scenario `s` in its mode as simulate.run does (a stepping.FrameLoop), its FrameBuffer
+    also measuring the depth of every overlapping pair (simulate.run keeps counts only)."""
     import mujoco
 
     from ..mujoco.attachment import attach
-    from . import capture, simulate
+    from . import simulate
+    from .stepping import FrameLoop
 
     model, data = simulate.build(s)
     control = simulate.controller(model, data, s)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True)
-    if recorder is not None:
-        recorder.begin(capture.geometry(model, f"{s.name} {_describe(variant.values)} [{variant.id}]"))
-    every = simulate._every(s)  # the frames `ellipsim run` records
-    deepest, aside = 0.0, 0.0
+    deepest = 0.0
 
-    def flush():
-        nonlocal deepest, aside
-        t0 = time.perf_counter()
-        chunk = buffer.flush()
-        if chunk is not None:
-            if np.any(chunk.depth >= 0):
-                deepest = max(deepest, float(np.nanmax(chunk.depth)))
-            if recorder is not None:
-                recorder.write(chunk.frames)
-        aside += time.perf_counter() - t0
+    def on_chunk(chunk):
+        nonlocal deepest
+        if np.any(chunk.depth >= 0):
+            deepest = max(deepest, float(np.nanmax(chunk.depth)))
+
+    title = f"{s.name} {_describe(variant.values)} [{variant.id}]"
+    loop = FrameLoop(model, recorder=recorder, title=title, on_chunk=on_chunk, depth=True)
+
+    def step(k):
+        try:
+            simulate.advance(model, data, s, control, k)
+        except mujoco.FatalError as exc:
+            raise scenarios.ScenarioError(f"MuJoCo stopped at step {k} of the {s.mode} pass: {one_line(exc)}") from None
 
     att = attach(model, data, mode=s.mode) if s.mode != "builtin" and not s.kinematic else None
     with att if att else contextlib.nullcontext():
-        t0 = time.perf_counter()
-        for k in range(variant.steps):
-            try:
-                simulate.advance(model, data, s, control, k)
-            except mujoco.FatalError as exc:
-                raise scenarios.ScenarioError(f"MuJoCo stopped at step {k} of the {s.mode} pass: {one_line(exc)}") from None
-            if k % every == 0 and buffer.add(data, data.time):
-                flush()
-        flush()
-        stepping = time.perf_counter() - t0 - aside
+        loop.run(data, variant.steps, step, every=simulate.record_every(s))  # the frames `ellipsim run` records
     fallbacks = att.counters.get("fallbacks", 0) if s.mode == "narrowphase" and att else None
-    return {"steps_per_second": variant.steps / max(stepping, 1e-9), "fallbacks": fallbacks,
+    return {"steps_per_second": variant.steps / max(loop.seconds, 1e-9), "fallbacks": fallbacks,
             "mujoco_warnings": int(data.warning.number.sum()), "deepest_penetration": deepest}  # fmt: skip
 
 

@@ -16,6 +16,7 @@ import ellipsim
 from ellipsim import classify, contact_scale
 from ellipsim.app import cli as cli_module
 from ellipsim.app import fit as fitting
+from ellipsim.app import mjcf, replay as rp, scenario, sweep as sw
 from ellipsim.app.cli import Progress, main
 from ellipsim.core.samples import generic_pairs, near_contact_pairs
 
@@ -56,6 +57,26 @@ def test_demo_prints_the_table(capsys):
 )
 def test_bad_arguments_exit_2_with_one_line(args, message):
     assert message in one_line_error(cli(*args))
+
+
+@pytest.mark.parametrize(
+    "error, shown",
+    [
+        (scenario.ScenarioError("s.toml: missing key 'duration'"), "s.toml: missing key 'duration'"),
+        (mjcf.ModelError("m.xml: no keyframe named 'up'"), "m.xml: no keyframe named 'up'"),
+        (rp.MotionError("motion 'w.csv' has no frames"), "motion 'w.csv' has no frames"),
+        (sw.SweepError("seeds must be a positive integer, got 0"), "--seeds must be a positive integer, got 0"),
+    ],
+)
+def test_every_domain_error_is_a_user_error_reported_in_one_line(monkeypatch, capsys, error, shown):
+    """The CLI catches errors.UserError alone: a domain error that is not one would end in a traceback."""
+
+    def fail(args):
+        raise error
+
+    monkeypatch.setattr(cli_module, "list_scenarios", fail)
+    assert main(["list"]) == 2
+    assert capsys.readouterr().err == f"ellipsim: error: {shown}\n"
 
 
 def test_counts_take_float_notation_of_whole_numbers():

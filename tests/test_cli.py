@@ -120,7 +120,7 @@ def test_show_must_not_be_negative():
 
 
 def test_compare_quotes_the_near_tangent_band(monkeypatch, capsys):
-    monkeypatch.setattr("ellipsim.app.cli.NEAR_TANGENT", 3e-6)
+    monkeypatch.setattr("ellipsim.app.comparison.NEAR_TANGENT", 3e-6)
     assert main(["compare", "replay", "--steps", "5", "--show", "0"]) == 0
     assert "within 3e-06 m of touching" in capsys.readouterr().out
 

@@ -391,6 +391,20 @@ def event_line(d):
             f"({d['status']})")  # fmt: skip
 
 
+def between_lines(events, candidates, seconds, show, unit):
+    """The report's lines of contacts between frames (or steps: `unit`): event dicts of describe_events
+    (with "step" for "frame" when unit is steps), a count, then a line each, `show` at most;
+    candidates : pairs time_of_impact decided; seconds : their check's wall time, or None."""
+    timing = f" {seconds:.2f} s" if seconds is not None else ""
+    lines = [f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
+             f"motion): {len(events)}; time_of_impact on {candidates} pairs{timing}"]  # fmt: skip
+    for d in events[:show]:
+        lines.append("    " + event_line(d if "frame" in d else {**d, "frame": d["step"]}).replace("frames ", f"{unit} ", 1))
+    if len(events) > show:
+        lines.append(f"    ... and {len(events) - show} more (--show N, or --json)")
+    return lines
+
+
 def record_events(recorder, events, ids, names):
     """Send contacts between frames (between.Events over the ellipsoid geoms `ids`, named by
     `names`) to a record.Recorder as markers: the contact point, labelled with the geoms, and a log line."""

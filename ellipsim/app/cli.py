@@ -34,7 +34,6 @@ import numpy as np
 import ellipsim
 
 from .. import shipped
-from ..core.tolerances import NEAR_TANGENT
 from .errors import UserError
 
 #: Memory `demo` needs per pair: two validated batches, the generator's draws and the relations
@@ -335,36 +334,10 @@ def run(args):
     result, size = _recorded(recorder, simulate.run, s, steps=steps, mode=mode, progress=_bar(f"  {s.name}", steps),
                              between=_between(args))
     wall = time.perf_counter() - t0
-    fr = result.frames
-    rate = steps / max(result.seconds, 1e-9)
-    stepper = "mj_forward per keyframed pose" if s.kinematic else f"mj_step, {mode}"
-    print(f"  stepping: {result.seconds:.2f} s for {steps} steps, {rate:,.0f} steps/s ({rate * s.timestep:.2f}x real time; "
-          f"{stepper}, copying frames out included)")
-    print(f"  not in that: model build and kernel loading {wall - result.seconds - result.analysis_seconds - result.record_seconds:.2f} s, "
-          f"ellipsim's verdicts on {len(fr.times)} frames {result.analysis_seconds:.2f} s"
-          + (f", recording {result.record_seconds:.2f} s" if recorder else ""))  # fmt: skip
-    print(f"  contacts per step (all geoms): mean {result.contacts_mean:.1f}, max {result.contacts_max}")
-    if len(fr.times):
-        print(
-            f"  ellipsoid pairs over {len(fr.times)} recorded frames: MuJoCo contacts mean {fr.builtin_counts.mean():.1f} "
-            f"(max {fr.builtin_counts.max()}), ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
-            f"(max {fr.ellipsim_counts.max()})"
-        )
-    c = result.counters
-    if "seen" in c:
-        share = c["discarded"] / max(c["seen"], 1)
-        print(f"  filter: {c['seen']} pairs tested, {c['discarded']} skipped ({share:.0%}), {c['passed']} passed to MuJoCo")
-    elif "calls" in c:
-        print(
-            f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
-            f"{c['fallbacks']} fallbacks to MuJoCo"
-        )
-    if result.between is not None:
-        _print_between(result.between, result.between_candidates, result.between_seconds, BETWEEN_SHOWN, "frames")
-    elif args.between_frames:  # asked for explicitly
-        print("  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)")
+    print("\n".join(result.summary(wall, recording=recorder is not None, between_asked=bool(args.between_frames),
+                                    show=BETWEEN_SHOWN)))
     if recorder:
-        print(f"  recording: {args.record} ({len(fr.times)} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
+        print(f"  recording: {args.record} ({len(result.frames.times)} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
     return 0
 
 
@@ -372,20 +345,10 @@ def run(args):
 BETWEEN_SHOWN = 10
 
 
-def _compare_summary(validation):
-    """Per-frame and total counts, and the disagreements split into missed / extra / near-tangent
-    (as sweep's columns are)."""
-    from .sweep import split_disagreements
-
-    counts = validation.counts
-    builtin = counts[:, 0] + counts[:, 2]
-    ours = counts[:, 0] + counts[:, 3]
-    return builtin, ours, *split_disagreements(validation)
-
-
 def compare(args):
     """MuJoCo's built-in contacts against ellipsim's exact verdicts, per frame and in total."""
     from . import simulate
+    from .comparison import Comparison
 
     s = _load(args)
     if args.json:
@@ -397,60 +360,15 @@ def compare(args):
     _header(s)
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
     v, model = simulate.validation(s, steps, progress=_bar(f"  {s.name}", steps), between=_between(args))
-    builtin, ours, missed, extra, near = _compare_summary(v)
-    agree = int(v.counts[:, 0].sum() + v.counts[:, 1].sum())
-    pairs = int(v.counts.sum())
-    print(f"  candidate ellipsoid pairs: {pairs} over {steps} steps; agreement {agree}/{pairs} ({agree / max(pairs, 1):.4%})")
-    print(f"  in contact per frame: MuJoCo mean {builtin.mean():.2f} (max {builtin.max()}), ellipsim mean {ours.mean():.2f} (max {ours.max()})")
-    print(f"  totals: MuJoCo {builtin.sum()}, ellipsim {ours.sum()}")
-    print(
-        f"  disagreements: {len(missed)} missed (MuJoCo contact, ellipsim separated), {len(extra)} extra "
-        f"(ellipsim overlapping, no MuJoCo contact), {len(near)} within {NEAR_TANGENT:g} m of touching"
-    )
-    for d in (missed + extra + near)[: args.show]:
-        print(
-            f"    step {d.step}: {d.names[0]} / {d.names[1]}: MuJoCo {'contact' if d.mujoco_contact else 'none'}, "
-            f"ellipsim {d.relation}, contact_scale {d.contact_scale:.9f}, mj_geomDistance {d.geom_distance:.3g}; "
-            f"right: {d.right} ({d.reason})"
-        )
-    passed = _passed_through(v, model)
-    if passed is not None:
-        _print_between(passed, v.between_candidates, None, args.show, "steps")
-    else:
-        print("  ellipsoid pairs passing through each other within one step: not looked for (--between-frames)")
+    result = Comparison.of(s.name, v, model)
+    print("\n".join(result.summary(args.show)))
     if args.json:
-        report = {
-            "scenario": s.name, "steps": steps,
-            "builtin_contacts": int(builtin.sum()), "ellipsim_overlaps": int(ours.sum()),
-            "missed": len(missed), "extra": len(extra), "near_tangent": len(near), "agreement": agree, "pairs": pairs,
-            "per_frame": {"builtin_contacts": builtin.tolist(), "ellipsim_overlaps": ours.tolist(),
-                          "both": v.counts[:, 0].tolist(), "neither": v.counts[:, 1].tolist(),
-                          "mujoco_only": v.counts[:, 2].tolist(), "ellipsim_only": v.counts[:, 3].tolist()},
-            "disagreements": [
-                {"step": d.step, "geoms": list(d.names), "kind": kind, "mujoco_contact": d.mujoco_contact,
-                 "mujoco_dist": None if d.mujoco_dist != d.mujoco_dist else d.mujoco_dist, "relation": d.relation,
-                 "contact_scale": d.contact_scale, "geom_distance": d.geom_distance, "right": d.right, "reason": d.reason}
-                for kind, ds in (("missed", missed), ("extra", extra), ("near_tangent", near)) for d in ds
-            ],
-            "passed_through": passed,
-        }  # fmt: skip
-        _write_json(args.json, report)
+        _write_json(args.json, result.report())
         print(f"  report: {args.json}")
     if args.plot:
-        _plot_compare(args.plot, s, builtin, ours, missed + extra, near)
+        _plot_compare(args.plot, s, result.builtin, result.ours, result.missed + result.extra, result.near)
         print(f"  plot: {args.plot}")
     return 0
-
-
-def _passed_through(v, model):
-    """The pairs that passed through each other within one step as event dicts with "step" for
-    "frame" (None when not looked for)."""
-    from .capture import ModelNames, describe_events
-
-    if v.passed_through is None:
-        return None
-    out = describe_events(v.passed_through, v.ellipsoid_ids, ModelNames.of(model))
-    return [{("step" if k == "frame" else k): value for k, value in d.items()} for d in out]
 
 
 def _check_validation(s, steps):
@@ -511,89 +429,13 @@ def replay(args):
     recorder = _recorder(args.record) if args.record else None
     result, size = _recorded(recorder, rp.replay, model, motion, fps=args.fps, name=name,
                              progress=_bar(f"  {name}", F, unit="frames"), between=_between(args))  # fmt: skip
-    over = np.flatnonzero(result.overlapping)
-    touch_only = np.flatnonzero((result.touching > 0) & (result.overlapping == 0))
-    print(f"  kinematics and MuJoCo's collision {result.seconds:.2f} s; ellipsim's exact verdicts on "
-          f"{result.candidates} candidate pairs of {result.ellipsoids} ellipsoid geoms {result.analysis_seconds:.2f} s")  # fmt: skip
-    if result.ellipsoids < 2:
-        print("  the model has fewer than two ellipsoid or sphere geoms: ellipsim has no pair to test")
-    print(f"  frames with overlapping pairs: {len(over)} of {F} ({rp.frame_ranges(over)}); touching only: {len(touch_only)}")
-    if len(over):
-        f = int(over[np.argmax(result.deepest[over])])
-        p = result.deepest_pair[f]
-        g1, g2 = result.pair_geoms[p]
-        b1, b2 = (result.body_names[result.geom_body[g]] for g in (g1, g2))
-        print(f"  deepest overlap: {_length(result.deepest[f])} at frame {f} ({f / args.fps:.3f} s): bodies {b1} / {b2} "
-              f"(geoms {result.geom_names[g1]} / {result.geom_names[g2]})")  # fmt: skip
-    print(f"  MuJoCo's contacts on the same frames: {int(result.mujoco_contacts.sum())} in all (max {int(result.mujoco_contacts.max())} "
-          f"in a frame), {int(result.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(result.overlapping.sum())} "
-          f"overlapping, {int(result.touching.sum())} touching pairs")  # fmt: skip
-    body_pairs = result.body_pairs()
-    if body_pairs:
-        print("  body pairs in contact (most overlapping frames first):")
-        for bp in body_pairs[: args.show]:
-            frames = rp.frame_ranges(bp["overlap_frames"], most=4)
-            print(f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
-                  f"deepest {_length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}")  # fmt: skip
-        if len(body_pairs) > args.show:
-            print(f"    ... and {len(body_pairs) - args.show} more (--show N, or --json)")
-    events = result.between_events()
-    if result.between is not None:
-        _print_between(events, result.between_candidates, result.between_seconds, args.show, "frames")
-    elif result.ellipsoids >= 2:
-        print("  contacts that begin and end between two frames: not looked for (--between-frames)")
+    print("\n".join(result.summary(args.show)))
     if args.json:
-        _write_json(args.json, _replay_report(name, args, model, result, body_pairs, events))
+        _write_json(args.json, result.report(args.model, args.motion, model.nq))
         print(f"  report: {args.json}")
     if recorder:
         print(f"  recording: {args.record} ({F} frames, {size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
     return 0
-
-
-def _length(metres):
-    return f"{metres * 100:.3g} cm" if metres < 1 else f"{metres:.3g} m"
-
-
-def _print_between(events, candidates, seconds, show, unit):
-    """The contacts between frames (or steps): a count, then a line each (at most `show`)."""
-    from .capture import event_line
-
-    timing = f" {seconds:.2f} s" if seconds is not None else ""
-    print(f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
-          f"motion): {len(events)}; time_of_impact on {candidates} pairs{timing}")  # fmt: skip
-    for d in events[:show]:
-        print("    " + event_line(d if "frame" in d else {**d, "frame": d["step"]}).replace("frames ", f"{unit} ", 1))
-    if len(events) > show:
-        print(f"    ... and {len(events) - show} more (--show N, or --json)")
-
-
-def _replay_report(name, args, model, result, body_pairs, events):
-    per_pair = [[] for _ in range(result.frames)]
-    for p in range(len(result.pair_frame)):
-        g1, g2 = (int(g) for g in result.pair_geoms[p])
-        per_pair[int(result.pair_frame[p])].append({
-            "geoms": [result.geom_names[g1], result.geom_names[g2]],
-            "bodies": [result.body_names[result.geom_body[g1]], result.body_names[result.geom_body[g2]]],
-            "relation": "overlapping" if result.pair_relation[p] == 2 else "touching",
-            "depth": None if result.pair_relation[p] != 2 else float(result.pair_depth[p]),
-        })  # fmt: skip
-    return {
-        "model": os.path.abspath(args.model), "motion": os.path.abspath(args.motion), "frames": result.frames,
-        "fps": result.fps, "nq": int(model.nq), "ellipsoid_geoms": result.ellipsoids, "candidate_pairs": result.candidates,
-        "frames_overlapping": int(np.count_nonzero(result.overlapping)),
-        "frames_touching_only": int(np.count_nonzero((result.touching > 0) & (result.overlapping == 0))),
-        "overlapping_pairs": int(result.overlapping.sum()), "touching_pairs": int(result.touching.sum()),
-        "mujoco_contacts": int(result.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(result.mujoco_pairs.sum()),
-        "deepest": float(result.deepest.max()) if result.frames else 0.0,
-        "body_pairs": [{k: v for k, v in bp.items()} for bp in body_pairs],
-        "between_frames": events if result.between is not None else None,
-        "per_frame": {
-            "time": (np.arange(result.frames) / result.fps).tolist(), "touching": result.touching.tolist(),
-            "overlapping": result.overlapping.tolist(), "deepest": result.deepest.tolist(),
-            "mujoco_contacts": result.mujoco_contacts.tolist(), "mujoco_ellipsoid_contacts": result.mujoco_pairs.tolist(),
-            "pairs": per_pair,
-        },
-    }  # fmt: skip
 
 
 # --- fit -------------------------------------------------------------------------------------------
@@ -669,7 +511,7 @@ def sweep(args):
                         backend=args.backend, workers=args.workers, record=args.record, plot=plot, progress=bar)  # fmt: skip
     except OSError as exc:
         raise _write_error("--out", args.out, exc) from None
-    _print_rows(rows, list(variants[0].values))
+    print("\n".join(sw.rows_table(rows, list(variants[0].values))))
     print(f"  results: {os.path.join(args.out, sw.RESULTS)} (columns: {os.path.join(args.out, 'columns.json')})")
     if plot:
         print(f"  plot: {os.path.join(args.out, sw.PLOT)}")
@@ -684,32 +526,6 @@ def sweep(args):
               f"e.g. {failed[0]['variant']}: {failed[0]['error']}", file=sys.stderr)  # fmt: skip
         return 1
     return 0
-
-
-#: Rows of a sweep printed at most (results.csv has them all).
-SWEEP_ROWS_SHOWN = 40
-
-
-def _print_rows(rows, keys):
-    from .sweep import format_value
-
-    def cell(value, fmt="{}"):
-        return "" if value is None else fmt.format(value)
-
-    head = ["variant", *keys, "steps/s", "pairs", "MuJoCo", "exact", "missed", "extra", "near", "fallbacks", "deepest mm"]
-    table = [
-        [r["variant"], *(format_value(r[k]) for k in keys), cell(r["steps_per_second"], "{:,.0f}"), cell(r["pairs"]),
-         cell(r["mujoco_contacts"]), cell(r["ellipsim_overlaps"]), cell(r["missed"]), cell(r["extra"]), cell(r["near_tangent"]),
-         cell(r["fallbacks"]), cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}")]
-        + ([f"failed: {r['error']}"] if r["error"] else [])
-        for r in rows[:SWEEP_ROWS_SHOWN]
-    ]  # fmt: skip
-    width = [max(len(str(row[k])) for row in [head, *table] if k < len(row)) for k in range(len(head))]
-    print("  " + "  ".join(f"{h:>{w}}" for h, w in zip(head, width)))
-    for row in table:
-        print("  " + "  ".join(f"{c:>{w}}" for c, w in zip(row, width)) + ("  " + row[-1] if len(row) > len(head) else ""))
-    if len(rows) > SWEEP_ROWS_SHOWN:
-        print(f"  ... and {len(rows) - SWEEP_ROWS_SHOWN} more")
 
 
 # --- bench and view --------------------------------------------------------------------------------

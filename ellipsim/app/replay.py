@@ -213,6 +213,72 @@ class ReplayResult:
         return capture.describe_events(self.between, self.ellipsoid_ids, self.names)
 
 
+    def summary(self, show):
+        """The lines `ellipsim replay` prints after playing: timings, frames in contact, the deepest
+        overlap, MuJoCo's contacts, `show` body pairs and contacts between frames at most."""
+        F = self.frames
+        over = np.flatnonzero(self.overlapping)
+        touch_only = np.flatnonzero((self.touching > 0) & (self.overlapping == 0))
+        lines = [f"  kinematics and MuJoCo's collision {self.seconds:.2f} s; ellipsim's exact verdicts on "
+                 f"{self.candidates} candidate pairs of {self.ellipsoids} ellipsoid geoms {self.analysis_seconds:.2f} s"]  # fmt: skip
+        if self.ellipsoids < 2:
+            lines.append("  the model has fewer than two ellipsoid or sphere geoms: ellipsim has no pair to test")
+        lines.append(f"  frames with overlapping pairs: {len(over)} of {F} ({frame_ranges(over)}); touching only: {len(touch_only)}")
+        if len(over):
+            f = int(over[np.argmax(self.deepest[over])])
+            g1, g2 = self.pair_geoms[self.deepest_pair[f]]
+            b1, b2 = (self.body_names[self.geom_body[g]] for g in (g1, g2))
+            lines.append(f"  deepest overlap: {length(self.deepest[f])} at frame {f} ({f / self.fps:.3f} s): bodies {b1} / {b2} "
+                         f"(geoms {self.geom_names[g1]} / {self.geom_names[g2]})")  # fmt: skip
+        lines.append(f"  MuJoCo's contacts on the same frames: {int(self.mujoco_contacts.sum())} in all (max {int(self.mujoco_contacts.max())} "
+                     f"in a frame), {int(self.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(self.overlapping.sum())} "
+                     f"overlapping, {int(self.touching.sum())} touching pairs")  # fmt: skip
+        body_pairs = self.body_pairs()
+        if body_pairs:
+            lines.append("  body pairs in contact (most overlapping frames first):")
+            for bp in body_pairs[:show]:
+                frames = frame_ranges(bp["overlap_frames"], most=4)
+                lines.append(f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
+                             f"deepest {length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}")  # fmt: skip
+            if len(body_pairs) > show:
+                lines.append(f"    ... and {len(body_pairs) - show} more (--show N, or --json)")
+        if self.between is not None:
+            lines += capture.between_lines(self.between_events(), self.between_candidates, self.between_seconds, show, "frames")
+        elif self.ellipsoids >= 2:
+            lines.append("  contacts that begin and end between two frames: not looked for (--between-frames)")
+        return lines
+
+    def report(self, model_path, motion_path, nq):
+        """The JSON report (`ellipsim replay --json`) of the motion file `motion_path` played on the
+        model file `model_path` (nq qpos values): totals, body pairs, contacts between frames, per frame."""
+        per_pair = [[] for _ in range(self.frames)]
+        for p in range(len(self.pair_frame)):
+            g1, g2 = (int(g) for g in self.pair_geoms[p])
+            per_pair[int(self.pair_frame[p])].append({
+                "geoms": [self.geom_names[g1], self.geom_names[g2]],
+                "bodies": [self.body_names[self.geom_body[g1]], self.body_names[self.geom_body[g2]]],
+                "relation": "overlapping" if self.pair_relation[p] == 2 else "touching",
+                "depth": None if self.pair_relation[p] != 2 else float(self.pair_depth[p]),
+            })  # fmt: skip
+        return {
+            "model": os.path.abspath(model_path), "motion": os.path.abspath(motion_path), "frames": self.frames,
+            "fps": self.fps, "nq": int(nq), "ellipsoid_geoms": self.ellipsoids, "candidate_pairs": self.candidates,
+            "frames_overlapping": int(np.count_nonzero(self.overlapping)),
+            "frames_touching_only": int(np.count_nonzero((self.touching > 0) & (self.overlapping == 0))),
+            "overlapping_pairs": int(self.overlapping.sum()), "touching_pairs": int(self.touching.sum()),
+            "mujoco_contacts": int(self.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(self.mujoco_pairs.sum()),
+            "deepest": float(self.deepest.max()) if self.frames else 0.0,
+            "body_pairs": self.body_pairs(),
+            "between_frames": self.between_events() if self.between is not None else None,
+            "per_frame": {
+                "time": (np.arange(self.frames) / self.fps).tolist(), "touching": self.touching.tolist(),
+                "overlapping": self.overlapping.tolist(), "deepest": self.deepest.tolist(),
+                "mujoco_contacts": self.mujoco_contacts.tolist(), "mujoco_ellipsoid_contacts": self.mujoco_pairs.tolist(),
+                "pairs": per_pair,
+            },
+        }  # fmt: skip
+
+
 def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay", between=False):
     """Pose `model` at every frame of `motion` (F, nq) and decide every candidate ellipsoid pair.
 
@@ -296,3 +362,7 @@ def frame_ranges(frames, most=8):
     more = len(runs) - most
     return ", ".join(runs[:most]) + (f", ... ({more} more)" if more > 0 else "")
 
+
+def length(metres):
+    """A length as text: centimetres below a metre ("1.23 cm"), else metres."""
+    return f"{metres * 100:.3g} cm" if metres < 1 else f"{metres:.3g} m"

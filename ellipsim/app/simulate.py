@@ -150,6 +150,43 @@ class Run:
     between_seconds: float = 0.0
 
 
+    def summary(self, wall, *, recording=False, between_asked=False, show=10):
+        """The lines `ellipsim run` prints after running: stepping rate, the other costs out of `wall`
+        (seconds, the whole run), contacts, ellipsim's counters, `show` contacts between frames at
+        most; recording: a recording was written; between_asked: --between-frames was given."""
+        s, fr, c = self.scenario, self.frames, self.counters
+        rate = self.steps / max(self.seconds, 1e-9)
+        stepper = "mj_forward per keyframed pose" if s.kinematic else f"mj_step, {self.mode}"
+        rest = wall - self.seconds - self.analysis_seconds - self.record_seconds
+        lines = [
+            f"  stepping: {self.seconds:.2f} s for {self.steps} steps, {rate:,.0f} steps/s ({rate * s.timestep:.2f}x real time; "
+            f"{stepper}, copying frames out included)",
+            f"  not in that: model build and kernel loading {rest:.2f} s, "
+            f"ellipsim's verdicts on {len(fr.times)} frames {self.analysis_seconds:.2f} s"
+            + (f", recording {self.record_seconds:.2f} s" if recording else ""),
+            f"  contacts per step (all geoms): mean {self.contacts_mean:.1f}, max {self.contacts_max}",
+        ]
+        if len(fr.times):
+            lines.append(
+                f"  ellipsoid pairs over {len(fr.times)} recorded frames: MuJoCo contacts mean {fr.builtin_counts.mean():.1f} "
+                f"(max {fr.builtin_counts.max()}), ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
+                f"(max {fr.ellipsim_counts.max()})"
+            )
+        if "seen" in c:
+            share = c["discarded"] / max(c["seen"], 1)
+            lines.append(f"  filter: {c['seen']} pairs tested, {c['discarded']} skipped ({share:.0%}), {c['passed']} passed to MuJoCo")
+        elif "calls" in c:
+            lines.append(
+                f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
+                f"{c['fallbacks']} fallbacks to MuJoCo"
+            )
+        if self.between is not None:
+            lines += capture.between_lines(self.between, self.between_candidates, self.between_seconds, show, "frames")
+        elif between_asked:
+            lines.append("  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)")
+        return lines
+
+
 def recorded_frames(s, steps):
     """How many frames `run` records in `steps` steps of scenario `s`."""
     every = record_every(s)

@@ -59,6 +59,7 @@ import numpy as np
 from ..core import threads
 from ..core.tolerances import NEAR_TANGENT
 from . import scenario as scenarios
+from .comparison import split_disagreements
 from .errors import UserError
 from .mjcf import one_line
 
@@ -314,21 +315,6 @@ def columns(variants):
 
 
 # --- one variant ---------------------------------------------------------------------------------
-
-
-def split_disagreements(validation):
-    """(missed, extra, near_tangent) lists of a mujoco.Validation's disagreements: within
-    NEAR_TANGENT metres of touching (mj_geomDistance), else MuJoCo's contact the exact test
-    separates (missed), else an overlap MuJoCo made no contact for (extra)."""
-    missed, extra, near = [], [], []
-    for d in validation.disagreements:
-        if abs(d.geom_distance) < NEAR_TANGENT:
-            near.append(d)
-        elif d.mujoco_contact:
-            missed.append(d)
-        else:
-            extra.append(d)
-    return missed, extra, near
 
 
 def run_variant(variant):
@@ -760,6 +746,34 @@ def sweep(scenario, vary=None, *, seeds=None, steps=None, mode=None, out=None, b
     if out is not None and plot:
         plot_rows(rows, list(variants[0].values), os.path.join(out, PLOT), title=f"{variants[0].scenario}: {len(rows)} variants")
     return rows
+
+
+#: Rows of a sweep `rows_table` shows at most (results.csv has them all).
+ROWS_SHOWN = 40
+
+
+def rows_table(rows, keys):
+    """The lines `ellipsim sweep` prints of its rows: a column per varied key in `keys` and per
+    metric (the first ROWS_SHOWN rows; a failed row ends with its error)."""
+
+    def cell(value, fmt="{}"):
+        return "" if value is None else fmt.format(value)
+
+    head = ["variant", *keys, "steps/s", "pairs", "MuJoCo", "exact", "missed", "extra", "near", "fallbacks", "deepest mm"]
+    table = [
+        [r["variant"], *(format_value(r[k]) for k in keys), cell(r["steps_per_second"], "{:,.0f}"), cell(r["pairs"]),
+         cell(r["mujoco_contacts"]), cell(r["ellipsim_overlaps"]), cell(r["missed"]), cell(r["extra"]), cell(r["near_tangent"]),
+         cell(r["fallbacks"]), cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}")]
+        + ([f"failed: {r['error']}"] if r["error"] else [])
+        for r in rows[:ROWS_SHOWN]
+    ]  # fmt: skip
+    width = [max(len(str(row[k])) for row in [head, *table] if k < len(row)) for k in range(len(head))]
+    lines = ["  " + "  ".join(f"{h:>{w}}" for h, w in zip(head, width))]
+    for row in table:
+        lines.append("  " + "  ".join(f"{c:>{w}}" for c, w in zip(row, width)) + ("  " + row[-1] if len(row) > len(head) else ""))
+    if len(rows) > ROWS_SHOWN:
+        lines.append(f"  ... and {len(rows) - ROWS_SHOWN} more")
+    return lines
 
 
 # --- the plot --------------------------------------------------------------------------------------

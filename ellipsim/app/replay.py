@@ -287,7 +287,7 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         of each ellipsoid (centre linear, rotation along the shortest arc: core.motion), which is not
         the motion of qpos interpolated; the recording gets a marker at each one's first contact.
         It runs on a thread of its own while the frames are posed (FrameBuffer's background): 2-14%
-        more wall time with a free core, 15-51% on one (16 figures, 2000 frames; cli.BETWEEN_DEFAULT).
+        more wall time with a free core, 15-51% on one (16 figures, 2000 frames; cli.common.BETWEEN_DEFAULT).
     progress : optional callable(frame, F).  recorder : optional record.Recorder, begun with the
     model's geometry (named `name`) and sent every chunk (closing it is the caller's).
     Returns a ReplayResult.  ValueError names a bad motion shape or fps.

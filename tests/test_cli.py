@@ -13,10 +13,11 @@ import pytest
 import trimesh
 
 import ellipsim
-from ellipsim import classify, contact_scale
-from ellipsim.app import cli as cli_module
+from ellipsim import classify, contact_scale, shipped
 from ellipsim.app import fit as fitting
-from ellipsim.app.cli import Progress, main
+from ellipsim.app import mjcf, replay as rp, scenario, sweep as sw
+from ellipsim.app.cli import Progress, common, main
+from ellipsim.app.cli import scenarios as scenarios_command
 from ellipsim.core.samples import generic_pairs, near_contact_pairs
 
 
@@ -58,8 +59,28 @@ def test_bad_arguments_exit_2_with_one_line(args, message):
     assert message in one_line_error(cli(*args))
 
 
+@pytest.mark.parametrize(
+    "error, shown",
+    [
+        (scenario.ScenarioError("s.toml: missing key 'duration'"), "s.toml: missing key 'duration'"),
+        (mjcf.ModelError("m.xml: no keyframe named 'up'"), "m.xml: no keyframe named 'up'"),
+        (rp.MotionError("motion 'w.csv' has no frames"), "motion 'w.csv' has no frames"),
+        (sw.SweepError("seeds must be a positive integer, got 0"), "--seeds must be a positive integer, got 0"),
+    ],
+)
+def test_every_domain_error_is_a_user_error_reported_in_one_line(monkeypatch, capsys, error, shown):
+    """The CLI catches errors.UserError alone: a domain error that is not one would end in a traceback."""
+
+    def fail(args):
+        raise error
+
+    monkeypatch.setattr(scenarios_command, "list_scenarios", fail)
+    assert main(["list"]) == 2
+    assert capsys.readouterr().err == f"ellipsim: error: {shown}\n"
+
+
 def test_counts_take_float_notation_of_whole_numbers():
-    assert cli_module._count("1e3") == 1000 and cli_module._count("2_000") == 2000 and cli_module._count("0", allow_zero=True) == 0
+    assert common.count("1e3") == 1000 and common.count("2_000") == 2000 and common.count("0", allow_zero=True) == 0
 
 
 def test_version():
@@ -79,8 +100,8 @@ def test_hints_name_the_extra_to_install_from_a_checkout(monkeypatch, capsys, tm
     assert main(["compare", "replay", "--steps", "2", "--plot", str(tmp_path / "p.png")]) == 2
     root = os.path.dirname(os.path.dirname(os.path.abspath(ellipsim.__file__)))
     assert capsys.readouterr().err.strip() == f"ellipsim: error: plots need matplotlib: pip install '.[plot]' (in {root})"
-    monkeypatch.setattr(cli_module.shipped, "source_checkout", lambda: None)  # an installed copy
-    assert cli_module.install_hint("plot") == "pip install 'ellipsim[plot]'"
+    monkeypatch.setattr(shipped, "source_checkout", lambda: None)  # an installed copy
+    assert common.install_hint("plot") == "pip install 'ellipsim[plot]'"
 
 
 def test_sample_sets():
@@ -99,7 +120,7 @@ def test_show_must_not_be_negative():
 
 
 def test_compare_quotes_the_near_tangent_band(monkeypatch, capsys):
-    monkeypatch.setattr("ellipsim.app.cli.NEAR_TANGENT", 3e-6)
+    monkeypatch.setattr("ellipsim.app.comparison.NEAR_TANGENT", 3e-6)
     assert main(["compare", "replay", "--steps", "5", "--show", "0"]) == 0
     assert "within 3e-06 m of touching" in capsys.readouterr().out
 
@@ -111,7 +132,7 @@ def _unwritable(*args, **kwargs):
 @pytest.mark.parametrize(
     "args, patch",
     [
-        (["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"], ("ellipsim.app.cli.open", _unwritable)),
+        (["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"], ("ellipsim.app.cli.common.open", _unwritable)),
         (["compare", "replay", "--steps", "5", "--plot", "{dir}/c.png"], ("matplotlib.figure.Figure.savefig", _unwritable)),
         (["run", "replay", "--steps", "5", "--record", "{dir}/c.rrd"], ("ellipsim.app.record.os.replace", _unwritable)),
     ],
@@ -149,7 +170,7 @@ def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig,
 
 def test_progress_shows_a_rate_only_once_it_means_something(monkeypatch):
     clock = iter([0.0, 0.1, 0.5, 1.5, 2.0, 2.6, 3.0])
-    monkeypatch.setattr(cli_module.time, "perf_counter", lambda: next(clock))
+    monkeypatch.setattr(time, "perf_counter", lambda: next(clock))
     stream = io.StringIO()
     bar = Progress("x", 100, stream=stream)
     for done in (1, 5, 20, 30, 60, 70):

@@ -67,10 +67,30 @@ def names_of(model, kind, count, prefix):
     return names
 
 
-def geometry(model, name):
-    """SceneGeometry of `model`, a MuJoCo model, called `name`."""
-    body_names = names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")
-    body_names[0] = "world"
+@dataclasses.dataclass(frozen=True)
+class ModelNames:
+    """A model's geom and body names as reports and recordings show them (names_of: MuJoCo's, or
+    geom{i} / body{i}; body 0 is "world"), built once per model by `of`.
+
+    geoms : (ngeom,) list of str; bodies : (nbody,) list of str; geom_body : (ngeom,) int64, each
+    geom's body
+    """
+
+    geoms: list
+    bodies: list
+    geom_body: np.ndarray
+
+    @classmethod
+    def of(cls, model):
+        bodies = names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")
+        bodies[0] = "world"
+        geoms = names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
+        return cls(geoms, bodies, model.geom_bodyid.astype(np.int64))
+
+
+def geometry(model, name, names=None):
+    """SceneGeometry of `model`, a MuJoCo model, called `name`; names : its ModelNames (built when None)."""
+    names = ModelNames.of(model) if names is None else names
     moving = np.flatnonzero((model.body_jntnum > 0) | (model.body_mocapid >= 0)).astype(np.int64)
     rgba = model.geom_rgba.astype(np.float64).copy()
     material = model.geom_matid
@@ -92,10 +112,9 @@ def geometry(model, name):
     kind[~drawable] = _MESH  # an SDF without a mesh: listed as a mesh, drawn as nothing
     ids, _, _ = ellipsoid_geoms(model)
     return SceneGeometry(
-        name=name, body_names=body_names, body_parent=model.body_parentid.astype(np.int64),
+        name=name, body_names=list(names.bodies), body_parent=model.body_parentid.astype(np.int64),
         body_pos=model.body_pos.copy(), body_quat=model.body_quat.copy(), moving=moving,
-        geom_names=names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom"),
-        geom_body=model.geom_bodyid.astype(np.int64), geom_kind=kind, geom_size=model.geom_size.copy(),
+        geom_names=list(names.geoms), geom_body=names.geom_body.copy(), geom_kind=kind, geom_size=model.geom_size.copy(),
         geom_pos=model.geom_pos.copy(), geom_quat=model.geom_quat.copy(), geom_rgba=rgba, meshes=meshes,
         ellipsoids=ids.astype(np.int64),
     )  # fmt: skip
@@ -347,15 +366,16 @@ class FrameBuffer:
         return pos, quat
 
 
-def describe_events(events, ids, geom_names, body_names, geom_body):
-    """Contacts between frames (between.Events over the ellipsoid geoms `ids`) as dicts for reports:
-    {geoms, bodies, frame, t_begin, t_end (seconds), status, point (metres)}, in the events' order."""
+def describe_events(events, ids, names):
+    """Contacts between frames (between.Events over the ellipsoid geoms `ids`) as dicts for reports,
+    named by `names` (ModelNames): {geoms, bodies, frame, t_begin, t_end (seconds), status, point
+    (metres)}, in the events' order."""
     out = []
     for e in range(len(events)):
         g1, g2 = (int(ids[k]) for k in events.pair[e])
         out.append({
-            "geoms": [geom_names[g1], geom_names[g2]],
-            "bodies": [body_names[geom_body[g1]], body_names[geom_body[g2]]],
+            "geoms": [names.geoms[g1], names.geoms[g2]],
+            "bodies": [names.bodies[names.geom_body[g1]], names.bodies[names.geom_body[g2]]],
             "frame": int(events.frame[e]), "t_begin": float(events.begin[e]), "t_end": float(events.end[e]),
             "status": events.status_name(e), "point": [float(x) for x in events.point[e]],
         })  # fmt: skip
@@ -371,12 +391,26 @@ def event_line(d):
             f"({d['status']})")  # fmt: skip
 
 
-def record_events(recorder, events, ids, geom_names, body_names, geom_body):
-    """Send contacts between frames (between.Events over the ellipsoid geoms `ids`) to a
-    record.Recorder as markers: the contact point, labelled with the geoms, and a log line."""
+def between_lines(events, candidates, seconds, show, unit):
+    """The report's lines of contacts between frames (or steps: `unit`): event dicts of describe_events
+    (with "step" for "frame" when unit is steps), a count, then a line each, `show` at most;
+    candidates : pairs time_of_impact decided; seconds : their check's wall time, or None."""
+    timing = f" {seconds:.2f} s" if seconds is not None else ""
+    lines = [f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
+             f"motion): {len(events)}; time_of_impact on {candidates} pairs{timing}"]  # fmt: skip
+    for d in events[:show]:
+        lines.append("    " + event_line(d if "frame" in d else {**d, "frame": d["step"]}).replace("frames ", f"{unit} ", 1))
+    if len(events) > show:
+        lines.append(f"    ... and {len(events) - show} more (--show N, or --json)")
+    return lines
+
+
+def record_events(recorder, events, ids, names):
+    """Send contacts between frames (between.Events over the ellipsoid geoms `ids`, named by
+    `names`) to a record.Recorder as markers: the contact point, labelled with the geoms, and a log line."""
     if events is None or len(events) == 0:
         return
-    described = describe_events(events, ids, geom_names, body_names, geom_body)
+    described = describe_events(events, ids, names)
     recorder.write_events(events.frame, events.begin, events.until, events.point,
                           [f"{d['geoms'][0]} / {d['geoms'][1]}" for d in described],
                           ["contact between " + event_line(d) for d in described])  # fmt: skip

@@ -6,7 +6,7 @@ default pose), with controls that hold its actuators.
     key = keyframe(model, "stand")                # a name or an index; None: the default pose
     start(model, data, key, ctrl="hold")          # reset, forward, set data.ctrl (and data.act)
 
-Errors are ModelError (a ValueError) with one line naming the file and, for keyframes and
+Errors are ModelError (an errors.UserError, a ValueError) with one line naming the file and, for keyframes and
 controls, the available choices.
 """
 
@@ -14,6 +14,8 @@ import os
 
 import mujoco
 import numpy as np
+
+from .errors import UserError
 
 #: How the actuators are driven when nothing else drives them (`start`'s ctrl).
 CTRL_MODES = ("hold", "zero", "keyframe")
@@ -23,7 +25,7 @@ _FIXED_GAIN = int(mujoco.mjtGain.mjGAIN_FIXED)
 _AFFINE_BIAS = int(mujoco.mjtBias.mjBIAS_AFFINE)
 
 
-class ModelError(ValueError):
+class ModelError(UserError):
     """A model that cannot be used as asked; the message names the file (one line)."""
 
 

@@ -6,7 +6,7 @@ ellipsoid geoms touch or overlap.
 
 Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPosition, for its contact
 count on the same frames), then ellipsim's verdict on every candidate pair of every frame in one
-batched exact classify per chunk of frames (capture.FrameBuffer: sweep and prune per frame, MuJoCo's
+batched exact classify per chunk of frames (stepping.FrameLoop over a capture.FrameBuffer: sweep and prune per frame, MuJoCo's
 pair rules, core.classify), and the penetration depth of the overlapping pairs
 (core.signed_distance).  Only the touching and overlapping pairs are kept.  With between=True, also
 the contacts that begin and end between two frames (pairs separated at both frames that touch in
@@ -15,14 +15,14 @@ between on the interpolated motion: mujoco.between, core.time_of_impact).
 
 import dataclasses
 import os
-import time
 
 import mujoco
 import numpy as np
 
-from ..mujoco import between as between_events
 from . import capture, limits
+from .errors import UserError
 from .mjcf import make_data
+from .stepping import FrameLoop
 
 MOTION_FORMATS = (".npy", ".csv")
 
@@ -31,7 +31,7 @@ _JOINT_NAMES = {int(mujoco.mjtJoint.mjJNT_FREE): "free", int(mujoco.mjtJoint.mjJ
 _QPOS_WIDTH = {"free": 7, "ball": 4, "slide": 1, "hinge": 1}
 
 
-class MotionError(ValueError):
+class MotionError(UserError):
     """A motion file that cannot be played on the model; the message names the file (one line)."""
 
 
@@ -172,6 +172,11 @@ class ReplayResult:
     def frames(self):
         return len(self.touching)
 
+    @property
+    def names(self):
+        """geom_names, body_names and geom_body as a capture.ModelNames."""
+        return capture.ModelNames(self.geom_names, self.body_names, self.geom_body)
+
     def body_pairs(self):
         """Per pair of bodies that touch or overlap in some frame, most overlapping frames first:
         list of dicts {bodies, geoms (the deepest pair's), frames_overlapping, frames_touching,
@@ -205,7 +210,73 @@ class ReplayResult:
         looked for."""
         if self.between is None:
             return []
-        return capture.describe_events(self.between, self.ellipsoid_ids, self.geom_names, self.body_names, self.geom_body)
+        return capture.describe_events(self.between, self.ellipsoid_ids, self.names)
+
+
+    def summary(self, show):
+        """The lines `ellipsim replay` prints after playing: timings, frames in contact, the deepest
+        overlap, MuJoCo's contacts, `show` body pairs and contacts between frames at most."""
+        F = self.frames
+        over = np.flatnonzero(self.overlapping)
+        touch_only = np.flatnonzero((self.touching > 0) & (self.overlapping == 0))
+        lines = [f"  kinematics and MuJoCo's collision {self.seconds:.2f} s; ellipsim's exact verdicts on "
+                 f"{self.candidates} candidate pairs of {self.ellipsoids} ellipsoid geoms {self.analysis_seconds:.2f} s"]  # fmt: skip
+        if self.ellipsoids < 2:
+            lines.append("  the model has fewer than two ellipsoid or sphere geoms: ellipsim has no pair to test")
+        lines.append(f"  frames with overlapping pairs: {len(over)} of {F} ({frame_ranges(over)}); touching only: {len(touch_only)}")
+        if len(over):
+            f = int(over[np.argmax(self.deepest[over])])
+            g1, g2 = self.pair_geoms[self.deepest_pair[f]]
+            b1, b2 = (self.body_names[self.geom_body[g]] for g in (g1, g2))
+            lines.append(f"  deepest overlap: {length(self.deepest[f])} at frame {f} ({f / self.fps:.3f} s): bodies {b1} / {b2} "
+                         f"(geoms {self.geom_names[g1]} / {self.geom_names[g2]})")  # fmt: skip
+        lines.append(f"  MuJoCo's contacts on the same frames: {int(self.mujoco_contacts.sum())} in all (max {int(self.mujoco_contacts.max())} "
+                     f"in a frame), {int(self.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(self.overlapping.sum())} "
+                     f"overlapping, {int(self.touching.sum())} touching pairs")  # fmt: skip
+        body_pairs = self.body_pairs()
+        if body_pairs:
+            lines.append("  body pairs in contact (most overlapping frames first):")
+            for bp in body_pairs[:show]:
+                frames = frame_ranges(bp["overlap_frames"], most=4)
+                lines.append(f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
+                             f"deepest {length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}")  # fmt: skip
+            if len(body_pairs) > show:
+                lines.append(f"    ... and {len(body_pairs) - show} more (--show N, or --json)")
+        if self.between is not None:
+            lines += capture.between_lines(self.between_events(), self.between_candidates, self.between_seconds, show, "frames")
+        elif self.ellipsoids >= 2:
+            lines.append("  contacts that begin and end between two frames: not looked for (--between-frames)")
+        return lines
+
+    def report(self, model_path, motion_path, nq):
+        """The JSON report (`ellipsim replay --json`) of the motion file `motion_path` played on the
+        model file `model_path` (nq qpos values): totals, body pairs, contacts between frames, per frame."""
+        per_pair = [[] for _ in range(self.frames)]
+        for p in range(len(self.pair_frame)):
+            g1, g2 = (int(g) for g in self.pair_geoms[p])
+            per_pair[int(self.pair_frame[p])].append({
+                "geoms": [self.geom_names[g1], self.geom_names[g2]],
+                "bodies": [self.body_names[self.geom_body[g1]], self.body_names[self.geom_body[g2]]],
+                "relation": "overlapping" if self.pair_relation[p] == 2 else "touching",
+                "depth": None if self.pair_relation[p] != 2 else float(self.pair_depth[p]),
+            })  # fmt: skip
+        return {
+            "model": os.path.abspath(model_path), "motion": os.path.abspath(motion_path), "frames": self.frames,
+            "fps": self.fps, "nq": int(nq), "ellipsoid_geoms": self.ellipsoids, "candidate_pairs": self.candidates,
+            "frames_overlapping": int(np.count_nonzero(self.overlapping)),
+            "frames_touching_only": int(np.count_nonzero((self.touching > 0) & (self.overlapping == 0))),
+            "overlapping_pairs": int(self.overlapping.sum()), "touching_pairs": int(self.touching.sum()),
+            "mujoco_contacts": int(self.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(self.mujoco_pairs.sum()),
+            "deepest": float(self.deepest.max()) if self.frames else 0.0,
+            "body_pairs": self.body_pairs(),
+            "between_frames": self.between_events() if self.between is not None else None,
+            "per_frame": {
+                "time": (np.arange(self.frames) / self.fps).tolist(), "touching": self.touching.tolist(),
+                "overlapping": self.overlapping.tolist(), "deepest": self.deepest.tolist(),
+                "mujoco_contacts": self.mujoco_contacts.tolist(), "mujoco_ellipsoid_contacts": self.mujoco_pairs.tolist(),
+                "pairs": per_pair,
+            },
+        }  # fmt: skip
 
 
 def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay", between=False):
@@ -216,7 +287,7 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         of each ellipsoid (centre linear, rotation along the shortest arc: core.motion), which is not
         the motion of qpos interpolated; the recording gets a marker at each one's first contact.
         It runs on a thread of its own while the frames are posed (FrameBuffer's background): 2-14%
-        more wall time with a free core, 15-51% on one (16 figures, 2000 frames; cli.BETWEEN_DEFAULT).
+        more wall time with a free core, 15-51% on one (16 figures, 2000 frames; cli.common.BETWEEN_DEFAULT).
     progress : optional callable(frame, F).  recorder : optional record.Recorder, begun with the
     model's geometry (named `name`) and sent every chunk (closing it is the caller's).
     Returns a ReplayResult.  ValueError names a bad motion shape or fps.
@@ -227,34 +298,13 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     if isinstance(fps, bool) or not isinstance(fps, (int, float, np.floating)) or not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive finite number, got {fps!r}")
     data = make_data(model, name)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True, between=between, background=between)
-    geom_names = capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom")
-    body_names = ["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:]
-    if recorder is not None:
-        recorder.begin(capture.geometry(model, name))
     F = len(motion)
     per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
-    pairs, relations, depths, events = [], [], [], []
-    timers = {"analysis": 0.0, "record": 0.0}
+    pairs, relations, depths = [], [], []
     candidates = 0
 
-    def collect(found):
-        """Keep and record contacts between frames (between.Events, in frame order)."""
-        events.extend(found)
-        if recorder is not None:
-            t0 = time.perf_counter()
-            for ev in found:
-                capture.record_events(recorder, ev, buffer.ids, geom_names, body_names, model.geom_bodyid)
-            timers["record"] += time.perf_counter() - t0
-
-    def flush():
+    def on_chunk(chunk):
         nonlocal candidates
-        t0 = time.perf_counter()
-        chunk = buffer.flush()
-        t1 = time.perf_counter()
-        timers["analysis"] += t1 - t0
-        if chunk is None:
-            return
         fr = chunk.frames
         at = fr.frame
         per_frame["touching"][at] = fr.touching_counts
@@ -266,29 +316,18 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         pairs.append(chunk.pairs[hit])
         relations.append(chunk.relation[hit])
         depths.append(chunk.depth[hit])
-        if recorder is not None:
-            recorder.write(fr)
-            timers["record"] += time.perf_counter() - t1
-        collect(([chunk.events] if chunk.events is not None else []) + buffer.collect())  # inline, or done in the background
 
-    t0 = time.perf_counter()
-    try:
-        for f in range(F):
-            data.qpos[:] = motion[f]
-            data.time = f / fps
-            mujoco.mj_fwdPosition(model, data)
-            if buffer.add(data, data.time):
-                flush()
-            if progress is not None:
-                progress(f + 1, F)
-        flush()
-        t1 = time.perf_counter()
-        found = buffer.collect(wait=True)
-        timers["analysis"] += time.perf_counter() - t1
-        collect(found)
-    finally:
-        buffer.close()
-    total = time.perf_counter() - t0
+    loop = FrameLoop(
+        model, recorder=recorder, title=name, on_chunk=on_chunk, depth=True, between=between, background=between
+    )
+
+    def pose(f):
+        data.qpos[:] = motion[f]
+        data.time = f / fps
+        mujoco.mj_fwdPosition(model, data)
+
+    loop.run(data, F, pose, progress=progress)
+    buffer, names = loop.buffer, loop.names
     pairs = np.concatenate(pairs) if pairs else np.zeros((0, 3), dtype=np.int64)
     relation = np.concatenate(relations) if relations else np.zeros(0, dtype=np.int8)
     depth = np.where(relation == 2, np.concatenate(depths), np.nan) if len(relation) else np.zeros(0)
@@ -304,11 +343,9 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         fps=float(fps), touching=per_frame["touching"], overlapping=per_frame["overlapping"], deepest=deepest,
         deepest_pair=deepest_pair, mujoco_contacts=per_frame["mujoco_contacts"], mujoco_pairs=per_frame["mujoco_pairs"],
         pair_frame=pairs[:, 0].copy(), pair_geoms=geoms, pair_relation=relation, pair_depth=depth,
-        geom_names=geom_names, body_names=body_names,
-        geom_body=model.geom_bodyid.astype(np.int64), ellipsoids=len(buffer.ids), candidates=candidates,
-        seconds=total - timers["analysis"] - timers["record"], analysis_seconds=timers["analysis"],
-        record_seconds=timers["record"], ellipsoid_ids=buffer.ids.astype(np.int64),
-        between=between_events.Events.concatenate(events) if between else None,
+        geom_names=names.geoms, body_names=names.bodies, geom_body=names.geom_body, ellipsoids=len(buffer.ids),
+        candidates=candidates, seconds=loop.seconds, analysis_seconds=loop.analysis_seconds,
+        record_seconds=loop.record_seconds, ellipsoid_ids=buffer.ids.astype(np.int64), between=loop.events(),
         between_candidates=buffer.between.candidates if between else 0, between_seconds=buffer.between_seconds,
     )  # fmt: skip
 
@@ -325,3 +362,7 @@ def frame_ranges(frames, most=8):
     more = len(runs) - most
     return ", ".join(runs[:most]) + (f", ... ({more} more)" if more > 0 else "")
 
+
+def length(metres):
+    """A length as text: centimetres below a metre ("1.23 cm"), else metres."""
+    return f"{metres * 100:.3g} cm" if metres < 1 else f"{metres:.3g} m"

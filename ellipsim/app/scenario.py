@@ -22,6 +22,7 @@ import mujoco
 
 from .. import shipped
 from ..mujoco import scenes
+from .errors import UserError
 from .mjcf import CTRL_MODES, one_line
 
 MODES = ("builtin", "filter", "narrowphase")
@@ -48,7 +49,7 @@ _CONTROL_KEYS = ("kind", "amplitude", "period", "phase_step", "seed", "arm", "sh
                  "shoulder_rot", "elbow", "ramp", "stagger", "keys")  # fmt: skip
 
 
-class ScenarioError(ValueError):
+class ScenarioError(UserError):
     """A scenario that cannot be used; the message names the file and the key."""
 
 

@@ -1,8 +1,8 @@
 """Running a scenario: build its model, drive it (or pose it, when kinematic), decide its frames.
 
-`run` steps a scenario, hands a frame every 1/RECORD_FPS simulated seconds to a capture.FrameBuffer
-(ellipsim's exact verdicts, a chunk of frames at a time) and each decided chunk to an optional
-record.Recorder; for a kinematic scenario, whose every step is a frame, it also finds the contacts
+`run` steps a scenario through a stepping.FrameLoop, a frame every 1/RECORD_FPS simulated seconds
+(ellipsim's exact verdicts, a chunk of frames at a time, each decided chunk to an optional
+record.Recorder); for a kinematic scenario, whose every step is a frame, it also finds the contacts
 that begin and end between two frames (mujoco.between).  It keeps a few counts per frame (and, with keep=True, the ellipsoids' centres and
 states), so its memory does not grow with the number of steps beyond that.  `validation` steps the
 scenario under mujoco.validate (MuJoCo's contacts against the exact test, pair by pair).
@@ -10,7 +10,6 @@ scenario under mujoco.validate (MuJoCo's contacts against the exact test, pair b
 
 import contextlib
 import dataclasses
-import time
 
 import mujoco
 import numpy as np
@@ -21,6 +20,7 @@ from ..mujoco.validate import validate
 from . import capture, limits, mjcf
 from .control import Controller
 from .scenario import MODES, Scenario, ScenarioError
+from .stepping import FrameLoop
 
 RECORD_FPS = 60.0  # frames per simulated second kept for recording and comparison
 
@@ -150,13 +150,51 @@ class Run:
     between_seconds: float = 0.0
 
 
+    def summary(self, wall, *, recording=False, between_asked=False, show=10):
+        """The lines `ellipsim run` prints after running: stepping rate, the other costs out of `wall`
+        (seconds, the whole run), contacts, ellipsim's counters, `show` contacts between frames at
+        most; recording: a recording was written; between_asked: --between-frames was given."""
+        s, fr, c = self.scenario, self.frames, self.counters
+        rate = self.steps / max(self.seconds, 1e-9)
+        stepper = "mj_forward per keyframed pose" if s.kinematic else f"mj_step, {self.mode}"
+        rest = wall - self.seconds - self.analysis_seconds - self.record_seconds
+        lines = [
+            f"  stepping: {self.seconds:.2f} s for {self.steps} steps, {rate:,.0f} steps/s ({rate * s.timestep:.2f}x real time; "
+            f"{stepper}, copying frames out included)",
+            f"  not in that: model build and kernel loading {rest:.2f} s, "
+            f"ellipsim's verdicts on {len(fr.times)} frames {self.analysis_seconds:.2f} s"
+            + (f", recording {self.record_seconds:.2f} s" if recording else ""),
+            f"  contacts per step (all geoms): mean {self.contacts_mean:.1f}, max {self.contacts_max}",
+        ]
+        if len(fr.times):
+            lines.append(
+                f"  ellipsoid pairs over {len(fr.times)} recorded frames: MuJoCo contacts mean {fr.builtin_counts.mean():.1f} "
+                f"(max {fr.builtin_counts.max()}), ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
+                f"(max {fr.ellipsim_counts.max()})"
+            )
+        if "seen" in c:
+            share = c["discarded"] / max(c["seen"], 1)
+            lines.append(f"  filter: {c['seen']} pairs tested, {c['discarded']} skipped ({share:.0%}), {c['passed']} passed to MuJoCo")
+        elif "calls" in c:
+            lines.append(
+                f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
+                f"{c['fallbacks']} fallbacks to MuJoCo"
+            )
+        if self.between is not None:
+            lines += capture.between_lines(self.between, self.between_candidates, self.between_seconds, show, "frames")
+        elif between_asked:
+            lines.append("  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)")
+        return lines
+
+
 def recorded_frames(s, steps):
     """How many frames `run` records in `steps` steps of scenario `s`."""
-    every = _every(s)
+    every = record_every(s)
     return (steps + every - 1) // every
 
 
-def _every(s):
+def record_every(s):
+    """Steps between two frames `run` records: 1 for a kinematic scenario, else 1/RECORD_FPS seconds."""
     return 1 if s.kinematic else max(1, int(round(1.0 / (RECORD_FPS * s.timestep))))
 
 
@@ -204,60 +242,41 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
     model, data = build(s)
     control = controller(model, data, s)
     between = bool(between and s.kinematic)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, between=between)
-    names = (capture.names_of(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, "geom"),
-             ["world"] + capture.names_of(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, "body")[1:], model.geom_bodyid)  # fmt: skip
-    if recorder is not None:
-        recorder.begin(capture.geometry(model, s.name))
-    every = _every(s)
-    chunks, kept, events = [], [], []
-    timers = {"analysis": 0.0, "record": 0.0}
+    chunks, kept = [], []
 
-    def flush():
-        t0 = time.perf_counter()
-        chunk = buffer.flush()
-        t1 = time.perf_counter()
-        timers["analysis"] += t1 - t0
-        if chunk is None:
-            return
+    def on_chunk(chunk):
         f = chunk.frames
         chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
         if keep:
             kept.append((chunk.centers.copy(), f.state))
-        if chunk.events is not None:
-            events.extend(capture.describe_events(chunk.events, buffer.ids, *names))
-        if recorder is not None:
-            recorder.write(f)
-            capture.record_events(recorder, chunk.events, buffer.ids, *names)
-            timers["record"] += time.perf_counter() - t1
 
+    loop = FrameLoop(model, recorder=recorder, title=s.name, on_chunk=on_chunk, between=between)
     ncon_sum, ncon_max = 0, 0
+
+    def step(k):
+        nonlocal ncon_sum, ncon_max
+        try:
+            advance(model, data, s, control, k)
+        except mujoco.FatalError as exc:
+            raise ScenarioError(f"{_label(s)} MuJoCo stopped at step {k}: {mjcf.one_line(exc)}") from None
+        ncon_sum += data.ncon
+        ncon_max = max(ncon_max, data.ncon)
+
     att = attach(model, data, mode=mode) if mode != "builtin" and not s.kinematic else None
-    with att if att else contextlib.nullcontext():
-        t0 = time.perf_counter()  # after attaching: the first attach compiles the callback
-        for k in range(steps):
-            try:
-                advance(model, data, s, control, k)
-            except mujoco.FatalError as exc:
-                raise ScenarioError(f"{_label(s)} MuJoCo stopped at step {k}: {mjcf.one_line(exc)}") from None
-            ncon_sum += data.ncon
-            ncon_max = max(ncon_max, data.ncon)
-            if k % every == 0 and buffer.add(data, data.time):
-                flush()
-            if progress is not None:
-                progress(k + 1, steps)
-        flush()
-        total = time.perf_counter() - t0
-    counters = att.counters if att else {}
+    with att if att else contextlib.nullcontext():  # attached before the loop's timer: attaching compiles
+        loop.run(data, steps, step, every=record_every(s), progress=progress)
     frames = FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
     kept_frames = None
     if keep:
-        kept_frames = Kept([names[0][g] for g in buffer.ids], np.concatenate([c for c, _ in kept]),
-                           np.concatenate([st for _, st in kept]))  # fmt: skip
-    seconds = total - timers["analysis"] - timers["record"]
-    return Run(s, mode, steps, seconds, timers["analysis"], timers["record"], frames, counters,
-               ncon_sum / steps, int(ncon_max), kept_frames, events if between else None,
-               buffer.between.candidates if between else 0, buffer.between_seconds)  # fmt: skip
+        centers, state = (np.concatenate(parts) for parts in zip(*kept))
+        kept_frames = Kept([loop.names.geoms[g] for g in loop.buffer.ids], centers, state)
+    events = loop.events()
+    return Run(
+        s, mode, steps, loop.seconds, loop.analysis_seconds, loop.record_seconds, frames,
+        att.counters if att else {}, ncon_sum / steps, int(ncon_max), kept_frames,
+        capture.describe_events(events, loop.buffer.ids, loop.names) if between else None,
+        loop.buffer.between.candidates if between else 0, loop.buffer.between_seconds,
+    )  # fmt: skip
 
 
 def validation(s, steps=None, progress=None, between=False):

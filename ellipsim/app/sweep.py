@@ -59,6 +59,8 @@ import numpy as np
 from ..core import threads
 from ..core.tolerances import NEAR_TANGENT
 from . import scenario as scenarios
+from .comparison import split_disagreements
+from .errors import UserError
 from .mjcf import one_line
 
 BACKENDS = ("local", "ray")
@@ -104,8 +106,11 @@ TIMING = ("wall_seconds", "steps_per_second")
 _KEY = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")
 
 
-class SweepError(ValueError):
-    """A sweep that cannot run; the message starts with the argument it is about."""
+class SweepError(UserError):
+    """A sweep that cannot run; the message starts with the argument it is about (the command line's
+    option of that name: `ellipsim sweep` writes it as --vary, --seeds, ...)."""
+
+    cli_prefix = "--"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -312,21 +317,6 @@ def columns(variants):
 # --- one variant ---------------------------------------------------------------------------------
 
 
-def split_disagreements(validation):
-    """(missed, extra, near_tangent) lists of a mujoco.Validation's disagreements: within
-    NEAR_TANGENT metres of touching (mj_geomDistance), else MuJoCo's contact the exact test
-    separates (missed), else an overlap MuJoCo made no contact for (extra)."""
-    missed, extra, near = [], [], []
-    for d in validation.disagreements:
-        if abs(d.geom_distance) < NEAR_TANGENT:
-            near.append(d)
-        elif d.mujoco_contact:
-            missed.append(d)
-        else:
-            extra.append(d)
-    return missed, extra, near
-
-
 def run_variant(variant):
     """The row of one variant (a dict of COLUMNS' values): both passes, or its error."""
     row = {"variant": variant.id, "scenario": variant.scenario, **variant.values, "mode": variant.mode, "steps": variant.steps}
@@ -361,46 +351,37 @@ def _measure(variant):
 
 
 def _mode_pass(s, variant, recorder):
-    """Step scenario `s` in its mode as simulate.run does, with a FrameBuffer that also measures
-    the depth of every overlapping pair (simulate.run keeps counts only)."""
+    """Step scenario `s` in its mode as simulate.run does (a stepping.FrameLoop), its FrameBuffer
+    also measuring the depth of every overlapping pair (simulate.run keeps counts only)."""
     import mujoco
 
     from ..mujoco.attachment import attach
-    from . import capture, simulate
+    from . import simulate
+    from .stepping import FrameLoop
 
     model, data = simulate.build(s)
     control = simulate.controller(model, data, s)
-    buffer = capture.FrameBuffer(model, record=recorder is not None, depth=True)
-    if recorder is not None:
-        recorder.begin(capture.geometry(model, f"{s.name} {_describe(variant.values)} [{variant.id}]"))
-    every = simulate._every(s)  # the frames `ellipsim run` records
-    deepest, aside = 0.0, 0.0
+    deepest = 0.0
 
-    def flush():
-        nonlocal deepest, aside
-        t0 = time.perf_counter()
-        chunk = buffer.flush()
-        if chunk is not None:
-            if np.any(chunk.depth >= 0):
-                deepest = max(deepest, float(np.nanmax(chunk.depth)))
-            if recorder is not None:
-                recorder.write(chunk.frames)
-        aside += time.perf_counter() - t0
+    def on_chunk(chunk):
+        nonlocal deepest
+        if np.any(chunk.depth >= 0):
+            deepest = max(deepest, float(np.nanmax(chunk.depth)))
+
+    title = f"{s.name} {_describe(variant.values)} [{variant.id}]"
+    loop = FrameLoop(model, recorder=recorder, title=title, on_chunk=on_chunk, depth=True)
+
+    def step(k):
+        try:
+            simulate.advance(model, data, s, control, k)
+        except mujoco.FatalError as exc:
+            raise scenarios.ScenarioError(f"MuJoCo stopped at step {k} of the {s.mode} pass: {one_line(exc)}") from None
 
     att = attach(model, data, mode=s.mode) if s.mode != "builtin" and not s.kinematic else None
     with att if att else contextlib.nullcontext():
-        t0 = time.perf_counter()
-        for k in range(variant.steps):
-            try:
-                simulate.advance(model, data, s, control, k)
-            except mujoco.FatalError as exc:
-                raise scenarios.ScenarioError(f"MuJoCo stopped at step {k} of the {s.mode} pass: {one_line(exc)}") from None
-            if k % every == 0 and buffer.add(data, data.time):
-                flush()
-        flush()
-        stepping = time.perf_counter() - t0 - aside
+        loop.run(data, variant.steps, step, every=simulate.record_every(s))  # the frames `ellipsim run` records
     fallbacks = att.counters.get("fallbacks", 0) if s.mode == "narrowphase" and att else None
-    return {"steps_per_second": variant.steps / max(stepping, 1e-9), "fallbacks": fallbacks,
+    return {"steps_per_second": variant.steps / max(loop.seconds, 1e-9), "fallbacks": fallbacks,
             "mujoco_warnings": int(data.warning.number.sum()), "deepest_penetration": deepest}  # fmt: skip
 
 
@@ -765,6 +746,34 @@ def sweep(scenario, vary=None, *, seeds=None, steps=None, mode=None, out=None, b
     if out is not None and plot:
         plot_rows(rows, list(variants[0].values), os.path.join(out, PLOT), title=f"{variants[0].scenario}: {len(rows)} variants")
     return rows
+
+
+#: Rows of a sweep `rows_table` shows at most (results.csv has them all).
+ROWS_SHOWN = 40
+
+
+def rows_table(rows, keys):
+    """The lines `ellipsim sweep` prints of its rows: a column per varied key in `keys` and per
+    metric (the first ROWS_SHOWN rows; a failed row ends with its error)."""
+
+    def cell(value, fmt="{}"):
+        return "" if value is None else fmt.format(value)
+
+    head = ["variant", *keys, "steps/s", "pairs", "MuJoCo", "exact", "missed", "extra", "near", "fallbacks", "deepest mm"]
+    table = [
+        [r["variant"], *(format_value(r[k]) for k in keys), cell(r["steps_per_second"], "{:,.0f}"), cell(r["pairs"]),
+         cell(r["mujoco_contacts"]), cell(r["ellipsim_overlaps"]), cell(r["missed"]), cell(r["extra"]), cell(r["near_tangent"]),
+         cell(r["fallbacks"]), cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}")]
+        + ([f"failed: {r['error']}"] if r["error"] else [])
+        for r in rows[:ROWS_SHOWN]
+    ]  # fmt: skip
+    width = [max(len(str(row[k])) for row in [head, *table] if k < len(row)) for k in range(len(head))]
+    lines = ["  " + "  ".join(f"{h:>{w}}" for h, w in zip(head, width))]
+    for row in table:
+        lines.append("  " + "  ".join(f"{c:>{w}}" for c, w in zip(row, width)) + ("  " + row[-1] if len(row) > len(head) else ""))
+    if len(rows) > ROWS_SHOWN:
+        lines.append(f"  ... and {len(rows) - ROWS_SHOWN} more")
+    return lines
 
 
 # --- the plot --------------------------------------------------------------------------------------

@@ -1,0 +1,39 @@
+"""`ellipsim bench`: the benchmark suite (ellipsim/app/bench/)."""
+
+import os
+
+from ..errors import UserError
+from .common import install_hint
+
+
+def bench(args):
+    """The benchmark suite (ellipsim/app/bench/): writes DIR/report.md and PNG plots."""
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise UserError(f"--out {args.out!r} exists and is not a directory")
+    if not os.path.isdir(os.path.dirname(os.path.abspath(args.out))):
+        raise UserError(f"--out: parent directory of {args.out!r} does not exist")
+    try:
+        __import__("matplotlib")
+        __import__("mpmath")
+    except ImportError:
+        raise UserError(f"ellipsim bench needs matplotlib and mpmath: {install_hint('bench')}") from None
+    from ellipsim.app import bench as suite
+
+    unknown = [name for name in args.only or () if name not in suite.SECTIONS]
+    if unknown:
+        raise UserError(f"--only: unknown section {unknown[0]!r}; the sections are {', '.join(suite.SECTIONS)}")
+    print(f"ellipsim bench{' --quick' if args.quick else ''}: writing {args.out}/report.md and plots", flush=True)
+    path, seconds = suite.run(args.out, quick=args.quick, only=args.only)
+    print(f"  done in {seconds:.0f} s: {path}")
+    return 0
+
+
+def add_parser(sub):
+    """The `bench` subcommand and its arguments."""
+    p = sub.add_parser("bench", help="time against error, numerical stress, scaling, thesis Table 1: report + plots")
+    p.add_argument("--quick", action="store_true", help="smaller sets: under 5 minutes on 2 cores")
+    p.add_argument("--out", default="bench-report", metavar="DIR", help="output directory (default bench-report)")
+    # the sections are ellipsim/app/bench's SECTIONS, checked once the suite is imported (not at start-up)
+    p.add_argument("--only", nargs="+", metavar="SECTION",
+                   help="run only these sections of the suite (accuracy, stress, ...: a name it does not have lists them)")
+    p.set_defaults(run=bench)

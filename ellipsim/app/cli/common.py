@@ -1,0 +1,248 @@
+"""What the commands share: argument types, the progress bar, loading a scenario, checking and writing
+output files, recording, the scene header, the options of MJCF models and of the contacts between frames."""
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+from ... import shipped
+from ..errors import UserError
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with a one-line error and exit status 2 (no usage dump)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def count(text, *, allow_zero=False):
+    """An integer count from the command line: digits, or a float notation of a whole number ("1e6")."""
+    what = "a non-negative integer" if allow_zero else "a positive integer"
+    try:
+        value = int(text.replace("_", ""))
+    except ValueError:
+        try:
+            real = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not math.isfinite(real) or real != int(real):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        value = int(real)
+    if value < 0 or (value == 0 and not allow_zero):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+    return value
+
+
+def positive_int(text):
+    return count(text)
+
+
+def non_negative_int(text):
+    return count(text, allow_zero=True)
+
+
+def positive_real(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
+    return value
+
+
+def install_hint(extra):
+    """How to install an extra: `pip install '.[extra]'` in a source checkout, else by package name."""
+    root = shipped.source_checkout()
+    if root is not None:
+        here = os.path.abspath(os.getcwd()) == str(root)
+        return f"pip install '.[{extra}]'" + ("" if here else f" (in {root})")
+    return f"pip install 'ellipsim[{extra}]'"
+
+
+class Progress:
+    """A progress bar on stderr: redrawn in place on a terminal, a line every 10% otherwise.
+
+    The rate and the time left are shown only once they mean something: measured from WARMUP
+    seconds after the start (the first steps pay for compiling kernels and touching memory) over at
+    least WARMUP seconds more.
+    """
+
+    WARMUP = 1.0  # seconds
+
+    def __init__(self, label, total, stream=None, unit="steps"):
+        self.label, self.total, self.unit = label, total, unit
+        self.stream = stream or sys.stderr
+        self.tty = self.stream.isatty()
+        self.t0 = time.perf_counter()
+        self.shown = -1.0
+        self.anchor = None  # (seconds, done) from which the rate is measured
+        self.open = False  # a redrawn line is on the terminal without its newline
+
+    def __call__(self, done, total=None):
+        total = total or self.total
+        now = time.perf_counter() - self.t0
+        if self.anchor is None and now >= self.WARMUP:
+            self.anchor = (now, done)
+        frac = done / total
+        if done < total and (now - self.shown < 0.2 if self.tty else frac * 10 < int(self.shown * 10) + 1):
+            return
+        self.shown = now if self.tty else frac
+        bar = "#" * int(30 * frac)
+        line = f"{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{total} {self.unit}"
+        if self.anchor is not None and now - self.anchor[0] >= self.WARMUP and done > self.anchor[1]:
+            rate = (done - self.anchor[1]) / (now - self.anchor[0])
+            line += f", {rate:,.0f}/s"
+            if done < total:
+                line += f", {(total - done) / rate:.0f} s left"
+        if self.tty:
+            self.stream.write("\r" + line + ("\n" if done >= total else ""))
+            self.open = done < total
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def close(self):
+        """End a line left open on the terminal (before an error message)."""
+        if self.open:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.open = False
+
+
+progress_bars = []  # bars of this command, closed before an error or interruption is reported
+
+
+def bar(label, total, unit="steps"):
+    bar = Progress(label, total, unit=unit)
+    progress_bars.append(bar)
+    return bar
+
+
+def end_lines():
+    for bar in progress_bars:
+        bar.close()
+    sys.stdout.flush()
+
+
+def load_scenario(args):
+    """The Scenario of args.scenario (a name, a .toml or an MJCF .xml), with --key / --ctrl applied."""
+    from .. import scenario
+
+    return scenario.with_model_options(scenario.load(args.scenario), key=args.key, ctrl=args.ctrl)
+
+
+def steps_of(s, args, check):
+    """--steps or the scenario's duration, checked against memory: UserError naming which."""
+    steps = args.steps or s.steps
+    try:
+        check(s, steps)
+    except ValueError as exc:
+        source = f"--steps {steps}" if args.steps else f"{s.path}: duration {s.duration:g} s ({steps} steps)"
+        raise UserError(f"{source}: {exc}") from None
+    return steps
+
+
+def check_output(path, suffix, option):
+    """The output file's name must end in `suffix`, not be a directory, and its directory must exist
+    and be writable: checked before running."""
+    if not path.endswith(suffix):
+        raise UserError(f"{option} must name a {suffix} file, got {path!r}")
+    if os.path.isdir(path):
+        raise UserError(f"{option}: {path!r} is a directory, not a {suffix} file")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise UserError(f"{option}: directory {folder!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise UserError(f"{option}: cannot write {path!r} (permission denied)")
+
+
+def write_error(option, path, exc):
+    """UserError of an output file that could not be written after all."""
+    return UserError(f"{option}: cannot write {path!r}: {getattr(exc, 'strerror', None) or exc}")
+
+
+def write_json(path, report):
+    """Write `report` to `path` through a partial file renamed when complete (none is left behind)."""
+    partial = f"{path}.part"
+    try:
+        with open(partial, "w") as f:
+            json.dump(report, f, indent=1)
+        os.replace(partial, path)
+    except OSError as exc:
+        raise write_error("--json", path, exc) from None
+    finally:
+        if os.path.exists(partial):
+            os.remove(partial)
+
+
+def recorder_for(path):
+    """A record.Recorder for --record (ValueError on a bad path is a user mistake)."""
+    from .. import record
+
+    try:
+        return record.Recorder(path)
+    except ValueError as exc:
+        raise UserError(f"--record: {exc}") from None
+
+
+def recorded(recorder, fn, *args, **kwargs):
+    """fn(*args, recorder=recorder, **kwargs), then the recording completed and moved into place;
+    on any error or interruption the partial file is removed.  Returns (fn's result, size in bytes)."""
+    if recorder is None:
+        return fn(*args, **kwargs), 0
+    try:
+        with recorder:
+            result = fn(*args, recorder=recorder, **kwargs)
+        return result, os.path.getsize(recorder.path)
+    except OSError as exc:
+        raise write_error("--record", recorder.path, exc) from None
+
+
+#: From this many figures on, say before building that MuJoCo's compile will take a while: its
+#: parser and compiler take time quadratic in the bodies (measured on the 2-core VM: 27 s for 500
+#: figures, 92-170 s for 1000; ellipsim's own scene building is linear, 1.2 s and 1.6 s).
+BIG_SCENE = 200
+
+
+def header(s):
+    print(f"{s.name}: {s.description}")
+    if s.scene["kind"] == "figures" and s.scene["figures"] >= BIG_SCENE:
+        from ...mujoco.scenes import LIMBS
+
+        n = s.scene["figures"]
+        print(f"  {n} figures: {len(LIMBS) * n + 1} bodies for MuJoCo to compile, in time that grows with their square "
+              "(500 figures: ~30 s on 2 cores) ...", flush=True)
+    if s.scene["kind"] == "mjcf":
+        sc = s.scene
+        start = "default pose" if sc["key"] is None else f"keyframe {sc['key']!r}"
+        print(f"  from its {start}, actuators: {sc['ctrl']}")
+
+
+def model_options(p):
+    p.add_argument("--key", metavar="NAME|INDEX", help="an MJCF model's keyframe to start from (default: its default pose)")
+    p.add_argument("--ctrl", choices=("hold", "zero", "keyframe"),
+                   help="an MJCF model's actuators: hold the initial pose (default), zero, or the keyframe's ctrl")
+
+
+#: Whether the contacts between frames (steps) are looked for unless --between-frames or
+#: --no-between-frames says.  On: measured on 2 cores (in-process replay, 16 figures, 2000 frames,
+#: gentle and violent sinusoidal hinge motions, min of 3), they add 2-7% and 5-14% to `replay` (0.69
+#: -> 0.71 s, 1.01 -> 1.09-1.15 s; checked in the background while frames are posed; on one core 15-20%
+#: and 46-51%; before the capsule broad phase: 61-68% and 92-109%), 4-5% to `compare pile` (4.52 ->
+#: 4.68 s; before: 45%) and 11% to `compare crowd` (3.91 -> 4.35 s; before: 35%).
+BETWEEN_DEFAULT = True
+
+
+def between_option(p, what):
+    """--between-frames / --no-between-frames; args.between_frames is None when neither is given."""
+    p.add_argument("--between-frames", action=argparse.BooleanOptionalAction, default=None,
+                   help=f"{what} (continuous collision detection; default: {'on' if BETWEEN_DEFAULT else 'off'})")
+
+
+def between(args):
+    return BETWEEN_DEFAULT if args.between_frames is None else args.between_frames

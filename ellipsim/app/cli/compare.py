@@ -1,0 +1,99 @@
+"""`ellipsim compare`: MuJoCo's built-in contacts against ellipsim's exact verdicts (comparison.Comparison), and their plot."""
+
+import numpy as np
+
+from ..errors import UserError
+from .common import (
+    bar,
+    between,
+    between_option,
+    check_output,
+    header,
+    install_hint,
+    load_scenario,
+    model_options,
+    non_negative_int,
+    positive_int,
+    steps_of,
+    write_error,
+    write_json,
+)
+
+
+def compare(args):
+    """MuJoCo's built-in contacts against ellipsim's exact verdicts, per frame and in total."""
+    from .. import simulate
+    from ..comparison import Comparison
+
+    s = load_scenario(args)
+    if args.json:
+        check_output(args.json, ".json", "--json")
+    if args.plot:
+        check_output(args.plot, ".png", "--plot")
+        _pyplot()
+    steps = steps_of(s, args, _check_validation)
+    header(s)
+    print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
+    v, model = simulate.validation(s, steps, progress=bar(f"  {s.name}", steps), between=between(args))
+    result = Comparison.of(s.name, v, model)
+    print("\n".join(result.summary(args.show)))
+    if args.json:
+        write_json(args.json, result.report())
+        print(f"  report: {args.json}")
+    if args.plot:
+        _plot_compare(args.plot, s, result.builtin, result.ours, result.missed + result.extra, result.near)
+        print(f"  plot: {args.plot}")
+    return 0
+
+
+def _check_validation(s, steps):
+    """ValueError when the counts `validation` keeps for `steps` steps would not fit in memory."""
+    from .. import limits, simulate
+
+    limits.check_fits(steps * simulate.BYTES_PER_VALIDATED_STEP, f"{steps} steps of pair counts")
+
+
+def _pyplot():
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise UserError(f"plots need matplotlib: {install_hint('plot')}") from None
+    return plt
+
+
+def _plot_compare(path, s, builtin, ours, disagree, near):
+    plt = _pyplot()
+    t = np.arange(len(builtin)) * s.timestep
+    fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
+    ax.step(t, builtin, where="post", label="MuJoCo built-in contacts", lw=1.4)
+    ax.step(t, ours, where="post", label="ellipsim overlapping pairs (exact)", lw=1.0, ls="--")
+    for ds, marker, label in ((disagree, "x", "disagreement"), (near, ".", "near-tangent disagreement")):
+        if ds:
+            ax.plot([d.step * s.timestep for d in ds], [builtin[d.step] for d in ds], marker, ls="none", label=label)
+    ax.set_xlabel("simulated time [s]")
+    ax.set_ylabel("ellipsoid pairs in contact")
+    ax.set_title(f"{s.name}: MuJoCo vs ellipsim, per step")
+    ax.legend(loc="best", fontsize=8)
+    try:
+        fig.savefig(path, dpi=120)
+    except OSError as exc:
+        raise write_error("--plot", path, exc) from None
+    finally:
+        plt.close(fig)
+
+
+def add_parser(sub):
+    """The `compare` subcommand and its arguments."""
+    p = sub.add_parser("compare", help="MuJoCo's built-in contacts vs ellipsim's exact verdicts, per frame and in total")
+    p.add_argument("scenario", help="a name from `ellipsim list`, a path to a .toml file, or an MJCF .xml model")
+    p.add_argument("--steps", type=positive_int, help="steps to compare (default: the scenario's duration)")
+    p.add_argument("--json", metavar="FILE.json", help="write the counts and every disagreement as JSON")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the per-frame counts (needs the 'plot' extra)")
+    p.add_argument("--show", type=non_negative_int, default=10, help="disagreements (and pairs passed through each other) to print (default 10)")
+    between_option(p, "also find ellipsoid pairs separated at two consecutive steps that touch in between (passed "
+                   "through each other within one step), on the interpolated motion")
+    model_options(p)
+    p.set_defaults(run=compare)

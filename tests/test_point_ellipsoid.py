@@ -483,6 +483,21 @@ def test_secular_roots_hand_picked(a2, q, expect):
     assert (not math.isnan(ra)) + (not math.isnan(rb)) == expect
 
 
+@pytest.mark.parametrize("q", [(0.5, 1e-9, 1e-8), (0.5, 0.0, 1e-8), (0.5, 1e-3, 1e-8), (0.1, 0.2, 1e-9), (0.5, 0.0, 1e-7)])
+def test_secular_roots_resolve_roots_hugging_the_poles(q):
+    """Roots within 1e-8 of the poles (where foot3 falls short, above): secular_roots has each of them to
+    the conditioning of S = 1, the largest and those between the two largest poles."""
+    a2 = (1.0, 0.25, 0.04)
+    roots, _ = secular_reference(a2, q)
+    found = [t for t in pe.secular_roots(a2, q, True) if not math.isnan(t)]
+    assert len(found) >= 2
+    for t in found:
+        ref = min(roots, key=lambda r: abs(r - t))
+        ok, why = _root_ok(t, ref, a2, q)
+        assert ok, why
+    assert _root_ok(found[0], roots[-1], a2, q)[0]
+
+
 @settings(max_examples=80)
 @given(ellipsoid_point())
 def test_pole_normal_is_the_critical_point_at_the_pole(case):

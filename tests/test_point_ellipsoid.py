@@ -268,34 +268,16 @@ def test_foot3_hand_picked(a2, q):
         assert float(sd) == -math.sqrt(min(a2))
 
 
-POLE_BUG = (
-    "foot3/foot2 stop Newton when a step is <= SECULAR_LAST (|t| + amin) = 1e-8 (|t| + amin), a scale "
-    "unrelated to the distance delta = t + amin of a root that hugs the pole -amin (q_k small, q inside "
-    "the degenerate region): from the start -a2_k + a_k |q_k| the first step is already below it, so t is "
-    "left ~1 % of delta off and n_k = q_k / (t + a2_k) with it; f_q(n) falls 1.4e-11 (q_k = 1e-7) to "
-    "1.4e-6 (q_k = 1e-8, 1e-9) below the signed distance, on a unit-sized ellipsoid"
-)
-
-
-@pytest.mark.parametrize("qk", [
-    1e-5, 1e-6,
-    pytest.param(1e-7, marks=pytest.mark.xfail(strict=True, reason=POLE_BUG)),
-    pytest.param(1e-8, marks=pytest.mark.xfail(strict=True, reason=POLE_BUG)),
-    pytest.param(1e-9, marks=pytest.mark.xfail(strict=True, reason=POLE_BUG)),
-    1e-10,  # delta = 2.3e-11 < POLE_RTOL amin: the pole limit, exact to O(delta)
-])  # fmt: skip
+@pytest.mark.parametrize("qk", [1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10])  # 1e-10: below POLE_RTOL, the pole limit
 def test_foot3_root_hugging_the_pole(qk):
     """q = (0.5, 0, q_k) inside the ellipsoid of semi-axes (1, 0.5, 0.2): the largest root of S = 1 lies
-    2.34 q_k beyond the pole -0.04 (the reference's bisection resolves it to 40 digits)."""
+    2.34 q_k beyond the pole -0.04 (the reference's bisection resolves it to 40 digits).  Newton stopped
+    relative to |t| + amin left t ~1 % of that distance off at q_k = 1e-8, 1e-9 (f_q(n) 1.4e-6 below the
+    signed distance); it stops relative to t + amin now."""
     check_foot3((1.0, 0.25, 0.04), (0.5, 0.0, qk))
 
 
-@pytest.mark.parametrize("qk", [
-    1e-6,
-    pytest.param(1e-7, marks=pytest.mark.xfail(strict=True, reason=POLE_BUG)),
-    pytest.param(1e-8, marks=pytest.mark.xfail(strict=True, reason=POLE_BUG)),
-    1e-10,
-])  # fmt: skip
+@pytest.mark.parametrize("qk", [1e-6, 1e-7, 1e-8, 1e-10])
 def test_foot2_root_hugging_the_pole(qk):
     """The same in the plane: p = (0.5, q_k), semi-axes (1, 0.2)."""
     check_foot2((1.0, 0.04), (0.5, qk))

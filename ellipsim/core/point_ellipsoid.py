@@ -18,7 +18,7 @@ import math
 
 from ._jit import jit, stage
 from .sigma import unit
-from .tolerances import CRITICAL_MAX_ITER, POLE_RTOL, SECULAR_LAST, SECULAR_MAX_ITER
+from .tolerances import CRITICAL_MAX_ITER, POLE_RTOL, SECULAR_LAST, SECULAR_MAX_ITER, U
 from .vec3 import dot3, matvec, norm2
 
 @stage
@@ -74,7 +74,9 @@ def _secular_root3(a2, q, amin, amax, qq):
         return t if S == 1.0 or t > lo else math.nan
     for _ in range(SECULAR_MAX_ITER):
         tn = min(t - step, hi)
-        if tn - t <= SECULAR_LAST * (abs(t) + amin):
+        # converged relative to the root's distance from the pole -amin (the normal's q_i / (t + a2_i) is
+        # as accurate as that), down to what t's float resolution allows
+        if tn - t <= max(SECULAR_LAST * (tn + amin), 4.0 * U * (abs(tn) + amin)):
             return tn
         t = tn
         S, step = _psi3(a2, q, t)
@@ -207,7 +209,7 @@ def foot2(b0, b1, p0, p1):
         else:
             for _ in range(SECULAR_MAX_ITER):
                 tn = min(t - step, hi)
-                if tn - t <= SECULAR_LAST * (abs(t) + bmin):
+                if tn - t <= max(SECULAR_LAST * (tn + bmin), 4.0 * U * (abs(tn) + bmin)):
                     t = tn
                     break
                 t = tn

@@ -9,7 +9,7 @@ import pytest
 
 import ellipsim.mujoco as plugin
 from ellipsim.mujoco import attachment as attach_module
-from ellipsim.mujoco import callbacks, structs
+from ellipsim.mujoco import nativecache, structs
 
 PILE = """<mujoco><option timestep="0.002"/><worldbody>
   <geom type="plane" size="2 2 .1"/>
@@ -121,7 +121,7 @@ def test_other_geom_types_and_bitmasks_pass_through_unchanged():
 
 def call_filter(model, data, g1, g2):
     fn = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int)(
-        callbacks.callback().address
+        nativecache.function("filter").address
     )
     return fn(model._address, data._address, g1, g2)
 

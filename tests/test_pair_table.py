@@ -17,9 +17,8 @@ from ellipsim.mujoco import attachment, context, geoms, nativecache, publish, st
 from ellipsim.mujoco.context import FILTER_PAIR_TYPES, PAIR_TYPES, RECORDED
 
 GLUE = pathlib.Path(em.__file__).parent
-#: (module, top-level function, module it imports): ellipsim/app/bench imports callback() and
-#: narrowphase_function() from callbacks, which hand out nativecache.function; no other back edge
-BACK_EDGES = {("callbacks", "callback", "nativecache"), ("callbacks", "narrowphase_function", "nativecache")}
+#: (module, top-level function, module it imports) allowed to import back: none
+BACK_EDGES = set()
 TYPES = {
     "plane": int(mujoco.mjtGeom.mjGEOM_PLANE),
     "sphere": context.SPHERE,

@@ -542,18 +542,3 @@ def compile_callback(kind, pyfunc=None):
         finally:
             del target.create_cfunc_wrapper  # the instance attribute: the class's method shows again
     return CompiledCode(kind, cfunc, time.perf_counter() - t0)
-
-
-def callback():
-    """nativecache.function("filter"), for ellipsim/app/bench, which imports it from here: the one import
-    of nativecache by this module (tests/test_pair_table.py allows it as the one back edge)."""
-    from . import nativecache
-
-    return nativecache.function("filter")
-
-
-def narrowphase_function():
-    """nativecache.function("narrowphase"), for ellipsim/app/bench, as callback()."""
-    from . import nativecache
-
-    return nativecache.function("narrowphase")

@@ -28,7 +28,7 @@ from ...core.distance import UNPROVEN, signed_distance
 from ...core.ellipsoids import Ellipsoids
 from ...mujoco import scenes, structs
 from ...mujoco.attachment import attach
-from ...mujoco.callbacks import callback, narrowphase_function
+from ...mujoco import nativecache
 from ...mujoco.compare import compare_narrowphase
 from ...mujoco.geoms import candidate_pairs
 from . import pair_types
@@ -82,8 +82,8 @@ def per_pair(model, data, reps=100):
     relation: {"touching"|"separated": (ellipsim narrowphase, MuJoCo GJK/EPA, filter, pairs)}."""
     table, n = structs.collision_table()
     theirs = _narrow_loop(_NARROW_FN(table[ELL * n + ELL]))
-    ours = _narrow_loop(_NARROW_FN(narrowphase_function().address))
-    filt = _filter_loop(_FILTER_FN(callback().address))
+    ours = _narrow_loop(_NARROW_FN(nativecache.function("narrowphase").address))
+    filt = _filter_loop(_FILTER_FN(nativecache.function("filter").address))
     pairs = candidate_pairs(model, data)
     pairs = np.ascontiguousarray(pairs[(model.geom_type[pairs] == ELL).all(axis=1)].astype(np.int64))
     geoms = lambda g: Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(-1, 3, 3), model.geom_size[g])  # noqa: E731

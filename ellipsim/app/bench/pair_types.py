@@ -21,7 +21,7 @@ from ...core import box, capsule, cylinder
 from ...core.rotations import quaternions_to_rotations
 from ...mujoco import structs
 from ...mujoco.attachment import attach
-from ...mujoco.callbacks import narrowphase_function
+from ...mujoco import nativecache
 from .common import interleaved
 
 KINDS = ("capsule", "box", "cylinder")
@@ -94,7 +94,7 @@ def measure(size, n=None, seed=0):
     n = n or size["pair_types"]
     rng = np.random.default_rng(seed)
     table, ntypes = structs.collision_table()
-    ours = _FN(narrowphase_function().address)
+    ours = _FN(nativecache.function("narrowphase").address)
     out = {}
     for kind in KINDS:
         t1, t2 = sorted((int(_TYPE[kind]), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)))

@@ -8,18 +8,12 @@ import pytest
 
 from ellipsim.app import capture, replay as rp, scenario, simulate
 from ellipsim.app.stepping import FrameLoop
+from test_between_frames import FPS, PLATE_XML
 
-# The plate and pellet of tests/test_between_frames.py: the pellet passes through the plate between
-# frames 1 and 2 and again between frames 4 and 5, touching it at no frame.
-PLATE_XML = """<mujoco model="plate">
-  <option timestep="0.01" gravity="0 0 0"/>
-  <worldbody>
-    <body name="board"><freejoint/><geom name="plate" type="ellipsoid" size=".3 .3 .005"/></body>
-    <body name="bullet" pos="0 0 .26"><freejoint/><geom name="pellet" type="ellipsoid" size=".02 .015 .01"/></body>
-  </worldbody>
-</mujoco>"""
+# The plate and pellet of tests/test_between_frames.py (its keyframe unused: poses are set per frame):
+# the pellet passes through the plate between frames 1 and 2 and again between frames 4 and 5,
+# touching it at no frame.
 HEIGHTS = [0.5, 0.26, -0.24, -0.5, -0.26, 0.24, 0.5, 0.01, 0.3]
-FPS = 10.0
 
 
 class Calls:

@@ -42,7 +42,7 @@ from .point_ellipsoid import (
     secular_roots, support,
 )  # fmt: skip
 from .sigma import rolling_radius, tangent_basis, unit
-from .spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, axis_bb
+from .spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, _axis_of, axis_bb
 from .tolerances import BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
 from .vec3 import column, cross3, norm2, rotate_t
 
@@ -527,13 +527,10 @@ def axis_max(a2, e, u, L, r, tol, scale, n0):
     about its axis j: the model's errors delta0 below), in the frame B = (u, w1, w2) (tangent_basis):
     sigma(B nu) for unit nu differs from the model by the rounding of B^T e and B^T e_j and by B's
     orthonormality defect def (|B nu|^2 = 1 +- 3 def: sigma, 1-homogeneous, moves by <= 1.5 def S, h_E's
-    model by 3 pb^2 def / min(qb, pb)), and by the axis u / |u| in place of u (|u| = 1 to ~1e-15).  Returns (proven, n, value): max sigma <= value + tol when proven."""
+    model by 3 pb^2 def / min(qb, pb)), and by the axis u / |u| in place of u (|u| = 1 to ~1e-15).
+    Returns (proven, n, value): max sigma <= value + tol when proven."""
     ra = (math.sqrt(a2[0]), math.sqrt(a2[1]), math.sqrt(a2[2]))
-    j, db = 0, math.inf
-    for jj in range(3):
-        d = 0.5 * abs(ra[(jj + 1) % 3] - ra[(jj + 2) % 3])
-        if d < db:
-            j, db = jj, d
+    j, db = _axis_of(ra)
     j1, j2 = (j + 1) % 3, (j + 2) % 3
     qb, pb = ra[j], 0.5 * (ra[j1] + ra[j2])
     uu = math.sqrt(_dot(u, u))  # u from to_frame is unit to ~1e-15: the model's axis is u / |u|

@@ -185,7 +185,8 @@ def _pair(A, B, max_iter, seed):
             value = sigma_only(n, e, ra, Ub, rb)
         else:
             have = run == CONVERGED
-            if norm2(nc) > 0.5:  # nearly parallel spheroids: a climb from the parallel model's maximiser
+            near = norm2(nc) > 0.5
+            if near:  # nearly parallel spheroids: a climb from the parallel model's maximiser
                 _, m, _ = climb(nc, e, ra, M, scale)  # converged or not (along the circle sigma is
                 vc, v = sigma_only(nc, e, ra, Ub, rb), sigma_only(m, e, ra, Ub, rb)  # flat), the better
                 if vc > v:
@@ -193,8 +194,7 @@ def _pair(A, B, max_iter, seed):
                 if not have or v > value:
                     n, value, have = m, v, True
             bb = BB_UNPROVEN
-            near = norm2(nc) > 0.5
-            if have and near:  # nearly parallel: the 2-D branch and bound first (spheroids.tilted_max)
+            if near:  # nearly parallel: the 2-D branch and bound first (spheroids.tilted_max), from the climb
                 ok, n, c2 = tilted_max(e, ra, Ub, rb, tol_bb, S, n)
                 count += c2
                 value = sigma_only(n, e, ra, Ub, rb)

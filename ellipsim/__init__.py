@@ -17,11 +17,11 @@ import importlib
 __version__ = "0.2.0"
 
 _LAZY = {
-    "Ellipsoids": "core.ellipsoids", "Relation": "core.relation", "classify": "core.classify",
-    "classify_pairs": "core.classify",
-    "characteristic_polynomial": "core.charpoly", "contact_scale": "core.perram_wertheim",
-    "signed_distance": "core.distance", "time_of_impact": "core.time_of_impact", "Impact": "core.time_of_impact",
-    "contains": "core.containment", "sweep": "app.sweep",
+    "Ellipsoids": "core.ellipsoids", "Relation": "core.relation", "classify": "core.exact.classify",
+    "classify_pairs": "core.exact.classify",
+    "characteristic_polynomial": "core.exact.characteristic", "contact_scale": "core.exact.contact_scale",
+    "signed_distance": "core.distance.ellipsoid_pair", "time_of_impact": "core.motion.time_of_impact", "Impact": "core.motion.time_of_impact",
+    "contains": "core.exact.containment", "sweep": "app.sweep",
 }  # fmt: skip
 _SUBPACKAGES = ("core", "mujoco", "app")
 

@@ -165,7 +165,7 @@ def quadric_rational(c, R, r):
 
 
 def motion_pose(c0, c1, R0, R1, w, t, dps=60):
-    """The pose of one body at t of the motion time_of_impact defines (core/motion.py), in `dps` digits:
+    """The pose of one body at t of the motion time_of_impact defines (core/motion/interpolation.py), in `dps` digits:
     c0 + t (c1 - c0) and R_p exp((t - tau) [w]x) (tau = 0 for t <= 1/2, else 1), by Rodrigues' formula
     in mpmath; returned as Fractions (centre (3,), rotation 3x3 lists).  t: a float or a Fraction."""
     import mpmath as mp

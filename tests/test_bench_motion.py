@@ -7,7 +7,7 @@ import pytest
 from ellipsim.app.bench import SECTIONS
 from ellipsim.app.bench import common as bench
 from ellipsim.app.bench import motion
-from ellipsim.core.time_of_impact import Impact, time_of_impact
+from ellipsim.core.motion.interpolation.time_of_impact import Impact, time_of_impact
 from ellipsim.core.tolerances import TOI_TOL
 
 

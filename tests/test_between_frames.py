@@ -16,8 +16,9 @@ from rerun.chunk import RrdReader
 
 from ellipsim import Ellipsoids, Impact, Relation, classify, time_of_impact
 from ellipsim.app import capture, record, replay as rp, scenario, simulate
-from ellipsim.core import broadphase, threads
-from ellipsim.core.motion import poses_at
+from ellipsim.core.motion.interpolation import broad_phase as broadphase
+from ellipsim.core import threads
+from ellipsim.core.motion.interpolation.interpolation import poses_at
 from ellipsim.mujoco import validate
 from ellipsim.mujoco.between import BetweenFrames, Events, swept_pairs
 from ellipsim.mujoco.geoms import ellipsoid_geoms

@@ -1,4 +1,4 @@
-"""Ellipsoid x box: the kernel (core/box.py) against an independent reference, and the narrow phase
+"""Ellipsoid x box: the kernel (core/pairs/box.py) against an independent reference, and the narrow phase
 inside MuJoCo against MuJoCo's own GJK/EPA run tight; a data not attached stays plain MuJoCo to the
 bit on a box-walled pile."""
 
@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from ellipsim.core import box
+from ellipsim.core.pairs import box
 from ellipsim.mujoco import scenes
 from pair_types import (
     check_against_reference, entry_installed_and_restored, error_status_answers_as_mujoco, far_poses,

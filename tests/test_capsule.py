@@ -1,4 +1,4 @@
-"""Ellipsoid x capsule: the kernel (core/capsule.py) against an independent reference, and the
+"""Ellipsoid x capsule: the kernel (core/pairs/capsule.py) against an independent reference, and the
 narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight.  That a data not attached stays
 plain MuJoCo to the bit on a capsule pile is tested with the other scope tests (test_scope.py)."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import ellipsim.mujoco as em
-from ellipsim.core import capsule
+from ellipsim.core.pairs import capsule
 from ellipsim.mujoco import scenes
 from pair_types import (
     check_against_reference, entry_installed_and_restored, error_status_answers_as_mujoco, far_poses,

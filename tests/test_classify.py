@@ -9,7 +9,7 @@ from ellipsim import (
     Ellipsoids, Relation, characteristic_polynomial, classify, classify_pairs, contact_scale, signed_distance,
 )  # fmt: skip
 from ellipsim.core.samples import generic_pairs, near_contact_pairs, stress_pairs
-from ellipsim.core.certified import certify
+from ellipsim.core.exact.certified_filter import certify
 from ellipsim.core.relation import UNDECIDED
 
 SEP, TOUCH, OVER = Relation.SEPARATED, Relation.TOUCHING, Relation.OVERLAPPING

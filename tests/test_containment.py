@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation as Rot
 import reference
 import strategies as S
 from ellipsim import Ellipsoids
-from ellipsim.core.containment import INSIDE, UNDECIDED, certify_containment, contains, contains_exact
+from ellipsim.core.exact.containment import INSIDE, UNDECIDED, certify_containment, contains, contains_exact
 
 I = np.eye(3)
 

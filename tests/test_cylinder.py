@@ -1,4 +1,4 @@
-"""Ellipsoid x cylinder: the kernel (core/cylinder.py) against an independent reference, and the
+"""Ellipsoid x cylinder: the kernel (core/pairs/cylinder.py) against an independent reference, and the
 narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight; a data not attached stays plain
 MuJoCo to the bit on a cylinder pile."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation as Rot
 
-from ellipsim.core import cylinder
+from ellipsim.core.pairs import cylinder
 from ellipsim.mujoco import scenes
 from pair_types import (
     check_against_reference, entry_installed_and_restored, error_status_answers_as_mujoco, far_poses,

@@ -17,7 +17,7 @@ import ellipsim.mujoco as plugin
 from ellipsim import Ellipsoids, signed_distance
 from ellipsim.mujoco import scenes as figures
 from ellipsim.mujoco import structs as mjstruct
-from ellipsim.core.distance import GLOBAL, UNPROVEN
+from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, UNPROVEN
 
 mpmath.mp.dps = 40
 
@@ -53,7 +53,7 @@ def reference(a, b, starts=fibonacci_sphere(300)):
 
 
 def proof_tolerance(a, b):
-    """What core.distance proves for a pair: within max(1e-12 r_min, ~(96 u + 6 delta) S) of the global
+    """What core.distance.ellipsoid_pair proves for a pair: within max(1e-12 r_min, ~(96 u + 6 delta) S) of the global
     maximum, S = |c_b - c_a| + the longest semi-axes (the floor float64 can evaluate sigma to)."""
     rmin = min(a.radii.min(), b.radii.min())
     S = np.linalg.norm(b.centers[0] - a.centers[0]) + a.radii.max() + b.radii.max()

@@ -1,4 +1,4 @@
-"""core/global_max.py on its own: the branch and bound over the sphere and its parts, each against an
+"""core/distance/branch_and_bound.py on its own: the branch and bound over the sphere and its parts, each against an
 independent reference.
 
 sigma(n) = n.e - |diag(a) n| - |diag(b) U^T n| in A's principal frame is written out here in numpy and in
@@ -25,7 +25,7 @@ import strategies as S
 from reference import sigma_stationary
 from test_distance import reference
 from ellipsim import Ellipsoids
-from ellipsim.core import global_max as gm
+from ellipsim.core.distance.ellipsoid_pair import branch_and_bound as gm
 
 U64 = 2.0**-53
 DPS = 40

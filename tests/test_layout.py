@@ -67,7 +67,7 @@ def test_core_modules_do_not_import_heavy_libraries():
 
 def test_import_ellipsim_loads_no_mujoco_rerun_or_trimesh():
     code = (
-        "import sys, ellipsim, ellipsim.core.samples, ellipsim.core.broadphase\n"
+        "import sys, ellipsim, ellipsim.core.samples, ellipsim.core.motion.broad_phase\n"
         f"heavy = sorted(m for m in sys.modules if m.split('.')[0] in {HEAVY!r})\n"
         "print(','.join(heavy))\n"
     )
@@ -99,22 +99,22 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
 
 
 def test_every_public_name_resolves_to_its_module():
-    import ellipsim.core.charpoly
-    import ellipsim.core.classify
-    import ellipsim.core.distance
+    import ellipsim.core.exact.characteristic
+    import ellipsim.core.exact.classify
+    import ellipsim.core.distance.ellipsoid_pair
     import ellipsim.core.ellipsoids
-    import ellipsim.core.perram_wertheim
+    import ellipsim.core.exact.contact_scale
     import ellipsim.core.relation
     import ellipsim.mujoco.compare
     import ellipsim.mujoco.geoms
 
     assert set(ellipsim.__all__) <= set(dir(ellipsim)) and set(ellipsim.mujoco.__all__) <= set(dir(ellipsim.mujoco))
-    assert ellipsim.classify is ellipsim.core.classify.classify
+    assert ellipsim.classify is ellipsim.core.exact.classify.classify
     assert ellipsim.Ellipsoids is ellipsim.core.ellipsoids.Ellipsoids
     assert ellipsim.Relation is ellipsim.core.relation.Relation
-    assert ellipsim.contact_scale is ellipsim.core.perram_wertheim.contact_scale
-    assert ellipsim.signed_distance is ellipsim.core.distance.signed_distance
-    assert ellipsim.characteristic_polynomial is ellipsim.core.charpoly.characteristic_polynomial
+    assert ellipsim.contact_scale is ellipsim.core.exact.contact_scale.contact_scale
+    assert ellipsim.signed_distance is ellipsim.core.distance.ellipsoid_pair.signed_distance
+    assert ellipsim.characteristic_polynomial is ellipsim.core.exact.characteristic.characteristic_polynomial
     assert ellipsim.mujoco.compare_narrowphase is ellipsim.mujoco.compare.compare_narrowphase
     assert ellipsim.mujoco.candidate_pairs is ellipsim.mujoco.geoms.candidate_pairs
     for name in set(ellipsim.mujoco.__all__) - {"MODES"}:

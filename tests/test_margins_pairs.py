@@ -4,7 +4,7 @@ Every pair here is posed tip to tip: the long axes of the two geoms on one line 
 TURN), so the signed distance is the centre distance minus the two semi-axes along it, exactly in
 real arithmetic (the tips' normals are that line and so is the segment between them: the KKT
 condition of the distance of two convex bodies; when they overlap by less than the rolling radius, the
-axis is the local and so the global maximum of sigma, core/distance.py).  Rows are 2 m apart, so the
+axis is the local and so the global maximum of sigma, core/distance/ellipsoid_pair.py).  Rows are 2 m apart, so the
 only candidate pairs are the pairs of a row.
 
 MuJoCo 4.0's test, checked here on the wheel (engine_collision_driver.c): a contact is made when
@@ -17,7 +17,7 @@ import pytest
 
 import mujoco
 import ellipsim.mujoco as em
-from ellipsim.core.distance import GLOBAL, signed_distance
+from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, signed_distance
 from ellipsim.mujoco.geoms import enclosing, explicit_pairs, pair_gaps, pair_margins, within_threshold
 
 #: One rotation for every pair (w, x, y, z): the line of the tips is no axis of the world, so the

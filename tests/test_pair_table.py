@@ -97,7 +97,7 @@ def test_python_side_glue_loads_no_callback_code(module):
     """geoms, compare and validate use core's kernels (numba, and so llvmlite) but not the cfuncs."""
     code = (
         f"import sys, ellipsim.mujoco.{module}\n"
-        "print(' '.join(m for m in ('ellipsim.mujoco.callbacks', 'numba.core.ccallback', 'ellipsim.core.box')"
+        "print(' '.join(m for m in ('ellipsim.mujoco.callbacks', 'numba.core.ccallback', 'ellipsim.core.pairs.box')"
         " if m in sys.modules))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

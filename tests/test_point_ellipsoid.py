@@ -1,4 +1,4 @@
-"""core/point_ellipsoid.py on its own: the point-ellipsoid and point-ellipse problems (foot3, foot2),
+"""core/pairs/point_ellipsoid.py on its own: the point-ellipsoid and point-ellipse problems (foot3, foot2),
 their certified bounds (sd_upper, sd_upper2), every critical point (secular_roots, pole_normal) and the
 plane-restricted maximum (circle_max_bound), each against an independent reference.
 
@@ -19,7 +19,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ellipsim.core import point_ellipsoid as pe
+from ellipsim.core.pairs import point_ellipsoid as pe
 
 U = 2.0**-53
 DPS = 40

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation as Rot
 
 import ellipsim.mujoco as em
 from ellipsim import Ellipsoids, signed_distance
-from ellipsim.core.distance import GLOBAL, UNPROVEN, contact_at
+from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, UNPROVEN, contact_at
 from ellipsim.mujoco import scenes
 
 FULL = mujoco.mjtState.mjSTATE_INTEGRATION  # FULLPHYSICS and MuJoCo's own solver warm start

@@ -15,7 +15,7 @@ from ellipsim import Ellipsoids, Relation, classify
 from ellipsim.app import capture, scenario, simulate
 from ellipsim.app.cli import main
 from ellipsim.app.control import Controller
-from ellipsim.core.broadphase import sweep_and_prune
+from ellipsim.core.motion.interpolation.broad_phase import sweep_and_prune
 from ellipsim.mujoco import scenes
 from ellipsim.mujoco.geoms import candidate_pairs, ellipsoid_geoms, frame_pairs
 

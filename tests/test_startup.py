@@ -182,17 +182,17 @@ def test_shipped_objects_are_installed_with_the_package(tmp_path):
 
 def test_kernel_sources_follow_module_level_imports():
     sources = nativecache.kernel_sources()
-    assert {"mujoco/callbacks.py", "mujoco/context.py", "core/distance.py", "core/certified.py", "core/vec3.py",
+    assert {"mujoco/callbacks.py", "mujoco/context.py", "core/distance/ellipsoid_pair.py", "core/exact/certified_filter.py", "core/vec3.py",
             "core/_jit.py", "core/tolerances.py"} <= set(sources)  # fmt: skip
     # the loader, the layout and the Python side are not compiled in: editing them keeps the objects
-    assert not {"mujoco/nativecache.py", "mujoco/structs.py", "mujoco/attachment.py", "core/classify.py"} & set(sources)
+    assert not {"mujoco/nativecache.py", "mujoco/structs.py", "mujoco/attachment.py", "core/exact/classify.py"} & set(sources)
     text = "\n".join([
         "import os", "from . import context", "from ..core import vec3", "from ..core.distance import (",
         "    a,", "    b,", ")", "if True:", "    from ..core import pencil", "def f():", "    from . import structs",
         "class C:", "    from ..core import classify", "x = 1",
     ])  # fmt: skip
     files = nativecache._imported_files("mujoco/callbacks.py", text)
-    assert sorted(set(files)) == ["core/distance.py", "core/pencil.py", "core/vec3.py", "mujoco/context.py"]
+    assert sorted(set(files)) == ["core/distance/ellipsoid_pair.py", "core/exact/pair_frame.py", "core/vec3.py", "mujoco/context.py"]
 
 
 def test_load_refuses_damaged_or_foreign_files(tmp_path):

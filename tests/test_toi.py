@@ -18,10 +18,10 @@ from scipy.spatial.transform import Rotation as Rot
 
 import reference
 from ellipsim import Ellipsoids, classify, contact_scale
-from ellipsim.core import motion
+from ellipsim.core.motion.interpolation import interpolation as motion
 from ellipsim.core._jit import jit
-from ellipsim.core import time_of_impact as T
-from ellipsim.core.time_of_impact import Impact, time_of_impact
+from ellipsim.core.motion.interpolation import time_of_impact as T
+from ellipsim.core.motion.interpolation.time_of_impact import Impact, time_of_impact
 from ellipsim.core.tolerances import DELTA_R, RODRIGUES_ERR, SINCOS_ERR, TOI_TOL, U
 
 I = np.eye(3)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import ellipsim.mujoco as em
-from ellipsim.core.distance import GLOBAL, pair_signed_distance, pair_signed_distance_from, sigma_lower_bound
+from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, pair_signed_distance, pair_signed_distance_from, sigma_lower_bound
 from ellipsim.mujoco import attachment, scenes
 
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS

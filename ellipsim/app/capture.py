@@ -3,7 +3,7 @@ frame by frame, its moving bodies, MuJoCo's contacts and ellipsim's exact verdic
 
 A FrameBuffer copies a few arrays out of mjData per frame and, once it holds a chunk of frames,
 decides every candidate ellipsoid pair of all of them in one batched exact classify (sweep and
-prune per frame over bounding spheres, MuJoCo's pair rules, then core.classify): memory is bounded
+prune per frame over bounding spheres, MuJoCo's pair rules, then core.exact.classify): memory is bounded
 by the chunk, whatever the number of steps.  With between=True it also finds the contacts that begin
 and end between two frames (mujoco.between, on the interpolated motion), the step from one chunk into
 the next included.
@@ -17,8 +17,8 @@ from time import perf_counter
 import mujoco
 import numpy as np
 
-from ..core.classify import classify
-from ..core.distance import signed_distance
+from ..core.exact.classify import classify
+from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from ..core.relation import Relation
 from ..core.rotations import quaternion_product, quaternions_to_rotations

@@ -38,7 +38,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ..core.ellipsoids import Ellipsoids
 from ..core.rotations import quaternions_to_rotations, rotations_to_quaternions
-from ..mujoco.scenes import mjcf_numbers
+from .scenes import mjcf_numbers
 
 #: The fitting methods of `bounding_ellipsoid`.
 METHODS = ("thesis", "mvee")
@@ -211,7 +211,7 @@ def fit_limb(name, mesh, *, method="thesis", digits=6):
     _, vertices = _mesh_vertices(mesh)
     scale = float(e.radii.max())
     decimals = digits - 1 - math.floor(math.log10(scale))
-    quantum = 10.0 ** -decimals
+    quantum = 10.0**-decimals
     pos = np.array([float(_decimal(x, decimals)) for x in e.centers[0]])
     quat = np.array([float(_decimal(q, digits)) for q in rotations_to_quaternions(e.rotations[0])])
     rotation = quaternions_to_rotations(quat / np.linalg.norm(quat))
@@ -227,23 +227,43 @@ def fit_limb(name, mesh, *, method="thesis", digits=6):
     hull = ConvexHull(vertices - vertices.mean(axis=0))
     volume = 4.0 / 3.0 * math.pi * float(np.prod(radii))
     return FittedLimb(
-        name=name, pos=" ".join(_decimal(x, decimals) for x in pos), quat=" ".join(_decimal(q, digits) for q in quat),
-        size=" ".join(_decimal(r, decimals) for r in radii), ellipsoid=Ellipsoids(pos[None], rotation[None], radii[None]),
+        name=name,
+        pos=" ".join(_decimal(x, decimals) for x in pos),
+        quat=" ".join(_decimal(q, digits) for q in quat),
+        size=" ".join(_decimal(r, decimals) for r in radii),
+        ellipsoid=Ellipsoids(pos[None], rotation[None], radii[None]),
         volume_ratio=volume / hull.volume,
-    )  # fmt: skip
+    )
 
 
 def limbs_xml(limbs, *, method="thesis"):
     """An MJCF file of FittedLimbs: one ellipsoid geom each in the worldbody, in the meshes'
     coordinates (loads on its own; `<include file=..>` adds the geoms to another model's worldbody)."""
     root = ET.Element("mujoco", model="limbs")
-    root.append(ET.Comment(f" bounding ellipsoids fitted by `ellipsim fit --method {method}`, one per mesh, "
-                           "in the mesh's coordinates: move each geom into the body its mesh belongs to "))  # fmt: skip
+    root.append(
+        ET.Comment(
+            f" bounding ellipsoids fitted by `ellipsim fit --method {method}`, one per mesh, "
+            "in the mesh's coordinates: move each geom into the body its mesh belongs to "
+        )
+    )
     world = ET.SubElement(root, "worldbody")
     for limb in limbs:
         ET.SubElement(world, "geom", name=limb.name, type="ellipsoid", pos=limb.pos, quat=limb.quat, size=limb.size)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def summary_lines(limbs, *, method="thesis", digits=6):
+    """The table `ellipsim fit` prints: one row per FittedLimb (centre, quaternion, semi-axes as
+    written to MJCF, and the ellipsoid's volume over its mesh's hull's)."""
+    width = max(len(limb.name) for limb in limbs)
+    lines = [
+        f"bounding ellipsoids ({method}), {digits} significant digits, every vertex inside as written:",
+        f"  {'mesh':<{width}}  {'centre (pos)':<30} {'quaternion (w x y z)':<36} {'semi-axes (size)':<30} volume / hull",
+    ]
+    for limb in limbs:
+        lines.append(f"  {limb.name:<{width}}  {limb.pos:<30} {limb.quat:<36} {limb.size:<30} {limb.volume_ratio:.3f}")
+    return lines
 
 
 def _decimal(value, decimals):

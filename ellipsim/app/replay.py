@@ -7,10 +7,10 @@ ellipsoid geoms touch or overlap.
 Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPosition, for its contact
 count on the same frames), then ellipsim's verdict on every candidate pair of every frame in one
 batched exact classify per chunk of frames (stepping.FrameLoop over a capture.FrameBuffer: sweep and prune per frame, MuJoCo's
-pair rules, core.classify), and the penetration depth of the overlapping pairs
+pair rules, core.exact.classify), and the penetration depth of the overlapping pairs
 (core.signed_distance).  Only the touching and overlapping pairs are kept.  With between=True, also
 the contacts that begin and end between two frames (pairs separated at both frames that touch in
-between on the interpolated motion: mujoco.between, core.time_of_impact).
+between on the interpolated motion: mujoco.between, core.motion.time_of_impact).
 """
 
 import dataclasses
@@ -284,7 +284,7 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
 
     fps : frames per second, > 0 (the recording's time line, and the report's times).
     between : also find the contacts that begin and end between two frames, on the interpolated motion
-        of each ellipsoid (centre linear, rotation along the shortest arc: core.motion), which is not
+        of each ellipsoid (centre linear, rotation along the shortest arc: core.motion.interpolation), which is not
         the motion of qpos interpolated; the recording gets a marker at each one's first contact.
         It runs on a thread of its own while the frames are posed (FrameBuffer's background): 2-14%
         more wall time with a free core, 15-51% on one (16 figures, 2000 frames; cli.common.BETWEEN_DEFAULT).

@@ -229,7 +229,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
         of frames (closing it is the caller's).
     keep : also keep the ellipsoids' centres and states of every recorded frame (Run.kept).
     between : a kinematic scenario: also find the contacts that begin and end between two frames, on
-        each ellipsoid's interpolated motion (core.motion, not the keyframes' joint interpolation);
+        each ellipsoid's interpolated motion (core.motion.interpolation, not the keyframes' joint interpolation);
         the recording gets a marker at each one's first contact.  Ignored for a dynamic scenario
         (its frames are 1/RECORD_FPS apart, many steps).
     ScenarioError for a scene or model that cannot be built or run (MuJoCo out of memory included).

@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
-from .classify import classify
-from .perram_wertheim import contact_scale
+from .exact.classify import classify
+from .exact.contact_scale import contact_scale
 from .ellipsoids import Ellipsoids
 
 

@@ -16,7 +16,7 @@ def gamma(n):
 #: normalised quaternions and sits near 1e-16; 1e-6 admits float32-built rotations too.
 ORTHONORMAL_TOL = 1e-6
 
-# --- Certified filter (ellipsim/core/certified.py) -------------------------------------------------
+# --- Certified filter (ellipsim/core/exact/certified_filter.py) -------------------------------------------------
 
 #: Inflation of the bounding-sphere radius max(r).  A point of E is c + R^{-T} D u with |u| <= 1,
 #: so |x - c| <= r_max / sigma_min(R).  With the validated |(R^T R - I)_ij| <= 1e-6,
@@ -40,7 +40,7 @@ TAU = 2.0**-400
 #: Relative error coefficients for the certified signs: an expression evaluated with at most n
 #: roundings on any path (leaf roundings included) errs by at most gamma_n times its absolute
 #: polynomial ("mag", evaluated alongside with |leaves|).  The constants cover the depth counted in
-#: certified.py with a margin for the rounding of the bound itself.
+#: certified_filter.py with a margin for the rounding of the bound itself.
 ERR_SHORT = gamma(16) * 1.01  # the bounding-sphere and centre-inside tests (depth <= 13)
 ERR_POLY = gamma(48) * 1.01  # f(mu) = mu N(mu) - (mu + alpha) P(mu) (depth <= 32)
 ERR_WITNESS = gamma(16) * 1.01  # |y|^2 < 1 and |W (y - e)|^2 < alpha (depth <= 13)
@@ -54,7 +54,7 @@ MU_MAX = 2.0**120
 #: ||E||_2 <= ||E||_F <= 3e-6), and the float evaluation adds < 1e-14 r_max |d|: 5e-6 covers both.
 SUPPORT_SLACK = 5e-6
 
-#: Perram-Wertheim maximisation (perram_wertheim.py): Newton steps at most, and the relative step that
+#: Perram-Wertheim maximisation (contact_scale.py): Newton steps at most, and the relative step that
 #: ends it.  mu* is only determined to ~1e-9 by float64 (F is flat there); F(mu) is then exact to
 #: ~1e-16, which is what contact_scale reports.
 PW_MAX_ITER = 60
@@ -87,7 +87,7 @@ FILTER_CCD_FACTOR = 2.0
 #: And by this fraction of the pair's largest semi-axis, against rounding in the growth itself.
 FILTER_RELATIVE_SLACK = 1e-12
 
-# --- Narrow phase (ellipsim/core/distance.py) ------------------------------------------------------
+# --- Narrow phase (ellipsim/core/distance/ellipsoid_pair.py) ------------------------------------------------------
 
 #: Newton on the unit sphere: at most this many steps per run (most pairs need 3-6) ...
 NEWTON_MAX_ITER = 40
@@ -100,7 +100,7 @@ NEWTON_STEP_TOL = 1e-5
 #: takes over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
 FIRST_RUN_ITER = 10
 
-# --- Warm start of the MuJoCo narrow phase (ellipsim/mujoco/callbacks.py, core/distance.py) -------
+# --- Warm start of the MuJoCo narrow phase (ellipsim/mujoco/callbacks.py, core/distance/ellipsoid_pair.py) -------
 
 #: distance.sigma_lower_bound: sigma along a stored normal minus this many ulps of the pair's scale
 #: |d|_1 + max r_A + max r_B (<= 34 u S counted in its docstring); a persistent pair is dropped as
@@ -111,7 +111,7 @@ WARM_SIGMA_SLACK_ULPS = 64.0
 WARM_SCALE_MIN = 2.0**-400
 WARM_SCALE_MAX = 2.0**400
 
-# --- Proven global maximum for deep penetrations (ellipsim/core/global_max.py) -------------------
+# --- Proven global maximum for deep penetrations (ellipsim/core/distance/branch_and_bound.py) -------------------
 # u = 2^-53; S = |e| + max semi-axis of A + max semi-axis of B in A's frame (the scale of sigma).
 
 #: A returned signed distance is proven within max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of
@@ -119,7 +119,7 @@ WARM_SCALE_MAX = 2.0**400
 #: the issue's 1e-12 of the smaller shortest semi-axis, floored by what float64 evaluates sigma to.
 BB_TOL_REL = 1e-12
 BB_TOL_ULPS = 96.0
-#: Rounding of sigma at a float point, <= 11 u S counted (global_max.py docstring): 24 u S covers it ...
+#: Rounding of sigma at a float point, <= 11 u S counted (branch_and_bound.py docstring): 24 u S covers it ...
 BB_ERR_SIGMA_ULPS = 24.0
 #: ... of a patch's upper bound (gradient, |c|^2 - 1, the bound's own sum), <= 41 u S counted ...
 BB_PATCH_SLACK_ULPS = 48.0
@@ -144,7 +144,7 @@ TILTED_MAX_NODES = 60000
 #: a lower local maximum (off by up to 0.35 r_min) on deep prolate pairs (issue 18).
 PARALLEL_CANDIDATE_TILT = 0.2
 
-# --- Ellipsoid x capsule and box (ellipsim/core/capsule.py, box.py, point_ellipsoid.py) ------------
+# --- Ellipsoid x capsule and box (ellipsim/core/pairs/capsule.py, box.py, point_ellipsoid.py) ------------
 
 #: The contract: a capsule or box distance is certified when its upper bound is within this fraction
 #: of the smaller shortest half-size of the pair (ellipsoid semi-axis, capsule radius, box half-size) of the value
@@ -187,7 +187,7 @@ POS_TOL = 1e-3  # metres between the contact points
 TIGHT_CCD_TOLERANCE = 1e-11
 TIGHT_CCD_ITERATIONS = 1000
 
-# --- Motion and time of impact (core/motion.py, core/time_of_impact.py) --------------------------
+# --- Motion and time of impact (core/motion/interpolation.py, core/motion/time_of_impact.py) --------------------------
 
 #: The contract's resolution in t (issue 12): time_of_impact proves separation on [0, toi - TOI_TOL]
 #: and finds a pose that is not separated at toi, which lies within TOI_TOL of the proven range.
@@ -195,7 +195,7 @@ TOI_TOL = 1e-9
 
 #: A relative rotation within this many radians of a half turn has no well-defined shortest arc
 #: (validated rotations are orthonormal to 1e-6 only, so the axis of a turn by pi - 1e-7 is noise):
-#: ValueError.  It also keeps |alpha| = |w| |phi| <= pi/2 for the sin/cos polynomials of motion.py.
+#: ValueError.  It also keeps |alpha| = |w| |phi| <= pi/2 for the sin/cos polynomials of interpolation.py.
 HALF_TURN_TOL = 1e-6
 
 #: |w| below this is no rotation at all (E = I exactly): 2^-500 rad would only add underflow.
@@ -247,7 +247,7 @@ TOI_FALSI_RTOL = 0.05
 #: costs ~1-4 ms, and a pair needs one or two (a touching pose at t = 0 or a grazing probe).
 TOI_MAX_ORACLE = 16
 
-# --- Containment (core/containment.py) ------------------------------------------------------------
+# --- Containment (core/exact/containment.py) ------------------------------------------------------------
 
 #: B inside A forces each sorted semi-axis of B to be at most A's times this: widths are monotone
 #: under inclusion, and a validated rotation's singular values lie within 1 +- 1.6e-6

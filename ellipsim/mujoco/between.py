@@ -1,13 +1,13 @@
 """Contacts between frames: ellipsoid pairs separated at frame k and at frame k + 1 that touch in
 between (a limb passing through another within one frame, a graze), by continuous collision
-detection (core.time_of_impact) on the interpolated motion.
+detection (core.motion.time_of_impact) on the interpolated motion.
 
-Between two frames each ellipsoid moves as core.motion defines (centre linear, rotation at constant
+Between two frames each ellipsoid moves as core.motion.interpolation defines (centre linear, rotation at constant
 angular velocity along the shortest arc).  That is an interpolation of the two poses: neither a
 replay's own in-between poses nor a simulation's mj_step need follow it, so an event says "on the
 interpolated motion the pair touches between these frames", from `begin` to `end`.
 
-Per chunk of consecutive frames: core.broadphase.swept_pairs (one sweep and prune per block of steps
+Per chunk of consecutive frames: core.motion.broad_phase.swept_pairs (one sweep and prune per block of steps
 over each geom's box of centres, MuJoCo's pair rules (geoms.PairRules) on the pairs it finds, then per
 step the closest approach of the two centres' straight paths against the sum of the bounding radii and
 enclosing capsules kept apart by conservative advancement; conservative, with room for rounding), and
@@ -22,19 +22,19 @@ import math
 
 import numpy as np
 
-from ..core.broadphase import swept_pairs as broadphase_swept_pairs
-from ..core.classify import classify
-from ..core.distance import signed_distance
+from ..core.motion.broad_phase import swept_pairs as broadphase_swept_pairs
+from ..core.exact.classify import classify
+from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids, orthonormality_defect
-from ..core.motion import poses_at
+from ..core.motion.interpolation import poses_at
 from ..core.relation import Relation
-from ..core.time_of_impact import Impact, time_of_impact
+from ..core.motion.time_of_impact import Impact, time_of_impact
 from ..core.tolerances import BOUNDING_INFLATION, HALF_TURN_TOL, ORTHONORMAL_TOL
 
 #: A geom turning by more than pi - HALF_TURN_MARGIN between two frames has no well-defined
-#: interpolated motion (core.motion refuses turns within HALF_TURN_TOL = 1e-6 rad of pi): its pairs
+#: interpolated motion (core.motion.interpolation refuses turns within HALF_TURN_TOL = 1e-6 rad of pi): its pairs
 #: are reported UNRESOLVED over the whole step.  100 x HALF_TURN_TOL: the angle is computed here with
-#: numpy (atan2 of the same quantities as core.motion.rotation_vector, errors ~1e-15 rad).
+#: numpy (atan2 of the same quantities as core.motion.interpolation.rotation_vector, errors ~1e-15 rad).
 HALF_TURN_MARGIN = 100 * HALF_TURN_TOL
 
 STATUS_NAMES = {int(s): s.name.lower() for s in Impact}
@@ -46,10 +46,10 @@ class Events:
 
     frame : (E,) int64, frame k: separated at k and k + 1 (exact classify), touching in between
     pair : (E, 2) int64, i < j, indices into the g ellipsoid geoms the checker was given
-    toi : (E,) float64 in (0, 1): first contact, as a fraction of the step (core.time_of_impact)
+    toi : (E,) float64 in (0, 1): first contact, as a fraction of the step (core.motion.time_of_impact)
     begin, end : (E,) float64 seconds: first and last contact on the interpolated motion
     until : (E,) float64 seconds, the time of frame k + 1
-    status : (E,) int8 core.time_of_impact.Impact code of the first contact (UNRESOLVED: a possible
+    status : (E,) int8 core.motion.time_of_impact.Impact code of the first contact (UNRESOLVED: a possible
         contact, e.g. a graze within float64 resolution, or a half turn between the frames)
     half_turn : (E,) bool, a geom of the pair turns by about pi between the frames: no interpolated
         motion, reported UNRESOLVED with begin, end the frames' times
@@ -96,7 +96,7 @@ RULES_MATRIX_MAX = 1024
 
 def swept_pairs(centers, rotations, radii, rules, matrix=None):
     """(P, 3) int64 (step, i, j), i < j, sorted by step: the pairs `rules` allow that may touch between
-    frames step and step + 1 on the interpolated motion (conservative: core.broadphase.swept_pairs
+    frames step and step + 1 on the interpolated motion (conservative: core.motion.broad_phase.swept_pairs
     over the bounding radii inflated by BOUNDING_INFLATION, MuJoCo's rules on the sweep's pairs).
 
     centers : (F, g, 3) metres; rotations : (F, g, 3, 3); radii : (g, 3) semi-axes; rules :
@@ -107,7 +107,7 @@ def swept_pairs(centers, rotations, radii, rules, matrix=None):
 
 
 def turn_angles(R0, R1):
-    """(...) angles in [0, pi] of R0^T R1, radians; R0, R1 : (..., 3, 3) (core.motion.rotation_vector's
+    """(...) angles in [0, pi] of R0^T R1, radians; R0, R1 : (..., 3, 3) (core.motion.interpolation.rotation_vector's
     atan2 of the antisymmetric part's norm and (trace - 1) / 2; the antisymmetric part of R0^T R1 is
     minus half the sum of the cross products of the rows)."""
     c = 0.5 * (np.einsum("...ij,...ij->...", R0, R1) - 1.0)

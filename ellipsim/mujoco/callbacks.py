@@ -13,11 +13,11 @@ reach its narrow phase, and a pair apart now may meet within the step.
 mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid,
 sphere x ellipsoid, capsule x ellipsoid, ellipsoid x box and ellipsoid x cylinder (where MuJoCo has
 mjc_Convex: GJK, then EPA).  It returns no contact for pairs certified separated beyond the margin, else the signed
-distance, normal and contact point of core.distance (core.capsule, core.box, core.cylinder for those),
+distance, normal and contact point of core.distance.ellipsoid_pair (core.pairs.capsule, core.pairs.box, core.pairs.cylinder for those),
 filling the mjPreContact as mjc_Convex does (dist, pos, normal from g1 to g2; tangent zero:
 mj_setContact completes the frame).  The table is indexed type1 <= type2 (engine_collision_driver.c
-swaps the pair by type), so the capsule is g1 (its normal is core.capsule's flipped) and the box or
-cylinder is g2.  A pair whose maximum is not proven global (core.distance UNPROVEN: the branch and
+swaps the pair by type), so the capsule is g1 (its normal is core.pairs.capsule's flipped) and the box or
+cylinder is g2.  A pair whose maximum is not proven global (core.distance.ellipsoid_pair UNPROVEN: the branch and
 bound's budget ran out, for two ellipsoids or a cylinder's rim; a non-finite result) goes to
 MuJoCo's original function, and is counted; for two ellipsoids the contact it makes then carries the
 better of MuJoCo's normal and ellipsim's best, sigma evaluated by ellipsim at both (each is a lower
@@ -58,9 +58,9 @@ from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
 from ..core._jit import jit
-from ..core import box, capsule, cylinder
-from ..core.certified import bounding_spheres_apart, separated_by_axes
-from ..core.distance import GLOBAL, contact_at, pair_signed_distance_from, sigma_lower_bound
+from ..core.pairs import box, capsule, cylinder
+from ..core.exact.certified_filter import bounding_spheres_apart, separated_by_axes
+from ..core.distance.ellipsoid_pair import GLOBAL, contact_at, pair_signed_distance_from, sigma_lower_bound
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from ..core.vec3 import norm2
 from .context import (

@@ -12,7 +12,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from ..core.distance import GLOBAL, signed_distance
+from ..core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ..core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL, TIGHT_CCD_ITERATIONS, TIGHT_CCD_TOLERANCE
 from .attachment import Attachment, check_model_data
 from .context import ELLIPSOID
@@ -34,7 +34,7 @@ class ContactDifference:
     dpos: float
     sigma_mujoco: float  # sigma(n) at MuJoCo's normal: the signed distance is the maximum of sigma
     sigma_ellipsim: float  # ... and at ellipsim's
-    proven: bool  # ellipsim's maximum is proven global (core.distance GLOBAL)
+    proven: bool  # ellipsim's maximum is proven global (core.distance.ellipsoid_pair GLOBAL)
     right: str  # "ellipsim", "mujoco" or "undetermined"
     reason: str
     threshold: float = 0.0  # the pair's margin + gap: a contact exists below it (geoms.pair_margins, pair_gaps)

@@ -104,11 +104,11 @@ class PairType(NamedTuple):
 #: table though capsule pairs start cold: kept, as the table's size decides which pairs share a set,
 #: and so the trajectories.
 PAIR_TYPES = (
-    PairType("ellipsoid x ellipsoid", ELLIPSOID, ELLIPSOID, FALLBACK_ELLIPSOID, True, True, "core.distance"),
-    PairType("sphere x ellipsoid", SPHERE, ELLIPSOID, FALLBACK_SPHERE, True, True, "core.distance"),
-    PairType("capsule x ellipsoid", CAPSULE, ELLIPSOID, FALLBACK_CAPSULE, False, True, "core.capsule"),
-    PairType("ellipsoid x box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.box"),
-    PairType("ellipsoid x cylinder", ELLIPSOID, CYLINDER, FALLBACK_CYLINDER, False, False, "core.cylinder"),
+    PairType("ellipsoid x ellipsoid", ELLIPSOID, ELLIPSOID, FALLBACK_ELLIPSOID, True, True, "core.distance.ellipsoid_pair"),
+    PairType("sphere x ellipsoid", SPHERE, ELLIPSOID, FALLBACK_SPHERE, True, True, "core.distance.ellipsoid_pair"),
+    PairType("capsule x ellipsoid", CAPSULE, ELLIPSOID, FALLBACK_CAPSULE, False, True, "core.pairs.capsule"),
+    PairType("ellipsoid x box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.pairs.box"),
+    PairType("ellipsoid x cylinder", ELLIPSOID, CYLINDER, FALLBACK_CYLINDER, False, False, "core.pairs.cylinder"),
 )
 FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
 

@@ -19,9 +19,9 @@ filterCollisionPair, mj_narrowphase, mj_setContact; checked on the 4.0.0 wheel):
 import mujoco
 import numpy as np
 
-from ..core.broadphase import sweep_and_prune
-from ..core.classify import classify
-from ..core.distance import GLOBAL, signed_distance
+from ..core.motion.broad_phase import sweep_and_prune
+from ..core.exact.classify import classify
+from ..core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ..core.ellipsoids import Ellipsoids, orthonormality_defect
 from ..core.relation import Relation
 from ..core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
@@ -126,7 +126,7 @@ def explicit_pairs(model, data=None):
 
 
 def proof_tolerance(a, b):
-    """(k,) metres: how close core.distance proves a GLOBAL signed distance of the pairs (a[i], b[i])
+    """(k,) metres: how close core.distance.ellipsoid_pair proves a GLOBAL signed distance of the pairs (a[i], b[i])
     to the true one, TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of its docstring (r_min
     the shortest of the six semi-axes, S = |c_b - c_a| + the two largest, delta the larger rotation's
     orthonormality defect + 4 u; the larger of the two rotations' defects, as either may be A's)."""
@@ -142,7 +142,7 @@ def within_threshold(model, data, pairs, threshold):
     pairs : (k, 2) ellipsoid or sphere geom ids; threshold : (k,) metres (the pair's margin, or
     margin + gap).  returns (within, decided, dist, relation):
     within (k,) bool, ellipsim's verdict (its float estimate where not decided); decided (k,) bool;
-    dist (k,) the geoms' signed distance where it was needed (core.distance), else nan;
+    dist (k,) the geoms' signed distance where it was needed (core.distance.ellipsoid_pair), else nan;
     relation (k,) int8, the exact Relation of the bare geoms.
 
     Exact wherever classify settles it, on every float input: threshold == 0 (interiors overlap iff the
@@ -302,7 +302,7 @@ def frame_pairs(centers, radii, rules):
     allow: (P, 3) int64, sorted by frame.
 
     centers : (F, g, 3) metres; radii : (g, 3) semi-axes; rules : PairRules over the same g geoms.
-    Sweep and prune per frame (core.broadphase), then MuJoCo's rules on the pairs it found, vectorised
+    Sweep and prune per frame (core.motion.broad_phase), then MuJoCo's rules on the pairs it found, vectorised
     (no (g, g) matrix).
     """
     centers = np.ascontiguousarray(centers, dtype=np.float64)

@@ -6,8 +6,8 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from ..core.distance import signed_distance
-from ..core.perram_wertheim import contact_scale
+from ..core.distance.ellipsoid_pair import signed_distance
+from ..core.exact.contact_scale import contact_scale
 from ..core.relation import Relation
 from .attachment import check_model_data
 from .between import BetweenFrames, Events
@@ -38,7 +38,7 @@ class Disagreement:
     reason: str
     margin: float = 0.0  # the pair's margin, as MuJoCo applies it (geoms.pair_margins)
     gap: float = 0.0  # the pair's gap (geoms.pair_gaps): contacts below margin + gap, excluded above margin
-    signed_distance: float = float("nan")  # ellipsim's signed distance of the geoms (core.distance)
+    signed_distance: float = float("nan")  # ellipsim's signed distance of the geoms (core.distance.ellipsoid_pair)
     explicit: bool = False  # the pair is a <contact><pair> element
 
 
@@ -92,7 +92,7 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
     advance : mj_step after each comparison (False for kinematic replays that set every pose)
     progress : optional callable(step, nstep), called after each step
     between : also find the ellipsoid pairs separated at two consecutive steps that touch in between
-        (Validation.passed_through; mujoco.between, core.time_of_impact on the interpolated motion)
+        (Validation.passed_through; mujoco.between, core.motion.time_of_impact on the interpolated motion)
     """
     check_model_data(model, data)
     if not isinstance(nstep, (int, np.integer)) or nstep < 1:

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 
-from ...core.classify import classify
-from ...core.perram_wertheim import contact_scale
+from ...core.exact.classify import classify
+from ...core.exact.contact_scale import contact_scale
 from ...core.samples import near_contact_pairs
 from ...core.tolerances import NEWTON_MAX_ITER
 from .common import (

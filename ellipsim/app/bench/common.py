@@ -18,9 +18,9 @@ import numba
 import numpy as np
 
 from ...core._jit import jit
-from ...core.classify import _classify_float
-from ...core.distance import pair_signed_distance
-from ...core.sigma import a_frame, bisector_seed, newton, sigma
+from ...core.exact.classify import _classify_float
+from ...core.distance.ellipsoid_pair import pair_signed_distance
+from ...core.distance.sphere_newton import a_frame, bisector_seed, newton, sigma
 from ...core.vec3 import load
 from ...mujoco import structs
 from ...mujoco.attachment import attach

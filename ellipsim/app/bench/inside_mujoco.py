@@ -23,8 +23,8 @@ import mujoco
 import numba
 import numpy as np
 
-from ...core.classify import classify
-from ...core.distance import UNPROVEN, signed_distance
+from ...core.exact.classify import classify
+from ...core.distance.ellipsoid_pair import UNPROVEN, signed_distance
 from ...core.ellipsoids import Ellipsoids
 from ...mujoco import scenes, structs
 from ...mujoco.attachment import attach

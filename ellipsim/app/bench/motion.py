@@ -12,17 +12,17 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ...core import rational
+from ...core.exact import rational_fallback as rational
 from ...core._jit import jit
-from ...core.certified import certify_pair
-from ...core.classify import classify
-from ...core.containment import UNDECIDED as CONTAIN_UNDECIDED
-from ...core.containment import certify_containment, contains
+from ...core.exact.certified_filter import certify_pair
+from ...core.exact.classify import classify
+from ...core.exact.containment import UNDECIDED as CONTAIN_UNDECIDED
+from ...core.exact.containment import certify_containment, contains
 from ...core.ellipsoids import Ellipsoids
-from ...core.perram_wertheim import contact_scale
+from ...core.exact.contact_scale import contact_scale
 from ...core.relation import SEPARATED, UNDECIDED
 from ...core.samples import random_ellipsoids
-from ...core.time_of_impact import UNRESOLVED, _check, _pose_at, float_poses, load_pair, time_of_impact
+from ...core.motion.time_of_impact import UNRESOLVED, _check, _pose_at, float_poses, load_pair, time_of_impact
 from .common import interleaved, relative, say
 
 

@@ -17,7 +17,7 @@ import mujoco
 import numba
 import numpy as np
 
-from ...core import box, capsule, cylinder
+from ...core.pairs import box, capsule, cylinder
 from ...core.rotations import quaternions_to_rotations
 from ...mujoco import structs
 from ...mujoco.attachment import attach

@@ -8,7 +8,7 @@ own in tests/).
 
 import numpy as np
 
-from ...core.distance import pair_signed_distance
+from ...core.distance.ellipsoid_pair import pair_signed_distance
 from ...core.vec3 import load
 
 

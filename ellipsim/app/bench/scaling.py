@@ -7,7 +7,7 @@ import time
 import mujoco
 import numpy as np
 
-from ...core.classify import classify, classify_pairs
+from ...core.exact.classify import classify, classify_pairs
 from ...core.ellipsoids import Ellipsoids
 from ...core.samples import generic_pairs
 from .. import scenario, simulate

@@ -17,9 +17,9 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ...core.distance import signed_distance
+from ...core.distance.ellipsoid_pair import signed_distance
 from ...core.ellipsoids import Ellipsoids
-from ...core.time_of_impact import time_of_impact
+from ...core.motion.time_of_impact import time_of_impact
 from .common import interleaved, say
 
 TIMESTEP = 0.002

@@ -7,13 +7,13 @@ import numpy as np
 
 from scipy.spatial.transform import Rotation
 
-from ...core.certified import certify
-from ...core.classify import classify
-from ...core.cylinder import UNPROVEN as CYLINDER_UNPROVEN
-from ...core.cylinder import cylinder_ellipsoid
-from ...core.distance import GLOBAL, signed_distance
+from ...core.exact.certified_filter import certify
+from ...core.exact.classify import classify
+from ...core.pairs.cylinder import UNPROVEN as CYLINDER_UNPROVEN
+from ...core.pairs.cylinder import cylinder_ellipsoid
+from ...core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ...core.ellipsoids import Ellipsoids
-from ...core.perram_wertheim import contact_scale
+from ...core.exact.contact_scale import contact_scale
 from ...core.relation import UNDECIDED
 from ...core.samples import STRESS, stress_pairs
 from .common import FLOAT_METHODS, MujocoPairs, distances_serial, float_runner, pair_runner, say, verdict

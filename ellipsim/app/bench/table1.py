@@ -5,7 +5,7 @@ import os
 
 import numpy as np
 
-from ...core.classify import classify
+from ...core.exact.classify import classify
 from ...core.samples import generic_pairs
 from .common import float_runner, median_time, say
 

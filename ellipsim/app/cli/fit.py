@@ -21,28 +21,31 @@ def fit(args):
             limbs.append(fitting.fit_limb(name, path, method=args.method, digits=args.digits))
         except ValueError as exc:
             raise UserError(str(exc)) from None
-    print(f"bounding ellipsoids ({args.method}), {args.digits} significant digits, every vertex inside as written:")
-    width = max(len(n) for n in names)
-    print(f"  {'mesh':<{width}}  {'centre (pos)':<30} {'quaternion (w x y z)':<36} {'semi-axes (size)':<30} volume / hull")
-    for limb in limbs:
-        print(f"  {limb.name:<{width}}  {limb.pos:<30} {limb.quat:<36} {limb.size:<30} {limb.volume_ratio:.3f}")
+    print("\n".join(fitting.summary_lines(limbs, method=args.method, digits=args.digits)))
     if args.out:
         try:
             with open(args.out, "w") as f:
                 f.write(fitting.limbs_xml(limbs, method=args.method))
         except OSError as exc:
             raise write_error("--out", args.out, exc) from None
-        print(f"  MJCF: {args.out} (<include file=\"{os.path.basename(args.out)}\"/> adds the geoms to a worldbody)")
+        print(f'  MJCF: {args.out} (<include file="{os.path.basename(args.out)}"/> adds the geoms to a worldbody)')
     return 0
 
 
 def add_parser(sub):
     """The `fit` subcommand and its arguments."""
-    p = sub.add_parser("fit", help="bounding ellipsoids of meshes (.obj .stl .ply .off .glb .gltf), as MJCF geoms",
-                       epilog="example: ellipsim fit forearm.stl hand.stl --method mvee --out limbs.xml")
+    p = sub.add_parser(
+        "fit",
+        help="bounding ellipsoids of meshes (.obj .stl .ply .off .glb .gltf), as MJCF geoms",
+        epilog="example: ellipsim fit forearm.stl hand.stl --method mvee --out limbs.xml",
+    )
     p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files, one ellipsoid each (named after the file)")
-    p.add_argument("--method", choices=("thesis", "mvee"), default="thesis",
-                   help="thesis: covariance of the convex hull (default); mvee: minimum-volume enclosing ellipsoid")
+    p.add_argument(
+        "--method",
+        choices=("thesis", "mvee"),
+        default="thesis",
+        help="thesis: covariance of the convex hull (default); mvee: minimum-volume enclosing ellipsoid",
+    )
     p.add_argument("--out", metavar="FILE.xml", help="write the ellipsoids as MJCF geoms")
     p.add_argument("--digits", type=positive_int, default=6, help="significant digits of the numbers (default 6)")
     p.set_defaults(run=fit)

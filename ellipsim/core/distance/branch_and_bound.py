@@ -90,10 +90,10 @@ import math
 
 import numpy as np
 
-from ._jit import jit, stage
-from .sigma import CONVERGED, newton, tangent_basis, unit
-from .tolerances import BB_ERR_SIGMA_ULPS, BB_MAX_PATCHES, BB_PATCH_SLACK_ULPS, NEWTON_MAX_ITER
-from .vec3 import cross3, matvec, norm2, rotate_t
+from .._jit import jit, stage
+from .sphere_newton import CONVERGED, newton, tangent_basis, unit
+from ..tolerances import BB_ERR_SIGMA_ULPS, BB_MAX_PATCHES, BB_PATCH_SLACK_ULPS, NEWTON_MAX_ITER
+from ..vec3 import cross3, matvec, norm2, rotate_t
 
 #: How global_max ends: the maximum found is proven global (GLOBAL), the budget ran out (UNPROVEN:
 #: the best found, no proof), or a climb reached sigma > 0 (SEPARATED_MAX: sigma is concave on the

@@ -3,21 +3,21 @@
 Two ellipsoids X^T A X <= 0 and X^T B X <= 0 are separated iff det(lambda A + B) = 0 has two
 distinct positive roots and externally touching iff it has a positive double root (Wang, Wang &
 Kim; thesis ch. 4, Theorem 1).  "exact" decides this on the float64 inputs with a certified float
-path (certified.py) and exact rationals where that path is unsure (rational.py); "sturm" and
-"descartes" are the thesis's uncertified tests (roots.py) on either set-up (charpoly.py).
+path (certified_filter.py) and exact rationals where that path is unsure (rational_fallback.py); "sturm" and
+"descartes" are the thesis's uncertified tests (root_tests.py) on either set-up (characteristic.py).
 """
 
 import numpy as np
 
-from . import rational
-from . import threads
-from ._jit import jit, stage
-from .certified import certify, certify_pair
-from .charpoly import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
-from .ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel
-from .relation import UNDECIDED, Relation
-from .roots import descartes_relation, sturm_relation
-from .vec3 import load
+from . import rational_fallback as rational
+from .. import threads
+from .._jit import jit, stage
+from .certified_filter import certify, certify_pair
+from .characteristic import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
+from ..ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel
+from ..relation import UNDECIDED, Relation
+from .root_tests import descartes_relation, sturm_relation
+from ..vec3 import load
 
 
 METHODS = ("exact", "sturm", "descartes")

@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
-from ._jit import jit, stage
-from .ellipsoids import Ellipsoids
-from .tolerances import HALF_TURN_TOL, OMEGA_ZERO
+from .._jit import jit, stage
+from ..ellipsoids import Ellipsoids
+from ..tolerances import HALF_TURN_TOL, OMEGA_ZERO
 
 # Taylor coefficients (-1)^k / (2k)! and (-1)^k / (2k + 1)!, k = 11 ... 0 (Horner's order), each rounded
 # once to float64.

@@ -9,7 +9,7 @@ maximiser n* the normal is n* (from A to B, MuJoCo's convention) and the contact
 midpoint of the support points c_A + grad h_A(n*) and c_B - grad h_B(n*), as mjc_Convex reports it
 (engine_collision_convex.c: pos = (x1 + x2) / 2, dist = margin + depth of the margin-grown bodies).
 
-One Newton run (sigma.py) from the bisector seed finds a local maximum; it is the global one
+One Newton run (sphere_newton.py) from the bisector seed finds a local maximum; it is the global one
 * when sigma > 0: a concave function maximised over the unit ball has its maximum on the sphere;
 * when the depth is below rho = rolling_radius(A) + rolling_radius(B): A + (-B) is a convex body plus
   a ball of radius rho, so depth - rho is minus the distance from the centre offset to a convex set,
@@ -22,7 +22,7 @@ spheroids (or a sphere and a spheroid) with parallel axes of revolution, to with
 maximum is then one of two ellipses in a plane: a branch and bound over one angle proves it, circles
 of maxima included); spheroids whose axes are nearly parallel go to spheroids.tilted_max (a branch and
 bound over the angles about A's axis with second-order bounds: along the circle the maxima are flat,
-across it they are not), and the rest to global_max.py: a branch and bound
+across it they are not), and the rest to branch_and_bound.py: a branch and bound
 over the sphere with concave majorants that proves its answer within
 TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of the global maximum, or reports UNPROVEN
 when its budget runs out (two spheroids at any angle then get tilted_max as a second chance; still
@@ -33,18 +33,18 @@ import math
 
 import numpy as np
 
-from . import threads
-from ._jit import jit, stage
-from .ellipsoids import check_pair, check_parallel
-from .global_max import GLOBAL as BB_GLOBAL, UNPROVEN as BB_UNPROVEN
+from .. import threads
+from .._jit import jit, stage
+from ..ellipsoids import check_pair, check_parallel
+from .branch_and_bound import GLOBAL as BB_GLOBAL, UNPROVEN as BB_UNPROVEN
 from .spheroids import parallel_max, tilted_max
-from .global_max import SEPARATED_MAX, climb, global_max, sigma_only
-from .sigma import CONVERGED, a_frame, bisector_seed, newton, rolling_radius, unit
-from .tolerances import (
+from .branch_and_bound import SEPARATED_MAX, climb, global_max, sigma_only
+from .sphere_newton import CONVERGED, a_frame, bisector_seed, newton, rolling_radius, unit
+from ..tolerances import (
     BB_FRAME_ULPS, BB_MAX_PATCHES, BB_TOL_REL, BB_TOL_ULPS, FIRST_RUN_ITER, NEWTON_MAX_ITER, U, WARM_SCALE_MAX, WARM_SCALE_MIN,
     WARM_SIGMA_SLACK_ULPS,
 )  # fmt: skip
-from .vec3 import load, matvec, norm2, rotate_t, rotation_defect, scaled, unit_scale
+from ..vec3 import load, matvec, norm2, rotate_t, rotation_defect, scaled, unit_scale
 
 #: What signed_distance reports per pair: GLOBAL (the returned maximum is proven global, to the
 #: module's TOL), UNPROVEN (the branch and bound's budget ran out: the best maximum found, no proof).

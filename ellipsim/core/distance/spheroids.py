@@ -7,15 +7,15 @@ For every t the maximum over phi is at phi_e, so the maximum over the sphere is 
 coaxial ellipses' sigma in the plane of w and e_perp (Schneider & Eberly, Geometric Tools 10.5.2:
 h(n) = |D R^T n|, which for a spheroid depends on (n.w)^2 only):
   g(z, r) = e_k z + |e_perp| r - sqrt(qa^2 z^2 + pa^2 r^2) - sqrt(qb^2 z^2 + pb^2 r^2),  (z, r) = (cos t, sin t),
-maximised by a branch and bound over t in [0, pi] with the concave majorant of global_max.py's module
+maximised by a branch and bound over t in [0, pi] with the concave majorant of branch_and_bound.py's module
 docstring, part 1, in two dimensions (g is concave and 1-homogeneous on R^2: on an arc of chord
 radius rho around the unit c, g <= g(c) + |G_T| rho + max(-G.c, 0) rho^2 / 2).  With the axes on one
-line through both centres (e_perp = 0) the maxima form circles about w, which global_max.py's branch
+line through both centres (e_perp = 0) the maxima form circles about w, which branch_and_bound.py's branch
 and bound over the sphere cannot isolate; with parallel axes and the centres off that line (a grid,
 a line or a keyframe of equal rotations) they are isolated, but so nearly flat along the circle that
 it runs out of budget there too.
 
-In A's frame (e, a, U, b as in global_max.py) w is A's axis k; qa = a_k, pa = the mean of A's other
+In A's frame (e, a, U, b as in branch_and_bound.py) w is A's axis k; qa = a_k, pa = the mean of A's other
 two semi-axes, qb = b_j for B's axis j nearest to w, pb = the mean of B's other two.  The pair need
 not be exactly of revolution nor exactly parallel: for every unit n, with n's own (z, r) in the plane,
 sigma(n) <= g(z, r) + delta and sigma(n*) >= g(z*, r*) - delta at the returned n* (in the plane), with
@@ -33,8 +33,8 @@ and bounds sigma on a cell by its second-order Taylor expansion (the section's c
 
 import math
 
-from ._jit import jit, stage
-from .tolerances import BB_ERR_SIGMA_ULPS, COAXIAL_MAX_NODES, PARALLEL_CANDIDATE_TILT as CANDIDATE_TILT, TILTED_MAX_NODES
+from .._jit import jit, stage
+from ..tolerances import BB_ERR_SIGMA_ULPS, COAXIAL_MAX_NODES, PARALLEL_CANDIDATE_TILT as CANDIDATE_TILT, TILTED_MAX_NODES
 
 U64 = 2.0**-53
 MAX_LEVEL = 52  # arcs of pi 2^-52: far below any tolerance reached
@@ -112,7 +112,7 @@ def parallel_max(e, a, U, b, tol, S):
     axis k and e_perp (of A's axes k and k + 1 when e_perp = 0: any azimuth is as good there).  Not
     proven when the axes are too far from parallel (2 delta + ERR_G + ERR_SIGMA leaves less than the
     arcs' rounding slack of tol) or the node budget runs out.  n is then the maximiser of the parallel
-    model when the pair is within CANDIDATE_TILT of it (a start for global_max.py: there the true
+    model when the pair is within CANDIDATE_TILT of it (a start for branch_and_bound.py: there the true
     maxima are within 2 delta of that model's), else (0, 0, 0)."""
     none = (False, (0.0, 0.0, 0.0), 0)
     k, _ = _axis_of(a)
@@ -198,7 +198,7 @@ def parallel_max(e, a, U, b, tol, S):
 #
 # For spheroids whose axes are tilted by tau from parallel, the maxima of sigma are no longer a circle
 # nor nearly flat isolated points of the parallel model: along the circle sigma varies by O(tau max b)
-# and across it by O(max b).  The cap bound of global_max.py pays |sigma| rho^2 / 2 in every direction
+# and across it by O(max b).  The cap bound of branch_and_bound.py pays |sigma| rho^2 / 2 in every direction
 # (the sphere's curvature), so it needs caps of radius sqrt(tol / |sigma|) all along the circle.  Here
 # n = (cos t, sin t cos phi, sin t sin phi) along A's axes (k, k + 1, k + 2), and the model
 #   sigma_m(t, phi) = n.e - sqrt(qa^2 cos^2 t + pa^2 sin^2 t) - sqrt(pb^2 + (qb^2 - pb^2) (u.n)^2)

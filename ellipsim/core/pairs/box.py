@@ -1,7 +1,7 @@
 """Signed distance of an ellipsoid and a box with a proven global maximum (MuJoCo's ellipsoid x box
 narrow phase).
 
-Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (distance.py), split into the smooth
+Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (ellipsoid_pair.py), split into the smooth
 strata of the box's support function, each solved globally by Eberly's secular equation
 (point_ellipsoid.py; Eberly, "Distance from a point to an ellipse, an ellipsoid, or a
 hyperellipsoid", sec. 2-3; GTCG 10.5.2), certified by two convex-duality bounds or by enumerating
@@ -36,14 +36,14 @@ by more than 1e-12 of the smaller shortest half-size; every maximum certified or
 
 import math
 
-from ._jit import jit, stage
+from .._jit import jit, stage
 from .point_ellipsoid import (
     circle_max_bound, contact_in_world, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2,
     secular_roots, support,
 )  # fmt: skip
-from .sigma import rolling_radius, unit
-from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from .vec3 import column, norm2, rotate_t
+from ..distance.sphere_newton import rolling_radius, unit
+from ..tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
+from ..vec3 import column, norm2, rotate_t
 
 #: How box_ellipsoid proved its maximum (as capsule.py): CERTIFIED or ENUMERATED, both proofs.
 CERTIFIED, ENUMERATED = 0, 1

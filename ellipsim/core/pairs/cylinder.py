@@ -2,7 +2,7 @@
 maximum proven global, or reported UNPROVEN (a rim branch and bound out of budget; the MuJoCo glue
 then falls back to MuJoCo's own function and counts it).
 
-Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (distance.py), with the cylinder
+Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (ellipsoid_pair.py), with the cylinder
 K = segment [-L, L] u + disc(r) (the disc perpendicular to u) centred at e in E's principal frame:
 h_K(n) = L |n.u| + r |P n|, P = I - u u^T, so
 
@@ -36,15 +36,15 @@ bounds at 8 fixed azimuths and 7-start Newton climb, which left half of its deep
 
 import math
 
-from ._jit import jit, stage
+from .._jit import jit, stage
 from .point_ellipsoid import (
     circle_max_bound, contact_in_world, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2,
     secular_roots, support,
 )  # fmt: skip
-from .sigma import rolling_radius, tangent_basis, unit
-from .spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, _axis_of, axis_bb
-from .tolerances import BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
-from .vec3 import column, cross3, norm2, rotate_t
+from ..distance.sphere_newton import rolling_radius, tangent_basis, unit
+from ..distance.spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, _axis_of, axis_bb
+from ..tolerances import BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
+from ..vec3 import column, cross3, norm2, rotate_t
 
 #: How cylinder_ellipsoid ended: CERTIFIED (an upper bound within PAIR_CERT_REL of the smaller
 #: shortest half-size of the value), ENUMERATED (every piece bounded or solved) or UNPROVEN.
@@ -569,7 +569,7 @@ def cylinder_ellipsoid(E, K):
     ra = E[2]
     rho = rolling_radius(ra)
     scale = math.sqrt(norm2(e)) + max(ra[0], ra[1], ra[2], r, L)
-    # the contract's 1e-12 of the smallest size, floored (as two ellipsoids' in distance.py) by what
+    # the contract's 1e-12 of the smallest size, floored (as two ellipsoids' in ellipsoid_pair.py) by what
     # float64 evaluates sigma to: a 0.02 m thin disc on a 1.3 m limb asks for 1e-14 m, 100 ulps of the
     # pair's scale, less than axis_max's own rounding budget (~110 u S); twice the ellipsoids' floor
     tol = max(PAIR_CERT_REL * min(ra[0], ra[1], ra[2], r, L), 2.0 * BB_TOL_ULPS * U * scale)

@@ -16,10 +16,10 @@ Tools, sec. 2-3; GTCG 10.5.2).  Weak duality gives dist(q, boundary E)^2 >= g(t)
 
 import math
 
-from ._jit import jit, stage
-from .sigma import unit
-from .tolerances import CRITICAL_MAX_ITER, POLE_RTOL, SECULAR_LAST, SECULAR_MAX_ITER, U
-from .vec3 import dot3, matvec, norm2
+from .._jit import jit, stage
+from ..distance.sphere_newton import unit
+from ..tolerances import CRITICAL_MAX_ITER, POLE_RTOL, SECULAR_LAST, SECULAR_MAX_ITER, U
+from ..vec3 import dot3, matvec, norm2
 
 @stage
 def contact_in_world(E, a2, n, value):

@@ -1,7 +1,7 @@
 """Signed distance of an ellipsoid and a capsule with a proven global maximum (MuJoCo's capsule x
 ellipsoid narrow phase).
 
-Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (distance.py), split into the smooth
+Method: max over unit n of sigma(n) = n.e - h_E(n) - h_K(n) (ellipsoid_pair.py), split into the smooth
 strata of the capsule's support function, each solved globally by Eberly's secular equation ("Distance
 from a point to an ellipse, an ellipsoid, or a hyperellipsoid", Geometric Tools, sec. 2-3; GTCG
 10.5.2), certified by the two convex-duality bounds below or by enumerating every critical point.
@@ -40,13 +40,13 @@ by more than 1e-12 of the smaller shortest half-size; every maximum certified or
 
 import math
 
-from ._jit import jit, stage
-from .sigma import rolling_radius, tangent_basis, unit
+from .._jit import jit, stage
+from ..distance.sphere_newton import rolling_radius, tangent_basis, unit
 from .point_ellipsoid import (
     circle_max_bound, contact_in_world, foot3, pole_normal, sd_upper, secular_roots, support,
 )  # fmt: skip
-from .tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from .vec3 import column, dot3, norm2, rotate_t
+from ..tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
+from ..vec3 import column, dot3, norm2, rotate_t
 
 #: How capsule_ellipsoid proved its maximum: CERTIFIED (an upper bound within PAIR_CERT_REL of the
 #: smaller shortest half-size of the value) or ENUMERATED (every critical point of every smooth piece

@@ -5,17 +5,17 @@ A and B are the 4x4 homogeneous quadrics X^T A X <= 0 (interior negative):
 
 "cofactor" (thesis 4.1.2): build A and B in world coordinates and expand the pencil's determinant
 by 2x2 minors of its first and last column pairs, reusing each minor (thesis 4.1.2.2).
-"rearranged" (thesis 4.1.3): det(lambda I + A^{-1} B) in A's frame (see pencil.py), scaled back to
+"rearranged" (thesis 4.1.3): det(lambda I + A^{-1} B) in A's frame (see pair_frame.py), scaled back to
 det(lambda A + B).  Both assume R^{-1} = R^T, as the thesis does.
 """
 
 import numpy as np
 
-from . import threads
-from ._jit import jit, stage
-from .ellipsoids import check_choice, check_pair, check_parallel
-from .pencil import coefficients, invariants, offset, shape
-from .vec3 import load, matvec, reciprocal, sandwich
+from .. import threads
+from .._jit import jit, stage
+from ..ellipsoids import check_choice, check_pair, check_parallel
+from .pair_frame import coefficients, invariants, offset, shape
+from ..vec3 import load, matvec, reciprocal, sandwich
 
 SETUPS = ("rearranged", "cofactor")
 
@@ -99,7 +99,7 @@ def cofactor_coefficients(A, B):
 
 @jit
 def rearranged_frame_coefficients(A, B):
-    """Coefficients of det(lambda A_y + B_y) in A's frame (pencil.py), assuming R_a^{-1} = R_a^T."""
+    """Coefficients of det(lambda A_y + B_y) in A's frame (pair_frame.py), assuming R_a^{-1} = R_a^T."""
     (ca, Ra, ra), (cb, Rb, rb) = A, B
     e, me = offset(ca, Ra, ra, cb)
     W, mW, alpha, malpha = shape(Ra, ra, Rb, reciprocal(rb), False)

@@ -4,7 +4,7 @@ Perram & Wertheim (J. Comput. Phys. 58, 1985): F = max_s min_x [s q_A(x) + (1 - 
 q the quadratic forms (x - c)^T Q (x - c).  Scaling both ellipsoids about their centres by
 sqrt(F) makes them touch, so contact_scale = sqrt(F): > 1 separated, < 1 overlapping.
 
-In A's frame (pencil.py) with mu = alpha s / (1 - s) it is F(mu) = mu N(mu) / ((mu + alpha) P(mu)),
+In A's frame (pair_frame.py) with mu = alpha s / (1 - s) it is F(mu) = mu N(mu) / ((mu + alpha) P(mu)),
 concave in s, so d F / d mu has one positive root.  We find it by Newton's method on the
 logarithmic slope G = d log F / d log mu, safeguarded by its sign bracket.  (Newton on the
 degree-6 numerator of F' took 18 steps on average and up to 60 on random pairs; G takes ~4.)
@@ -14,12 +14,12 @@ import math
 
 import numpy as np
 
-from . import threads
-from ._jit import jit, stage
-from .ellipsoids import check_pair, check_parallel
-from .pencil import invariants, offset, shape
-from .vec3 import load, matvec, norm2, reciprocal, scaled, unit_scale
-from .tolerances import PW_MAX_ITER, PW_RTOL
+from .. import threads
+from .._jit import jit, stage
+from ..ellipsoids import check_pair, check_parallel
+from .pair_frame import invariants, offset, shape
+from ..vec3 import load, matvec, norm2, reciprocal, scaled, unit_scale
+from ..tolerances import PW_MAX_ITER, PW_RTOL
 
 
 @stage

@@ -1,7 +1,7 @@
 """Containment: does ellipsoid b lie inside ellipsoid a?  Exact on the float64 inputs, as classify is.
 
 Criterion (closed sets: b touching a's boundary from inside counts as inside).  In A's frame
-(pencil.py), A is the unit ball |y| <= 1 and B = {y : (y - e)^T K (y - e) <= 1}; let A_y = diag(I, -1)
+(pair_frame.py), A is the unit ball |y| <= 1 and B = {y : (y - e)^T K (y - e) <= 1}; let A_y = diag(I, -1)
 and B_y = [[K, -K e], [-e^T K, e^T K e - 1]].  Geometric Tools (Eberly, "Intersection of Ellipsoids",
 11.9.2) maximises q_A over B by Lagrange multipliers; we use the dual of that maximisation:
 
@@ -12,10 +12,10 @@ tau (q_B - 1) everywhere for some tau >= 0, and tau > 0 as q_A is unbounded; a q
 nonnegative everywhere iff its homogeneous 4x4 matrix is PSD; nu = 1 / tau.  <=: if N(nu) is PSD then
 q_B(y) - 1 >= nu (|y|^2 - 1) for all y.)  det N(nu) is the characteristic polynomial det(lambda A + B)
 of Wang, Wang & Kim (thesis ch. 4) at lambda = -nu: containment is read off its NEGATIVE roots, as
-separation is read off its positive ones.  In pencil.py's scaled variables (K_c = alpha K,
+separation is read off its positive ones.  In pair_frame.py's scaled variables (K_c = alpha K,
 mu = -alpha nu), f(mu) = det(mu A_y + alpha B_y) = alpha^4 det N(nu).
 
-Float filter (decisions proven by error bounds: pencil.py's mags, Higham's gamma_n):
+Float filter (decisions proven by error bounds: pair_frame.py's mags, Higham's gamma_n):
 * inside: B's centre, rotation and axes those of A, axes no longer (exact comparisons); or, strictly,
   mu < 0 with K_c + mu I positive definite (Sylvester: three leading minors > 0) and f(mu) > 0, so that
   N(nu) is positive definite and q_B <= 1 forces |y| < 1.  mu maximises the concave
@@ -26,7 +26,7 @@ Float filter (decisions proven by error bounds: pencil.py's mags, Higham's gamma
   maximiser of |y|^2 over B pulled slightly towards B's centre, or the ends of B's axes).
 * UNDECIDED otherwise (internal tangency, identical-but-rotated axes, near-tangency): rationals.
 
-Exact fallback (Fractions, any invertible rotations through cof(R_a), as rational.py).  The set
+Exact fallback (Fractions, any invertible rotations through cof(R_a), as rational_fallback.py).  The set
 F = {nu > 0 : N(nu) PSD} is a closed interval inside (0, kappa_1]; N is singular at its left end, so F is
 non-empty iff some positive root r of T(nu) = det N(nu) has N(r) PSD, i.e. the sums of principal minors
 E_1, E_2, E_3 of N(r) (the elementary symmetric functions of its eigenvalues; E_4 = T(r) = 0) are all
@@ -41,13 +41,13 @@ from itertools import combinations
 
 import numpy as np
 
-from . import threads
-from ._jit import jit, stage
-from .certified import _in_float_range, _positive, bounding_spheres_apart
-from .ellipsoids import check_pair, check_parallel
-from .pencil import invariants, offset, shape
-from .rational import _remainder, _strip, exact_pair
-from .tolerances import (
+from .. import threads
+from .._jit import jit, stage
+from .certified_filter import _in_float_range, _positive, bounding_spheres_apart
+from ..ellipsoids import check_pair, check_parallel
+from .pair_frame import invariants, offset, shape
+from .rational_fallback import _remainder, _strip, exact_pair
+from ..tolerances import (
     AXIS_SLACK,
     CONTAIN_NEWTON_STEPS,
     CONTAIN_RTOL,
@@ -57,7 +57,7 @@ from .tolerances import (
     ERR_WITNESS,
     JACOBI_SWEEPS,
 )
-from .vec3 import cross3, cross3_mag, load, matvec, norm2, reciprocal
+from ..vec3 import cross3, cross3_mag, load, matvec, norm2, reciprocal
 
 INSIDE, NOT_INSIDE = 1, 0
 UNDECIDED = -1

@@ -10,7 +10,7 @@ Every decision is a certificate about the exact ellipsoids the float64 inputs de
   segment (t = 0 and t = 1 are the centres), then the Perram-Wertheim point y(mu*) in A's frame,
   where q_A and q_B are equal at the optimum: |y|^2 < 1 and (y - e)^T K_c (y - e) < alpha.
 
-Each test compares a computed value with gamma_n * mag + TAU (pencil.py, tolerances.py).  Touching
+Each test compares a computed value with gamma_n * mag + TAU (pair_frame.py, tolerances.py).  Touching
 pairs, and pairs too close to touching for float64, come back UNDECIDED for exact arithmetic.
 Unlike tolerance-based tests (e.g. HOOMD-blue's ShapeEllipsoid.h, relative 1e-6), a decision
 here is never wrong; an ill-conditioned float only makes the answer slower.
@@ -23,12 +23,12 @@ import math
 
 import numpy as np
 
-from . import threads
-from ._jit import jit, stage
-from .pencil import invariants, pencil, pencil_mag, shape
-from .perram_wertheim import initial_mu, pw_step, pw_value
-from .relation import OVERLAPPING, SEPARATED, UNDECIDED
-from .tolerances import (
+from .. import threads
+from .._jit import jit, stage
+from .pair_frame import invariants, pencil, pencil_mag, shape
+from .contact_scale import initial_mu, pw_step, pw_value
+from ..relation import OVERLAPPING, SEPARATED, UNDECIDED
+from ..tolerances import (
     BOUNDING_INFLATION,
     ERR_POLY,
     ERR_SHORT,
@@ -44,7 +44,7 @@ from .tolerances import (
     SUPPORT_SLACK,
     TAU,
 )
-from .vec3 import load, matvec, norm2, reciprocal, rotate_t, rotate_t_mag
+from ..vec3 import load, matvec, norm2, reciprocal, rotate_t, rotate_t_mag
 
 @stage
 def _positive(value, mag, err):

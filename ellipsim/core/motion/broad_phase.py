@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
-from . import threads
-from ._jit import jit
-from .tolerances import PARALLEL_MIN_PAIRS, U
+from .. import threads
+from .._jit import jit
+from ..tolerances import PARALLEL_MIN_PAIRS, U
 
 
 @jit
@@ -85,7 +85,7 @@ CAPSULE_SLACK = 1e-4
 CAPSULE_STEPS = 8
 
 #: Geoms whose cos theta = (tr R0^T R1 - 1) / 2 in a step is below PLAIN_COS (turning by more than
-#: ~120 degrees) get the sphere tests only: core.motion has no motion near a half turn, and
+#: ~120 degrees) get the sphere tests only: core.motion.interpolation has no motion near a half turn, and
 #: mujoco.between reports those pairs as they are, deciding the half turn from cos < -1/2 and then
 #: the angle; 1e-3 is room for rotations orthonormal to 1e-6 only.
 PLAIN_COS = -0.5 + 1e-3
@@ -310,7 +310,7 @@ def _step_pairs(blocks, block, centers, rho, ends, bend, cap, big, keep, lo, hi)
 
 def swept_pairs(centers, rotations, radii, rho, allowed=None):
     """Pairs (step, i, j), i < j, of consecutive frames step, step + 1 whose ellipsoids may touch in
-    between while each moves as core.motion interpolates (centre linear, rotation at constant angular
+    between while each moves as core.motion.interpolation interpolates (centre linear, rotation at constant angular
     velocity): a necessary condition, with room for rounding.
 
     centers : (F, g, 3) metres; rotations : (F, g, 3, 3); radii : (g, 3) semi-axes, metres; rho : (g,)

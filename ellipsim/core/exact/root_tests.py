@@ -6,8 +6,8 @@ two negative roots and c4, c0 < 0 (thesis 4.1.1.1).  They run in the precision o
 (float64 or float32) and are kept to be measured: neither is reliable near repeated roots.
 """
 
-from ._jit import jit
-from .relation import OVERLAPPING, SEPARATED, TOUCHING
+from .._jit import jit
+from ..relation import OVERLAPPING, SEPARATED, TOUCHING
 
 
 @jit

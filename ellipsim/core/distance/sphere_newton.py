@@ -3,15 +3,15 @@ the unit sphere by Riemannian Newton (the narrow phase's building blocks).
 
 h(n) = |D R^T n| is an ellipsoid's support function (Schneider & Eberly, Geometric Tools 10.5.2).
 sigma is concave and positively homogeneous of degree 1 on R^3; its maximum over unit n is the
-signed distance (distance.py), and a local maximum found here is proven global there (the
-rolling-radius argument, or global_max.py's branch and bound).
+signed distance (ellipsoid_pair.py), and a local maximum found here is proven global there (the
+rolling-radius argument, or branch_and_bound.py's branch and bound).
 """
 
 import math
 
-from ._jit import stage
-from .tolerances import NEWTON_STEP_TOL
-from .vec3 import matvec, norm2, rotate_t, sandwich
+from .._jit import stage
+from ..tolerances import NEWTON_STEP_TOL
+from ..vec3 import matvec, norm2, rotate_t, sandwich
 
 #: How one Newton run ended: at a local maximum, not within its steps, or abandoned (its quadratic
 #: bound stays below a value another run already reached).

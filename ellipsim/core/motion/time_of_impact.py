@@ -1,6 +1,6 @@
 """Continuous collision detection: the first time two moving ellipsoids stop being separated.
 
-The motion is motion.py's (centre linear, constant angular velocity along the shortest arc), defined
+The motion is interpolation.py's (centre linear, constant angular velocity along the shortest arc), defined
 exactly by the float64 inputs.  time_of_impact returns toi and, per pair, what was proven (`Impact`):
 
 * every real t in [0, toi - TOI_TOL] is separated: a chain of interval certificates covering the whole
@@ -21,7 +21,7 @@ so h(n; t) <= phi(s) + Q(|s|), phi(s) = |D (q - s W q)| (convex in s), Q(S) = S^
 theta^2 S^3/6 |D W q|.  n.d(t) is affine in t, so n.d - phi_A - phi_B is concave: its minimum over an
 interval is at an end, and two evaluations (minus Q at the larger |s|) bound the margin over the whole
 interval, to second order in its width.  Every float error is bounded (Higham's gamma_n on an absolute
-"mag" as in pencil.py; R_p^{-1} n from the cofactor matrix, exact for any invertible R_p; motion.py's
+"mag" as in pair_frame.py; R_p^{-1} n from the cofactor matrix, exact for any invertible R_p; interpolation.py's
 Rodrigues bound).  The pose ball: the float poses this module classifies have centres within
 4.01u (|d_tau| + |Delta_a| + |Delta_b|) of the exact motion's (relative to c_a at t = tau, so the
 rounding scales with the pair, not with its distance from the origin) and rotations within DELTA_R.
@@ -48,10 +48,10 @@ from enum import IntEnum
 
 import numpy as np
 
-from . import rational
-from . import threads
-from ._jit import jit, stage
-from .certified import (
+from ..exact import rational_fallback as rational
+from .. import threads
+from .._jit import jit, stage
+from ..exact.certified_filter import (
     _in_float_range,
     _positive,
     bounding_spheres_apart,
@@ -60,12 +60,12 @@ from .certified import (
     pencil_positive,
     witness,
 )
-from .ellipsoids import Ellipsoids, check_parallel
-from .motion import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
-from .pencil import cofactors, invariants, offset, shape
-from .perram_wertheim import initial_mu, pw_maximize, pw_value
-from .relation import SEPARATED, UNDECIDED
-from .tolerances import (
+from ..ellipsoids import Ellipsoids, check_parallel
+from .interpolation import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
+from ..exact.pair_frame import cofactors, invariants, offset, shape
+from ..exact.contact_scale import initial_mu, pw_maximize, pw_value
+from ..relation import SEPARATED, UNDECIDED
+from ..tolerances import (
     BOUNDING_INFLATION,
     DELTA_R,
     ERR_WITNESS,
@@ -83,7 +83,7 @@ from .tolerances import (
     TOI_STALL_LIMIT,
     U,
 )
-from .vec3 import cross3, cross3_mag, matvec, norm2, reciprocal
+from ..vec3 import cross3, cross3_mag, matvec, norm2, reciprocal
 
 # Statuses (int8), as `Impact` reports them; NEED_EXACT is internal (the kernel asks for rationals).
 NO_CONTACT, CONTACT, CONTACT_AT_FLOAT_POSE, UNRESOLVED = 0, 1, 2, 3
@@ -390,7 +390,7 @@ def _contact_normal(ca, Ra, ra, cb, Rb, rb, mu0):
 def _witness_relation(ca, Ra, ra, cb, Rb, rb, mu0, kappa_a, kappa_b):
     """The relation at a float pose near contact from one warm-started Perram-Wertheim solve: CONTACT
     when its point y lies strictly inside both bodies with room kappa for the pose's rounding,
-    CONTACT_AT_FLOAT_POSE when inside both float bodies only, SEPARATED when f(mu) > 0 (certified.py's
+    CONTACT_AT_FLOAT_POSE when inside both float bodies only, SEPARATED when f(mu) > 0 (certified_filter.py's
     certificates), UNDECIDED when none holds (then certify_pair's full search decides).
 
     Room: for an exact pose (c, R) near the float (c~, R~), sqrt q(x) <= sqrt q~(x) + (||R - R~|| |x - c~| +
@@ -780,7 +780,7 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
     a0, a1 : Ellipsoids, body A at t = 0 and t = 1 (equal length, equal semi-axes); likewise b0, b1.
         A batch of length 1 broadcasts against the other body's.
     Motion: centres linear, rotation R0 exp(t log(R0^T R1)), constant angular velocity along the shortest
-        arc (motion.py); a turn within 1e-6 rad of a half turn is a ValueError.
+        arc (interpolation.py); a turn within 1e-6 rad of a half turn is a ValueError.
     parallel : run on all cores; default: when there are at least PARALLEL_MIN_PAIRS pairs.
     returns : (n,) float64 toi; with return_status=True also (n,) int8 `Impact` codes (the pair's status
         says what was proven).  Every real t in [0, toi - 1e-9] is proven separated ([0, toi] for

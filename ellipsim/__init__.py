@@ -17,18 +17,33 @@ import importlib
 __version__ = "0.2.0"
 
 _LAZY = {
-    "Ellipsoids": "core.ellipsoids", "Relation": "core.relation", "classify": "core.exact.classify",
+    "Ellipsoids": "core.ellipsoids",
+    "Relation": "core.relation",
+    "classify": "core.exact.classify",
     "classify_pairs": "core.exact.classify",
-    "characteristic_polynomial": "core.exact.characteristic", "contact_scale": "core.exact.contact_scale",
-    "signed_distance": "core.distance.ellipsoid_pair", "time_of_impact": "core.motion.time_of_impact", "Impact": "core.motion.time_of_impact",
-    "contains": "core.exact.containment", "sweep": "app.sweep",
-}  # fmt: skip
+    "characteristic_polynomial": "core.exact.characteristic",
+    "contact_scale": "core.exact.contact_scale",
+    "signed_distance": "core.distance.ellipsoid_pair",
+    "time_of_impact": "core.motion.time_of_impact",
+    "Impact": "core.motion.time_of_impact",
+    "contains": "core.exact.containment",
+    "sweep": "app.sweep",
+}
 _SUBPACKAGES = ("core", "mujoco", "app")
 
 __all__ = [
-    "Ellipsoids", "Relation", "classify", "classify_pairs", "characteristic_polynomial", "contact_scale",
-    "signed_distance", "time_of_impact", "Impact", "contains", "sweep",
-]  # fmt: skip
+    "Ellipsoids",
+    "Relation",
+    "classify",
+    "classify_pairs",
+    "characteristic_polynomial",
+    "contact_scale",
+    "signed_distance",
+    "time_of_impact",
+    "Impact",
+    "contains",
+    "sweep",
+]
 
 
 def __getattr__(name):

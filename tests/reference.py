@@ -95,7 +95,9 @@ def relations(a, b):
     ia = (lambda i: i) if len(a) > 1 else (lambda i: 0)
     ib = (lambda i: i) if len(b) > 1 else (lambda i: 0)
     return [
-        relation(a.centers[ia(i)], a.rotations[ia(i)], a.radii[ia(i)], b.centers[ib(i)], b.rotations[ib(i)], b.radii[ib(i)])
+        relation(
+            a.centers[ia(i)], a.rotations[ia(i)], a.radii[ia(i)], b.centers[ib(i)], b.rotations[ib(i)], b.radii[ib(i)]
+        )
         for i in range(n)
     ]
 

@@ -7,10 +7,16 @@ from ellipsim import Ellipsoids, contact_scale
 
 SIGNED_PERMUTATIONS = [
     np.array(p, dtype=float) * np.array(s, dtype=float)[:, None]
-    for p in ([[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 0], [0, 0, 1], [1, 0, 0]], [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
-              [[0, 1, 0], [1, 0, 0], [0, 0, 1]], [[1, 0, 0], [0, 0, 1], [0, 1, 0]], [[0, 0, 1], [0, 1, 0], [1, 0, 0]])
+    for p in (
+        [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+        [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
+        [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
+        [[0, 1, 0], [1, 0, 0], [0, 0, 1]],
+        [[1, 0, 0], [0, 0, 1], [0, 1, 0]],
+        [[0, 0, 1], [0, 1, 0], [1, 0, 0]],
+    )
     for s in ([1, 1, 1], [-1, 1, 1], [1, -1, 1], [1, 1, -1], [-1, -1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, -1])
-]  # fmt: skip
+]
 
 
 def one(c, R, r):
@@ -139,12 +145,19 @@ def extreme_pair(draw):
     a, b = move_to_scale(*draw(random_pair()), 1.0 + gap)
     if kind == "offset":
         shift = np.array([draw(st.floats(-1, 1)) for _ in range(3)]) * 10.0 ** draw(st.integers(3, 7))
-        return (Ellipsoids(a.centers + shift, a.rotations, a.radii), Ellipsoids(b.centers + shift, b.rotations, b.radii))
+        return (
+            Ellipsoids(a.centers + shift, a.rotations, a.radii),
+            Ellipsoids(b.centers + shift, b.rotations, b.radii),
+        )
     f = 1e-6 if kind == "small" else 1e6
     return (Ellipsoids(a.centers * f, a.rotations, a.radii * f), Ellipsoids(b.centers * f, b.rotations, b.radii * f))
 
 
 hard_pair = st.one_of(
-    exact_tangent_pair(), pythagorean_spheres(), spheroid_pair(), identical_or_contained(), near_tangent_pair(),
+    exact_tangent_pair(),
+    pythagorean_spheres(),
+    spheroid_pair(),
+    identical_or_contained(),
+    near_tangent_pair(),
     extreme_pair(),
-)  # fmt: skip
+)

@@ -37,11 +37,11 @@ def chain_xml(n=10):
         inner = body
         body = (
             f'<body pos="{0.0 if i == 0 else 0.16} 0 0" euler="0 {10 * (i % 2)} {0 if i == 0 else 38}">'
-            + ('<freejoint/>' if i == 0 else f'<joint type="hinge" axis="{axis}" range="-120 120" damping=".01"/>')
+            + ("<freejoint/>" if i == 0 else f'<joint type="hinge" axis="{axis}" range="-120 120" damping=".01"/>')
             + f'<geom type="ellipsoid" size=".09 .04 .03" pos=".08 0 0"/>{inner}</body>'
         )
     return f"""<mujoco><compiler angle="degree"/><option timestep="0.002"/><worldbody>
-      <geom type="plane" size="3 3 .1"/><body pos="0 0 .5" euler="0 20 40">{body[body.index(">") + 1:]}
+      <geom type="plane" size="3 3 .1"/><body pos="0 0 .5" euler="0 20 40">{body[body.index(">") + 1 :]}
     </worldbody></mujoco>"""
 
 

@@ -41,13 +41,35 @@ def test_mujoco_pairs_measure_the_same_geometry():
 
 @pytest.mark.slow
 def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
-    small = dict(bench.SIZES["quick"], generic=2_000, near=1_000, mujoco=300, stress=30, reference=4,
-                 batch_max=1_000, figures=(1, 2), replay_figures=(1, 2), rounds=1, steps=10, coal=20,
-                 scenes=("1 figure",), step_rounds=1, compare_steps=2, deep_pairs=3, long_seconds=0.05)  # fmt: skip
+    small = dict(
+        bench.SIZES["quick"],
+        generic=2_000,
+        near=1_000,
+        mujoco=300,
+        stress=30,
+        reference=4,
+        batch_max=1_000,
+        figures=(1, 2),
+        replay_figures=(1, 2),
+        rounds=1,
+        steps=10,
+        coal=20,
+        scenes=("1 figure",),
+        step_rounds=1,
+        compare_steps=2,
+        deep_pairs=3,
+        long_seconds=0.05,
+    )
     monkeypatch.setitem(bench.SIZES, "quick", small)
     assert main(["bench", "--quick", "--out", str(tmp_path)]) == 0
     report = (tmp_path / "report.md").read_text()
-    for section in ("1. Time against error", "2. Numerical stress", "3. Scaling", "4. The thesis's Table 1", "5. Inside MuJoCo"):
+    for section in (
+        "1. Time against error",
+        "2. Numerical stress",
+        "3. Scaling",
+        "4. The thesis's Table 1",
+        "5. Inside MuJoCo",
+    ):
         assert section in report
     for png in ("pareto.png", "stress.png", "scaling.png", "table1.png", "mujoco.png"):
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

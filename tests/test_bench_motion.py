@@ -4,10 +4,9 @@ time_of_impact's proofs, and a small run writes the report and the plot."""
 import numpy as np
 import pytest
 
-from ellipsim.app.bench import SECTIONS
+from ellipsim.app.bench import SECTIONS, motion
 from ellipsim.app.bench import common as bench
-from ellipsim.app.bench import motion
-from ellipsim.core.motion.interpolation.time_of_impact import Impact, time_of_impact
+from ellipsim.core.motion.time_of_impact import Impact, time_of_impact
 from ellipsim.core.tolerances import TOI_TOL
 
 

@@ -15,10 +15,11 @@ import pytest
 from rerun.chunk import RrdReader
 
 from ellipsim import Ellipsoids, Impact, Relation, classify, time_of_impact
-from ellipsim.app import capture, record, replay as rp, scenario, simulate
-from ellipsim.core.motion.interpolation import broad_phase as broadphase
+from ellipsim.app import capture, record, scenario, simulate
+from ellipsim.app import replay as rp
 from ellipsim.core import threads
-from ellipsim.core.motion.interpolation.interpolation import poses_at
+from ellipsim.core.motion import broad_phase as broadphase
+from ellipsim.core.motion.interpolation import poses_at
 from ellipsim.mujoco import validate
 from ellipsim.mujoco.between import BetweenFrames, Events, swept_pairs
 from ellipsim.mujoco.geoms import ellipsoid_geoms
@@ -116,11 +117,19 @@ def test_a_turning_limb_sweeps_through_a_ball():
     """Centres at rest, a long ellipsoid turning 80 degrees about z between two frames: a ball at 40
     degrees, clear of it at both frames, is hit in between."""
     radii = np.array([[1.0, 0.02, 0.02], [0.05, 0.05, 0.05]])
-    rules = ellipsoid_geoms(mujoco.MjModel.from_xml_string(
-        "<mujoco><worldbody><body><freejoint/><geom type='ellipsoid' size='1 .02 .02'/></body>"
-        "<body><freejoint/><geom type='sphere' size='.05'/></body></worldbody></mujoco>"))[2]  # fmt: skip
-    rz = lambda deg: np.array([[math.cos(math.radians(deg)), -math.sin(math.radians(deg)), 0],  # noqa: E731
-                               [math.sin(math.radians(deg)), math.cos(math.radians(deg)), 0], [0, 0, 1]])  # fmt: skip
+    rules = ellipsoid_geoms(
+        mujoco.MjModel.from_xml_string(
+            "<mujoco><worldbody><body><freejoint/><geom type='ellipsoid' size='1 .02 .02'/></body>"
+            "<body><freejoint/><geom type='sphere' size='.05'/></body></worldbody></mujoco>"
+        )
+    )[2]
+    rz = lambda deg: np.array(
+        [
+            [math.cos(math.radians(deg)), -math.sin(math.radians(deg)), 0],  # noqa: E731
+            [math.sin(math.radians(deg)), math.cos(math.radians(deg)), 0],
+            [0, 0, 1],
+        ]
+    )
     ball = 0.5 * np.array([math.cos(math.radians(40)), math.sin(math.radians(40)), 0])
     C = np.array([[[0, 0, 0], ball]] * 3, dtype=float)
     R = np.array([[rz(a), np.eye(3)] for a in (0, 80, 160)])
@@ -138,8 +147,10 @@ def test_no_contact_and_contacts_at_frames_are_not_between_frames(plate):
     # overlapping at frame 1 (z = 0), then through and out: the frames see it, so no event between
     motion = pellet_motion([0.2, 0.0, -0.2, 0.01, 0.2])  # through, then back into it from below
     C, R, radii, rules = poses(plate, motion)
-    rel = classify(Ellipsoids(C[:, 0], R[:, 0], np.broadcast_to(radii[0], (5, 3))),
-                   Ellipsoids(C[:, 1], R[:, 1], np.broadcast_to(radii[1], (5, 3))))  # fmt: skip
+    rel = classify(
+        Ellipsoids(C[:, 0], R[:, 0], np.broadcast_to(radii[0], (5, 3))),
+        Ellipsoids(C[:, 1], R[:, 1], np.broadcast_to(radii[1], (5, 3))),
+    )
     assert rel.tolist() == [0, 2, 0, 2, 0]  # 0.01 overlaps too: the plate's top is 0.005, the pellet 0.01 tall
     for contacts in (None, np.array([[f, 0, 1] for f in np.flatnonzero(rel)])):  # known or found by toi
         events = BetweenFrames(radii, rules).check(np.arange(5), np.arange(5) / FPS, C, R, contacts)
@@ -159,7 +170,10 @@ def test_chunks_join_and_a_half_turn_is_unresolved(plate):
         np.testing.assert_array_equal(getattr(joined, name), getattr(whole, name))
     with pytest.raises(ValueError, match="frames must continue at frame 7, got frame 8"):
         checker.check([8], [0.8], C[:1], R[:1])
-    with pytest.raises(ValueError, match=r"must have shapes \(1, 2, 3\), \(1, 2, 3, 3\) and \(1,\) for 1 frames of 2 geoms, got \(2, 2, 3\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"must have shapes \(1, 2, 3\), \(1, 2, 3, 3\) and \(1,\) for 1 frames of 2 geoms, got \(2, 2, 3\)",
+    ):
         checker.check([7], [0.7], C[:2], R[:1])
     bad = C.copy()
     bad[2, 1, 0] = np.nan
@@ -167,7 +181,9 @@ def test_chunks_join_and_a_half_turn_is_unresolved(plate):
         BetweenFrames(radii, rules).check(np.arange(7), times, bad, R)
     bad = R.copy()
     bad[2, 1] *= 1.01
-    with pytest.raises(ValueError, match=r"rotations of geom 1 at frame 2 must be orthonormal: max \|R\^T R - I\| = 0.0201"):
+    with pytest.raises(
+        ValueError, match=r"rotations of geom 1 at frame 2 must be orthonormal: max \|R\^T R - I\| = 0.0201"
+    ):
         BetweenFrames(radii, rules).check(np.arange(7), times, C, bad)
     # the pellet turns by exactly pi about x between frames 1 and 2 (while passing the plate): no
     # interpolated motion, reported as a possible contact over the whole step, no error
@@ -176,7 +192,9 @@ def test_chunks_join_and_a_half_turn_is_unresolved(plate):
     C, R, radii, rules = poses(plate, motion)
     events = BetweenFrames(radii, rules).check(np.arange(4), np.arange(4) / FPS, C, R)
     assert events.frame.tolist() == [1] and events.half_turn.tolist() == [True]
-    assert events.status[0] == Impact.UNRESOLVED and events.status_name(0) == "unresolved (half turn between the frames)"
+    assert (
+        events.status[0] == Impact.UNRESOLVED and events.status_name(0) == "unresolved (half turn between the frames)"
+    )
     assert (events.begin[0], events.end[0]) == (0.1, 0.2)
 
 
@@ -187,8 +205,11 @@ def test_the_prefilter_drops_no_contact():
     g, F = 12, 30
     radii = rng.uniform(0.05, 0.3, (g, 3))
     radii[np.arange(g), rng.integers(0, 3, g)] = 0.01  # thin: easy to pass through within a frame
-    xml = "<mujoco><worldbody>" + "".join(
-        f"<body><freejoint/><geom type='ellipsoid' size='{r[0]} {r[1]} {r[2]}'/></body>" for r in radii) + "</worldbody></mujoco>"
+    xml = (
+        "<mujoco><worldbody>"
+        + "".join(f"<body><freejoint/><geom type='ellipsoid' size='{r[0]} {r[1]} {r[2]}'/></body>" for r in radii)
+        + "</worldbody></mujoco>"
+    )
     rules = ellipsoid_geoms(mujoco.MjModel.from_xml_string(xml))[2]
     start, amplitude, phase = rng.uniform(-0.4, 0.4, (g, 3)), rng.uniform(0.1, 0.4, (g, 3)), rng.uniform(0, 6, (g, 3))
     C = start[None] + amplitude[None] * np.sin(0.8 * np.arange(F)[:, None, None] + phase[None])  # up to 0.3 m a frame
@@ -214,7 +235,8 @@ def test_the_prefilter_drops_no_contact():
     want = np.flatnonzero(apart & np.isfinite(toi))
     assert len(want) >= 5, "the motion should have some contacts between frames"
     assert sorted(zip(got.frame.tolist(), got.pair[:, 0].tolist(), got.pair[:, 1].tolist())) == sorted(
-        zip(s[want].tolist(), i[want].tolist(), j[want].tolist()))  # fmt: skip
+        zip(s[want].tolist(), i[want].tolist(), j[want].tolist())
+    )
     # the prefilter does drop most pairs: fewer candidates than pairs; the rules as a matrix or not
     kept = swept_pairs(C, R, radii, rules)
     assert len(kept) < len(s) / 2 and np.array_equal(swept_pairs(C, R, radii, rules, rules.matrix()), kept)
@@ -244,9 +266,12 @@ def test_segment_distance_against_dense_sampling():
     rng = np.random.default_rng(4)
     cases = [rng.normal(size=(4, 3)) for _ in range(300)]
     p, d = rng.normal(size=3), rng.normal(size=3)
-    cases += [np.array([p, p + d, p + [0, 0, 0.1], p + [0, 0, 0.1] + 0.5 * d]),  # parallel
-              np.array([p, p + d, p + 1e-9 * rng.normal(size=3), p + d + [1e-8, 0, 0]]),  # nearly parallel
-              np.array([p, p, p + d, p + 2 * d]), np.array([p, p, p + d, p + d])]  # a point  # fmt: skip
+    cases += [
+        np.array([p, p + d, p + [0, 0, 0.1], p + [0, 0, 0.1] + 0.5 * d]),  # parallel
+        np.array([p, p + d, p + 1e-9 * rng.normal(size=3), p + d + [1e-8, 0, 0]]),  # nearly parallel
+        np.array([p, p, p + d, p + 2 * d]),
+        np.array([p, p, p + d, p + d]),
+    ]  # a point
     u = np.linspace(0, 1, 401)
     for a0, a1, b0, b1 in cases:
         got = broadphase._segment_distance(*a0, *b0, *(a1 - a0), *(b1 - b0))
@@ -275,8 +300,15 @@ def test_swept_pairs_keep_every_pair_time_of_impact_finds(seed, monkeypatch):
         turn[:3] = rng.choice([0.0, 2.2], 3)  # still, or beyond PLAIN_COS
         w = rng.normal(size=(g, 3))
         w *= (turn / np.linalg.norm(w, axis=1))[:, None]
-        R[f] = np.array([r @ Ellipsoids.from_quaternions(np.zeros(3), np.r_[math.cos(t / 2), math.sin(t / 2) * v / max(t, 1e-300)],
-                                                         np.ones(3)).rotations[0] for r, v, t in zip(R[f - 1], w, turn)])  # fmt: skip
+        R[f] = np.array(
+            [
+                r
+                @ Ellipsoids.from_quaternions(
+                    np.zeros(3), np.r_[math.cos(t / 2), math.sin(t / 2) * v / max(t, 1e-300)], np.ones(3)
+                ).rotations[0]
+                for r, v, t in zip(R[f - 1], w, turn)
+            ]
+        )
     rho = radii.max(axis=1) * 1.0000153
     got = broadphase.swept_pairs(C, R, radii, rho)
     assert np.all(np.diff(got[:, 0]) >= 0) and np.all(got[:, 1] < got[:, 2])
@@ -300,16 +332,30 @@ def test_crossed_rods_turning_are_kept_and_apart_ones_dropped():
     (more than the thickness, the bend 0.49 m tan(10 deg)^2 / 2 = 7.6 mm and the slack, by enough for
     CAPSULE_STEPS advancements at the tips' 17 cm a step), though the bounding spheres overlap."""
     radii = np.array([[0.5, 0.01, 0.01], [0.5, 0.01, 0.01]])
-    rz = lambda deg: np.array([[math.cos(math.radians(deg)), -math.sin(math.radians(deg)), 0],  # noqa: E731
-                               [math.sin(math.radians(deg)), math.cos(math.radians(deg)), 0], [0, 0, 1]])  # fmt: skip
+    rz = lambda deg: np.array(
+        [
+            [math.cos(math.radians(deg)), -math.sin(math.radians(deg)), 0],  # noqa: E731
+            [math.sin(math.radians(deg)), math.cos(math.radians(deg)), 0],
+            [0, 0, 1],
+        ]
+    )
     rho = radii.max(axis=1) * 1.0000153
     R = np.array([[rz(-10), rz(90)], [rz(10), rz(90)]])
     for gap, kept in ((0.019, True), (0.06, False)):
         C = np.array([[[0, 0, 0], [0, 0, gap]]] * 2, dtype=float)
         assert len(broadphase.swept_pairs(C, R, radii, rho)) == kept
         assert len(broadphase.swept_pairs(C, R, np.full((2, 3), 0.5), rho)) == 1  # spheres: always
-        assert np.isfinite(time_of_impact(Ellipsoids(C[0, 0], R[0, 0], radii[0]), Ellipsoids(C[1, 0], R[1, 0], radii[0]),
-                                          Ellipsoids(C[0, 1], R[0, 1], radii[1]), Ellipsoids(C[1, 1], R[1, 1], radii[1])))[0] == kept  # fmt: skip
+        assert (
+            np.isfinite(
+                time_of_impact(
+                    Ellipsoids(C[0, 0], R[0, 0], radii[0]),
+                    Ellipsoids(C[1, 0], R[1, 0], radii[0]),
+                    Ellipsoids(C[0, 1], R[0, 1], radii[1]),
+                    Ellipsoids(C[1, 1], R[1, 1], radii[1]),
+                )
+            )[0]
+            == kept
+        )
 
 
 # --- replay, run, compare ------------------------------------------------------------------------
@@ -331,8 +377,11 @@ def test_replay_reports_and_records_the_contact_between_frames(plate, tmp_path):
             continue
         batch = c.to_record_batch()
         if c.entity_path == "/world/between_frames":
-            for t, pos, label in zip(batch.column("time").cast("int64").to_pylist(), batch.column("Points3D:positions").to_pylist(),
-                                     batch.column("Points3D:labels").to_pylist()):  # fmt: skip
+            for t, pos, label in zip(
+                batch.column("time").cast("int64").to_pylist(),
+                batch.column("Points3D:positions").to_pylist(),
+                batch.column("Points3D:labels").to_pylist(),
+            ):
                 points[t] = (pos, label)
         if c.entity_path == "/events/between_frames":
             texts += batch.column("TextLog:text").to_pylist()
@@ -354,7 +403,9 @@ def test_background_checks_equal_the_inline_ones(plate, monkeypatch):
     data = mujoco.MjData(plate)
     found, workers = {}, []
     check = capture.FrameBuffer._check
-    monkeypatch.setattr(capture.FrameBuffer, "_check", lambda self, *args: workers.append(threads.workers()) or check(self, *args))
+    monkeypatch.setattr(
+        capture.FrameBuffer, "_check", lambda self, *args: workers.append(threads.workers()) or check(self, *args)
+    )
     for background in (False, True):
         buffer = capture.FrameBuffer(plate, between=True, background=background)
         chunks = []
@@ -365,7 +416,9 @@ def test_background_checks_equal_the_inline_ones(plate, monkeypatch):
                 if buffer.add(data, f / FPS):
                     chunks.append(buffer.flush())
             chunks = [c for c in chunks + [buffer.flush()] if c is not None]
-        found[background] = Events.concatenate([c.events for c in chunks] if not background else buffer.collect(wait=True))
+        found[background] = Events.concatenate(
+            [c.events for c in chunks] if not background else buffer.collect(wait=True)
+        )
         assert all((c.events is None) == background for c in chunks)
         buffer.close()
     assert found[False].frame.tolist() == [1, 4] and workers and set(workers) == {1}
@@ -382,11 +435,25 @@ def test_replay_and_compare_on_the_command_line(tmp_path):
     xml = tmp_path / "plate.xml"
     xml.write_text(PLATE_XML)
     np.save(tmp_path / "m.npy", pellet_motion([0.5, 0.26, -0.24, -0.5]))
-    proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--fps", str(FPS), "--json", str(tmp_path / "r.json"),
-               "--between-frames")  # fmt: skip
+    proc = cli(
+        "replay",
+        str(xml),
+        str(tmp_path / "m.npy"),
+        "--fps",
+        str(FPS),
+        "--json",
+        str(tmp_path / "r.json"),
+        "--between-frames",
+    )
     assert proc.returncode == 0, proc.stderr
-    assert "contacts between frames (separated at two consecutive frames, touching in between on the interpolated motion): 1" in proc.stdout
-    assert "frames 1-2: geoms plate / pellet (bodies board / bullet) touch from 0.149 s to 0.155 s (contact)" in proc.stdout
+    assert (
+        "contacts between frames (separated at two consecutive frames, touching in between on the interpolated motion): 1"
+        in proc.stdout
+    )
+    assert (
+        "frames 1-2: geoms plate / pellet (bodies board / bullet) touch from 0.149 s to 0.155 s (contact)"
+        in proc.stdout
+    )
     (event,) = json.loads((tmp_path / "r.json").read_text())["between_frames"]
     assert event["geoms"] == ["plate", "pellet"] and event["frame"] == 1 and event["status"] == "contact"
     assert event["t_begin"] == pytest.approx(0.149) and event["t_end"] == pytest.approx(0.155)
@@ -394,13 +461,22 @@ def test_replay_and_compare_on_the_command_line(tmp_path):
     assert proc.returncode == 0 and "between two frames: not looked for (--between-frames)" in proc.stdout
     assert json.loads((tmp_path / "n.json").read_text())["between_frames"] is None
     proc = cli("replay", str(xml), str(tmp_path / "m.npy"), "--fps", str(FPS), "--json", str(tmp_path / "d.json"))
-    assert proc.returncode == 0 and len(json.loads((tmp_path / "d.json").read_text())["between_frames"]) == 1  # on by default
-    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "c.json"), "--between-frames")
+    assert (
+        proc.returncode == 0 and len(json.loads((tmp_path / "d.json").read_text())["between_frames"]) == 1
+    )  # on by default
+    proc = cli(
+        "compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "c.json"), "--between-frames"
+    )
     assert proc.returncode == 0, proc.stderr
-    assert "steps 0-1: geoms plate / pellet (bodies board / bullet) touch from 0.0049 s to 0.0055 s (contact)" in proc.stdout
+    assert (
+        "steps 0-1: geoms plate / pellet (bodies board / bullet) touch from 0.0049 s to 0.0055 s (contact)"
+        in proc.stdout
+    )
     (event,) = json.loads((tmp_path / "c.json").read_text())["passed_through"]
     assert event["step"] == 0 and event["bodies"] == ["board", "bullet"]
-    proc = cli("compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "d.json"), "--no-between-frames")
+    proc = cli(
+        "compare", str(xml), "--key", "shot", "--steps", "4", "--json", str(tmp_path / "d.json"), "--no-between-frames"
+    )
     assert proc.returncode == 0 and json.loads((tmp_path / "d.json").read_text())["passed_through"] is None
 
 
@@ -411,7 +487,10 @@ def test_compare_finds_the_pellet_shot_through_the_plate(plate):
     v = validate(plate, data, 6, between=True)
     assert v.counts[:, 0].sum() == 0  # MuJoCo never sees a contact: the pellet tunnels
     events = v.passed_through
-    assert events.frame.tolist() == [0] and v.ellipsoid_ids[events.pair[0]].tolist() == [plate.geom("plate").id, plate.geom("pellet").id]
+    assert events.frame.tolist() == [0] and v.ellipsoid_ids[events.pair[0]].tolist() == [
+        plate.geom("plate").id,
+        plate.geom("pellet").id,
+    ]
     mujoco.mj_resetDataKeyframe(plate, data, 0)  # the same steps again, for the poses
     frames = []
     for _ in range(6):

@@ -7,14 +7,19 @@ import math
 import mujoco
 import numpy as np
 import pytest
-
-from ellipsim.core.pairs import box
-from ellipsim.mujoco import scenes
 from pair_types import (
-    check_against_reference, entry_installed_and_restored, error_status_answers_as_mujoco, far_poses,
-    pile_agrees_with_tight_mujoco, place_gaps, unattached_is_plain_mujoco,
-)  # fmt: skip
+    check_against_reference,
+    entry_installed_and_restored,
+    error_status_answers_as_mujoco,
+    far_poses,
+    pile_agrees_with_tight_mujoco,
+    place_gaps,
+    unattached_is_plain_mujoco,
+)
 from reference import dense_maximum
+
+from ellipsim.app import scenes
+from ellipsim.core.pairs import box
 
 ELL, BOX = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID), int(mujoco.mjtGeom.mjGEOM_BOX)
 
@@ -76,7 +81,9 @@ def make_poses(seed=0, per=60):
     sK[inside] = rng.uniform(0.01, 0.04, (int(inside.sum()), 3))
     cK[inside] = cE[inside] + rng.uniform(-0.05, 0.05, (int(inside.sum()), 3))
     floor = np.flatnonzero(cat == 6)  # MuJoCo's usual ground: a wide thin box, E resting into it
-    sK[floor] = np.stack([rng.uniform(1, 3, len(floor)), rng.uniform(1, 3, len(floor)), rng.uniform(0.005, 0.05, len(floor))], 1)
+    sK[floor] = np.stack(
+        [rng.uniform(1, 3, len(floor)), rng.uniform(1, 3, len(floor)), rng.uniform(0.005, 0.05, len(floor))], 1
+    )
     RK[floor] = np.eye(3)
     cK[floor, :2] = cE[floor, :2] + rng.uniform(-0.5, 0.5, (len(floor), 2))
     for i in floor:  # lower the floor to E's lowest point, then push E in by up to half its rolling radius
@@ -161,13 +168,15 @@ def test_box_entry_is_installed_and_restored():
     entry_installed_and_restored(
         '<mujoco><worldbody><body><freejoint/><geom type="box" size=".05 .1 .2"/></body>'
         '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>',
-        ELL, BOX,
-    )  # fmt: skip
+        ELL,
+        BOX,
+    )
 
 
 def test_an_error_status_answers_with_mujocos_box_function():
     error_status_answers_as_mujoco(
         '<mujoco><worldbody><geom type="ellipsoid" size=".1 .2 .3" euler="30 0 0"/>'
         '<geom type="box" size=".1 .2 .05" pos=".1 .02 .05"/></worldbody></mujoco>',
-        ELL, BOX,
-    )  # fmt: skip
+        ELL,
+        BOX,
+    )

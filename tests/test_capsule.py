@@ -8,15 +8,19 @@ import re
 import mujoco
 import numpy as np
 import pytest
+from pair_types import (
+    check_against_reference,
+    entry_installed_and_restored,
+    error_status_answers_as_mujoco,
+    far_poses,
+    pile_agrees_with_tight_mujoco,
+    place_gaps,
+)
+from reference import dense_maximum
 
 import ellipsim.mujoco as em
+from ellipsim.app import scenes
 from ellipsim.core.pairs import capsule
-from ellipsim.mujoco import scenes
-from pair_types import (
-    check_against_reference, entry_installed_and_restored, error_status_answers_as_mujoco, far_poses,
-    pile_agrees_with_tight_mujoco, place_gaps,
-)  # fmt: skip
-from reference import dense_maximum
 
 CAP, ELL = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 
@@ -79,7 +83,10 @@ def make_poses(seed=0, per=60):
             cK[i] = cE[i] + side * z * (rE[i, k] + sK[i, 1] + sK[i, 0] + g)
     inside = cat == 5  # a small capsule deep inside a large ellipsoid
     rE[inside] = rng.uniform(0.2, 0.3, (int(inside.sum()), 3))
-    sK[inside, 0], sK[inside, 1] = rng.uniform(0.01, 0.03, int(inside.sum())), rng.uniform(0.02, 0.06, int(inside.sum()))
+    sK[inside, 0], sK[inside, 1] = (
+        rng.uniform(0.01, 0.03, int(inside.sum())),
+        rng.uniform(0.02, 0.06, int(inside.sum())),
+    )
     cK[inside] = cE[inside] + rng.uniform(-0.05, 0.05, (int(inside.sum()), 3))
     around = np.flatnonzero(cat == 6)  # a small ellipsoid centred on a long capsule's segment
     rE[around] = rng.uniform(0.01, 0.05, (len(around), 3))
@@ -124,6 +131,7 @@ def test_kernel_hand_picked_cases():
 
 # --- inside MuJoCo ------------------------------------------------------------------------------
 
+
 def capsule_pile_xml(n=30, seed=1, margin=0.0):
     """scenes.pile_xml with every other ellipsoid a capsule (radius, half-length: its first two
     semi-axes), and `margin` on every third geom: capsules and ellipsoids heaped in a bin."""
@@ -161,5 +169,6 @@ def test_an_error_status_answers_with_mujocos_capsule_function():
     error_status_answers_as_mujoco(
         '<mujoco><worldbody><geom type="capsule" size=".05 .1" euler="30 0 0"/>'
         '<geom type="ellipsoid" size=".1 .2 .3" pos=".1 .02 .05"/></worldbody></mujoco>',
-        CAP, ELL,
-    )  # fmt: skip
+        CAP,
+        ELL,
+    )

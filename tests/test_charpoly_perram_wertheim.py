@@ -2,16 +2,22 @@ import math
 
 import numpy as np
 import pytest
+import reference
+import strategies as S
 from hypothesis import given
 from hypothesis import strategies as st
 
-import reference
-import strategies as S
 from ellipsim import Ellipsoids, characteristic_polynomial, classify, contact_scale
 
 well_conditioned = st.tuples(
-    S.ellipsoid(radius=st.tuples(*[st.floats(0.3, 1.5)] * 3).map(np.array), center=st.tuples(*[st.floats(-1, 1)] * 3).map(np.array)),
-    S.ellipsoid(radius=st.tuples(*[st.floats(0.3, 1.5)] * 3).map(np.array), center=st.tuples(*[st.floats(-1, 1)] * 3).map(np.array)),
+    S.ellipsoid(
+        radius=st.tuples(*[st.floats(0.3, 1.5)] * 3).map(np.array),
+        center=st.tuples(*[st.floats(-1, 1)] * 3).map(np.array),
+    ),
+    S.ellipsoid(
+        radius=st.tuples(*[st.floats(0.3, 1.5)] * 3).map(np.array),
+        center=st.tuples(*[st.floats(-1, 1)] * 3).map(np.array),
+    ),
 )
 
 
@@ -19,10 +25,15 @@ well_conditioned = st.tuples(
 @given(pair=well_conditioned)
 def test_characteristic_polynomial_matches_exact_pencil(setup, pair):
     a, b = pair
-    exact = np.array([float(c) for c in reference.pencil(
-        reference.quadric(a.centers[0], a.rotations[0], a.radii[0]),
-        reference.quadric(b.centers[0], b.rotations[0], b.radii[0]),
-    )])
+    exact = np.array(
+        [
+            float(c)
+            for c in reference.pencil(
+                reference.quadric(a.centers[0], a.rotations[0], a.radii[0]),
+                reference.quadric(b.centers[0], b.rotations[0], b.radii[0]),
+            )
+        ]
+    )
     got = characteristic_polynomial(a, b, setup=setup)[0]
     # Coefficients of well-conditioned pairs (|c| <= 1, radii >= 0.3): a few hundred roundings at most.
     np.testing.assert_allclose(got, exact, rtol=0, atol=1e-11 * np.abs(exact).max())

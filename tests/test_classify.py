@@ -1,16 +1,22 @@
 import numpy as np
 import pytest
+import reference
+import strategies as S
 from hypothesis import given
 from hypothesis import strategies as st
 
-import reference
-import strategies as S
 from ellipsim import (
-    Ellipsoids, Relation, characteristic_polynomial, classify, classify_pairs, contact_scale, signed_distance,
-)  # fmt: skip
-from ellipsim.core.samples import generic_pairs, near_contact_pairs, stress_pairs
+    Ellipsoids,
+    Relation,
+    characteristic_polynomial,
+    classify,
+    classify_pairs,
+    contact_scale,
+    signed_distance,
+)
 from ellipsim.core.exact.certified_filter import certify
 from ellipsim.core.relation import UNDECIDED
+from ellipsim.core.samples import generic_pairs, near_contact_pairs, stress_pairs
 
 SEP, TOUCH, OVER = Relation.SEPARATED, Relation.TOUCHING, Relation.OVERLAPPING
 I = np.eye(3)
@@ -232,12 +238,14 @@ def test_classify_pairs_indexes_one_batch_as_classify_does_on_copies():
 
 @pytest.mark.parametrize(
     "first, second, match",
-    [([0, 5], [1, 2], r"first\[1\] must index the batch of 4 ellipsoids, got 5"),
-     ([0], [-1], r"second\[0\] must index the batch of 4 ellipsoids, got -1"),
-     ([0.5], [1], r"first must be a 1-D array of integer indices"),
-     ([[0]], [1], r"first must be a 1-D array of integer indices, got shape \(1, 1\)"),
-     ([0, 1], [1], r"first and second must have the same length, got 2 and 1")],
-)  # fmt: skip
+    [
+        ([0, 5], [1, 2], r"first\[1\] must index the batch of 4 ellipsoids, got 5"),
+        ([0], [-1], r"second\[0\] must index the batch of 4 ellipsoids, got -1"),
+        ([0.5], [1], r"first must be a 1-D array of integer indices"),
+        ([[0]], [1], r"first must be a 1-D array of integer indices, got shape \(1, 1\)"),
+        ([0, 1], [1], r"first and second must have the same length, got 2 and 1"),
+    ],
+)
 def test_classify_pairs_names_bad_indices(first, second, match):
     a, _ = generic_pairs(4, seed=1)
     with pytest.raises(ValueError, match=match):

@@ -15,7 +15,9 @@ import trimesh
 import ellipsim
 from ellipsim import classify, contact_scale, shipped
 from ellipsim.app import fit as fitting
-from ellipsim.app import mjcf, replay as rp, scenario, sweep as sw
+from ellipsim.app import mjcf, scenario
+from ellipsim.app import replay as rp
+from ellipsim.app import sweep as sw
 from ellipsim.app.cli import Progress, common, main
 from ellipsim.app.cli import scenarios as scenarios_command
 from ellipsim.core.samples import generic_pairs, near_contact_pairs
@@ -49,8 +51,14 @@ def test_demo_prints_the_table(capsys):
         (["demo", "--pairs", "1.5"], "--pairs: expected a positive integer, got '1.5'"),
         (["demo", "--seed", "-1"], "--seed: expected a non-negative integer, got -1"),
         (["demo", "--pairs", "1e9"], "--pairs 1000000000 needs 1e+03 GB, more than the"),
-        (["run", "crowd", "--steps", "1e15"], "--steps 1000000000000000: 1000000000000000 steps (125000000000000 recorded frames of counts) needs 5e+06 GB"),
-        (["compare", "crowd", "--steps", "1e15"], "--steps 1000000000000000: 1000000000000000 steps of pair counts needs 4e+07 GB"),
+        (
+            ["run", "crowd", "--steps", "1e15"],
+            "--steps 1000000000000000: 1000000000000000 steps (125000000000000 recorded frames of counts) needs 5e+06 GB",
+        ),
+        (
+            ["compare", "crowd", "--steps", "1e15"],
+            "--steps 1000000000000000: 1000000000000000 steps of pair counts needs 4e+07 GB",
+        ),
         (["frobnicate"], "invalid choice: 'frobnicate'"),
         ([], "the following arguments are required: command"),
     ],
@@ -99,7 +107,9 @@ def test_hints_name_the_extra_to_install_from_a_checkout(monkeypatch, capsys, tm
     monkeypatch.chdir(tmp_path)
     assert main(["compare", "replay", "--steps", "2", "--plot", str(tmp_path / "p.png")]) == 2
     root = os.path.dirname(os.path.dirname(os.path.abspath(ellipsim.__file__)))
-    assert capsys.readouterr().err.strip() == f"ellipsim: error: plots need matplotlib: pip install '.[plot]' (in {root})"
+    assert (
+        capsys.readouterr().err.strip() == f"ellipsim: error: plots need matplotlib: pip install '.[plot]' (in {root})"
+    )
     monkeypatch.setattr(shipped, "source_checkout", lambda: None)  # an installed copy
     assert common.install_hint("plot") == "pip install 'ellipsim[plot]'"
 
@@ -113,7 +123,9 @@ def test_sample_sets():
 
 
 def test_show_must_not_be_negative():
-    proc = subprocess.run([sys.executable, "-m", "ellipsim", "compare", "replay", "--show", "-1"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "ellipsim", "compare", "replay", "--show", "-1"], capture_output=True, text=True
+    )
     assert proc.returncode == 2 and proc.stdout == "" and "Traceback" not in proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "--show: expected a non-negative integer, got -1" in lines[0]
@@ -132,8 +144,14 @@ def _unwritable(*args, **kwargs):
 @pytest.mark.parametrize(
     "args, patch",
     [
-        (["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"], ("ellipsim.app.cli.common.open", _unwritable)),
-        (["compare", "replay", "--steps", "5", "--plot", "{dir}/c.png"], ("matplotlib.figure.Figure.savefig", _unwritable)),
+        (
+            ["compare", "replay", "--steps", "5", "--json", "{dir}/c.json"],
+            ("ellipsim.app.cli.common.open", _unwritable),
+        ),
+        (
+            ["compare", "replay", "--steps", "5", "--plot", "{dir}/c.png"],
+            ("matplotlib.figure.Figure.savefig", _unwritable),
+        ),
         (["run", "replay", "--steps", "5", "--record", "{dir}/c.rrd"], ("ellipsim.app.record.os.replace", _unwritable)),
     ],
 )
@@ -151,11 +169,17 @@ def test_output_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys
     assert os.listdir(tmp_path) == []  # no partial file left behind
 
 
-@pytest.mark.parametrize("sig, status, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+@pytest.mark.parametrize(
+    "sig, status, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")]
+)
 def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig, status, word):
     out = tmp_path / "crowd.rrd"
-    proc = subprocess.Popen([sys.executable, "-m", "ellipsim", "run", "crowd", "--steps", "200000", "--record", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ellipsim", "run", "crowd", "--steps", "200000", "--record", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         line = proc.stderr.readline()  # the progress bar's first line: stepping has begun
         assert "crowd [" in line, line
@@ -192,13 +216,17 @@ def test_fit_prints_short_numbers_and_writes_mjcf_that_encloses_the_meshes(tmp_p
     box.apply_translation([1e-15, 0.3, 0.0])  # a centre with 1e-15 noise: printed as 0
     box.export(tmp_path / "foot.obj")
     out = tmp_path / "limbs.xml"
-    assert main(["fit", str(tmp_path / "arm.stl"), str(tmp_path / "foot.obj"), "--method", "mvee", "--out", str(out)]) == 0
+    assert (
+        main(["fit", str(tmp_path / "arm.stl"), str(tmp_path / "foot.obj"), "--method", "mvee", "--out", str(out)]) == 0
+    )
     text = capsys.readouterr().out
     rows = [line.split() for line in text.splitlines() if line.split()[:1] in (["arm"], ["foot"])]
     assert [r[0] for r in rows] == ["arm", "foot"]
     for row in rows:
         numbers = row[1:11]
-        assert all(len(re.sub(r"[-.]|^0+", "", n).lstrip("0")) <= 6 for n in numbers), numbers  # <= 6 significant digits
+        assert all(len(re.sub(r"[-.]|^0+", "", n).lstrip("0")) <= 6 for n in numbers), (
+            numbers
+        )  # <= 6 significant digits
     assert rows[1][1:4] == ["0", "0.3", "0"]
     model = mujoco.MjModel.from_xml_path(str(out))
     data = mujoco.MjData(model)
@@ -208,7 +236,9 @@ def test_fit_prints_short_numbers_and_writes_mjcf_that_encloses_the_meshes(tmp_p
         vertices = fitting.mesh_vertices(str(mesh))
         local = (vertices - data.geom_xpos[g]) @ data.geom_xmat[g].reshape(3, 3) / model.geom_size[g]
         level = np.einsum("ij,ij->i", local, local)
-        assert level.max() <= 1 + 1e-6 and level.max() > 0.9  # every vertex inside (MuJoCo's float32-free numbers), tight
+        assert (
+            level.max() <= 1 + 1e-6 and level.max() > 0.9
+        )  # every vertex inside (MuJoCo's float32-free numbers), tight
 
 
 def test_fit_mistakes_are_one_line(tmp_path):
@@ -224,4 +254,7 @@ def test_bench_sections_are_the_suites_and_the_cli_starts_without_it(tmp_path, c
     assert err == f"ellipsim: error: --only: unknown section 'nosuch'; the sections are {', '.join(bench.SECTIONS)}"
     assert not (tmp_path / "b").exists()
     code = "import sys\nfrom ellipsim.app import cli\ncli.parser()\nprint('ellipsim.app.bench' in sys.modules)\n"
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
+    assert (
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+        == "False"
+    )

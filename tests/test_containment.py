@@ -3,12 +3,12 @@ max of q_A over B by the secular equation) and against constructed cases whose a
 
 import numpy as np
 import pytest
+import reference
+import strategies as S
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation as Rot
 
-import reference
-import strategies as S
 from ellipsim import Ellipsoids
 from ellipsim.core.exact.containment import INSIDE, UNDECIDED, certify_containment, contains, contains_exact
 
@@ -68,8 +68,11 @@ def test_concentric_scaled_and_rotated():
         R = Rot.random(random_state=rng).as_matrix()
         r = rng.uniform(0.1, 2, 3)
         f = [0.5, 0.25, 0.999, 1.0 + 2**-30][k % 4]
-        check(Ellipsoids(np.zeros(3), R, r), Ellipsoids(np.zeros(3), R @ Rot.from_rotvec([0, 0, 1e-3]).as_matrix(), r * f),
-              None)  # fmt: skip
+        check(
+            Ellipsoids(np.zeros(3), R, r),
+            Ellipsoids(np.zeros(3), R @ Rot.from_rotvec([0, 0, 1e-3]).as_matrix(), r * f),
+            None,
+        )
         check(Ellipsoids(np.zeros(3), R, r), Ellipsoids(np.zeros(3), R, r * f), f <= 1)
 
 
@@ -104,8 +107,10 @@ def test_random_near_containment_against_the_reference():
     cb = ca + np.einsum("nij,nj->ni", Ra, ra * rng.uniform(-0.6, 0.6, (n, 3)))
     a, b = Ellipsoids(ca, Ra, ra), Ellipsoids(cb, Rot.random(n, random_state=rng).as_matrix(), rb)
     got = contains(a, b)
-    ref = [reference.contained(a.centers[i], a.rotations[i], a.radii[i], b.centers[i], b.rotations[i], b.radii[i])[0]
-           for i in range(n)]  # fmt: skip
+    ref = [
+        reference.contained(a.centers[i], a.rotations[i], a.radii[i], b.centers[i], b.rotations[i], b.radii[i])[0]
+        for i in range(n)
+    ]
     np.testing.assert_array_equal(got, ref)
     assert 30 < got.sum() < n - 30
     assert np.count_nonzero(certify_containment(a, b, n, False) == UNDECIDED) <= 3
@@ -139,8 +144,11 @@ def test_scaling_by_powers_of_two_changes_nothing(f, seed):
     ra = rng.uniform(0.5, 2, 3)
     R = Rot.random(random_state=rng).as_matrix()
     a = Ellipsoids(rng.uniform(-1, 1, 3), R, ra)
-    b = Ellipsoids(a.centers[0] + R @ (ra * rng.uniform(-0.3, 0.3, 3)), Rot.random(random_state=rng).as_matrix(),
-                   ra.min() * rng.uniform(0.2, 1.0, 3))  # fmt: skip
+    b = Ellipsoids(
+        a.centers[0] + R @ (ra * rng.uniform(-0.3, 0.3, 3)),
+        Rot.random(random_state=rng).as_matrix(),
+        ra.min() * rng.uniform(0.2, 1.0, 3),
+    )
     sc = lambda x: Ellipsoids(x.centers * f, x.rotations, x.radii * f)  # noqa: E731
     assert contains(sc(a), sc(b))[0] == contains(a, b)[0]
 

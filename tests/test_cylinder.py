@@ -8,15 +8,20 @@ import re
 import mujoco
 import numpy as np
 import pytest
+from pair_types import (
+    check_against_reference,
+    entry_installed_and_restored,
+    error_status_answers_as_mujoco,
+    far_poses,
+    pile_agrees_with_tight_mujoco,
+    place_gaps,
+    unattached_is_plain_mujoco,
+)
+from reference import dense_maximum
 from scipy.spatial.transform import Rotation as Rot
 
+from ellipsim.app import scenes
 from ellipsim.core.pairs import cylinder
-from ellipsim.mujoco import scenes
-from pair_types import (
-    check_against_reference, entry_installed_and_restored, error_status_answers_as_mujoco, far_poses,
-    pile_agrees_with_tight_mujoco, place_gaps, unattached_is_plain_mujoco,
-)  # fmt: skip
-from reference import dense_maximum
 
 ELL, CYL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID), int(mujoco.mjtGeom.mjGEOM_CYLINDER)
 
@@ -38,6 +43,7 @@ def ref_sigma(P, n):
 def reference(P):
     z = P["RK"][:, None, :, 2]
     return dense_maximum(ref_sigma, P, z, np.concatenate([z, -z], 1))
+
 
 def _kernel(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
@@ -77,7 +83,10 @@ def make_poses(seed=0, per=60):
             cK[i] = cE[i] + side * z * (rE[i, k] + sK[i, 0] + g) + x * rng.uniform(-0.8, 0.8) * sK[i, 1]
     inside = cat == 6
     rE[inside] = rng.uniform(0.2, 0.3, (int(inside.sum()), 3))
-    sK[inside, 0], sK[inside, 1] = rng.uniform(0.01, 0.03, int(inside.sum())), rng.uniform(0.01, 0.04, int(inside.sum()))
+    sK[inside, 0], sK[inside, 1] = (
+        rng.uniform(0.01, 0.03, int(inside.sum())),
+        rng.uniform(0.01, 0.04, int(inside.sum())),
+    )
     cK[inside] = cE[inside] + rng.uniform(-0.05, 0.05, (int(inside.sum()), 3))
     return P, cat, names
 
@@ -174,6 +183,7 @@ def cylinder_pile_xml(n=30, seed=3, margin=0.0):
 
     return re.sub(r'type="ellipsoid" size="(\S+) (\S+) \S+"', swap, scenes.pile_xml(n, seed=seed))
 
+
 @pytest.mark.parametrize("margin", [0.0, 0.01])
 def test_pile_agrees_with_tight_mujoco(margin):
     """The ellipsoid x cylinder contacts of a pile against MuJoCo run tight
@@ -190,13 +200,15 @@ def test_cylinder_entry_is_installed_and_restored():
     entry_installed_and_restored(
         '<mujoco><worldbody><body><freejoint/><geom type="cylinder" size=".05 .1"/></body>'
         '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>',
-        ELL, CYL,
-    )  # fmt: skip
+        ELL,
+        CYL,
+    )
 
 
 def test_an_error_status_answers_with_mujocos_cylinder_function():
     error_status_answers_as_mujoco(
         '<mujoco><worldbody><geom type="ellipsoid" size=".1 .2 .3" euler="30 0 0"/>'
         '<geom type="cylinder" size=".1 .05" pos=".1 .02 .05"/></worldbody></mujoco>',
-        ELL, CYL,
-    )  # fmt: skip
+        ELL,
+        CYL,
+    )

@@ -2,22 +2,22 @@
 
 import math
 
+import leaves_poses
 import mpmath
 import mujoco
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation as Rot
+import strategies as S
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import leaves_poses
-import strategies as S
 from reference import sigma_stationary
+from scipy.spatial.transform import Rotation as Rot
+
 import ellipsim.mujoco as plugin
 from ellipsim import Ellipsoids, signed_distance
-from ellipsim.mujoco import scenes as figures
+from ellipsim.app import scenes as figures
+from ellipsim.core.distance.ellipsoid_pair import GLOBAL, UNPROVEN
 from ellipsim.mujoco import structs as mjstruct
-from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, UNPROVEN
 
 mpmath.mp.dps = 40
 
@@ -28,7 +28,10 @@ def fibonacci_sphere(k):
     return np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], 1)
 
 
-def reference(a, b, starts=fibonacci_sphere(300)):
+_STARTS = fibonacci_sphere(300)
+
+
+def reference(a, b, starts=_STARTS):
     """max over unit n of n.d - |D_a R_a^T n| - |D_b R_b^T n|, independently of the narrow phase: projected
     gradient ascent in float from 300 directions, then the three best distinct local maxima polished
     by Newton in 40-digit mpmath (reference.sigma_stationary); returns the best value."""
@@ -238,8 +241,9 @@ def test_bad_arguments():
         plugin.compare_narrowphase(model, mujoco.MjData(model), -1)
     with pytest.raises(ValueError, match="b must be an ellipsim.Ellipsoids batch"):
         signed_distance(Ellipsoids([0, 0, 0], np.eye(3), [1, 1, 1]), "sphere")
-    assert math.isfinite(signed_distance(Ellipsoids([0, 0, 0], np.eye(3), [1, 1, 1]),
-                                         Ellipsoids([0, 0, 0], np.eye(3), [1, 1, 1]))[0][0])
+    assert math.isfinite(
+        signed_distance(Ellipsoids([0, 0, 0], np.eye(3), [1, 1, 1]), Ellipsoids([0, 0, 0], np.eye(3), [1, 1, 1]))[0][0]
+    )
 
 
 def test_coaxial_spheroids_in_mujoco_are_proven_not_handed_back():
@@ -286,7 +290,9 @@ def test_random_deep_pairs_are_all_proven():
     n = 400
     rot = lambda: Rot.random(n, random_state=rng).as_matrix()  # noqa: E731
     a = Ellipsoids(np.zeros((n, 3)), rot(), np.c_[rng.uniform(0.15, 0.4, n), rng.uniform(0.02, 0.06, (n, 2))])
-    b = Ellipsoids(rng.uniform(-0.03, 0.03, (n, 3)), rot(), np.c_[rng.uniform(0.15, 0.4, n), rng.uniform(0.02, 0.06, (n, 2))])
+    b = Ellipsoids(
+        rng.uniform(-0.03, 0.03, (n, 3)), rot(), np.c_[rng.uniform(0.15, 0.4, n), rng.uniform(0.02, 0.06, (n, 2))]
+    )
     dist, _, _, status = signed_distance(a, b)
     assert (dist < 0).all() and (status == GLOBAL).all()
 

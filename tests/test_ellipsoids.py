@@ -46,7 +46,10 @@ def test_from_quaternions_matches_mujoco():
         (dict(centers=[[0, 0, 0], [0, 0, np.inf]]), r"centers\[1, 2\] must be finite, got inf"),
         (dict(radii=[[1, 0, 1]]), r"radii\[0, 1\] must be positive, got 0.0"),
         (dict(radii=[[1, 1, -0.2]]), r"radii\[0, 2\] must be positive, got -0.2"),
-        (dict(rotations=[[[1, 0, 0], [0, 1, 0], [0, 0, 1.01]]]), r"rotations\[0\] must be orthonormal: max \|R\^T R - I\| = 0.0201"),
+        (
+            dict(rotations=[[[1, 0, 0], [0, 1, 0], [0, 0, 1.01]]]),
+            r"rotations\[0\] must be orthonormal: max \|R\^T R - I\| = 0.0201",
+        ),
         (dict(rotations=[[[1, 0, 0], [0, 1, 0]]]), r"rotations must have shape \(n, 3, 3\), got \(1, 2, 3\)"),
         (dict(centers=[[0, 0]]), r"centers must have shape \(n, 3\), got \(1, 2\)"),
         (dict(radii=[["a", "b", "c"]]), r"radii must hold real numbers, got dtype <U1"),

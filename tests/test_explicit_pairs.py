@@ -15,11 +15,11 @@ import re
 import mujoco
 import numpy as np
 import pytest
+from pair_types import unattached_is_plain_mujoco
 
 import ellipsim.mujoco as em
 from ellipsim.core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL
 from ellipsim.mujoco import attachment
-from pair_types import unattached_is_plain_mujoco
 
 T = mujoco.mjtGeom
 SPH, CAP, ELL, CYL, BOX = (
@@ -74,10 +74,16 @@ def handled_contacts(model, data):
         g1, g2 = int(c.geom1), int(c.geom2)
         if (int(model.geom_type[g1]), int(model.geom_type[g2])) in HANDLED:
             out[(g1, g2)] = dict(
-                dist=float(c.dist), normal=c.frame[:3].copy(), pos=c.pos.copy(), includemargin=float(c.includemargin),
-                exclude=int(c.exclude), friction=c.friction.copy(), solref=c.solref.copy(), solimp=c.solimp.copy(),
+                dist=float(c.dist),
+                normal=c.frame[:3].copy(),
+                pos=c.pos.copy(),
+                includemargin=float(c.includemargin),
+                exclude=int(c.exclude),
+                friction=c.friction.copy(),
+                solref=c.solref.copy(),
+                solimp=c.solimp.copy(),
                 dim=int(c.dim),
-            )  # fmt: skip
+            )
     return out
 
 
@@ -107,7 +113,9 @@ def agrees_with_tight_mujoco(xml, steps=400, every=4):
                     assert c["dist"] >= c["includemargin"] - NEAR_TANGENT, f"step {step} pair {key}: one side only, {c}"
                     continue
                 a, b = ours[key], theirs[key]
-                assert abs(a["dist"] - b["dist"]) <= DIST_TOL, f"step {step} pair {key}: dist {a['dist']} vs {b['dist']}"
+                assert abs(a["dist"] - b["dist"]) <= DIST_TOL, (
+                    f"step {step} pair {key}: dist {a['dist']} vs {b['dist']}"
+                )
                 for name in ("includemargin", "exclude", "dim"):
                     assert a[name] == b[name], f"step {step} pair {key}: {name} {a[name]} vs {b[name]}"
                 for name in ("friction", "solref", "solimp"):
@@ -227,20 +235,26 @@ def test_which_explicit_pairs_count():
     def model(*pair_types, n_extra=0):
         geoms = "".join(
             f'<geom name="p{k}{s}" type="{t}" size=".1 .1 .1" pos="{k} {s} 0" contype="0" conaffinity="0"/>'
-            for k, types in enumerate(pair_types) for s, t in enumerate(types)
-        )  # fmt: skip
+            for k, types in enumerate(pair_types)
+            for s, t in enumerate(types)
+        )
         extra = "".join(
-            f'<geom type="ellipsoid" size=".1 .1 .1" pos="9 {k} 0" contype="0" conaffinity="0"/>' for k in range(n_extra)
+            f'<geom type="ellipsoid" size=".1 .1 .1" pos="9 {k} 0" contype="0" conaffinity="0"/>'
+            for k in range(n_extra)
         )
         pairs = "".join(f'<pair geom1="p{k}0" geom2="p{k}1"/>' for k in range(len(pair_types)))
         xml = f"<mujoco><worldbody>{geoms}{extra}</worldbody><contact>{pairs}</contact></mujoco>"
         return mujoco.MjModel.from_xml_string(xml)
 
     for types, narrow in [
-        (("box", "ellipsoid"), True), (("ellipsoid", "sphere"), True), (("cylinder", "ellipsoid"), True),
-        (("ellipsoid", "capsule"), True), (("sphere", "sphere"), False), (("plane", "ellipsoid"), False),
+        (("box", "ellipsoid"), True),
+        (("ellipsoid", "sphere"), True),
+        (("cylinder", "ellipsoid"), True),
+        (("ellipsoid", "capsule"), True),
+        (("sphere", "sphere"), False),
+        (("plane", "ellipsoid"), False),
         (("box", "capsule"), False),
-    ]:  # fmt: skip
+    ]:
         m = model(types)
         assert attachment.ellipsoid_pair_possible(m, "narrowphase") is narrow, types
         assert attachment.ellipsoid_pair_possible(m, "filter") is False, types  # the filter never sees them
@@ -291,7 +305,9 @@ def test_recompile_mixed_up_pairs_are_refused_and_reattach_redoes_the_attachment
             em.attach(m2, d)
         with pytest.raises(ValueError, match=re.escape(stale)):
             att.reattach(m2, d)
-        with pytest.raises(ValueError, match=re.escape(f"data.signature {d2.signature} != model.signature {m.signature}")):
+        with pytest.raises(
+            ValueError, match=re.escape(f"data.signature {d2.signature} != model.signature {m.signature}")
+        ):
             att.reattach(m, d2)
         assert att.data is d and att.installed  # a refused reattach changes nothing
         fresh = copy.copy(d2)  # the same state, for a fresh attachment below

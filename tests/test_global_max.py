@@ -13,19 +13,19 @@ the budget's UNPROVEN, flat maxima)."""
 
 import math
 
+import leaves_poses
 import mpmath as mp
 import numpy as np
 import pytest
+import strategies as S
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial.transform import Rotation as Rot
-
-import leaves_poses
-import strategies as S
 from reference import sigma_stationary
+from scipy.spatial.transform import Rotation as Rot
 from test_distance import reference
+
 from ellipsim import Ellipsoids
-from ellipsim.core.distance.ellipsoid_pair import branch_and_bound as gm
+from ellipsim.core.distance import branch_and_bound as gm
 
 U64 = 2.0**-53
 DPS = 40
@@ -79,16 +79,40 @@ class Pair:
                 r = mp.sqrt(sum(x * x for x in v))
                 v = [x / r for x in v]
             w = [sum(mp.mpf(self.U[3 * i + j]) * v[i] for i in range(3)) for j in range(3)]  # U^T v
-            return (sum(mp.mpf(x) * y for x, y in zip(self.e, v)) - mp.sqrt(sum((mp.mpf(x) * y) ** 2 for x, y in zip(self.a, v)))
-                    - mp.sqrt(sum((mp.mpf(x) * y) ** 2 for x, y in zip(self.b, w))))
+            return (
+                sum(mp.mpf(x) * y for x, y in zip(self.e, v))
+                - mp.sqrt(sum((mp.mpf(x) * y) ** 2 for x, y in zip(self.a, v)))
+                - mp.sqrt(sum((mp.mpf(x) * y) ** 2 for x, y in zip(self.b, w)))
+            )
 
     def run(self, n0=(1.0, 0.0, 0.0), v0=-math.inf, have0=False, max_patches=gm.MAX_PATCHES):
-        return gm.global_max(tuple(map(float, n0)), float(v0), bool(have0), self.e, self.a, self.U, self.b, self.M,
-                             float(self.scale), float(self.tol), int(max_patches))
+        return gm.global_max(
+            tuple(map(float, n0)),
+            float(v0),
+            bool(have0),
+            self.e,
+            self.a,
+            self.U,
+            self.b,
+            self.M,
+            float(self.scale),
+            float(self.tol),
+            int(max_patches),
+        )
 
     def certify(self, m):
-        return gm.certify_region_call(tuple(map(float, m)), self.e, self.a, self.U, self.b, max(self.a), max(self.b),
-                                      float(self.S), float(self.err_sigma), float(self.tol))
+        return gm.certify_region_call(
+            tuple(map(float, m)),
+            self.e,
+            self.a,
+            self.U,
+            self.b,
+            max(self.a),
+            max(self.b),
+            float(self.S),
+            float(self.err_sigma),
+            float(self.tol),
+        )
 
 
 DENSE = None
@@ -144,8 +168,11 @@ def deep_pair(draw):
 
 
 @settings(max_examples=60)
-@given(deep_pair(), st.tuples(*[st.floats(-2, 2)] * 3).filter(lambda v: sum(x * x for x in v) > 1e-2),
-       st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: sum(x * x for x in v) > 1e-2))
+@given(
+    deep_pair(),
+    st.tuples(*[st.floats(-2, 2)] * 3).filter(lambda v: sum(x * x for x in v) > 1e-2),
+    st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: sum(x * x for x in v) > 1e-2),
+)
 def test_sigma_grad_matches_central_differences(P, c, n):
     """At any nonzero c (sigma is homogeneous: not only unit c): the value and h_A, h_B to rounding,
     the gradient against 40-digit central differences (step 1e-15, error ~1e-30) within the rounding
@@ -199,8 +226,13 @@ def chord_to_corners(face, level, i, j):
 
 
 @settings(max_examples=40)
-@given(S.quaternions, st.integers(0, 5), st.integers(1, 12), st.floats(0, 1, exclude_max=True),
-       st.floats(0, 1, exclude_max=True))
+@given(
+    S.quaternions,
+    st.integers(0, 5),
+    st.integers(1, 12),
+    st.floats(0, 1, exclude_max=True),
+    st.floats(0, 1, exclude_max=True),
+)
 def test_patch_cap_holds_its_patch(q, face, level, fi, fj):
     """Every point of a quadtree patch (81 of its square, edges and corners) lies in the cap patch_cap
     returns, for the tabulated levels (<= RHO_LEVELS) and the Lipschitz radius beyond; its centre is the
@@ -249,7 +281,9 @@ def test_every_direction_lies_in_a_patch_cap(level):
     Q = tuple(float(x) for x in Qm.ravel())
     dirs = rng.normal(size=(3000, 3))
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
-    dirs[:6] = np.array([[1, 1, 1], [1, -1, 1], [-1, 1, 1], [1, 1, -1], [1, 0, 0], [0, 0, -1]], float) @ Qm.T  # corners, centres
+    dirs[:6] = (
+        np.array([[1, 1, 1], [1, -1, 1], [-1, 1, 1], [1, 1, -1], [1, 0, 0], [0, 0, -1]], float) @ Qm.T
+    )  # corners, centres
     dirs[:6] /= np.linalg.norm(dirs[:6], axis=1)[:, None]
     n = 1 << level
     for d in dirs:
@@ -330,7 +364,12 @@ def thin_deep_pairs(k, seed):
     for i in range(k):
         Ra, Rb = Rot.random(2, random_state=rng).as_matrix()
         if i % 2:
-            Rb = Ra @ Rot.from_rotvec([rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(0, 2 * np.pi)]).as_matrix()
+            Rb = (
+                Ra
+                @ Rot.from_rotvec(
+                    [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(0, 2 * np.pi)]
+                ).as_matrix()
+            )
             ra, rb = [0.025, 0.01, 0.001], list(np.array([0.025, 0.01, 0.001]) * rng.uniform(0.5, 1.5))
             cb = Ra @ (rng.uniform(-0.01, 0.01, 3) * np.array([1, 1, 0.1]))
         else:
@@ -510,13 +549,25 @@ def test_leaves_contacts_seeded_with_the_wrong_maximum(pose):
 def test_separated_pair_ends_at_the_first_positive_maximum():
     """A separated pair: the first climb reaches sigma > 0, which is global (sigma concave on the ball):
     SEPARATED_MAX with the distance of the two (spheres: |d| - r_a - r_b)."""
-    P = Pair([0, 0, 0], np.eye(3), [0.3, 0.3, 0.3], [0.5, 0.4, -0.2], Rot.from_rotvec([0.1, 0.2, 0.3]).as_matrix(),
-             [0.2, 0.2, 0.2])
+    P = Pair(
+        [0, 0, 0],
+        np.eye(3),
+        [0.3, 0.3, 0.3],
+        [0.5, 0.4, -0.2],
+        Rot.from_rotvec([0.1, 0.2, 0.3]).as_matrix(),
+        [0.2, 0.2, 0.2],
+    )
     status, n, value, count, runs = P.run()
     assert status == gm.SEPARATED_MAX and runs >= 1
     assert value == pytest.approx(math.sqrt(0.5**2 + 0.4**2 + 0.2**2) - 0.5, abs=1e-15)
-    q = Pair([0, 0, 0], np.eye(3), [0.3, 0.1, 0.05], [0.2, 0.3, 0.1], Rot.from_rotvec([1.0, -0.5, 0.2]).as_matrix(),
-             [0.15, 0.05, 0.1])
+    q = Pair(
+        [0, 0, 0],
+        np.eye(3),
+        [0.3, 0.1, 0.05],
+        [0.2, 0.3, 0.1],
+        Rot.from_rotvec([1.0, -0.5, 0.2]).as_matrix(),
+        [0.15, 0.05, 0.1],
+    )
     status, n, value, count, runs = q.run()
     assert status == gm.SEPARATED_MAX and value > 0
     check_global(q, status, n, value)
@@ -556,7 +607,12 @@ def test_thin_pairs_are_proven_within_tol_of_the_reference(kind):
             big = 10.0 ** rng.integers(2, 4)
             ra, rb, cb = [1.0, 1.0 / big, 0.5], [0.3, 0.3, 1.0 / big], rng.uniform(-0.3, 0.3, 3)
         else:
-            Rb = Ra @ Rot.from_rotvec([rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(0, 2 * np.pi)]).as_matrix()
+            Rb = (
+                Ra
+                @ Rot.from_rotvec(
+                    [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(0, 2 * np.pi)]
+                ).as_matrix()
+            )
             ra, rb = [0.025, 0.01, 0.001], list(np.array([0.025, 0.01, 0.001]) * rng.uniform(0.5, 1.5))
             cb = Ra @ (rng.uniform(-0.01, 0.01, 3) * np.array([1, 1, 0.1]))
         P = Pair([0, 0, 0], Ra, ra, cb, Rb, rb)

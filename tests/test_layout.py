@@ -14,7 +14,8 @@ PACKAGE = pathlib.Path(ellipsim.__file__).parent
 ALLOWED = {
     "core": {"core"},
     "mujoco": {"core", "mujoco", "shipped"},
-    "app": {"core", "mujoco", "app", "shipped"},
+    "warp": {"core", "warp", "shipped"},  # the MuJoCo Warp layer (issue 21): beside mujoco, not on it
+    "app": {"core", "mujoco", "warp", "app", "shipped"},
 }
 HEAVY = ("mujoco", "rerun", "trimesh")
 
@@ -46,7 +47,7 @@ def _ellipsim_imports(path):
 @pytest.mark.parametrize("layer", sorted(ALLOWED))
 def test_each_layer_imports_only_the_layers_below(layer):
     modules = sorted((PACKAGE / layer).rglob("*.py"))
-    assert modules
+    assert modules or layer == "warp"  # the warp layer's place is declared before it lands
     for path in modules:
         used = _ellipsim_imports(path)
         assert used <= ALLOWED[layer], f"{path.relative_to(PACKAGE)} imports ellipsim.{sorted(used - ALLOWED[layer])}"
@@ -93,16 +94,21 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.split() == [
-        "ellipsim", "ellipsim.mujoco", "ellipsim.mujoco.attachment", "ellipsim.mujoco.context",
-        "ellipsim.mujoco.nativecache", "ellipsim.mujoco.publish", "ellipsim.mujoco.structs",
-    ]  # fmt: skip
+        "ellipsim",
+        "ellipsim.mujoco",
+        "ellipsim.mujoco.attachment",
+        "ellipsim.mujoco.context",
+        "ellipsim.mujoco.nativecache",
+        "ellipsim.mujoco.publish",
+        "ellipsim.mujoco.structs",
+    ]
 
 
 def test_every_public_name_resolves_to_its_module():
-    import ellipsim.core.exact.characteristic
-    import ellipsim.core.exact.classify
     import ellipsim.core.distance.ellipsoid_pair
     import ellipsim.core.ellipsoids
+    import ellipsim.core.exact.characteristic
+    import ellipsim.core.exact.classify
     import ellipsim.core.exact.contact_scale
     import ellipsim.core.relation
     import ellipsim.mujoco.compare
@@ -133,3 +139,127 @@ def test_importing_the_validate_module_keeps_the_validate_function():
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.split() == ["ellipsim.mujoco.validate", "validate", "True"]
+
+
+# --- the core's folders and the package's import graph ------------------------------------------------
+
+#: The core's concept folders, each importing only the folders before it here and the core's foundation
+#: (the modules directly in core/): exact relations, the ellipsoid pair's distance, the other pair
+#: types, moving bodies.
+CORE_FOLDERS = ("exact", "distance", "pairs", "motion")
+CORE_FOUNDATION = {"_jit", "ellipsoids", "relation", "rotations", "samples", "threads", "tolerances", "vec3"}
+
+
+def _modules():
+    """{dotted name: path} of every module of the package."""
+    found = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return found
+
+
+def _module_imports(path, modules):
+    """The package's modules that the module at `path` imports, anywhere in it (module level or not)."""
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    package = list(parts[:-1])
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            target = base + (node.module.split(".") if node.module else [])
+            dotted = ".".join(target)
+            for alias in node.names:
+                found.add(f"{dotted}.{alias.name}" if f"{dotted}.{alias.name}" in modules else dotted)
+        elif isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+    return {m for m in found if m in modules}
+
+
+def _import_graph():
+    modules = _modules()
+    return {name: _module_imports(path, modules) - {name} for name, path in modules.items()}
+
+
+def _cycle(edges):
+    """A cycle [a, b, ..., a] in the directed graph {a: {b, ...}}, or None."""
+    state = {}
+
+    def visit(node, path):
+        state[node] = "open"
+        for nxt in sorted(edges.get(node, ())):
+            if state.get(nxt) == "open":
+                return path[path.index(nxt) :] + [nxt]
+            if nxt not in state and (found := visit(nxt, path + [nxt])):
+                return found
+        state[node] = "done"
+        return None
+
+    for start in sorted(edges):
+        if start not in state and (found := visit(start, [start])):
+            return found
+    return None
+
+
+def test_no_import_cycle_anywhere_in_the_package():
+    # every import counts, module level or inside a function: a cycle through a deferred import is
+    # still two modules that each need the other
+    graph = {m: {t for t in targets if t != "ellipsim"} for m, targets in _import_graph().items()}
+    assert _cycle(graph) is None, f"import cycle {' -> '.join(_cycle(graph))}"
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+
+
+def test_core_is_grouped_by_concept():
+    core = PACKAGE / "core"
+    assert {p.name for p in core.iterdir() if p.is_dir() and p.name != "__pycache__"} == set(CORE_FOLDERS)
+    assert {p.stem for p in core.glob("*.py")} == CORE_FOUNDATION | {"__init__"}
+    for folder in CORE_FOLDERS:  # a folder's __init__ imports nothing: importing one module loads one
+        tree = ast.parse((core / folder / "__init__.py").read_text())
+        assert not [n for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))], folder
+
+
+def test_core_folders_import_only_the_foundation_and_the_folders_before_them():
+    for module, targets in _import_graph().items():
+        parts = module.split(".")
+        if parts[:2] != ["ellipsim", "core"] or len(parts) < 4:
+            continue
+        rank = CORE_FOLDERS.index(parts[2])
+        for target in targets:
+            tparts = target.split(".")
+            assert tparts[:2] == ["ellipsim", "core"], f"{module} imports {target}"
+            if len(tparts) == 3:
+                assert tparts[2] in CORE_FOUNDATION, f"{module} imports {target}"
+            else:
+                assert CORE_FOLDERS.index(tparts[2]) <= rank, f"{module} imports {target}, a later folder"
+
+
+def test_the_foundation_imports_no_concept_folder_except_for_the_sample_sets():
+    # samples.py builds pairs for tests and benchmarks with classify and contact_scale; the rest of
+    # the foundation (tolerances, the batch, vectors, threads) is below every folder
+    for module, targets in _import_graph().items():
+        parts = module.split(".")
+        if parts[:2] == ["ellipsim", "core"] and len(parts) == 3 and parts[2] != "samples":
+            assert all(len(t.split(".")) == 3 for t in targets if t.startswith("ellipsim.core.")), module
+
+
+def test_every_layer_folder_is_declared_and_the_warp_layer_may_import_only_the_core():
+    # ellipsim.warp (issue 21) sits beside ellipsim.mujoco: it may use the core's kernels, never the
+    # MuJoCo C glue (whose compiled callbacks and process context it must not load) nor the app
+    layers = {p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__"}
+    assert layers <= set(ALLOWED), sorted(layers - set(ALLOWED))
+    assert ALLOWED["warp"] == {"core", "warp", "shipped"}
+    assert "warp" not in ALLOWED["mujoco"] and "warp" in ALLOWED["app"]
+
+
+def test_every_package_folder_is_installed():
+    # pyproject lists the packages by name: a folder missing there imports from a checkout and is
+    # absent from `pip install .`
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {
+        ".".join(p.parent.relative_to(PACKAGE.parent).parts)
+        for p in PACKAGE.rglob("__init__.py")
+        if "prebuilt" not in p.parts
+    }
+    assert found <= listed, sorted(found - listed)

@@ -12,27 +12,35 @@ dist < margin + gap and excluded from the constraints (contact.exclude) when dis
 margin and gap of a <pair> element replace the geoms' sums.
 """
 
+import mujoco
 import numpy as np
 import pytest
 
-import mujoco
 import ellipsim.mujoco as em
-from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, signed_distance
+from ellipsim.core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ellipsim.mujoco.geoms import enclosing, explicit_pairs, pair_gaps, pair_margins, within_threshold
 
 #: One rotation for every pair (w, x, y, z): the line of the tips is no axis of the world, so the
 #: geoms' bounding boxes overlap in the broad phase also for pairs a little beyond their margin.
 TURN = np.array([0.9, 0.25, -0.3, 0.2]) / np.linalg.norm([0.9, 0.25, -0.3, 0.2])
-ELLIPSOID_A, ELLIPSOID_B, SPHERE_A = ("ellipsoid", (0.3, 0.1, 0.2)), ("ellipsoid", (0.25, 0.15, 0.1)), ("sphere", (0.1,))
+ELLIPSOID_A, ELLIPSOID_B, SPHERE_A = (
+    ("ellipsoid", (0.3, 0.1, 0.2)),
+    ("ellipsoid", (0.25, 0.15, 0.1)),
+    ("sphere", (0.1,)),
+)
 MARGIN = 0.001  # the pair's margin: dm_control's fruit fly has 0.001 on its labrum geoms
 ABOVE, BELOW = MARGIN + 4e-5, MARGIN - 4e-5  # the issue's 0.0010417 against 0.001, and its mirror
 
 
 def _rotate(q, v):
     w, x, y, z = q
-    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])  # fmt: skip
+    R = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
     return R @ v
 
 
@@ -50,10 +58,14 @@ def rows_xml(rows, *, option="", contact=""):
         pa = np.array([0.0, 2.0 * i, 1.0])
         pb = pa + _rotate(TURN, np.array([sa[0] + sb[0] + sd, 0.0, 0.0]))
         for name, t, s, p, attrs in ((f"a{i}", ta, sa, pa, attrs_a), (f"b{i}", tb, sb, pb, attrs_b)):
-            bodies.append(f'<body pos="{_numbers(p)}" quat="{quat}"><freejoint/>'
-                          f'<geom name="{name}" type="{t}" size="{_numbers(s)}" {attrs}/></body>')  # fmt: skip
-    return (f'<mujoco><option gravity="0 0 0">{option}</option><worldbody>{"".join(bodies)}</worldbody>'
-            f"<contact>{contact}</contact></mujoco>")  # fmt: skip
+            bodies.append(
+                f'<body pos="{_numbers(p)}" quat="{quat}"><freejoint/>'
+                f'<geom name="{name}" type="{t}" size="{_numbers(s)}" {attrs}/></body>'
+            )
+    return (
+        f'<mujoco><option gravity="0 0 0">{option}</option><worldbody>{"".join(bodies)}</worldbody>'
+        f"<contact>{contact}</contact></mujoco>"
+    )
 
 
 def both_sides(xml, steps=1):
@@ -70,15 +82,20 @@ def both_sides(xml, steps=1):
 def contacts_of(model, data, g1, g2):
     """(dist, exclude) of data's contacts on geoms named g1, g2 (either order)."""
     ids = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (g1, g2)}
-    return [(float(data.contact.dist[i]), int(data.contact.exclude[i])) for i in range(data.ncon)
-            if set(data.contact.geom[i].tolist()) == ids]  # fmt: skip
+    return [
+        (float(data.contact.dist[i]), int(data.contact.exclude[i]))
+        for i in range(data.ncon)
+        if set(data.contact.geom[i].tolist()) == ids
+    ]
 
 
 def bare_distance(model, data, g1, g2):
     """ellipsim's signed distance of geoms named g1, g2 and its status."""
     ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (g1, g2)]
     zero = np.zeros(1)
-    dist, _, _, status = signed_distance(enclosing(model, data, np.array(ids[:1]), zero), enclosing(model, data, np.array(ids[1:]), zero))
+    dist, _, _, status = signed_distance(
+        enclosing(model, data, np.array(ids[:1]), zero), enclosing(model, data, np.array(ids[1:]), zero)
+    )
     return float(dist[0]), int(status[0])
 
 
@@ -123,7 +140,10 @@ def test_a_pair_within_the_proof_tolerance_of_the_margin_is_the_only_undetermine
     v = em.validate(model, mujoco.MjData(model), 1)
     assert v.counts.sum() == 5 and v.undetermined.tolist() == [1]
     assert all(d.right == "undetermined" and d.names == ("a4", "b4") for d in v.disagreements)
-    assert v.counts[0, 0] + v.counts[0, 2] in (2, 3) and v.counts[0, 1] + v.counts[0, 3] in (2, 3)  # the four others as above
+    assert v.counts[0, 0] + v.counts[0, 2] in (2, 3) and v.counts[0, 1] + v.counts[0, 3] in (
+        2,
+        3,
+    )  # the four others as above
 
 
 def test_override_margin_is_the_pairs_margin():
@@ -159,12 +179,16 @@ def test_a_stack_colliding_through_pair_elements_over_time():
     """Five ellipsoids dropped in a column onto a floor; they touch each other only through <pair>
     elements (contype 0, conaffinity 1: the floor's contype 1 still meets them)."""
     sizes = [".06 .09 .05", ".08 .05 .05", ".05 .07 .10", ".07 .06 .05", ".05 .05 .08"]
-    bodies = "".join(f'<body pos="{0.01 * i} {-0.005 * i} {0.12 + 0.21 * i}" quat="1 {0.1 * i} {0.2 - 0.05 * i} 0.1"><freejoint/>'
-                     f'<geom name="e{i}" type="ellipsoid" size="{s}" contype="0" conaffinity="1"/></body>'
-                     for i, s in enumerate(sizes))  # fmt: skip
+    bodies = "".join(
+        f'<body pos="{0.01 * i} {-0.005 * i} {0.12 + 0.21 * i}" quat="1 {0.1 * i} {0.2 - 0.05 * i} 0.1"><freejoint/>'
+        f'<geom name="e{i}" type="ellipsoid" size="{s}" contype="0" conaffinity="1"/></body>'
+        for i, s in enumerate(sizes)
+    )
     pairs = "".join(f'<pair geom1="e{i}" geom2="e{j}" margin="0.002"/>' for i in range(5) for j in range(i + 1, 5))
-    xml = (f'<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>{bodies}</worldbody>'
-           f"<contact>{pairs}</contact></mujoco>")  # fmt: skip
+    xml = (
+        f'<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>{bodies}</worldbody>'
+        f"<contact>{pairs}</contact></mujoco>"
+    )
     model = mujoco.MjModel.from_xml_string(xml)
     v = em.validate(model, mujoco.MjData(model), 400)
     totals = v.totals()
@@ -180,7 +204,11 @@ def test_a_model_mixing_pair_elements_and_dynamic_pairs_counts_each_pair_once():
     """Row 0: dynamic only (geom margins 0), penetrating.  Row 1: dynamic geoms that a <pair> with margin
     0.002 also names, 0.001 apart: MuJoCo collides it once, as the <pair>, so it is in contact.  Row 2: a
     sphere-ellipsoid <pair> only (contype 0), 0.0015 apart with margin 0.001: no contact."""
-    rows = [(ELLIPSOID_A, ELLIPSOID_B, -0.001, "", ""), (ELLIPSOID_A, ELLIPSOID_B, 0.001, "", ""), (SPHERE_A, ELLIPSOID_B, 0.0015, OFF, OFF)]
+    rows = [
+        (ELLIPSOID_A, ELLIPSOID_B, -0.001, "", ""),
+        (ELLIPSOID_A, ELLIPSOID_B, 0.001, "", ""),
+        (SPHERE_A, ELLIPSOID_B, 0.0015, OFF, OFF),
+    ]
     v, c, model, data = both_sides(rows_xml(rows, contact=_pair(1, 0.002) + _pair(2, MARGIN)))
     assert len(contacts_of(model, data, "a1", "b1")) == 1  # not once as the <pair> and once as dynamic
     assert contacts_of(model, data, "a1", "b1")[0][1] == 0  # active: the <pair>'s margin
@@ -224,8 +252,8 @@ def test_gap_adds_excluded_contacts_that_are_no_verdict(where):
     pairs = np.array([[0, 1], [2, 3], [4, 5]])
     np.testing.assert_allclose(pair_margins(model, pairs), MARGIN, rtol=1e-15)
     np.testing.assert_allclose(pair_gaps(model, pairs), GAP, rtol=1e-15)
-    (d0, x0), = contacts_of(model, data, "a0", "b0")
-    (d1, x1), = contacts_of(model, data, "a1", "b1")
+    ((d0, x0),) = contacts_of(model, data, "a0", "b0")
+    ((d1, x1),) = contacts_of(model, data, "a1", "b1")
     assert contacts_of(model, data, "a2", "b2") == []
     assert (x0, x1) == (0, 1) and d0 == pytest.approx(0.0008, abs=1e-9) and d1 == pytest.approx(0.0012, abs=1e-9)
     np.testing.assert_array_equal(v.counts, [[1, 2, 0, 0]])
@@ -274,5 +302,9 @@ def test_a_contact_on_one_side_only_is_refereed_against_margin_plus_gap():
             d = _referee(model, data, 0, (g1, g2), names, mj, el, MARGIN, False)
             assert d.proven and d.threshold == MARGIN and "threshold 0.001" in d.reason
             verdicts[("above", "below")[row], side] = d.right
-    assert verdicts == {("above", "mujoco"): "ellipsim", ("above", "ellipsim"): "mujoco",  # no contact belongs
-                        ("below", "mujoco"): "mujoco", ("below", "ellipsim"): "ellipsim"}  # fmt: skip
+    assert verdicts == {
+        ("above", "mujoco"): "ellipsim",
+        ("above", "ellipsim"): "mujoco",  # no contact belongs
+        ("below", "mujoco"): "mujoco",
+        ("below", "ellipsim"): "ellipsim",
+    }

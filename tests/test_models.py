@@ -60,7 +60,16 @@ def test_a_model_path_is_a_scenario(tmp_path, monkeypatch):
     assert s.steps == round(scenario.MJCF_DURATION / 0.004)
     model, data = simulate.build(s)
     assert model.ngeom == 13 and model.nmesh == 1 and model.nhfield == 1 and model.nq == 19
-    assert set(mjcf.geom_counts(model)) == {"plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh"}
+    assert set(mjcf.geom_counts(model)) == {
+        "plane",
+        "hfield",
+        "sphere",
+        "capsule",
+        "ellipsoid",
+        "cylinder",
+        "box",
+        "mesh",
+    }
 
 
 def test_keyframes_by_name_and_index():
@@ -135,9 +144,14 @@ keys = [{{ t = 0.0, joints = {{}} }}, {{ t = 0.4, joints = {{ elbow_l = -60 }} }
 @pytest.mark.parametrize(
     "control, message",
     [
-        ('kind = "sway"', r"\[control\] control 'sway' moves the figure's joints \(.*waist_bend.*\); none of the model's 5 actuators"),
-        ('kind = "keyframes"\nkeys = [{t = 0}, {t = 1, joints = {wrist = 3}}]',
-         r"\[control\] keys\[1\]\.joints names 'wrist', which no actuator drives; the model's actuators are elbow_l, elbow_r, hip"),
+        (
+            'kind = "sway"',
+            r"\[control\] control 'sway' moves the figure's joints \(.*waist_bend.*\); none of the model's 5 actuators",
+        ),
+        (
+            'kind = "keyframes"\nkeys = [{t = 0}, {t = 1, joints = {wrist = 3}}]',
+            r"\[control\] keys\[1\]\.joints names 'wrist', which no actuator drives; the model's actuators are elbow_l, elbow_r, hip",
+        ),
     ],
 )
 def test_controls_that_do_not_fit_the_model(tmp_path, control, message):
@@ -151,13 +165,23 @@ def test_controls_that_do_not_fit_the_model(tmp_path, control, message):
 @pytest.mark.parametrize(
     "text, message",
     [
-        ('duration = 1\nkinematic = true\n[scene]\nkind = "mjcf"\npath = "{zoo}"\n[control]\nkind = "keyframes"\nkeys = [{{t = 0}}, {{t = 1}}]\n',
-         r"key 'kinematic' must be false for an mjcf scene \(to pose a model frame by frame: ellipsim replay MODEL MOTION\)"),
+        (
+            'duration = 1\nkinematic = true\n[scene]\nkind = "mjcf"\npath = "{zoo}"\n[control]\nkind = "keyframes"\nkeys = [{{t = 0}}, {{t = 1}}]\n',
+            r"key 'kinematic' must be false for an mjcf scene \(to pose a model frame by frame: ellipsim replay MODEL MOTION\)",
+        ),
         ('duration = 1\n[scene]\nkind = "mjcf"\n[control]\n', r"missing key 'scene\.path'"),
-        ('duration = 1\n[scene]\nkind = "mjcf"\npath = "nope.xml"\n[control]\n', r"\[scene\] path: model '.*nope\.xml' does not exist"),
-        ('duration = 1\n[scene]\nkind = "mjcf"\npath = "{zoo}"\nfigures = 3\n[control]\n',
-         r"unknown key 'scene\.figures' \(known here: kind, path, key, ctrl\)"),
-        ('duration = 1\n[scene]\nkind = "mjcf"\npath = "{zoo}"\nctrl = "grip"\n[control]\n', r"key 'scene\.ctrl' must be one of"),
+        (
+            'duration = 1\n[scene]\nkind = "mjcf"\npath = "nope.xml"\n[control]\n',
+            r"\[scene\] path: model '.*nope\.xml' does not exist",
+        ),
+        (
+            'duration = 1\n[scene]\nkind = "mjcf"\npath = "{zoo}"\nfigures = 3\n[control]\n',
+            r"unknown key 'scene\.figures' \(known here: kind, path, key, ctrl\)",
+        ),
+        (
+            'duration = 1\n[scene]\nkind = "mjcf"\npath = "{zoo}"\nctrl = "grip"\n[control]\n',
+            r"key 'scene\.ctrl' must be one of",
+        ),
     ],
 )
 def test_mjcf_scene_tables_are_checked(tmp_path, text, message):
@@ -169,7 +193,10 @@ def test_mjcf_scene_tables_are_checked(tmp_path, text, message):
 
 def test_model_errors_are_one_line(models):
     broken = variant(models, "broken.xml", "<worldbody>", "<worldbody><bodyy/>")
-    with pytest.raises(scenario.ScenarioError, match=r"broken\.xml: MuJoCo cannot read the model .*unrecognized element; Element 'bodyy'"):
+    with pytest.raises(
+        scenario.ScenarioError,
+        match=r"broken\.xml: MuJoCo cannot read the model .*unrecognized element; Element 'bodyy'",
+    ):
         scenario.load(str(broken))
     missing = variant(models, "missing.xml", 'file="zoo_assets.xml"', 'file="gone.xml"')
     with pytest.raises(scenario.ScenarioError, match=r"Error opening file 'gone\.xml'; Element 'include'") as info:
@@ -177,7 +204,9 @@ def test_model_errors_are_one_line(models):
     assert "\n" not in str(info.value)
     bad_size = variant(models, "bad_size.xml", 'size="0.12 0.16 0.28"', 'size="0 0.16 0.28"')
     s = scenario.load(str(bad_size))  # parses; MuJoCo refuses it when compiling
-    with pytest.raises(scenario.ScenarioError, match=r"bad_size\.xml: MuJoCo cannot load this model: Error: size 0 must be positive"):
+    with pytest.raises(
+        scenario.ScenarioError, match=r"bad_size\.xml: MuJoCo cannot load this model: Error: size 0 must be positive"
+    ):
         simulate.build(s)
     with pytest.raises(scenario.ScenarioError, match=r"model '.*nothere\.xml' does not exist or is not a file"):
         scenario.load(str(models / "nothere.xml"))
@@ -187,20 +216,28 @@ def test_mujoco_out_of_memory_is_a_clear_error(models, monkeypatch):
     monkeypatch.chdir(models)  # MuJoCo logs its warnings to MUJOCO_LOG.TXT in the working directory
     small = variant(models, "small.xml", '<option timestep="0.004"/>', '<option timestep="0.004"/><size memory="2K"/>')
     s = scenario.load(str(small))
-    with pytest.raises(scenario.ScenarioError, match=r"small\.xml MuJoCo stopped at step \d+: mj_stackAlloc: out of memory.*increase <size memory"):
+    with pytest.raises(
+        scenario.ScenarioError,
+        match=r"small\.xml MuJoCo stopped at step \d+: mj_stackAlloc: out of memory.*increase <size memory",
+    ):
         simulate.run(s, steps=200)
     huge = variant(models, "huge.xml", '<option timestep="0.004"/>', '<option timestep="0.004"/><size memory="100T"/>')
-    with pytest.raises(scenario.ScenarioError, match=r"huge\.xml: MuJoCo could not allocate the model's memory .*<size memory"):
+    with pytest.raises(
+        scenario.ScenarioError, match=r"huge\.xml: MuJoCo could not allocate the model's memory .*<size memory"
+    ):
         simulate.build(scenario.load(str(huge)))
 
 
 def test_too_many_figures_for_memory_is_refused_before_building(tmp_path):
     toml = tmp_path / "many.toml"
-    toml.write_text('duration = 0.01\ntimestep = 0.002\n[scene]\nfigures = 100000\n[control]\n')
+    toml.write_text("duration = 0.01\ntimestep = 0.002\n[scene]\nfigures = 100000\n[control]\n")
     s = scenario.load(str(toml))
-    with pytest.raises(scenario.ScenarioError, match=r"many\.toml: \[scene\] figures = 100000 needs 9\.1e\+03 GB of MuJoCo arena "
-                                                     r"\(its broad phase takes 4 bytes per pair of the model's 1500001 bodies\), "
-                                                     r"more than the .* available: at most \d+ figures here"):  # fmt: skip
+    with pytest.raises(
+        scenario.ScenarioError,
+        match=r"many\.toml: \[scene\] figures = 100000 needs 9\.1e\+03 GB of MuJoCo arena "
+        r"\(its broad phase takes 4 bytes per pair of the model's 1500001 bodies\), "
+        r"more than the .* available: at most \d+ figures here",
+    ):
         simulate.build(s)
 
 
@@ -217,8 +254,20 @@ def test_run_and_compare_a_model_from_the_command_line(tmp_path):
     proc = cli("compare", str(ZOO), "--steps", "100", "--key", "1", "--json", str(report), cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     got = json.loads(report.read_text())
-    assert {"scenario", "steps", "builtin_contacts", "ellipsim_overlaps", "missed", "extra", "near_tangent", "agreement",
-            "pairs", "per_frame", "disagreements", "passed_through"} == set(got)  # fmt: skip
+    assert {
+        "scenario",
+        "steps",
+        "builtin_contacts",
+        "ellipsim_overlaps",
+        "missed",
+        "extra",
+        "near_tangent",
+        "agreement",
+        "pairs",
+        "per_frame",
+        "disagreements",
+        "passed_through",
+    } == set(got)
     assert got["passed_through"] is None or isinstance(got["passed_through"], list)  # None: not looked for
     assert got["scenario"] == "zoo" and got["steps"] == 100 and got["ellipsim_overlaps"] > 0
     assert got["missed"] == 0 and got["extra"] == 0
@@ -228,7 +277,10 @@ def test_run_and_compare_a_model_from_the_command_line(tmp_path):
     "args, message",
     [
         (["run", str(ZOO), "--key", "stand"], "no keyframe named 'stand'; it has 3: rest, hug, wave"),
-        (["run", str(ZOO), "--ctrl", "keyframe"], "ctrl 'keyframe' takes the controls of a keyframe: choose one with key (--key)"),
+        (
+            ["run", str(ZOO), "--ctrl", "keyframe"],
+            "ctrl 'keyframe' takes the controls of a keyframe: choose one with key (--key)",
+        ),
         (["run", "pile", "--key", "1"], "--key applies to MJCF models; scenario 'pile' builds a figures scene"),
         (["run", "nothere.xml"], "model 'nothere.xml' does not exist or is not a file"),
         (["compare", str(ZOO), "--key", "9"], "keyframe index 9 is out of range"),

@@ -148,7 +148,8 @@ def f_q(a2, q, n):
         s = mp.sqrt(sum(x * x for x in nm))
         nm = [x / s for x in nm]
         return sum(x * mp.mpf(float(y)) for x, y in zip(nm, q)) - mp.sqrt(
-            sum(mp.mpf(float(ai)) * x * x for ai, x in zip(a2, nm)))
+            sum(mp.mpf(float(ai)) * x * x for ai, x in zip(a2, nm))
+        )
 
 
 # --- inputs --------------------------------------------------------------------------------------
@@ -176,9 +177,13 @@ def ellipsoid_point(draw, d=3):
     u /= np.linalg.norm(u)
     where = draw(st.sampled_from(["inside", "outside", "near", "deep", "centre"]))
     on_boundary = np.sqrt(1.0 / np.sum(u * u / np.array(a2)))  # |q| where the ray leaves E
-    r = {"inside": draw(st.floats(0.05, 0.95)), "outside": draw(st.floats(1.05, 3.0)),
-         "near": 1.0 + draw(st.sampled_from([-1e-3, 1e-3, -1e-8, 1e-8])), "deep": draw(st.floats(1e-3, 0.3)),
-         "centre": 0.0}[where]
+    r = {
+        "inside": draw(st.floats(0.05, 0.95)),
+        "outside": draw(st.floats(1.05, 3.0)),
+        "near": 1.0 + draw(st.sampled_from([-1e-3, 1e-3, -1e-8, 1e-8])),
+        "deep": draw(st.floats(1e-3, 0.3)),
+        "centre": 0.0,
+    }[where]
     q = u * on_boundary * r
     zero = draw(st.sampled_from([(), (0,), (1,), (d - 1,), (0, 1)]))  # on coordinate planes and axes
     for k in zero:
@@ -243,23 +248,26 @@ def test_foot3_is_the_nearest_boundary_point(case):
     check_foot3(*case)
 
 
-@pytest.mark.parametrize("a2, q", [
-    ((1.0, 0.25, 0.04), (0.0, 0.0, 0.0)),  # the centre: the shortest axis, -0.2
-    ((1.0, 0.25, 0.04), (0.5, 0.0, 0.0)),  # on the long axis, inside: the pole limit (q_2 = q_3 = 0)
-    ((1.0, 0.25, 0.04), (0.0, 0.3, 0.0)),  # on the middle axis, inside
-    ((1.0, 0.25, 0.04), (0.99, 0.0, 0.0)),  # on the long axis beyond the last pole-limit point
-    ((1.0, 0.25, 0.04), (2.0, 0.0, 0.0)),  # on the long axis, outside
-    ((1.0, 0.25, 0.04), (0.0, 0.0, 0.5)),  # on the short axis, outside
-    ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)),  # a sphere's centre: every direction
-    ((1.0, 1.0, 1.0), (0.3, -0.2, 0.1)),  # a sphere: the closed form
-    ((1.0, 1.0, 0.01), (0.2, 0.1, 0.0)),  # an oblate spheroid, in its equatorial plane
-    ((0.01, 1.0, 1.0), (0.0, 0.3, 0.0)),  # the same turned
-    ((1.0, 0.25, 1e-12), (0.3, 0.2, 1e-7)),  # a disk of half-thickness 1e-6, inside near the face
-    ((1.0, 0.25, 1e-12), (0.3, 0.2, 3e-6)),  # just outside the face
-    ((1.0, 0.25, 1e-12), (0.9, 0.3, 0.0)),  # beyond the rim in its plane
-    ((1.0, 0.25, 0.04), (0.5, 0.0, 1e-12)),  # the root hugs the pole -0.04 (within POLE_RTOL): pole limit
-    ((1.0, 0.25, 0.04), (0.5, 1e-12, 0.0)),  # ... near the middle axis' plane instead
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "a2, q",
+    [
+        ((1.0, 0.25, 0.04), (0.0, 0.0, 0.0)),  # the centre: the shortest axis, -0.2
+        ((1.0, 0.25, 0.04), (0.5, 0.0, 0.0)),  # on the long axis, inside: the pole limit (q_2 = q_3 = 0)
+        ((1.0, 0.25, 0.04), (0.0, 0.3, 0.0)),  # on the middle axis, inside
+        ((1.0, 0.25, 0.04), (0.99, 0.0, 0.0)),  # on the long axis beyond the last pole-limit point
+        ((1.0, 0.25, 0.04), (2.0, 0.0, 0.0)),  # on the long axis, outside
+        ((1.0, 0.25, 0.04), (0.0, 0.0, 0.5)),  # on the short axis, outside
+        ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)),  # a sphere's centre: every direction
+        ((1.0, 1.0, 1.0), (0.3, -0.2, 0.1)),  # a sphere: the closed form
+        ((1.0, 1.0, 0.01), (0.2, 0.1, 0.0)),  # an oblate spheroid, in its equatorial plane
+        ((0.01, 1.0, 1.0), (0.0, 0.3, 0.0)),  # the same turned
+        ((1.0, 0.25, 1e-12), (0.3, 0.2, 1e-7)),  # a disk of half-thickness 1e-6, inside near the face
+        ((1.0, 0.25, 1e-12), (0.3, 0.2, 3e-6)),  # just outside the face
+        ((1.0, 0.25, 1e-12), (0.9, 0.3, 0.0)),  # beyond the rim in its plane
+        ((1.0, 0.25, 0.04), (0.5, 0.0, 1e-12)),  # the root hugs the pole -0.04 (within POLE_RTOL): pole limit
+        ((1.0, 0.25, 0.04), (0.5, 1e-12, 0.0)),  # ... near the middle axis' plane instead
+    ],
+)
 def test_foot3_hand_picked(a2, q):
     sd, t, n = check_foot3(a2, q)
     if a2 == (1.0, 1.0, 1.0):
@@ -347,7 +355,9 @@ def circle_reference(a2, q, w1, w2, k=20_000):
             m = [c * x + s * y for x, y in zip(W1, W2)]
             r = mp.sqrt(sum(x * x for x in m))  # w1, w2 are orthonormal only to rounding
             m = [x / r for x in m]
-            return sum(x * mp.mpf(float(y)) for x, y in zip(m, q)) - mp.sqrt(sum(mp.mpf(float(ai)) * x * x for ai, x in zip(a2, m)))
+            return sum(x * mp.mpf(float(y)) for x, y in zip(m, q)) - mp.sqrt(
+                sum(mp.mpf(float(ai)) * x * x for ai, x in zip(a2, m))
+            )
 
         for i in np.argsort(-v)[:2]:  # f is smooth in theta: golden section around each of the best samples
             lo, hi = mp.mpf(th[i]) - 2 * mp.pi / k * 2, mp.mpf(th[i]) + 2 * mp.pi / k * 2
@@ -374,8 +384,11 @@ def test_circle_max_bound_is_the_plane_maximum_and_bounds_it(case, alpha, beta, 
     (40-digit golden section from a dense sampling) and the bound returned is above it."""
     a2, q = case
     ca, sa, cb, sb, cg, sg = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta), np.cos(gamma), np.sin(gamma)
-    R = np.array([[ca, -sa, 0], [sa, ca, 0], [0, 0, 1]]) @ np.array([[1, 0, 0], [0, cb, -sb], [0, sb, cb]]) @ np.array(
-        [[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
+    R = (
+        np.array([[ca, -sa, 0], [sa, ca, 0], [0, 0, 1]])
+        @ np.array([[1, 0, 0], [0, cb, -sb], [0, sb, cb]])
+        @ np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
+    )
     w1, w2 = tuple(R[:, 0]), tuple(R[:, 1])
     n, ub = pe.circle_max_bound(a2, q, w1, w2)
     S = scale_of(a2, q)
@@ -403,8 +416,10 @@ def generic_point(draw):
         a.append(a[-1] * 1.5 + 0.01)
     a = draw(st.permutations(a))
     a2 = tuple(x * x for x in a)
-    q = tuple(draw(st.floats(0.001, 1.0)) * draw(st.sampled_from([-1.0, 1.0])) * draw(st.sampled_from([1.0, 0.1, 1e-3]))
-              for _ in range(3))
+    q = tuple(
+        draw(st.floats(0.001, 1.0)) * draw(st.sampled_from([-1.0, 1.0])) * draw(st.sampled_from([1.0, 0.1, 1e-3]))
+        for _ in range(3)
+    )
     return a2, q
 
 
@@ -447,14 +462,17 @@ def test_secular_roots_are_every_candidate_maximum(case):
             assert abs(np.sum(x * x / np.array(a2)) - 1) <= 1e-6
 
 
-@pytest.mark.parametrize("a2, q, expect", [
-    # q on the long axis of (1, 0.5, 0.2), inside: no root between the poles -0.25, -0.04 (both c = 0)
-    ((1.0, 0.25, 0.04), (0.5, 0.0, 0.0), 0),
-    # off-axis, near the centre: the evolute's inside, six normals through q (two between the top poles)
-    ((1.0, 0.25, 0.04), (0.01, 0.01, 0.01), 2),
-    # far outside: two normals only, none between the poles
-    ((1.0, 0.25, 0.04), (3.0, 2.0, 1.0), 0),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "a2, q, expect",
+    [
+        # q on the long axis of (1, 0.5, 0.2), inside: no root between the poles -0.25, -0.04 (both c = 0)
+        ((1.0, 0.25, 0.04), (0.5, 0.0, 0.0), 0),
+        # off-axis, near the centre: the evolute's inside, six normals through q (two between the top poles)
+        ((1.0, 0.25, 0.04), (0.01, 0.01, 0.01), 2),
+        # far outside: two normals only, none between the poles
+        ((1.0, 0.25, 0.04), (3.0, 2.0, 1.0), 0),
+    ],
+)
 def test_secular_roots_hand_picked(a2, q, expect):
     roots, _ = secular_reference(a2, q)
     r1, ra, rb = pe.secular_roots(a2, q, True)
@@ -465,7 +483,9 @@ def test_secular_roots_hand_picked(a2, q, expect):
     assert (not math.isnan(ra)) + (not math.isnan(rb)) == expect
 
 
-@pytest.mark.parametrize("q", [(0.5, 1e-9, 1e-8), (0.5, 0.0, 1e-8), (0.5, 1e-3, 1e-8), (0.1, 0.2, 1e-9), (0.5, 0.0, 1e-7)])
+@pytest.mark.parametrize(
+    "q", [(0.5, 1e-9, 1e-8), (0.5, 0.0, 1e-8), (0.5, 1e-3, 1e-8), (0.1, 0.2, 1e-9), (0.5, 0.0, 1e-7)]
+)
 def test_secular_roots_resolve_roots_hugging_the_poles(q):
     """Roots within 1e-8 of the poles (where foot3 falls short, above): secular_roots has each of them to
     the conditioning of S = 1, the largest and those between the two largest poles."""

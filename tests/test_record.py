@@ -80,7 +80,10 @@ ELLIPSOIDS = [2, 3, 7]
 F, SPLIT = 7, 4
 STATE = [[0, 0, 0], [1, 0, 0], [1, 0, 0], [2, 2, 0], [2, 2, 0], [0, 0, 2], [0, 0, 2]]
 CONTACTS_PER_FRAME = [2, 0, 3, 1, 4, 0, 2]  # frames 1 and 5 have none
-TETRA = (np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]))
+TETRA = (
+    np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]),
+    np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]),
+)
 QUAD = (np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float), np.array([[0, 1, 2], [0, 2, 3]]))
 
 
@@ -91,12 +94,22 @@ def unit(q):
 def make_geometry(rng):
     G = len(GEOMS)
     return SceneGeometry(
-        name="synthetic", body_names=list(BODIES), body_parent=np.array(PARENT), body_pos=rng.normal(size=(5, 3)),
-        body_quat=unit(rng.normal(size=(5, 4))), moving=np.array(MOVING), geom_names=[g[0] for g in GEOMS],
-        geom_body=np.array([g[1] for g in GEOMS]), geom_kind=np.array([K[g[2]] for g in GEOMS]),
-        geom_size=rng.uniform(0.02, 0.2, (G, 3)), geom_pos=rng.normal(size=(G, 3)), geom_quat=unit(rng.normal(size=(G, 4))),
-        geom_rgba=rng.uniform(0, 1, (G, 4)), meshes={0: QUAD, 6: TETRA, 8: QUAD}, ellipsoids=np.array(ELLIPSOIDS),
-    )  # fmt: skip
+        name="synthetic",
+        body_names=list(BODIES),
+        body_parent=np.array(PARENT),
+        body_pos=rng.normal(size=(5, 3)),
+        body_quat=unit(rng.normal(size=(5, 4))),
+        moving=np.array(MOVING),
+        geom_names=[g[0] for g in GEOMS],
+        geom_body=np.array([g[1] for g in GEOMS]),
+        geom_kind=np.array([K[g[2]] for g in GEOMS]),
+        geom_size=rng.uniform(0.02, 0.2, (G, 3)),
+        geom_pos=rng.normal(size=(G, 3)),
+        geom_quat=unit(rng.normal(size=(G, 4))),
+        geom_rgba=rng.uniform(0, 1, (G, 4)),
+        meshes={0: QUAD, 6: TETRA, 8: QUAD},
+        ellipsoids=np.array(ELLIPSOIDS),
+    )
 
 
 def make_frames(rng, first, last):
@@ -106,12 +119,20 @@ def make_frames(rng, first, last):
     contact_frame = np.repeat(frame, counts)
     k = len(contact_frame)
     return Frames(
-        frame=frame, times=frame / 60.0, body_pos=rng.normal(size=(f, 2, 3)), body_quat=unit(rng.normal(size=(f, 2, 4))),
-        state=np.array(STATE[first:last], dtype=np.int8), contact_frame=contact_frame, contact_pos=rng.normal(size=(k, 3)),
-        contact_normal=unit(rng.normal(size=(k, 3))), contact_ellipsoids=np.arange(k) % 2 == 0,
-        builtin_counts=np.array([1, 0, 2, 0, 5, 1, 3][first:last]), ellipsim_counts=np.array([1, 0, 2, 1, 5, 0, 3][first:last]),
-        touching_counts=np.array([0, 1, 1, 0, 0, 0, 0][first:last]), contact_counts=np.array(counts) + 1,
-    )  # fmt: skip
+        frame=frame,
+        times=frame / 60.0,
+        body_pos=rng.normal(size=(f, 2, 3)),
+        body_quat=unit(rng.normal(size=(f, 2, 4))),
+        state=np.array(STATE[first:last], dtype=np.int8),
+        contact_frame=contact_frame,
+        contact_pos=rng.normal(size=(k, 3)),
+        contact_normal=unit(rng.normal(size=(k, 3))),
+        contact_ellipsoids=np.arange(k) % 2 == 0,
+        builtin_counts=np.array([1, 0, 2, 0, 5, 1, 3][first:last]),
+        ellipsim_counts=np.array([1, 0, 2, 1, 5, 0, 3][first:last]),
+        touching_counts=np.array([0, 1, 1, 0, 0, 0, 0][first:last]),
+        contact_counts=np.array(counts) + 1,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -124,18 +145,33 @@ def saved(tmp_path_factory):
     return g, chunks, path, Recording(path), rid
 
 
-BODY_PATH = {1: "/world/model/base", 2: "/world/model/base/arm", 3: "/world/model/base/arm/hand", 4: "/world/model/free\\ ball"}
+BODY_PATH = {
+    1: "/world/model/base",
+    2: "/world/model/base/arm",
+    3: "/world/model/base/arm/hand",
+    4: "/world/model/free\\ ball",
+}
 
 
 def test_entity_tree_follows_the_bodies(saved):
     g, _, path, rec, rid = saved
     expected = {
-        "/world", "/world/model/geoms/floor", "/world/model/geoms/ground", *BODY_PATH.values(),
-        "/world/model/base/geoms/boxes", "/world/model/base/arm/geoms/ellipsoids", "/world/model/base/arm/geoms/capsules",
-        "/world/model/base/arm/hand/geoms/cylinders", "/world/model/base/arm/hand/geoms/gem",
-        "/world/model/free\\ ball/geoms/ellipsoids", "/world/contacts", "/world/contact_normals",
-        "/counts/pairs/builtin", "/counts/pairs/ellipsim", "/counts/contacts/all",
-    }  # fmt: skip
+        "/world",
+        "/world/model/geoms/floor",
+        "/world/model/geoms/ground",
+        *BODY_PATH.values(),
+        "/world/model/base/geoms/boxes",
+        "/world/model/base/arm/geoms/ellipsoids",
+        "/world/model/base/arm/geoms/capsules",
+        "/world/model/base/arm/hand/geoms/cylinders",
+        "/world/model/base/arm/hand/geoms/gem",
+        "/world/model/free\\ ball/geoms/ellipsoids",
+        "/world/contacts",
+        "/world/contact_normals",
+        "/counts/pairs/builtin",
+        "/counts/pairs/ellipsim",
+        "/counts/contacts/all",
+    }
     assert expected <= rec.entities()
     assert not {e for e in rec.entities() if e.startswith("/world/model")} - expected
     assert rec.reader.recordings()[0].recording_id == rid
@@ -193,7 +229,11 @@ def test_every_geom_kind_is_drawn_once_in_its_body_frame(saved):
     np.testing.assert_allclose(np.array(start).ravel(), g.geom_pos[4] - g.geom_size[4, 1] * z, atol=1e-6)
     (length,) = rec.static(f"{base}/arm/hand/geoms/cylinders", "Cylinders3D:lengths")
     np.testing.assert_array_equal(np.array(length, dtype=np.float32), f32([2 * g.geom_size[5, 1]]))
-    for entity, geom in ((f"{base}/arm/hand/geoms/gem", 6), ("/world/model/geoms/floor", 0), ("/world/model/geoms/ground", 8)):
+    for entity, geom in (
+        (f"{base}/arm/hand/geoms/gem", 6),
+        ("/world/model/geoms/floor", 0),
+        ("/world/model/geoms/ground", 8),
+    ):
         (vertices,) = rec.static(entity, "Mesh3D:vertex_positions")
         np.testing.assert_array_equal(np.array(vertices, dtype=np.float32), f32(g.meshes[geom][0]))
         (triangles,) = rec.static(entity, "Mesh3D:triangle_indices")
@@ -212,8 +252,10 @@ def test_ellipsoid_colours_where_the_state_changes(saved):
     def palette(geom, s):
         return packed(colors[geom] if s == 0 else record.TOUCHING_COLOR if s == 1 else record.OVERLAPPING_COLOR)
 
-    for entity, geoms, cols in (("/world/model/base/arm/geoms/ellipsoids", [2, 3], [0, 1]),
-                                ("/world/model/free\\ ball/geoms/ellipsoids", [7], [2])):  # fmt: skip
+    for entity, geoms, cols in (
+        ("/world/model/base/arm/geoms/ellipsoids", [2, 3], [0, 1]),
+        ("/world/model/free\\ ball/geoms/ellipsoids", [7], [2]),
+    ):
         frames, _, got = rec.temporal(entity, "Ellipsoids3D:colors")
         state = np.array(STATE)[:, cols]
         changed = [0] + [f for f in range(1, F) if (state[f] != state[f - 1]).any()]
@@ -233,7 +275,9 @@ def test_contacts_of_every_kind_per_frame(saved):
     for c in chunks:
         for f in c.frame:
             mine = np.flatnonzero(c.contact_frame == f)
-            np.testing.assert_array_equal(np.array(positions[f], dtype=np.float32).reshape(-1, 3), f32(c.contact_pos[mine]))
+            np.testing.assert_array_equal(
+                np.array(positions[f], dtype=np.float32).reshape(-1, 3), f32(c.contact_pos[mine])
+            )
             expected = f32(record.NORMAL_LENGTH * c.contact_normal[mine])
             np.testing.assert_array_equal(np.array(vectors[f], dtype=np.float32).reshape(-1, 3), expected)
             assert colors[f] == [both[bool(e)] for e in c.contact_ellipsoids[mine]]
@@ -242,13 +286,18 @@ def test_contacts_of_every_kind_per_frame(saved):
 
 def test_count_series_stay_distinguishable(saved):
     _, chunks, _, rec, _ = saved
-    for entity, field in (("/counts/pairs/builtin", "builtin_counts"), ("/counts/pairs/ellipsim", "ellipsim_counts"),
-                          ("/counts/contacts/all", "contact_counts")):  # fmt: skip
+    for entity, field in (
+        ("/counts/pairs/builtin", "builtin_counts"),
+        ("/counts/pairs/ellipsim", "ellipsim_counts"),
+        ("/counts/contacts/all", "contact_counts"),
+    ):
         frames, _, scalars = rec.temporal(entity, "Scalars:scalars")
         assert frames == list(range(F))
         assert scalars == [[float(v)] for c in chunks for v in getattr(c, field)]
-    style = {e: (rec.static(e, "SeriesLines:colors"), rec.static(e, "SeriesLines:widths")[0][0])
-             for e in ("/counts/pairs/builtin", "/counts/pairs/ellipsim")}  # fmt: skip
+    style = {
+        e: (rec.static(e, "SeriesLines:colors"), rec.static(e, "SeriesLines:widths")[0][0])
+        for e in ("/counts/pairs/builtin", "/counts/pairs/ellipsim")
+    }
     (builtin_color, builtin_width), (ours_color, ours_width) = style.values()
     assert builtin_color != ours_color
     assert builtin_width >= 3 * ours_width  # the thin line runs inside the wide one where they agree
@@ -269,7 +318,9 @@ def test_blueprint(saved):
     assert views["3D"] == ["world"] and sorted(views["TimeSeries"]) == ["counts/contacts", "counts/pairs"]
     assert views["TextLog"] == ["events"]
     assert set(views) == {"3D", "TimeSeries", "TextLog"}
-    assert sorted(k[0] for k in kinds) == sorted([rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value])
+    assert sorted(k[0] for k in kinds) == sorted(
+        [rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value]
+    )
 
 
 def test_contacts_between_frames_are_markers_until_the_next_frame(tmp_path):
@@ -283,8 +334,9 @@ def test_contacts_between_frames_are_markers_until_the_next_frame(tmp_path):
     with record.Recorder(path) as recorder:
         recorder.begin(make_geometry(rng))
         recorder.write(make_frames(rng, 0, F))
-        recorder.write_events(frame, time, [3 / 60, 6 / 60, 3 / 60], point, ["a / b", "c / d", "e / f"],
-                              ["line a", "line c", "line e"])  # fmt: skip
+        recorder.write_events(
+            frame, time, [3 / 60, 6 / 60, 3 / 60], point, ["a / b", "c / d", "e / f"], ["line a", "line c", "line e"]
+        )
         with pytest.raises(ValueError, match=r"time\[0\] must be <= until\[0\], got 0.5 and 0.25"):
             recorder.write_events([1], [0.5], [0.25], [[0, 0, 0]], ["x"], ["x"])
         with pytest.raises(ValueError, match="one row per event, got 1, 1, 1, 1, 2 and 1"):
@@ -294,11 +346,21 @@ def test_contacts_between_frames_are_markers_until_the_next_frame(tmp_path):
     _, _, labels = rec.temporal("/world/between_frames", "Points3D:labels")
     rows = sorted(zip(times, frames, positions, labels))
     ns = lambda t: round(t * 1e9)  # noqa: E731
-    assert [(t, f) for t, f, _, _ in rows] == [(ns(2.25 / 60), 2), (ns(2.5 / 60), 2), (ns(3 / 60), 3), (ns(5.2 / 60), 5), (ns(6 / 60), 6)]
+    assert [(t, f) for t, f, _, _ in rows] == [
+        (ns(2.25 / 60), 2),
+        (ns(2.5 / 60), 2),
+        (ns(3 / 60), 3),
+        (ns(5.2 / 60), 5),
+        (ns(6 / 60), 6),
+    ]
     assert [lab for *_, lab in rows] == [["e / f"], ["e / f", "a / b"], [], ["c / d"], []]
     np.testing.assert_array_equal(rows[1][2], f32(point[[2, 0]]))
     _, times, texts = rec.temporal("/events/between_frames", "TextLog:text")
-    assert sorted(zip(times, texts)) == [(ns(2.25 / 60), ["line e"]), (ns(2.5 / 60), ["line a"]), (ns(5.2 / 60), ["line c"])]
+    assert sorted(zip(times, texts)) == [
+        (ns(2.25 / 60), ["line e"]),
+        (ns(2.5 / 60), ["line a"]),
+        (ns(5.2 / 60), ["line c"]),
+    ]
 
 
 def test_every_run_gets_its_own_recording_id(tmp_path):
@@ -439,7 +501,10 @@ def test_a_real_model_keeps_its_colours_and_floor_contacts(zoo_run):
     # the figure drops onto the floor: contacts that are not between two ellipsoids are recorded too
     assert any(packed(record.OTHER_CONTACT_COLOR) in c for c in colors)
     assert sum(len(c) for c in colors) == int(result.frames.contact_counts.sum())
-    assert "/world/model/geoms/terrain" in rec.entities() and "/world/model/torso/arm_r/forearm_r/geoms/hand_r" in rec.entities()
+    assert (
+        "/world/model/geoms/terrain" in rec.entities()
+        and "/world/model/torso/arm_r/forearm_r/geoms/hand_r" in rec.entities()
+    )
 
 
 def test_geometry_of_a_model_reads_meshes_and_height_fields():
@@ -456,10 +521,15 @@ def test_geometry_of_a_model_reads_meshes_and_height_fields():
     assert vertices.shape == (20, 3) and triangles.shape == (2 * 3 * 4, 3)
     np.testing.assert_allclose([vertices[:, 0].min(), vertices[:, 0].max(), vertices[:, 1].max()], [-0.5, 0.5, 0.4])
     np.testing.assert_allclose(vertices[:, 2].max(), 0.1)  # elevation 1 x size[2]
-    assert g.body_names[0] == "world" and set(g.moving) == {model.body("torso").id, model.body("ball").id,
-                                                           model.body("arm_l").id, model.body("forearm_l").id,
-                                                           model.body("arm_r").id, model.body("forearm_r").id,
-                                                           model.body("leg").id}  # fmt: skip
+    assert g.body_names[0] == "world" and set(g.moving) == {
+        model.body("torso").id,
+        model.body("ball").id,
+        model.body("arm_l").id,
+        model.body("forearm_l").id,
+        model.body("arm_r").id,
+        model.body("forearm_r").id,
+        model.body("leg").id,
+    }
 
 
 def test_view_missing_file(tmp_path):

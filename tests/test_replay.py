@@ -12,7 +12,8 @@ import pytest
 from rerun.chunk import RrdReader
 
 from ellipsim import Ellipsoids, Relation, classify, signed_distance
-from ellipsim.app import record, replay as rp
+from ellipsim.app import record
+from ellipsim.app import replay as rp
 from ellipsim.mujoco.geoms import ellipsoid_geoms
 
 ZOO = pathlib.Path(__file__).parent / "models" / "zoo.xml"
@@ -68,7 +69,10 @@ def test_replay_matches_a_pair_by_pair_reference(model, hug):
     got = {}
     for p in range(len(result.pair_frame)):
         depth = None if result.pair_relation[p] == Relation.TOUCHING else result.pair_depth[p]
-        got.setdefault(int(result.pair_frame[p]), {})[tuple(int(g) for g in result.pair_geoms[p])] = (int(result.pair_relation[p]), depth)
+        got.setdefault(int(result.pair_frame[p]), {})[tuple(int(g) for g in result.pair_geoms[p])] = (
+            int(result.pair_relation[p]),
+            depth,
+        )
     assert set(got) == set(want) and len(want) >= 10
     for f in want:
         assert got[f].keys() == want[f].keys(), f
@@ -90,7 +94,11 @@ def test_body_pairs_say_which_bodies_and_when(model, hug):
     top = pairs[0]
     assert top["bodies"] == ["torso", "forearm_l"] and top["geoms"] == ["torso", "hand_l"]
     frames = np.flatnonzero(result.overlapping)
-    assert top["frames_overlapping"] > 5 and top["first"] == frames[0] and set(top["overlap_frames"]) <= set(frames.tolist())
+    assert (
+        top["frames_overlapping"] > 5
+        and top["first"] == frames[0]
+        and set(top["overlap_frames"]) <= set(frames.tolist())
+    )
     assert top["deepest"] == pytest.approx(result.deepest.max())
     assert rp.frame_ranges([1, 2, 3, 7, 9, 10]) == "1-3, 7, 9-10"
     assert rp.frame_ranges(range(0, 40, 2), most=3) == "0, 2, 4, ... (17 more)"
@@ -106,8 +114,11 @@ def test_replay_records_every_frame(model, tmp_path):
     for c in chunks:
         if c.entity_path == "/counts/pairs/ellipsim" and not c.is_static:
             batch = c.to_record_batch()
-            for f, t, v in zip(batch.column("frame").to_pylist(), batch.column("time").cast("int64").to_pylist(),
-                               batch.column("Scalars:scalars").to_pylist()):  # fmt: skip
+            for f, t, v in zip(
+                batch.column("frame").to_pylist(),
+                batch.column("time").cast("int64").to_pylist(),
+                batch.column("Scalars:scalars").to_pylist(),
+            ):
                 rows[f] = (t, v[0])
     assert sorted(rows) == list(range(12))
     assert [rows[f][0] for f in range(12)] == [round(f / FPS * 1e9) for f in range(12)]
@@ -138,8 +149,12 @@ def test_motion_files_npy_and_csv(model, tmp_path):
 @pytest.mark.parametrize(
     "name, content, message",
     [
-        ("m.npy", np.zeros((4, 18)), r"has 18 values per frame, expected \(frames, nq\) with nq = 19: the model's qpos holds "
-                                     r"14 \(2 free joints\) \+ 5 \(5 hinges\)"),
+        (
+            "m.npy",
+            np.zeros((4, 18)),
+            r"has 18 values per frame, expected \(frames, nq\) with nq = 19: the model's qpos holds "
+            r"14 \(2 free joints\) \+ 5 \(5 hinges\)",
+        ),
         ("m.npy", np.zeros(19), r"must have shape \(frames, nq\) with nq = 19.*, got shape \(19,\)"),
         ("m.npy", np.zeros((0, 19)), r"has no frames"),
         ("m.npy", np.array([[np.nan] * 19]), r"frame 0, qpos\[0\] must be finite, got nan"),
@@ -179,8 +194,18 @@ def cli(*args, cwd=None):
 def test_replay_on_the_command_line(model, tmp_path):
     np.save(tmp_path / "hug.npy", hug_motion(model))
     out = tmp_path / "hug.json"
-    proc = cli("replay", str(ZOO), str(tmp_path / "hug.npy"), "--fps", str(FPS), "--json", str(out), "--record",
-               str(tmp_path / "hug.rrd"), cwd=tmp_path)  # fmt: skip
+    proc = cli(
+        "replay",
+        str(ZOO),
+        str(tmp_path / "hug.npy"),
+        "--fps",
+        str(FPS),
+        "--json",
+        str(out),
+        "--record",
+        str(tmp_path / "hug.rrd"),
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "zoo: 30 frames of qpos (nq = 19: 14 (2 free joints) + 5 (5 hinges)) at 24 fps" in proc.stdout
     assert "deepest overlap:" in proc.stdout and "bodies torso / forearm_l (geoms torso / hand_l)" in proc.stdout
@@ -216,8 +241,10 @@ def test_replay_mistakes_are_one_line(tmp_path, motion, extra, message):
 
 def test_replay_of_a_model_without_ellipsoids(tmp_path):
     xml = tmp_path / "boxes.xml"
-    xml.write_text("<mujoco><worldbody><geom type='plane' size='1 1 .1'/><body><freejoint/><geom type='box' size='.1 .1 .1'/>"
-                   "</body></worldbody></mujoco>")  # fmt: skip
+    xml.write_text(
+        "<mujoco><worldbody><geom type='plane' size='1 1 .1'/><body><freejoint/><geom type='box' size='.1 .1 .1'/>"
+        "</body></worldbody></mujoco>"
+    )
     np.save(tmp_path / "m.npy", np.array([[0, 0, z, 1, 0, 0, 0] for z in (0.5, 0.05)], dtype=float))
     proc = cli("replay", str(xml), str(tmp_path / "m.npy"))
     assert proc.returncode == 0, proc.stderr

@@ -19,8 +19,8 @@ from scipy.spatial.transform import Rotation as Rot
 
 import ellipsim.mujoco as em
 from ellipsim import Ellipsoids, signed_distance
-from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, UNPROVEN, contact_at
-from ellipsim.mujoco import scenes
+from ellipsim.app import scenes
+from ellipsim.core.distance.ellipsoid_pair import UNPROVEN, contact_at
 
 FULL = mujoco.mjtState.mjSTATE_INTEGRATION  # FULLPHYSICS and MuJoCo's own solver warm start
 PHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -99,7 +99,7 @@ def test_rollouts_are_bit_identical(nthread):
     rng = np.random.default_rng(0)
     states = np.tile(s0, (8, 1))
     nq = model.nq
-    states[:, 1 + nq: 1 + nq + model.nv] = rng.normal(0, 0.5, (8, model.nv))  # initial velocities
+    states[:, 1 + nq : 1 + nq + model.nv] = rng.normal(0, 0.5, (8, model.nv))  # initial velocities
     datas = [mujoco.MjData(model) for _ in range(nthread)]
     atts = [em.attach(model, d, mode="narrowphase") for d in datas]
     for a in atts:
@@ -115,8 +115,11 @@ def test_rollouts_are_bit_identical(nthread):
 
 
 def _fast_ellipsoid_xml(speed, target):
-    plate = '<geom type="ellipsoid" size=".3 .3 .004" pos=".5 0 0" euler="0 90 0"/>' if target == "plate" else (
-        '<geom type="ellipsoid" size=".03 .03 .03" pos=".5 0 0"/>')
+    plate = (
+        '<geom type="ellipsoid" size=".3 .3 .004" pos=".5 0 0" euler="0 90 0"/>'
+        if target == "plate"
+        else ('<geom type="ellipsoid" size=".03 .03 .03" pos=".5 0 0"/>')
+    )
     return f"""<mujoco><option timestep="0.002" gravity="0 0 0"><flag speculative="enable"/></option>
       <worldbody>{plate}
         <body pos="0 0 0"><freejoint/><geom type="ellipsoid" size=".05 .04 .03"/></body>
@@ -163,7 +166,7 @@ def test_shot_pile_with_the_filter_is_plain_mujoco_under_speculative_contacts():
     def shot():
         d = mujoco.MjData(model)
         for i in range(40):
-            d.qvel[6 * i: 6 * i + 3] = v[i]
+            d.qvel[6 * i : 6 * i + 3] = v[i]
         return d
 
     plain, mine = shot(), shot()
@@ -188,16 +191,20 @@ def _unprovable_pair():
     Nearly parallel spheroids, this test's first pair, are proven now (spheroids.tilted_max)."""
     a = Ellipsoids(
         [0.0, 0.0, 0.0],
-        [[-0.8858523243500376, -0.4506434993467114, -0.11039065150721275],
-         [0.41799977102158176, -0.8784223908338515, 0.23162533261205656],
-         [-0.2013500704483154, 0.15904257221980264, 0.9665213962205738]],
+        [
+            [-0.8858523243500376, -0.4506434993467114, -0.11039065150721275],
+            [0.41799977102158176, -0.8784223908338515, 0.23162533261205656],
+            [-0.2013500704483154, 0.15904257221980264, 0.9665213962205738],
+        ],
         [1.6224973443468789, 1.6224973443468789e-06, 2.4427303617707426e-06],
     )
     b = Ellipsoids(
         [-6.24467982719238e-06, -4.052033129888916e-07, 6.337104017519303e-07],
-        [[0.8411274064382803, -0.07250239556231587, -0.535955304830671],
-         [0.21159180117918552, 0.95610043430146, 0.20273349304519864],
-         [0.4977284358082829, -0.28392844550394214, 0.8195431910653367]],
+        [
+            [0.8411274064382803, -0.07250239556231587, -0.535955304830671],
+            [0.21159180117918552, 0.95610043430146, 0.20273349304519864],
+            [0.4977284358082829, -0.28392844550394214, 0.8195431910653367],
+        ],
         [5.108196567307761e-06, 1.9218478692137188e-07, 1.921847869213719e-06],
     )
     return a, b
@@ -215,8 +222,10 @@ def test_unproven_pairs_get_the_better_of_both_normals():
     def body(e):
         f = lambda v: " ".join(repr(float(x)) for x in v)
         q = Rot.from_matrix(e.rotations[0]).as_quat(scalar_first=True)
-        return (f'<body pos="{f(e.centers[0])}" quat="{f(q)}"><freejoint/><inertial pos="0 0 0" mass="1" '
-                f'diaginertia="1 1 1"/><geom type="ellipsoid" size="{f(e.radii[0])}"/></body>')
+        return (
+            f'<body pos="{f(e.centers[0])}" quat="{f(q)}"><freejoint/><inertial pos="0 0 0" mass="1" '
+            f'diaginertia="1 1 1"/><geom type="ellipsoid" size="{f(e.radii[0])}"/></body>'
+        )
 
     xml = f"<mujoco><worldbody>{body(a)}{body(b)}</worldbody></mujoco>"
     model = mujoco.MjModel.from_xml_string(xml)

@@ -22,8 +22,10 @@ def _scaled(e, k):
 def pairs():
     a, b = generic_pairs(200, seed=7)
     c, d = near_contact_pairs(200, seed=8)
-    return (es.Ellipsoids(np.r_[a.centers, c.centers], np.r_[a.rotations, c.rotations], np.r_[a.radii, c.radii]),
-            es.Ellipsoids(np.r_[b.centers, d.centers], np.r_[b.rotations, d.rotations], np.r_[b.radii, d.radii]))  # fmt: skip
+    return (
+        es.Ellipsoids(np.r_[a.centers, c.centers], np.r_[a.rotations, c.rotations], np.r_[a.radii, c.radii]),
+        es.Ellipsoids(np.r_[b.centers, d.centers], np.r_[b.rotations, d.rotations], np.r_[b.radii, d.radii]),
+    )
 
 
 @pytest.mark.parametrize("k", SCALES)

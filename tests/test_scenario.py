@@ -12,11 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ellipsim import Ellipsoids, Relation, classify
-from ellipsim.app import capture, scenario, simulate
+from ellipsim.app import capture, scenario, scenes, simulate
 from ellipsim.app.cli import main
 from ellipsim.app.control import Controller
-from ellipsim.core.motion.interpolation.broad_phase import sweep_and_prune
-from ellipsim.mujoco import scenes
+from ellipsim.core.motion.broad_phase import sweep_and_prune
 from ellipsim.mujoco.geoms import candidate_pairs, ellipsoid_geoms, frame_pairs
 
 ZOO = pathlib.Path(__file__).parent / "models" / "zoo.xml"
@@ -54,20 +53,30 @@ def test_shipped_scenarios_load():
     "text, message",
     [
         ("duration = [", r"s\.toml: not valid TOML"),
-        (GOOD.replace('mode = "filter"', 'mode = "gjk"'), r"s\.toml: key 'mode' must be one of \('builtin', 'filter', 'narrowphase'\), got 'gjk'"),
+        (
+            GOOD.replace('mode = "filter"', 'mode = "gjk"'),
+            r"s\.toml: key 'mode' must be one of \('builtin', 'filter', 'narrowphase'\), got 'gjk'",
+        ),
         (GOOD.replace("duration = 0.2", "duration = -1"), r"key 'duration' must be positive, got -1"),
         (GOOD.replace("duration = 0.2", 'duration = "long"'), r"key 'duration' must be a float, got 'long'"),
         (GOOD.replace("figures = 2", "figures = 0"), r"key 'scene.figures' must be positive, got 0"),
         (GOOD.replace('layout = "line"', 'layout = "circle"'), r"key 'scene.layout' must be one of"),
         (GOOD.replace('kind = "sway"', 'kind = "jump"'), r"key 'control.kind' must be one of"),
         (GOOD + "colour = 1\n", r"unknown key 'control.colour'"),
-        ("durration = 3\n" + GOOD, r"s\.toml: unknown key 'durration' \(did you mean 'duration'\? known here: description, duration"),
+        (
+            "durration = 3\n" + GOOD,
+            r"s\.toml: unknown key 'durration' \(did you mean 'duration'\? known here: description, duration",
+        ),
         (GOOD.replace("[scene]", "[scenery]"), r"unknown key 'scenery' \(did you mean 'scene'\?"),
         (GOOD.replace("figures = 2", "figurs = 2"), r"unknown key 'scene.figurs' \(did you mean 'scene.figures'\?"),
-        (GOOD.replace("duration = 0.2", "duration = 1e300").replace("timestep = 0.002", "timestep = 1e-300"),
-         r"key 'duration' is inf steps of 1e-300 s; at most 9\.01e\+15, got 1e\+300"),
-        (GOOD.replace("duration = 0.2", "duration = 1e10").replace("timestep = 0.002", "timestep = 1e-9"),
-         r"key 'duration' is 1e\+19 steps of 1e-09 s; at most 9\.01e\+15, got 10000000000\.0"),
+        (
+            GOOD.replace("duration = 0.2", "duration = 1e300").replace("timestep = 0.002", "timestep = 1e-300"),
+            r"key 'duration' is inf steps of 1e-300 s; at most 9\.01e\+15, got 1e\+300",
+        ),
+        (
+            GOOD.replace("duration = 0.2", "duration = 1e10").replace("timestep = 0.002", "timestep = 1e-9"),
+            r"key 'duration' is 1e\+19 steps of 1e-09 s; at most 9\.01e\+15, got 10000000000\.0",
+        ),
         (GOOD.replace("timestep = 0.002\n", ""), r"missing key 'timestep'"),
         (GOOD.split("[scene]")[0], r"missing table \[scene\]"),
         (GOOD.replace("timestep = 0.002", "timestep = 1.0"), r"key 'timestep' must not exceed the duration"),
@@ -103,11 +112,26 @@ keys = [{ t = 0.0, joints = {} }, { t = 1.0, joints = { elbow_l = 30, nosuch = 1
 @pytest.mark.parametrize(
     "text, message",
     [
-        (PILE.replace('kind = "hold"', 'kind = "sway"'), r"s\.toml: key 'control\.kind' must be 'hold' for a pile scene .*, got 'sway'"),
-        (PILE.replace('kind = "hold"', 'kind = "dance"'), r"key 'control\.kind' must be 'hold' for a pile scene .*, got 'dance'"),
-        (PILE.replace('kind = "hold"', 'kind = "keyframes"\nkeys = [{t = 0}, {t = 1}]'), r"key 'control\.kind' must be 'hold' for a pile scene"),
-        (PILE.replace("[scene]", "kinematic = true\n[scene]"), r"key 'kinematic' must be false for a pile scene .*, got True"),
-        (KEYFRAMES, r"s\.toml: key 'control\.keys\[1\]\.joints' names unknown joint 'nosuch'; the figure's joints are waist_flex, .*elbow_l"),
+        (
+            PILE.replace('kind = "hold"', 'kind = "sway"'),
+            r"s\.toml: key 'control\.kind' must be 'hold' for a pile scene .*, got 'sway'",
+        ),
+        (
+            PILE.replace('kind = "hold"', 'kind = "dance"'),
+            r"key 'control\.kind' must be 'hold' for a pile scene .*, got 'dance'",
+        ),
+        (
+            PILE.replace('kind = "hold"', 'kind = "keyframes"\nkeys = [{t = 0}, {t = 1}]'),
+            r"key 'control\.kind' must be 'hold' for a pile scene",
+        ),
+        (
+            PILE.replace("[scene]", "kinematic = true\n[scene]"),
+            r"key 'kinematic' must be false for a pile scene .*, got True",
+        ),
+        (
+            KEYFRAMES,
+            r"s\.toml: key 'control\.keys\[1\]\.joints' names unknown joint 'nosuch'; the figure's joints are waist_flex, .*elbow_l",
+        ),
     ],
 )
 def test_controls_that_cannot_apply_are_refused(tmp_path, text, message):
@@ -133,9 +157,18 @@ def test_file_that_is_not_utf8(tmp_path):
 @pytest.mark.parametrize(
     "text, message",
     [
-        (GOOD.replace("spacing = 0.8", "spacing = 0.1"), r"s\.toml: \[scene\] spacing must exceed .* for layout 'line'.*, got 0\.1"),
-        (GOOD.replace("spacing = 0.8", "drop_height = -1"), r"s\.toml: \[scene\] drop_height must be non-negative, got -1\.0"),
-        (PILE.replace("ellipsoids = 6", "ellipsoids = 6\nbin_half_width = 0.05"), r"s\.toml: \[scene\] bin_half_width must be at least .*, got 0\.05"),
+        (
+            GOOD.replace("spacing = 0.8", "spacing = 0.1"),
+            r"s\.toml: \[scene\] spacing must exceed .* for layout 'line'.*, got 0\.1",
+        ),
+        (
+            GOOD.replace("spacing = 0.8", "drop_height = -1"),
+            r"s\.toml: \[scene\] drop_height must be non-negative, got -1\.0",
+        ),
+        (
+            PILE.replace("ellipsoids = 6", "ellipsoids = 6\nbin_half_width = 0.05"),
+            r"s\.toml: \[scene\] bin_half_width must be at least .*, got 0\.05",
+        ),
     ],
 )
 def test_scenes_the_model_builder_refuses_name_the_file(tmp_path, text, message):
@@ -270,10 +303,15 @@ def _reference_allowed(model, ids):
             wa, wb = model.body_weldid[ba], model.body_weldid[bb]
             pa, pb = model.body_weldid[model.body_parentid[wa]], model.body_weldid[model.body_parentid[wb]]
             out[a, b] = (
-                a != b and bool(model.geom_contype[ga] & model.geom_conaffinity[gb] or model.geom_contype[gb] & model.geom_conaffinity[ga])
-                and wa != wb and not (parent_filter and wa and wb and (wa == pb or pa == wb))
+                a != b
+                and bool(
+                    model.geom_contype[ga] & model.geom_conaffinity[gb]
+                    or model.geom_contype[gb] & model.geom_conaffinity[ga]
+                )
+                and wa != wb
+                and not (parent_filter and wa and wb and (wa == pb or pa == wb))
                 and tuple(sorted((int(ba), int(bb)))) not in excluded
-            )  # fmt: skip
+            )
     return out
 
 
@@ -313,8 +351,11 @@ def test_frame_pairs_are_mujocos_candidates_whose_spheres_meet():
     ours = {(int(ids[i]), int(ids[j])) for _, i, j in frame_pairs(centers, radii, rules)}
     rho = radii.max(axis=1)
     index = {g: k for k, g in enumerate(ids)}
-    meet = {(a, b) for a, b in mujocos
-            if np.linalg.norm(data.geom_xpos[a] - data.geom_xpos[b]) <= rho[index[a]] + rho[index[b]]}  # fmt: skip
+    meet = {
+        (a, b)
+        for a, b in mujocos
+        if np.linalg.norm(data.geom_xpos[a] - data.geom_xpos[b]) <= rho[index[a]] + rho[index[b]]
+    }
     assert len(meet) > 50 and meet <= ours
     extra = np.array(sorted(ours - mujocos)).reshape(-1, 2)
     assert len(extra) > 0 and rules.allowed([index[a] for a, _ in extra], [index[b] for _, b in extra]).all()
@@ -396,6 +437,8 @@ def test_output_that_is_a_directory_is_refused_before_running(tmp_path, option, 
 
 
 def test_malformed_scenario_file_on_the_command_line(tmp_path):
-    proc = cli("run", write(tmp_path, GOOD.replace('kind = "sway"', 'kind = 5')))
+    proc = cli("run", write(tmp_path, GOOD.replace('kind = "sway"', "kind = 5")))
     assert proc.returncode == 2
-    assert "s.toml: key 'control.kind' must be a str, got 5" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert (
+        "s.toml: key 'control.kind' must be a str, got 5" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    )

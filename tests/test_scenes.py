@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from ellipsim import Ellipsoids, Relation, classify
-from ellipsim.mujoco import scenes as figures
+from ellipsim.app import scenes as figures
 
 FIGURE_PATH = Path(__file__).resolve().parents[1] / "models" / "figure.xml"
 ELLIPSOID = mujoco.mjtGeom.mjGEOM_ELLIPSOID
@@ -214,7 +214,10 @@ def test_scene_memory_is_set_and_linear_but_for_the_broad_phase():
     model, data = compiled(figures.scene_xml(4, layout="pile", seed=2))
     assert model.narena == figures.scene_memory(4)
     nbody = 4 * len(figures.LIMBS) + 1
-    assert figures.scene_memory(4) == figures.ARENA_PER_BODY_PAIR * nbody**2 + 4 * figures.ARENA_PER_FIGURE + figures.ARENA_BASE
+    assert (
+        figures.scene_memory(4)
+        == figures.ARENA_PER_BODY_PAIR * nbody**2 + 4 * figures.ARENA_PER_FIGURE + figures.ARENA_BASE
+    )
     simulate(model, data, 800)
     assert data.ncon > 10 and data.maxuse_arena < model.narena / 4
 

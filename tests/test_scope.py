@@ -7,10 +7,11 @@ import threading
 import mujoco
 import numpy as np
 import pytest
+from test_capsule import capsule_pile_xml
 
 import ellipsim.mujoco as em
-from test_capsule import capsule_pile_xml
-from ellipsim.mujoco import scenes, structs
+from ellipsim.app import scenes
+from ellipsim.mujoco import structs
 
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 
@@ -85,8 +86,9 @@ def test_geom_distance_of_a_data_not_attached_is_mujocos_own_function():
     ell = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID)
     pairs = [(int(a), int(b)) for a in ell[:12] for b in ell[:12] if a < b]
     table, n = structs.collision_table()
-    convex = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int,
-                              ctypes.c_int, ctypes.c_double)(table[ELL * n + ELL])  # fmt: skip
+    convex = ctypes.CFUNCTYPE(
+        ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
+    )(table[ELL * n + ELL])
     con = np.zeros(64 * 64)  # room for mjMAXCONPAIR mjContact structs
     distmax = 0.2
 

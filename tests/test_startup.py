@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 import ellipsim.mujoco as em
-from ellipsim.mujoco import nativecache, scenes
+from ellipsim.app import scenes
+from ellipsim.mujoco import nativecache
 
 NOTICE = "ellipsim: compiling the"
 REGENERATE = "python -m ellipsim.mujoco.prebuild"
@@ -75,8 +76,12 @@ def run(pile_path, cache, *modes, prebuilt=None):
     if prebuilt is not None:
         env[nativecache.PREBUILT_ENV] = str(prebuilt)
     proc = subprocess.run(
-        [sys.executable, "-c", STEP, str(pile_path), str(STEPS), *modes], env=env, capture_output=True, text=True, timeout=900
-    )  # fmt: skip
+        [sys.executable, "-c", STEP, str(pile_path), str(STEPS), *modes],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout), proc.stderr
 
@@ -158,7 +163,9 @@ def test_shipped_objects_match_the_kernel_sources():
     for kind in nativecache.KINDS:
         path = nativecache.prebuilt_path(kind)
         found = nativecache.read(path)
-        assert found is not None, f"{path} is missing or damaged: run `{REGENERATE}` and commit ellipsim/mujoco/prebuilt/"
+        assert found is not None, (
+            f"{path} is missing or damaged: run `{REGENERATE}` and commit ellipsim/mujoco/prebuilt/"
+        )
         assert found[0]["parts"] == nativecache.portable_key(kind), (
             f"{path.name} was built from other sources or for another MuJoCo: run `{REGENERATE}` and commit "
             "ellipsim/mujoco/prebuilt/"
@@ -175,24 +182,53 @@ def test_shipped_objects_are_installed_with_the_package(tmp_path):
         "print(sorted(p.name for p in (r.files('ellipsim.mujoco') / 'prebuilt').iterdir() if p.name.endswith('.code')))\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr
     assert eval(proc.stdout) == sorted(p.name for p in nativecache.prebuilt_dir().glob("*.code"))
 
 
 def test_kernel_sources_follow_module_level_imports():
     sources = nativecache.kernel_sources()
-    assert {"mujoco/callbacks.py", "mujoco/context.py", "core/distance/ellipsoid_pair.py", "core/exact/certified_filter.py", "core/vec3.py",
-            "core/_jit.py", "core/tolerances.py"} <= set(sources)  # fmt: skip
+    assert {
+        "mujoco/callbacks.py",
+        "mujoco/context.py",
+        "core/distance/ellipsoid_pair.py",
+        "core/exact/certified_filter.py",
+        "core/vec3.py",
+        "core/_jit.py",
+        "core/tolerances.py",
+    } <= set(sources)
     # the loader, the layout and the Python side are not compiled in: editing them keeps the objects
-    assert not {"mujoco/nativecache.py", "mujoco/structs.py", "mujoco/attachment.py", "core/exact/classify.py"} & set(sources)
-    text = "\n".join([
-        "import os", "from . import context", "from ..core import vec3", "from ..core.distance import (",
-        "    a,", "    b,", ")", "if True:", "    from ..core import pencil", "def f():", "    from . import structs",
-        "class C:", "    from ..core import classify", "x = 1",
-    ])  # fmt: skip
+    assert not {"mujoco/nativecache.py", "mujoco/structs.py", "mujoco/attachment.py", "core/exact/classify.py"} & set(
+        sources
+    )
+    text = "\n".join(
+        [
+            "import os",
+            "from . import context",
+            "from ..core import vec3",
+            "from ..core.distance.ellipsoid_pair import (",
+            "    a,",
+            "    b,",
+            ")",
+            "if True:",
+            "    from ..core.exact import pair_frame",
+            "def f():",
+            "    from . import structs",
+            "class C:",
+            "    from ..core import classify",
+            "x = 1",
+        ]
+    )
     files = nativecache._imported_files("mujoco/callbacks.py", text)
-    assert sorted(set(files)) == ["core/distance/ellipsoid_pair.py", "core/exact/pair_frame.py", "core/vec3.py", "mujoco/context.py"]
+    assert sorted(set(files)) == [
+        "core/distance/ellipsoid_pair.py",
+        "core/exact/pair_frame.py",
+        "core/vec3.py",
+        "mujoco/context.py",
+    ]
 
 
 def test_load_refuses_damaged_or_foreign_files(tmp_path):

@@ -5,10 +5,11 @@ the chunking; and run and replay, through it, see the same frames of the same po
 import mujoco
 import numpy as np
 import pytest
-
-from ellipsim.app import capture, replay as rp, scenario, simulate
-from ellipsim.app.stepping import FrameLoop
 from test_between_frames import FPS, PLATE_XML
+
+from ellipsim.app import capture, scenario, simulate
+from ellipsim.app import replay as rp
+from ellipsim.app.stepping import FrameLoop
 
 # The plate and pellet of tests/test_between_frames.py (its keyframe unused: poses are set per frame):
 # the pellet passes through the plate between frames 1 and 2 and again between frames 4 and 5,
@@ -101,7 +102,9 @@ def test_run_and_replay_see_the_same_frames_of_the_same_poses():
         (d["frame"], d["geoms"], d["status"]) for d in run.between
     ]
     for a, b in zip(replayed, run.between):
-        assert a["t_begin"] == pytest.approx(b["t_begin"], abs=1e-9) and a["t_end"] == pytest.approx(b["t_end"], abs=1e-9)
+        assert a["t_begin"] == pytest.approx(b["t_begin"], abs=1e-9) and a["t_end"] == pytest.approx(
+            b["t_end"], abs=1e-9
+        )
 
 
 def test_events_are_none_when_not_looked_for():

@@ -9,7 +9,8 @@ import tomllib
 import mujoco
 import pytest
 
-from ellipsim.mujoco import context, scenes, structs
+from ellipsim.app import scenes
+from ellipsim.mujoco import context, structs
 
 
 def test_introspection_equals_the_memory_scan():
@@ -64,7 +65,10 @@ def test_a_mujoco_outside_the_tested_range_is_refused(monkeypatch, version):
 
 def test_bindings_and_library_of_different_versions_are_refused(monkeypatch):
     monkeypatch.setattr(mujoco, "mj_versionString", lambda: "4.0.9")
-    with pytest.raises(structs.LayoutError, match=rf"bindings \({re.escape(mujoco.__version__)}\) and the loaded libmujoco \(4\.0\.9\) differ"):
+    with pytest.raises(
+        structs.LayoutError,
+        match=rf"bindings \({re.escape(mujoco.__version__)}\) and the loaded libmujoco \(4\.0\.9\) differ",
+    ):
         structs.check_version()
 
 

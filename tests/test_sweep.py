@@ -8,7 +8,6 @@ import subprocess
 import sys
 import time
 
-import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
@@ -57,8 +56,12 @@ def test_vary_values_are_toml_literals_or_bare_words():
     assert sw.parse_vary('scene.floor=true,"true"') == ("scene.floor", [True, "true"])
     assert sw.parse_vary("gravity=[0, 0, -9.81],[0,0,-1.62]") == ("gravity", [[0, 0, -9.81], [0, 0, -1.62]])
     assert sw.parse_vary('description="a, b",c') == ("description", ["a, b", "c"])
-    for text, message in (("scene.figures", "expected KEY=V1,V2"), ("=2", "expected KEY=V1,V2"),
-                          ("scene.figures=2,,4", "value 2 is empty"), ("scene.figures=", "value 1 is empty")):  # fmt: skip
+    for text, message in (
+        ("scene.figures", "expected KEY=V1,V2"),
+        ("=2", "expected KEY=V1,V2"),
+        ("scene.figures=2,,4", "value 2 is empty"),
+        ("scene.figures=", "value 1 is empty"),
+    ):
         with pytest.raises(sw.SweepError, match=message):
             sw.parse_vary(text)
 
@@ -86,8 +89,12 @@ def test_variants_are_the_product_with_seeds_innermost_and_ids_name_the_scenario
 def test_a_model_sweeps_its_timestep_and_mode(tmp_path):
     model = os.path.join(os.path.dirname(__file__), "models", "zoo.xml")
     variants = sw.plan(model, {"timestep": [0.004, 0.002], "mode": ["builtin", "filter"]}, steps=5)
-    assert [(v.values["timestep"], v.mode) for v in variants] == [(0.004, "builtin"), (0.004, "filter"),
-                                                                   (0.002, "builtin"), (0.002, "filter")]  # fmt: skip
+    assert [(v.values["timestep"], v.mode) for v in variants] == [
+        (0.004, "builtin"),
+        (0.004, "filter"),
+        (0.002, "builtin"),
+        (0.002, "filter"),
+    ]
     rows = sw.sweep(model, {"mode": ["builtin", "filter"]}, steps=5, workers=1)
     assert [r["error"] for r in rows] == [None, None] and rows[0]["pairs"] == rows[1]["pairs"]
     with pytest.raises(sw.SweepError, match="seeds: zoo builds an mjcf scene, which has no seed"):
@@ -97,16 +104,32 @@ def test_a_model_sweeps_its_timestep_and_mode(tmp_path):
 @pytest.mark.parametrize(
     "vary, kwargs, message",
     [
-        ({"scene.figurs": [2]}, {}, r"vary scene\.figurs=2: .*tumble\.toml: unknown key 'scene\.figurs' \(did you mean 'scene\.figures'\?"),
-        ({"scene.figures": [1, "two"]}, {}, r"vary scene\.figures=two: .*key 'scene\.figures' must be a int, got 'two'"),
+        (
+            {"scene.figurs": [2]},
+            {},
+            r"vary scene\.figurs=2: .*tumble\.toml: unknown key 'scene\.figurs' \(did you mean 'scene\.figures'\?",
+        ),
+        (
+            {"scene.figures": [1, "two"]},
+            {},
+            r"vary scene\.figures=two: .*key 'scene\.figures' must be a int, got 'two'",
+        ),
         ({"timestep": [0.002, -1]}, {}, r"vary timestep=-1: .*key 'timestep' must be positive, got -1"),
-        ({"duration": [0.01], "timestep": [0.002, 0.1]}, {}, r"vary duration=0\.01, timestep=0\.1: .*must not exceed the duration"),
+        (
+            {"duration": [0.01], "timestep": [0.002, 0.1]},
+            {},
+            r"vary duration=0\.01, timestep=0\.1: .*must not exceed the duration",
+        ),
         ({"timestep.x": [1]}, {}, r"vary timestep\.x: 'timestep' is 0\.002, not a table"),
         ({"scene[0]": [1]}, {}, r"vary 'scene\[0\]': KEY must be a dotted TOML key"),
         ({"scene.figures": []}, {}, r"vary scene\.figures: no values"),
         ({"scene.figures": 2}, {}, r"vary scene\.figures: expected a list of values, got 2"),
         ({"scene.figures": [2, 2]}, {}, r"vary scene\.figures=2: the value is given twice"),
-        ({"control.amplitude": [1, 1.0]}, {}, r"vary: control\.amplitude=1 and control\.amplitude=1\.0 are the same scenario"),
+        (
+            {"control.amplitude": [1, 1.0]},
+            {},
+            r"vary: control\.amplitude=1 and control\.amplitude=1\.0 are the same scenario",
+        ),
         ({"mode": ["builtin"]}, {"mode": "filter"}, r"mode: given both as mode and in vary"),
         ({"scene.seed": [1]}, {"seeds": 2}, r"seeds: scene\.seed is also in vary"),
         ({}, {"seeds": 0}, r"seeds must be a positive integer, got 0"),
@@ -165,8 +188,15 @@ def test_local_pool_gives_the_rows_of_one_process_and_a_rerun_resumes(tmp_path):
     assert calls == [(1, 1)] and deterministic(again) == deterministic(pooled) and again[:3] == pooled[:3]
     # a bigger sweep into the same folder runs only its new variants
     calls.clear()
-    more = sw.sweep("tumble", vary={"control.amplitude": [0.8, 1.0, 0.6]}, seeds=2, steps=40, workers=1, out=out,
-                    progress=lambda *a: calls.append(a))  # fmt: skip
+    more = sw.sweep(
+        "tumble",
+        vary={"control.amplitude": [0.8, 1.0, 0.6]},
+        seeds=2,
+        steps=40,
+        workers=1,
+        out=out,
+        progress=lambda *a: calls.append(a),
+    )
     assert calls[-1] == (2, 2) and deterministic(more[:4]) == deterministic(pooled)
     assert len(read_csv(out / sw.RESULTS)) == 6
 
@@ -212,8 +242,19 @@ def test_a_worker_that_dies_breaks_only_its_variant():
 @pytest.mark.slow
 def test_recordings_one_per_variant_named_and_identified_by_it(tmp_path):
     out = tmp_path / "rec"
-    proc = cli("sweep", "tumble", "--vary", "control.amplitude=0.8,1.0", "--steps", "30", "--record", "--out", str(out),
-               "--workers", "2")  # fmt: skip
+    proc = cli(
+        "sweep",
+        "tumble",
+        "--vary",
+        "control.amplitude=0.8,1.0",
+        "--steps",
+        "30",
+        "--record",
+        "--out",
+        str(out),
+        "--workers",
+        "2",
+    )
     assert proc.returncode == 0, proc.stderr
     ids = [r["variant"] for r in read_csv(out / sw.RESULTS)]
     assert len(ids) == 2 and sorted(p.name for p in out.glob("*.rrd")) == sorted(f"{i}.rrd" for i in ids)
@@ -259,7 +300,9 @@ def test_cli_names_scenario_output_and_missing_ray(tmp_path, monkeypatch, capsys
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     assert main(["sweep", "tumble", "--steps", "5", "--out", str(tmp_path / "r"), "--backend", "ray"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("ellipsim: error: --backend ray needs Ray: pip install '.[ray]'") and len(err.splitlines()) == 1
+    assert (
+        err.startswith("ellipsim: error: --backend ray needs Ray: pip install '.[ray]'") and len(err.splitlines()) == 1
+    )
     with pytest.raises(ImportError, match=r"backend 'ray' needs Ray: pip install 'ellipsim\[ray\]'"):
         sw.sweep("tumble", steps=5, backend="ray")
     assert not (tmp_path / "r").exists()
@@ -276,14 +319,31 @@ def test_without_matplotlib_the_cli_sweeps_and_says_the_plot_needs_it(tmp_path, 
 
 def test_cli_prints_the_table(tmp_path, capsys):
     out = tmp_path / "o"
-    assert main(["sweep", "tumble", "--vary", "control.amplitude=0.8,1.0", "--steps", "30", "--out", str(out), "--workers", "1"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "tumble",
+                "--vary",
+                "control.amplitude=0.8,1.0",
+                "--steps",
+                "30",
+                "--out",
+                str(out),
+                "--workers",
+                "1",
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "2 variants (2 control.amplitude), 30 steps each" in text
     ids = [r["variant"] for r in read_csv(out / sw.RESULTS)]
     head = next(line for line in text.splitlines() if "variant" in line and "missed" in line)
     assert head.split()[:3] == ["variant", "control.amplitude", "steps/s"]
     assert [line.split()[:2] for line in text.splitlines() if line.split()[:1] in ([ids[0]], [ids[1]])] == [
-        [ids[0], "0.8"], [ids[1], "1.0"]
+        [ids[0], "0.8"],
+        [ids[1], "1.0"],
     ]
 
 
@@ -295,11 +355,30 @@ def test_batches_deal_variants_round_robin():
 
 def test_plot_takes_categories_failures_and_a_lone_variant(tmp_path):
     rows = [
-        {"mode": m, "seed": s, "mujoco_contacts": 3 + s, "ellipsim_overlaps": 3, "missed": 0, "extra": s, "near_tangent": 0,
-         "steps_per_second": 1000.0 * (s + 1), "deepest_penetration": 0.001, "error": None}
-        for m in ("builtin", "narrowphase") for s in (0, 1)
-    ] + [{"mode": "filter", "seed": 0, "error": "ScenarioError: no"}]  # fmt: skip
-    for k in ("mujoco_contacts", "ellipsim_overlaps", "missed", "extra", "near_tangent", "steps_per_second", "deepest_penetration"):
+        {
+            "mode": m,
+            "seed": s,
+            "mujoco_contacts": 3 + s,
+            "ellipsim_overlaps": 3,
+            "missed": 0,
+            "extra": s,
+            "near_tangent": 0,
+            "steps_per_second": 1000.0 * (s + 1),
+            "deepest_penetration": 0.001,
+            "error": None,
+        }
+        for m in ("builtin", "narrowphase")
+        for s in (0, 1)
+    ] + [{"mode": "filter", "seed": 0, "error": "ScenarioError: no"}]
+    for k in (
+        "mujoco_contacts",
+        "ellipsim_overlaps",
+        "missed",
+        "extra",
+        "near_tangent",
+        "steps_per_second",
+        "deepest_penetration",
+    ):
         rows[-1][k] = None
     path = sw.plot_rows(rows, ["mode", "seed"], str(tmp_path / "a.png"), title="t")
     assert pathlib.Path(path).read_bytes()[:4] == b"\x89PNG"
@@ -352,8 +431,21 @@ def test_a_ray_worker_that_dies_breaks_only_its_variant(ray_local):
 def test_cli_sweep_on_ray_starts_its_own_instance(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
     out = tmp_path / "o"
-    proc = cli("sweep", "tumble", "--vary", "control.amplitude=0.8,1.0", "--steps", "30", "--out", str(out),
-               "--backend", "ray", "--workers", "2", env=env)  # fmt: skip
+    proc = cli(
+        "sweep",
+        "tumble",
+        "--vary",
+        "control.amplitude=0.8,1.0",
+        "--steps",
+        "30",
+        "--out",
+        str(out),
+        "--backend",
+        "ray",
+        "--workers",
+        "2",
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "running 2 on a local Ray instance" in proc.stdout
     local = sw.sweep("tumble", vary={"control.amplitude": [0.8, 1.0]}, steps=30, workers=1, out=out)
@@ -365,10 +457,26 @@ def test_ctrl_c_stops_the_workers_keeps_the_rows_and_leaves_no_partial_recording
     out = tmp_path / "o"
     # variants of ~3-10 s each on this VM: interrupted while both workers are recording
     proc = subprocess.Popen(
-        [sys.executable, "-m", "ellipsim", "sweep", "pile", "--vary", "scene.figures=2,3,4,5", "--steps", "400",
-         "--record", "--out", str(out), "--workers", "2"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "ellipsim",
+            "sweep",
+            "pile",
+            "--vary",
+            "scene.figures=2,3,4,5",
+            "--steps",
+            "400",
+            "--record",
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 120
     while not list(out.glob(".*.rrd.*.part")) and time.monotonic() < deadline:
         time.sleep(0.05)

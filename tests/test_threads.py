@@ -26,15 +26,16 @@ def batch():
     ta, tb = stress_pairs("exactly tangent", 40, seed=1)
     na, nb = stress_pairs("near-tangent 1e-15", 40, seed=2)
     pick = np.random.default_rng(5).permutation(N + 80)
-    cat = lambda *xs: es.Ellipsoids(*(np.concatenate([getattr(x, f) for x in xs])[pick] for f in ("centers", "rotations", "radii")))  # noqa: E731
+    cat = lambda *xs: es.Ellipsoids(
+        *(np.concatenate([getattr(x, f) for x in xs])[pick] for f in ("centers", "rotations", "radii"))
+    )  # noqa: E731
     return cat(a, ta, na), cat(b, tb, nb)
 
 
 def moved(x, seed):
     rng = np.random.default_rng(seed)
     turn = Rot.from_rotvec(rng.normal(scale=0.3, size=(len(x), 3)))
-    return es.Ellipsoids(x.centers + rng.normal(scale=0.2, size=(len(x), 3)),
-                         x.rotations @ turn.as_matrix(), x.radii)  # fmt: skip
+    return es.Ellipsoids(x.centers + rng.normal(scale=0.2, size=(len(x), 3)), x.rotations @ turn.as_matrix(), x.radii)
 
 
 A, B = batch()
@@ -50,7 +51,9 @@ CALLS = {
     "characteristic_polynomial": lambda p: es.characteristic_polynomial(A, B, parallel=p),
     "signed_distance": lambda p: es.signed_distance(A[:3000], B[:3000], parallel=p),
     "contains": lambda p: es.contains(A, B, parallel=p),
-    "time_of_impact": lambda p: es.time_of_impact(A[:3000], A1[:3000], B[:3000], B1[:3000], parallel=p, return_status=True),
+    "time_of_impact": lambda p: es.time_of_impact(
+        A[:3000], A1[:3000], B[:3000], B1[:3000], parallel=p, return_status=True
+    ),
 }
 
 

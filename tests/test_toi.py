@@ -13,15 +13,15 @@ from fractions import Fraction
 import mpmath as mp
 import numpy as np
 import pytest
+import reference
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation as Rot
 
-import reference
 from ellipsim import Ellipsoids, classify, contact_scale
-from ellipsim.core.motion.interpolation import interpolation as motion
 from ellipsim.core._jit import jit
-from ellipsim.core.motion.interpolation import time_of_impact as T
-from ellipsim.core.motion.interpolation.time_of_impact import Impact, time_of_impact
+from ellipsim.core.motion import interpolation as motion
+from ellipsim.core.motion import time_of_impact as T
+from ellipsim.core.motion.time_of_impact import Impact, time_of_impact
 from ellipsim.core.tolerances import DELTA_R, RODRIGUES_ERR, SINCOS_ERR, TOI_TOL, U
 
 I = np.eye(3)
@@ -43,8 +43,10 @@ def random_motion(rng, n, box=1.5, turn=3.0, radii=(0.1, 1.0)):
     rv = rng.normal(size=(n, 3))
     rv *= (rng.uniform(0, turn, n) / np.linalg.norm(rv, axis=1))[:, None]
     r = rng.uniform(*radii, (n, 3))
-    return (Ellipsoids(rng.uniform(-box, box, (n, 3)), R0.as_matrix(), r),
-            Ellipsoids(rng.uniform(-box, box, (n, 3)), (R0 * Rot.from_rotvec(rv)).as_matrix(), r))  # fmt: skip
+    return (
+        Ellipsoids(rng.uniform(-box, box, (n, 3)), R0.as_matrix(), r),
+        Ellipsoids(rng.uniform(-box, box, (n, 3)), (R0 * Rot.from_rotvec(rv)).as_matrix(), r),
+    )
 
 
 def smallstep_motion(rng, n):
@@ -145,8 +147,13 @@ def test_spheres_against_the_analytic_contact_time():
     ra, rb = rng.uniform(0.1, 1, n), rng.uniform(0.1, 1, n)
     R = [Rot.random(n, random_state=rng).as_matrix() for _ in range(2)]
     sa, sb = np.repeat(ra[:, None], 3, 1), np.repeat(rb[:, None], 3, 1)
-    toi, st = time_of_impact(Ellipsoids(ca0, R[0], sa), Ellipsoids(ca1, R[1], sa), Ellipsoids(cb0, R[1], sb),
-                             Ellipsoids(cb1, R[0], sb), return_status=True)  # fmt: skip
+    toi, st = time_of_impact(
+        Ellipsoids(ca0, R[0], sa),
+        Ellipsoids(ca1, R[1], sa),
+        Ellipsoids(cb0, R[1], sb),
+        Ellipsoids(cb1, R[0], sb),
+        return_status=True,
+    )
     hits = 0
     for i in range(n):
         t = sphere_contact_time(cb0[i] - ca0[i], (cb1[i] - cb0[i]) - (ca1[i] - ca0[i]), ra[i] + rb[i])
@@ -236,7 +243,9 @@ def test_grazing_and_near_miss_spheres():
     for g in (1e-3, 1e-6, 1e-9, 1e-12):
         for sign in (1, -1):
             y = 2 + sign * g
-            toi, st = time_of_impact(A, A, one([3, y, 0], I, [1, 1, 1]), one([-3, y, 0], I, [1, 1, 1]), return_status=True)
+            toi, st = time_of_impact(
+                A, A, one([3, y, 0], I, [1, 1, 1]), one([-3, y, 0], I, [1, 1, 1]), return_status=True
+            )
             if sign > 0:
                 assert st[0] in (Impact.NO_CONTACT, Impact.UNRESOLVED), (g, toi, st)
                 if g >= 1e-9:
@@ -252,8 +261,18 @@ def test_grazing_and_near_miss_spheres():
     # exact grazing (touching at t = 1/2 only): UNRESOLVED, or a contact found within TOI_TOL of 1/2
     toi, st = time_of_impact(A, A, one([3, 2, 0], I, [1, 1, 1]), one([-3, 2, 0], I, [1, 1, 1]), return_status=True)
     assert st[0] in (Impact.UNRESOLVED, Impact.CONTACT_AT_FLOAT_POSE) and 0.5 - 1e-6 < toi[0] <= 0.5 + TOI_TOL
-    assert reference.motion_relation(A, A, np.zeros((1, 3)), one([3, 2, 0], I, [1, 1, 1]), one([-3, 2, 0], I, [1, 1, 1]),
-                                     np.zeros((1, 3)), Fraction(1, 2)) == 1  # fmt: skip
+    assert (
+        reference.motion_relation(
+            A,
+            A,
+            np.zeros((1, 3)),
+            one([3, 2, 0], I, [1, 1, 1]),
+            one([-3, 2, 0], I, [1, 1, 1]),
+            np.zeros((1, 3)),
+            Fraction(1, 2),
+        )
+        == 1
+    )
 
 
 def test_pure_rotation_needle_against_bisection():
@@ -280,8 +299,11 @@ def test_pure_rotation_needle_against_bisection():
         if k > 0:
             hits += 1
             lo, hi = ts[k - 1], ts[k]
+
             def rel(t):
-                return int(classify(independent_poses(a0, a1, np.array([t])), independent_poses(b, b, np.array([t])))[0])
+                return int(
+                    classify(independent_poses(a0, a1, np.array([t])), independent_poses(b, b, np.array([t])))[0]
+                )
 
             for _ in range(40):
                 mid = 0.5 * (lo + hi)
@@ -389,8 +411,9 @@ def test_rational_fallback_runs_batched():
     T._toi(*arrays, np.arange(1), OT, OR, OC, out, status, t_exact, np.empty(1, np.int64), 0, 1)
     assert status[0] == T.NEED_EXACT and t_exact[0] == 0.0
     far = one([5, 0, 0], I, [0.5] * 3)
-    toi, st = time_of_impact(A, A, Ellipsoids.concatenate([B0, far, B0]), Ellipsoids.concatenate([B1, far, B1]),
-                             return_status=True)  # fmt: skip
+    toi, st = time_of_impact(
+        A, A, Ellipsoids.concatenate([B0, far, B0]), Ellipsoids.concatenate([B1, far, B1]), return_status=True
+    )
     assert toi.tolist() == [0.0, math.inf, 0.0] and st.tolist() == [Impact.CONTACT, Impact.NO_CONTACT, Impact.CONTACT]
 
 

@@ -3,7 +3,7 @@
 import mujoco
 import numpy as np
 
-from ellipsim.mujoco import scenes
+from ellipsim.app import scenes
 from ellipsim.mujoco.geoms import PairRecorder, candidate_pairs
 
 

@@ -15,8 +15,14 @@ import numpy as np
 import pytest
 
 import ellipsim.mujoco as em
-from ellipsim.core.distance.ellipsoid_pair.ellipsoid_pair import GLOBAL, pair_signed_distance, pair_signed_distance_from, sigma_lower_bound
-from ellipsim.mujoco import attachment, scenes
+from ellipsim.app import scenes
+from ellipsim.core.distance.ellipsoid_pair import (
+    GLOBAL,
+    pair_signed_distance,
+    pair_signed_distance_from,
+    sigma_lower_bound,
+)
+from ellipsim.mujoco import attachment
 
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
@@ -44,7 +50,9 @@ BENCH_SCENES = {  # as ellipsim/app/bench/inside_mujoco.py settles them
 def contacts(data):
     """{(g1, g2): (dist, normal (3,), pos (3,))} of data's contacts."""
     c = data.contact
-    return {(int(g[0]), int(g[1])): (float(c.dist[k]), c.frame[k, :3].copy(), c.pos[k].copy()) for k, g in enumerate(c.geom)}
+    return {
+        (int(g[0]), int(g[1])): (float(c.dist[k]), c.frame[k, :3].copy(), c.pos[k].copy()) for k, g in enumerate(c.geom)
+    }
 
 
 @pytest.mark.parametrize("scene", list(BENCH_SCENES))
@@ -56,7 +64,9 @@ def test_warm_contacts_match_cold_ones_within_the_contract(scene):
     cold = mujoco.MjData(model)
     state = np.empty(mujoco.mj_stateSize(model, FULL))
     rmin = model.geom_size.min(axis=1)
-    rmin[model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE] = model.geom_size[model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE, 0]
+    rmin[model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE] = model.geom_size[
+        model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE, 0
+    ]
     worst, compared = 0.0, 0
     warm, ref = em.attach(model, data, mode="narrowphase"), em.attach(model, cold, mode="narrowphase", warm_start=False)
     with warm, ref:
@@ -74,7 +84,9 @@ def test_warm_contacts_match_cold_ones_within_the_contract(scene):
                 bound = CONTRACT * min(rmin[pair[0]], rmin[pair[1]])
                 assert abs(dist - d0) <= bound, f"step {step}, pair {pair}: {dist!r} against cold {d0!r}"
                 assert np.linalg.norm(normal - n0) <= NORMAL_TOL, f"step {step}, pair {pair}"
-                assert np.linalg.norm(pos - p0) <= NORMAL_TOL * model.geom_size[list(pair)].max(), f"step {step}, pair {pair}"
+                assert np.linalg.norm(pos - p0) <= NORMAL_TOL * model.geom_size[list(pair)].max(), (
+                    f"step {step}, pair {pair}"
+                )
                 worst = max(worst, abs(dist - d0) / bound)
                 compared += 1
         table = warm._warm
@@ -87,7 +99,7 @@ def test_warm_contacts_match_cold_ones_within_the_contract(scene):
     normals = table.view(np.float64)
     slot = {int(k) >> 1: i for i, k in enumerate(table[:, 0]) if k}
     moved = 0
-    for (g1, g2), (dist, normal, pos) in contacts(data).items():
+    for (g1, g2), (_dist, normal, _pos) in contacts(data).items():
         if model.geom_type[g1] == ELL and model.geom_type[g2] == ELL:
             k = slot[(g1 << 32) | g2]
             assert table[k, 0] & 1 == 1
@@ -114,7 +126,10 @@ def test_shared_sets_and_mujoco_threads_stay_within_the_contract(monkeypatch, ti
     cold = mujoco.MjData(model)
     state = np.empty(mujoco.mj_stateSize(model, FULL))
     rmin = model.geom_size.min(axis=1)
-    with em.attach(model, data, mode="narrowphase") as warm, em.attach(model, cold, mode="narrowphase", warm_start=False):
+    with (
+        em.attach(model, data, mode="narrowphase") as warm,
+        em.attach(model, cold, mode="narrowphase", warm_start=False),
+    ):
         for step in range(100):
             mujoco.mj_getState(model, data, state, FULL)
             mujoco.mj_setState(model, cold, state, FULL)
@@ -140,7 +155,9 @@ def test_mujocos_thread_pool_runs_one_datas_narrow_phase_on_several_threads():
     model, data = settled(scenes.pile_xml(60, seed=2), 300)
     mujoco.mju_threadpool(data, 2)
     table, n = structs.collision_table()
-    fn = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double)
+    fn = ctypes.CFUNCTYPE(
+        ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
+    )
     original, saved = fn(table[ELL * n + ELL]), table[ELL * n + ELL]
     callers = set()
 
@@ -282,13 +299,21 @@ def test_any_seed_gives_the_cold_result_within_the_contract():
     rng = np.random.default_rng(3)
     pairs = _pairs(300, 11)
     checked = deep = 0
-    for A, B in pairs:
+    for i, (A, B) in enumerate(pairs):
         st, dist, normal, pos, work = pair_signed_distance(A, B)
         assert st == GLOBAL
         rmin = min(min(A[2]), min(B[2]))
         deep += work > 10  # the branch and bound ran
         n = np.array(normal)
-        seeds = [n, n + 1e-3 * rng.normal(size=3), rng.normal(size=3), -n, np.zeros(3), np.full(3, np.nan), np.full(3, 1e300)]
+        seeds = [
+            n,
+            n + 1e-3 * rng.normal(size=3),
+            rng.normal(size=3),
+            -n,
+            np.zeros(3),
+            np.full(3, np.nan),
+            np.full(3, 1e300),
+        ]
         for s in seeds:
             st2, d2, n2, p2, _ = pair_signed_distance_from(A, B, tuple(float(x) for x in s))
             assert st2 == GLOBAL

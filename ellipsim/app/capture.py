@@ -17,9 +17,9 @@ from time import perf_counter
 import mujoco
 import numpy as np
 
-from ..core.exact.classify import classify
 from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
+from ..core.exact.classify import classify
 from ..core.relation import Relation
 from ..core.rotations import quaternion_product, quaternions_to_rotations
 from ..mujoco.between import BetweenFrames
@@ -112,12 +112,22 @@ def geometry(model, name, names=None):
     kind[~drawable] = _MESH  # an SDF without a mesh: listed as a mesh, drawn as nothing
     ids, _, _ = ellipsoid_geoms(model)
     return SceneGeometry(
-        name=name, body_names=list(names.bodies), body_parent=model.body_parentid.astype(np.int64),
-        body_pos=model.body_pos.copy(), body_quat=model.body_quat.copy(), moving=moving,
-        geom_names=list(names.geoms), geom_body=names.geom_body.copy(), geom_kind=kind, geom_size=model.geom_size.copy(),
-        geom_pos=model.geom_pos.copy(), geom_quat=model.geom_quat.copy(), geom_rgba=rgba, meshes=meshes,
+        name=name,
+        body_names=list(names.bodies),
+        body_parent=model.body_parentid.astype(np.int64),
+        body_pos=model.body_pos.copy(),
+        body_quat=model.body_quat.copy(),
+        moving=moving,
+        geom_names=list(names.geoms),
+        geom_body=names.geom_body.copy(),
+        geom_kind=kind,
+        geom_size=model.geom_size.copy(),
+        geom_pos=model.geom_pos.copy(),
+        geom_quat=model.geom_quat.copy(),
+        geom_rgba=rgba,
+        meshes=meshes,
         ellipsoids=ids.astype(np.int64),
-    )  # fmt: skip
+    )
 
 
 def _mesh(model, m):
@@ -262,8 +272,11 @@ class FrameBuffer:
         if len(pairs):
             pf, i, j = pairs.T
             if 2 * len(pairs) > f * g:  # validating every pose once is cheaper than both sides of every pair
-                every = Ellipsoids(centers.reshape(-1, 3), rotations.reshape(-1, 3, 3),
-                                   np.broadcast_to(self.radii, (f, g, 3)).reshape(-1, 3))  # fmt: skip
+                every = Ellipsoids(
+                    centers.reshape(-1, 3),
+                    rotations.reshape(-1, 3, 3),
+                    np.broadcast_to(self.radii, (f, g, 3)).reshape(-1, 3),
+                )
                 a, b = every[pf * g + i], every[pf * g + j]  # indexing a batch does not validate again
             else:
                 a = Ellipsoids(centers[pf, i], rotations[pf, i], self.radii[i])
@@ -297,12 +310,20 @@ class FrameBuffer:
             contact_pos = contact_normal = np.zeros((0, 3))
             contact_ellipsoids = np.zeros(0, dtype=bool)
         frames = Frames(
-            frame=frame, times=self.times[:f].copy(), body_pos=body_pos, body_quat=body_quat, state=state,
-            contact_frame=contact_frame, contact_pos=contact_pos, contact_normal=contact_normal,
-            contact_ellipsoids=contact_ellipsoids, builtin_counts=self.builtin[:f].copy(),
-            ellipsim_counts=overlapping.astype(np.int64), touching_counts=touching.astype(np.int64),
+            frame=frame,
+            times=self.times[:f].copy(),
+            body_pos=body_pos,
+            body_quat=body_quat,
+            state=state,
+            contact_frame=contact_frame,
+            contact_pos=contact_pos,
+            contact_normal=contact_normal,
+            contact_ellipsoids=contact_ellipsoids,
+            builtin_counts=self.builtin[:f].copy(),
+            ellipsim_counts=overlapping.astype(np.int64),
+            touching_counts=touching.astype(np.int64),
             contact_counts=self.ncon[:f].copy(),
-        )  # fmt: skip
+        )
         out_pairs = pairs.copy()
         out_pairs[:, 0] += first
         events = None
@@ -373,12 +394,17 @@ def describe_events(events, ids, names):
     out = []
     for e in range(len(events)):
         g1, g2 = (int(ids[k]) for k in events.pair[e])
-        out.append({
-            "geoms": [names.geoms[g1], names.geoms[g2]],
-            "bodies": [names.bodies[names.geom_body[g1]], names.bodies[names.geom_body[g2]]],
-            "frame": int(events.frame[e]), "t_begin": float(events.begin[e]), "t_end": float(events.end[e]),
-            "status": events.status_name(e), "point": [float(x) for x in events.point[e]],
-        })  # fmt: skip
+        out.append(
+            {
+                "geoms": [names.geoms[g1], names.geoms[g2]],
+                "bodies": [names.bodies[names.geom_body[g1]], names.bodies[names.geom_body[g2]]],
+                "frame": int(events.frame[e]),
+                "t_begin": float(events.begin[e]),
+                "t_end": float(events.end[e]),
+                "status": events.status_name(e),
+                "point": [float(x) for x in events.point[e]],
+            }
+        )
     return out
 
 
@@ -387,8 +413,10 @@ def event_line(d):
     where = f"geoms {d['geoms'][0]} / {d['geoms'][1]}"
     if d["bodies"][0] != d["geoms"][0] or d["bodies"][1] != d["geoms"][1]:
         where += f" (bodies {d['bodies'][0]} / {d['bodies'][1]})"
-    return (f"frames {d['frame']}-{d['frame'] + 1}: {where} touch from {d['t_begin']:.6g} s to {d['t_end']:.6g} s "
-            f"({d['status']})")  # fmt: skip
+    return (
+        f"frames {d['frame']}-{d['frame'] + 1}: {where} touch from {d['t_begin']:.6g} s to {d['t_end']:.6g} s "
+        f"({d['status']})"
+    )
 
 
 def between_lines(events, candidates, seconds, show, unit):
@@ -396,10 +424,14 @@ def between_lines(events, candidates, seconds, show, unit):
     (with "step" for "frame" when unit is steps), a count, then a line each, `show` at most;
     candidates : pairs time_of_impact decided; seconds : their check's wall time, or None."""
     timing = f" {seconds:.2f} s" if seconds is not None else ""
-    lines = [f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
-             f"motion): {len(events)}; time_of_impact on {candidates} pairs{timing}"]  # fmt: skip
+    lines = [
+        f"  contacts between {unit} (separated at two consecutive {unit}, touching in between on the interpolated "
+        f"motion): {len(events)}; time_of_impact on {candidates} pairs{timing}"
+    ]
     for d in events[:show]:
-        lines.append("    " + event_line(d if "frame" in d else {**d, "frame": d["step"]}).replace("frames ", f"{unit} ", 1))
+        lines.append(
+            "    " + event_line(d if "frame" in d else {**d, "frame": d["step"]}).replace("frames ", f"{unit} ", 1)
+        )
     if len(events) > show:
         lines.append(f"    ... and {len(events) - show} more (--show N, or --json)")
     return lines
@@ -411,6 +443,11 @@ def record_events(recorder, events, ids, names):
     if events is None or len(events) == 0:
         return
     described = describe_events(events, ids, names)
-    recorder.write_events(events.frame, events.begin, events.until, events.point,
-                          [f"{d['geoms'][0]} / {d['geoms'][1]}" for d in described],
-                          ["contact between " + event_line(d) for d in described])  # fmt: skip
+    recorder.write_events(
+        events.frame,
+        events.begin,
+        events.until,
+        events.point,
+        [f"{d['geoms'][0]} / {d['geoms'][1]}" for d in described],
+        ["contact between " + event_line(d) for d in described],
+    )

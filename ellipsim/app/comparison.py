@@ -89,25 +89,47 @@ class Comparison:
 
             lines += between_lines(self.passed_through, self.validation.between_candidates, None, show, "steps")
         else:
-            lines.append("  ellipsoid pairs passing through each other within one step: not looked for (--between-frames)")
+            lines.append(
+                "  ellipsoid pairs passing through each other within one step: not looked for (--between-frames)"
+            )
         return lines
 
     def report(self):
         """The JSON report (`ellipsim compare --json`): totals, per-step counts, every disagreement."""
         counts = self.validation.counts
         return {
-            "scenario": self.scenario, "steps": self.steps,
-            "builtin_contacts": int(self.builtin.sum()), "ellipsim_overlaps": int(self.ours.sum()),
-            "missed": len(self.missed), "extra": len(self.extra), "near_tangent": len(self.near), "agreement": self.agree,
+            "scenario": self.scenario,
+            "steps": self.steps,
+            "builtin_contacts": int(self.builtin.sum()),
+            "ellipsim_overlaps": int(self.ours.sum()),
+            "missed": len(self.missed),
+            "extra": len(self.extra),
+            "near_tangent": len(self.near),
+            "agreement": self.agree,
             "pairs": self.pairs,
-            "per_frame": {"builtin_contacts": self.builtin.tolist(), "ellipsim_overlaps": self.ours.tolist(),
-                          "both": counts[:, 0].tolist(), "neither": counts[:, 1].tolist(),
-                          "mujoco_only": counts[:, 2].tolist(), "ellipsim_only": counts[:, 3].tolist()},
+            "per_frame": {
+                "builtin_contacts": self.builtin.tolist(),
+                "ellipsim_overlaps": self.ours.tolist(),
+                "both": counts[:, 0].tolist(),
+                "neither": counts[:, 1].tolist(),
+                "mujoco_only": counts[:, 2].tolist(),
+                "ellipsim_only": counts[:, 3].tolist(),
+            },
             "disagreements": [
-                {"step": d.step, "geoms": list(d.names), "kind": kind, "mujoco_contact": d.mujoco_contact,
-                 "mujoco_dist": None if d.mujoco_dist != d.mujoco_dist else d.mujoco_dist, "relation": d.relation,
-                 "contact_scale": d.contact_scale, "geom_distance": d.geom_distance, "right": d.right, "reason": d.reason}
-                for kind, ds in (("missed", self.missed), ("extra", self.extra), ("near_tangent", self.near)) for d in ds
+                {
+                    "step": d.step,
+                    "geoms": list(d.names),
+                    "kind": kind,
+                    "mujoco_contact": d.mujoco_contact,
+                    "mujoco_dist": None if d.mujoco_dist != d.mujoco_dist else d.mujoco_dist,
+                    "relation": d.relation,
+                    "contact_scale": d.contact_scale,
+                    "geom_distance": d.geom_distance,
+                    "right": d.right,
+                    "reason": d.reason,
+                }
+                for kind, ds in (("missed", self.missed), ("extra", self.extra), ("near_tangent", self.near))
+                for d in ds
             ],
             "passed_through": self.passed_through,
-        }  # fmt: skip
+        }

@@ -11,7 +11,6 @@ import math
 import mujoco
 import numpy as np
 
-
 _JOINT_TRANSMISSIONS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
 _HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
 
@@ -122,13 +121,19 @@ class Controller:
             self.w = 2 * math.pi / control["period"] * rng.uniform(0.6, 1.6, nu)
             self.phase = rng.uniform(0, 2 * math.pi, nu)
             if nu and not limited.any():
-                raise ValueError("control 'flail' swings actuators across their ctrlrange; none of the model's actuators has one")
+                raise ValueError(
+                    "control 'flail' swings actuators across their ctrlrange; none of the model's actuators has one"
+                )
             self.mid = np.where(limited, 0.5 * (self.lo + self.hi), self.base) if nu else np.zeros(0)
             self.half = np.where(limited, 0.5 * (self.hi - self.lo) * control["amplitude"], 0.0) if nu else np.zeros(0)
         elif self.kind == "reach":
             side = "_r" if control["arm"] == "right" else "_l"
-            goal = {f"shoulder_flex{side}": control["shoulder_flex"], f"shoulder_abd{side}": control["shoulder_abd"],
-                    f"shoulder_rot{side}": control["shoulder_rot"], f"elbow{side}": control["elbow"]}  # fmt: skip
+            goal = {
+                f"shoulder_flex{side}": control["shoulder_flex"],
+                f"shoulder_abd{side}": control["shoulder_abd"],
+                f"shoulder_rot{side}": control["shoulder_rot"],
+                f"elbow{side}": control["elbow"],
+            }
             self.goal = np.array([goal.get(j, goal.get(a, 0.0)) for j, a in zip(names, aliases)]) * deg
         elif self.kind == "keyframes":
             keys = control["keys"]
@@ -143,8 +148,13 @@ class Controller:
             unit = np.where(_angular(model), deg, 1.0)  # degrees for hinges, the actuator's own units otherwise
             self.key_t = np.array([t for t, _ in keys])
             self.key_q = np.array(
-                [[k[j] * unit[a] if j in k else k[n] * unit[a] if n in k else self.base[a]
-                  for a, (j, n) in enumerate(zip(names, aliases))] for _, k in keys]  # fmt: skip
+                [
+                    [
+                        k[j] * unit[a] if j in k else k[n] * unit[a] if n in k else self.base[a]
+                        for a, (j, n) in enumerate(zip(names, aliases))
+                    ]
+                    for _, k in keys
+                ]
             ).reshape(len(keys), nu)  # (K, nu)
             self.shift = fig * control["stagger"]
 
@@ -154,7 +164,13 @@ class Controller:
         elif self.kind in _PATTERNS:
             x = self.w * t + self.phase
             c = np.cos(x)
-            out = self.base + self.coef[0] + self.coef[1] * np.sin(x) + self.coef[2] * np.maximum(c, 0) + self.coef[3] * np.maximum(-c, 0)
+            out = (
+                self.base
+                + self.coef[0]
+                + self.coef[1] * np.sin(x)
+                + self.coef[2] * np.maximum(c, 0)
+                + self.coef[3] * np.maximum(-c, 0)
+            )
         elif self.kind == "flail":
             out = self.mid + self.half * np.sin(self.w * t + self.phase)
         elif self.kind == "reach":

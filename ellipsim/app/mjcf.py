@@ -53,7 +53,7 @@ def load_model(path):
         message = one_line(exc)
         if "allocate memory" in message:
             raise ModelError(
-                f"{text}: MuJoCo could not allocate the model's memory ({message}); set <size memory=\"...\"/> "
+                f'{text}: MuJoCo could not allocate the model\'s memory ({message}); set <size memory="..."/> '
                 "in the model to what it needs (MuJoCo's default grows with the square of the number of bodies)"
             ) from None
         raise ModelError(f"{text}: MuJoCo cannot load this model: {message}") from None
@@ -66,7 +66,7 @@ def make_data(model, label):
     except (ValueError, MemoryError, mujoco.FatalError) as exc:
         raise ModelError(
             f"{label}: MuJoCo could not allocate the model's data ({one_line(exc) or type(exc).__name__}); "
-            "set a smaller <size memory=\"...\"/>, or free memory"
+            'set a smaller <size memory="..."/>, or free memory'
         ) from None
 
 
@@ -105,7 +105,9 @@ def held_controls(model, data):
         & (gain != 0) & (bias[:, 1] != 0)
     )  # fmt: skip
     target = np.zeros(model.nu)
-    target[position_like] = -(bias[position_like, 0] + bias[position_like, 1] * data.actuator_length[position_like]) / gain[position_like]
+    target[position_like] = (
+        -(bias[position_like, 0] + bias[position_like, 1] * data.actuator_length[position_like]) / gain[position_like]
+    )
     return _clip(model, target), position_like
 
 
@@ -148,6 +150,6 @@ def start(model, data, key=None, ctrl="hold", label="model"):
 
 def geom_counts(model):
     """{kind: count} of the model's geoms, by MuJoCo's type names (for summaries)."""
-    names = {int(v): k[len("mjGEOM_"):].lower() for k, v in mujoco.mjtGeom.__members__.items()}
+    names = {int(v): k[len("mjGEOM_") :].lower() for k, v in mujoco.mjtGeom.__members__.items()}
     kinds, counts = np.unique(model.geom_type, return_counts=True)
     return {names.get(int(k), str(k)): int(c) for k, c in zip(kinds, counts)}

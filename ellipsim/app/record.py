@@ -83,9 +83,12 @@ RRD_MAGIC = b"RRF"  # first bytes of an .rrd file ("RRF2" in rerun 0.41)
 
 _KIND = {name: k for k, name in enumerate(GEOM_KINDS)}
 _PRIMITIVES = {  # geom kinds drawn as a batch per body: entity name
-    _KIND["ellipsoid"]: "ellipsoids", _KIND["sphere"]: "ellipsoids", _KIND["capsule"]: "capsules",
-    _KIND["cylinder"]: "cylinders", _KIND["box"]: "boxes",
-}  # fmt: skip
+    _KIND["ellipsoid"]: "ellipsoids",
+    _KIND["sphere"]: "ellipsoids",
+    _KIND["capsule"]: "capsules",
+    _KIND["cylinder"]: "cylinders",
+    _KIND["box"]: "boxes",
+}
 
 
 def blueprint():
@@ -146,7 +149,9 @@ class Recorder:
     def begin(self, geometry):
         """Open the partial file and log the model's static shapes."""
         if not isinstance(geometry, SceneGeometry):
-            raise ValueError(f"geometry must be an ellipsim.app.trajectory.SceneGeometry, got {type(geometry).__name__}")
+            raise ValueError(
+                f"geometry must be an ellipsim.app.trajectory.SceneGeometry, got {type(geometry).__name__}"
+            )
         self.geometry = geometry
         rec = rr.RecordingStream(self.app_id, recording_id=self.recording_id)
         self.rec = rec  # before the file exists: an interruption from here on is cleaned up by abort
@@ -163,8 +168,11 @@ class Recorder:
         self._log_geoms()
         rec.log(CONTACTS_PATH, rr.Points3D.from_fields(radii=CONTACT_RADIUS), static=True)
         rec.log(NORMALS_PATH, rr.Arrows3D.from_fields(radii=NORMAL_RADIUS), static=True)
-        for entity, (name, color, width) in ((BUILTIN_PATH, BUILTIN_SERIES), (ELLIPSIM_PATH, ELLIPSIM_SERIES),
-                                             (ALL_PATH, ALL_SERIES)):  # fmt: skip
+        for entity, (name, color, width) in (
+            (BUILTIN_PATH, BUILTIN_SERIES),
+            (ELLIPSIM_PATH, ELLIPSIM_SERIES),
+            (ALL_PATH, ALL_SERIES),
+        ):
             rec.log(entity, rr.SeriesLines(names=name, colors=color, widths=width), static=True)
         self._last_state = None
 
@@ -183,14 +191,22 @@ class Recorder:
         indexes = _indexes(frames.times, frames.frame)
         for m, body in enumerate(g.moving):
             rec.send_columns(
-                self._paths[body], indexes=indexes,
-                columns=rr.Transform3D.columns(translation=frames.body_pos[:, m], quaternion=xyzw(frames.body_quat[:, m])),
-            )  # fmt: skip
+                self._paths[body],
+                indexes=indexes,
+                columns=rr.Transform3D.columns(
+                    translation=frames.body_pos[:, m], quaternion=xyzw(frames.body_quat[:, m])
+                ),
+            )
         self._write_states(frames)
         self._write_contacts(frames, indexes)
-        for entity, counts in ((BUILTIN_PATH, frames.builtin_counts), (ELLIPSIM_PATH, frames.ellipsim_counts),
-                               (ALL_PATH, frames.contact_counts)):  # fmt: skip
-            rec.send_columns(entity, indexes=indexes, columns=rr.Scalars.columns(scalars=np.asarray(counts, dtype=np.float64)))
+        for entity, counts in (
+            (BUILTIN_PATH, frames.builtin_counts),
+            (ELLIPSIM_PATH, frames.ellipsim_counts),
+            (ALL_PATH, frames.contact_counts),
+        ):
+            rec.send_columns(
+                entity, indexes=indexes, columns=rr.Scalars.columns(scalars=np.asarray(counts, dtype=np.float64))
+            )
         self.frames_written += len(frames)
 
     def write_events(self, frame, time, until, point, label, text):
@@ -208,13 +224,17 @@ class Recorder:
         point = np.asarray(point, dtype=np.float64).reshape(-1, 3)
         E = len(frame)
         if not (len(time) == len(until) == len(point) == len(label) == len(text) == E):
-            raise ValueError(f"frame, time, until, point, label and text must have one row per event, got "
-                             f"{E}, {len(time)}, {len(until)}, {len(point)}, {len(label)} and {len(text)}")  # fmt: skip
+            raise ValueError(
+                f"frame, time, until, point, label and text must have one row per event, got "
+                f"{E}, {len(time)}, {len(until)}, {len(point)}, {len(label)} and {len(text)}"
+            )
         if E == 0:
             return
         bad = np.flatnonzero(~(time <= until))
         if len(bad):
-            raise ValueError(f"time[{int(bad[0])}] must be <= until[{int(bad[0])}], got {float(time[bad[0]])!r} and {float(until[bad[0]])!r}")
+            raise ValueError(
+                f"time[{int(bad[0])}] must be <= until[{int(bad[0])}], got {float(time[bad[0]])!r} and {float(until[bad[0]])!r}"
+            )
         order = np.lexsort((time, frame))
         frame, time, until, point = frame[order], time[order], until[order], point[order]
         label = [label[k] for k in order]
@@ -224,12 +244,18 @@ class Recorder:
         lengths = np.r_[np.arange(E) - group_start + 1, np.zeros(len(starts), dtype=np.int64)]
         row_time = np.r_[time, until[starts]]
         row_frame = np.r_[frame, frame[starts] + 1]
-        columns = rr.Points3D.columns(positions=point[shown], labels=[label[k] for k in shown],
-                                      colors=np.broadcast_to(np.array(BETWEEN_COLOR, dtype=np.uint8), (len(shown), 4)),
-                                      radii=np.full(len(shown), BETWEEN_RADIUS, dtype=np.float32))  # fmt: skip
+        columns = rr.Points3D.columns(
+            positions=point[shown],
+            labels=[label[k] for k in shown],
+            colors=np.broadcast_to(np.array(BETWEEN_COLOR, dtype=np.uint8), (len(shown), 4)),
+            radii=np.full(len(shown), BETWEEN_RADIUS, dtype=np.float32),
+        )
         self.rec.send_columns(BETWEEN_PATH, indexes=_indexes(row_time, row_frame), columns=columns.partition(lengths))
-        self.rec.send_columns(BETWEEN_LOG_PATH, indexes=_indexes(time, frame),
-                              columns=rr.TextLog.columns(text=[text[k] for k in order], level=["WARN"] * E))  # fmt: skip
+        self.rec.send_columns(
+            BETWEEN_LOG_PATH,
+            indexes=_indexes(time, frame),
+            columns=rr.TextLog.columns(text=[text[k] for k in order], level=["WARN"] * E),
+        )
 
     def close(self):
         """Finish the file and move it to `path`; returns `path`."""
@@ -262,7 +288,9 @@ class Recorder:
         for b in range(1, len(g.body_names)):
             if b not in moving:
                 self.rec.log(
-                    self._paths[b], rr.Transform3D(translation=g.body_pos[b], quaternion=xyzw(g.body_quat[b])), static=True
+                    self._paths[b],
+                    rr.Transform3D(translation=g.body_pos[b], quaternion=xyzw(g.body_quat[b])),
+                    static=True,
                 )
 
     def _log_geoms(self):
@@ -283,35 +311,78 @@ class Recorder:
                 if kind == "ellipsoids":
                     sphere = g.geom_kind[mine] == _KIND["sphere"]
                     half = np.where(sphere[:, None], size[:, :1], size)
-                    rec.log(entity, rr.Ellipsoids3D.from_fields(
-                        half_sizes=half, centers=pos, quaternions=quat, labels=labels,
-                        fill_mode=rr.components.FillMode.Solid), static=True)  # fmt: skip
+                    rec.log(
+                        entity,
+                        rr.Ellipsoids3D.from_fields(
+                            half_sizes=half,
+                            centers=pos,
+                            quaternions=quat,
+                            labels=labels,
+                            fill_mode=rr.components.FillMode.Solid,
+                        ),
+                        static=True,
+                    )
                     at = np.searchsorted(ellipsoid_ids, mine)
                     if not np.array_equal(ellipsoid_ids[np.minimum(at, len(ellipsoid_ids) - 1)], mine):
                         raise ValueError("SceneGeometry.ellipsoids must list every ellipsoid and sphere geom")
                     self._ellipsoid_groups.append((entity, at, colors[mine]))
                 elif kind == "capsules":
                     axis = _axes_z(g.geom_quat[mine])
-                    rec.log(entity, rr.Capsules3D(
-                        lengths=2 * size[:, 1], radii=size[:, 0], translations=pos - axis * size[:, 1:2],
-                        quaternions=quat, colors=colors[mine], labels=labels), static=True)  # fmt: skip
+                    rec.log(
+                        entity,
+                        rr.Capsules3D(
+                            lengths=2 * size[:, 1],
+                            radii=size[:, 0],
+                            translations=pos - axis * size[:, 1:2],
+                            quaternions=quat,
+                            colors=colors[mine],
+                            labels=labels,
+                        ),
+                        static=True,
+                    )
                 elif kind == "cylinders":
-                    rec.log(entity, rr.Cylinders3D(
-                        lengths=2 * size[:, 1], radii=size[:, 0], centers=pos, quaternions=quat, colors=colors[mine],
-                        labels=labels, fill_mode=rr.components.FillMode.Solid), static=True)  # fmt: skip
+                    rec.log(
+                        entity,
+                        rr.Cylinders3D(
+                            lengths=2 * size[:, 1],
+                            radii=size[:, 0],
+                            centers=pos,
+                            quaternions=quat,
+                            colors=colors[mine],
+                            labels=labels,
+                            fill_mode=rr.components.FillMode.Solid,
+                        ),
+                        static=True,
+                    )
                 else:
-                    rec.log(entity, rr.Boxes3D(
-                        half_sizes=size, centers=pos, quaternions=quat, colors=colors[mine], labels=labels,
-                        fill_mode=rr.components.FillMode.Solid), static=True)  # fmt: skip
+                    rec.log(
+                        entity,
+                        rr.Boxes3D(
+                            half_sizes=size,
+                            centers=pos,
+                            quaternions=quat,
+                            colors=colors[mine],
+                            labels=labels,
+                            fill_mode=rr.components.FillMode.Solid,
+                        ),
+                        static=True,
+                    )
             for i in geoms:
                 if int(i) not in g.meshes:
                     continue
                 vertices, triangles = g.meshes[int(i)]
                 entity = f"{base}/{rr.escape_entity_path_part(g.geom_names[i])}"
                 rec.log(entity, rr.Transform3D(translation=g.geom_pos[i], quaternion=xyzw(g.geom_quat[i])), static=True)
-                rec.log(entity, rr.Mesh3D(
-                    vertex_positions=vertices, triangle_indices=triangles, vertex_normals=_vertex_normals(vertices, triangles),
-                    albedo_factor=colors[i]), static=True)  # fmt: skip
+                rec.log(
+                    entity,
+                    rr.Mesh3D(
+                        vertex_positions=vertices,
+                        triangle_indices=triangles,
+                        vertex_normals=_vertex_normals(vertices, triangles),
+                        albedo_factor=colors[i],
+                    ),
+                    static=True,
+                )
 
     # --- per chunk -------------------------------------------------------------------------------
 
@@ -325,11 +396,18 @@ class Recorder:
             changed = np.flatnonzero((s != before).any(axis=1))
             if len(changed) == 0:
                 continue
-            palette = np.stack([np.broadcast_to(free, (len(at), 4)), np.broadcast_to(TOUCHING_COLOR, (len(at), 4)),
-                                np.broadcast_to(OVERLAPPING_COLOR, (len(at), 4))]).astype(np.uint8)  # (3, n, 4)
+            palette = np.stack(
+                [
+                    np.broadcast_to(free, (len(at), 4)),
+                    np.broadcast_to(TOUCHING_COLOR, (len(at), 4)),
+                    np.broadcast_to(OVERLAPPING_COLOR, (len(at), 4)),
+                ]
+            ).astype(np.uint8)  # (3, n, 4)
             colors = palette[s[changed], np.arange(len(at))[None, :]].reshape(-1, 4)
             columns = rr.Ellipsoids3D.columns(colors=colors).partition(np.full(len(changed), len(at)))
-            self.rec.send_columns(entity, indexes=_indexes(frames.times[changed], frames.frame[changed]), columns=columns)
+            self.rec.send_columns(
+                entity, indexes=_indexes(frames.times[changed], frames.frame[changed]), columns=columns
+            )
         self._last_state = state[-1].copy()
 
     def _write_contacts(self, frames, indexes):
@@ -339,8 +417,9 @@ class Recorder:
         normal = np.asarray(frames.contact_normal, dtype=np.float64).reshape(-1, 3)[order]
         colors = np.where(np.asarray(frames.contact_ellipsoids)[order][:, None], CONTACT_COLOR, OTHER_CONTACT_COLOR)
         colors = colors.astype(np.uint8).reshape(-1, 4)
-        self.rec.send_columns(CONTACTS_PATH, indexes=indexes,
-                              columns=rr.Points3D.columns(positions=pos, colors=colors).partition(lengths))  # fmt: skip
+        self.rec.send_columns(
+            CONTACTS_PATH, indexes=indexes, columns=rr.Points3D.columns(positions=pos, colors=colors).partition(lengths)
+        )
         arrows = rr.Arrows3D.columns(origins=pos, vectors=NORMAL_LENGTH * normal, colors=colors)
         self.rec.send_columns(NORMALS_PATH, indexes=indexes, columns=arrows.partition(lengths))
 
@@ -382,8 +461,10 @@ def view(path):
     if not is_recording(text):
         raise ValueError(f"{text!r} is not a rerun recording (an .rrd file starts with {RRD_MAGIC!r})")
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        print(f"no display: view {text} elsewhere with `rerun {text}` (or `python -m rerun {text}`), "
-              "or open it at https://app.rerun.io")
+        print(
+            f"no display: view {text} elsewhere with `rerun {text}` (or `python -m rerun {text}`), "
+            "or open it at https://app.rerun.io"
+        )
         return 0
     return subprocess.run([*_viewer_command(), text], check=False).returncode
 

@@ -26,8 +26,12 @@ from .stepping import FrameLoop
 
 MOTION_FORMATS = (".npy", ".csv")
 
-_JOINT_NAMES = {int(mujoco.mjtJoint.mjJNT_FREE): "free", int(mujoco.mjtJoint.mjJNT_BALL): "ball",
-                int(mujoco.mjtJoint.mjJNT_SLIDE): "slide", int(mujoco.mjtJoint.mjJNT_HINGE): "hinge"}  # fmt: skip
+_JOINT_NAMES = {
+    int(mujoco.mjtJoint.mjJNT_FREE): "free",
+    int(mujoco.mjtJoint.mjJNT_BALL): "ball",
+    int(mujoco.mjtJoint.mjJNT_SLIDE): "slide",
+    int(mujoco.mjtJoint.mjJNT_HINGE): "hinge",
+}
 _QPOS_WIDTH = {"free": 7, "ball": 4, "slide": 1, "hinge": 1}
 
 
@@ -42,7 +46,9 @@ def qpos_layout(model):
     for kind in ("free", "ball", "slide", "hinge"):
         n = kinds.count(kind)
         if n:
-            noun = f"{kind} joint{'s' if n > 1 else ''}" if kind in ("free", "ball") else f"{kind}{'s' if n > 1 else ''}"
+            noun = (
+                f"{kind} joint{'s' if n > 1 else ''}" if kind in ("free", "ball") else f"{kind}{'s' if n > 1 else ''}"
+            )
             parts.append(f"{n * _QPOS_WIDTH[kind]} ({n} {noun})")
     return " + ".join(parts) or "nothing (no joints)"
 
@@ -58,7 +64,9 @@ def load_motion(path, nq, *, layout=""):
     text = os.fspath(path)
     ext = os.path.splitext(text)[1].lower()
     if ext not in MOTION_FORMATS:
-        raise MotionError(f"motion {text!r} must be a {' or '.join(MOTION_FORMATS)} file, got {ext or 'no extension'!r}")
+        raise MotionError(
+            f"motion {text!r} must be a {' or '.join(MOTION_FORMATS)} file, got {ext or 'no extension'!r}"
+        )
     if not os.path.isfile(text):
         raise MotionError(f"motion {text!r} does not exist or is not a file")
     if ext == ".npy":
@@ -194,14 +202,19 @@ class ReplayResult:
             frames_touch = np.setdiff1d(np.unique(self.pair_frame[mine]), frames_over)
             depth = self.pair_depth[over]
             deepest = over[int(np.argmax(depth))] if len(over) else mine[0]
-            out.append({
-                "bodies": [self.body_names[b1], self.body_names[b2]],
-                "geoms": [self.geom_names[g] for g in self.pair_geoms[deepest]],
-                "frames_overlapping": int(len(frames_over)), "frames_touching": int(len(frames_touch)),
-                "first": int(self.pair_frame[mine].min()), "last": int(self.pair_frame[mine].max()),
-                "deepest": float(depth.max()) if len(over) else 0.0, "deepest_frame": int(self.pair_frame[deepest]),
-                "overlap_frames": frames_over.tolist(),
-            })  # fmt: skip
+            out.append(
+                {
+                    "bodies": [self.body_names[b1], self.body_names[b2]],
+                    "geoms": [self.geom_names[g] for g in self.pair_geoms[deepest]],
+                    "frames_overlapping": int(len(frames_over)),
+                    "frames_touching": int(len(frames_touch)),
+                    "first": int(self.pair_frame[mine].min()),
+                    "last": int(self.pair_frame[mine].max()),
+                    "deepest": float(depth.max()) if len(over) else 0.0,
+                    "deepest_frame": int(self.pair_frame[deepest]),
+                    "overlap_frames": frames_over.tolist(),
+                }
+            )
         out.sort(key=lambda d: (-d["frames_overlapping"], -d["deepest"], d["first"]))
         return out
 
@@ -212,38 +225,49 @@ class ReplayResult:
             return []
         return capture.describe_events(self.between, self.ellipsoid_ids, self.names)
 
-
     def summary(self, show):
         """The lines `ellipsim replay` prints after playing: timings, frames in contact, the deepest
         overlap, MuJoCo's contacts, `show` body pairs and contacts between frames at most."""
         F = self.frames
         over = np.flatnonzero(self.overlapping)
         touch_only = np.flatnonzero((self.touching > 0) & (self.overlapping == 0))
-        lines = [f"  kinematics and MuJoCo's collision {self.seconds:.2f} s; ellipsim's exact verdicts on "
-                 f"{self.candidates} candidate pairs of {self.ellipsoids} ellipsoid geoms {self.analysis_seconds:.2f} s"]  # fmt: skip
+        lines = [
+            f"  kinematics and MuJoCo's collision {self.seconds:.2f} s; ellipsim's exact verdicts on "
+            f"{self.candidates} candidate pairs of {self.ellipsoids} ellipsoid geoms {self.analysis_seconds:.2f} s"
+        ]
         if self.ellipsoids < 2:
             lines.append("  the model has fewer than two ellipsoid or sphere geoms: ellipsim has no pair to test")
-        lines.append(f"  frames with overlapping pairs: {len(over)} of {F} ({frame_ranges(over)}); touching only: {len(touch_only)}")
+        lines.append(
+            f"  frames with overlapping pairs: {len(over)} of {F} ({frame_ranges(over)}); touching only: {len(touch_only)}"
+        )
         if len(over):
             f = int(over[np.argmax(self.deepest[over])])
             g1, g2 = self.pair_geoms[self.deepest_pair[f]]
             b1, b2 = (self.body_names[self.geom_body[g]] for g in (g1, g2))
-            lines.append(f"  deepest overlap: {length(self.deepest[f])} at frame {f} ({f / self.fps:.3f} s): bodies {b1} / {b2} "
-                         f"(geoms {self.geom_names[g1]} / {self.geom_names[g2]})")  # fmt: skip
-        lines.append(f"  MuJoCo's contacts on the same frames: {int(self.mujoco_contacts.sum())} in all (max {int(self.mujoco_contacts.max())} "
-                     f"in a frame), {int(self.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(self.overlapping.sum())} "
-                     f"overlapping, {int(self.touching.sum())} touching pairs")  # fmt: skip
+            lines.append(
+                f"  deepest overlap: {length(self.deepest[f])} at frame {f} ({f / self.fps:.3f} s): bodies {b1} / {b2} "
+                f"(geoms {self.geom_names[g1]} / {self.geom_names[g2]})"
+            )
+        lines.append(
+            f"  MuJoCo's contacts on the same frames: {int(self.mujoco_contacts.sum())} in all (max {int(self.mujoco_contacts.max())} "
+            f"in a frame), {int(self.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(self.overlapping.sum())} "
+            f"overlapping, {int(self.touching.sum())} touching pairs"
+        )
         body_pairs = self.body_pairs()
         if body_pairs:
             lines.append("  body pairs in contact (most overlapping frames first):")
             for bp in body_pairs[:show]:
                 frames = frame_ranges(bp["overlap_frames"], most=4)
-                lines.append(f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
-                             f"deepest {length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}")  # fmt: skip
+                lines.append(
+                    f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
+                    f"deepest {length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}"
+                )
             if len(body_pairs) > show:
                 lines.append(f"    ... and {len(body_pairs) - show} more (--show N, or --json)")
         if self.between is not None:
-            lines += capture.between_lines(self.between_events(), self.between_candidates, self.between_seconds, show, "frames")
+            lines += capture.between_lines(
+                self.between_events(), self.between_candidates, self.between_seconds, show, "frames"
+            )
         elif self.ellipsoids >= 2:
             lines.append("  contacts that begin and end between two frames: not looked for (--between-frames)")
         return lines
@@ -254,29 +278,41 @@ class ReplayResult:
         per_pair = [[] for _ in range(self.frames)]
         for p in range(len(self.pair_frame)):
             g1, g2 = (int(g) for g in self.pair_geoms[p])
-            per_pair[int(self.pair_frame[p])].append({
-                "geoms": [self.geom_names[g1], self.geom_names[g2]],
-                "bodies": [self.body_names[self.geom_body[g1]], self.body_names[self.geom_body[g2]]],
-                "relation": "overlapping" if self.pair_relation[p] == 2 else "touching",
-                "depth": None if self.pair_relation[p] != 2 else float(self.pair_depth[p]),
-            })  # fmt: skip
+            per_pair[int(self.pair_frame[p])].append(
+                {
+                    "geoms": [self.geom_names[g1], self.geom_names[g2]],
+                    "bodies": [self.body_names[self.geom_body[g1]], self.body_names[self.geom_body[g2]]],
+                    "relation": "overlapping" if self.pair_relation[p] == 2 else "touching",
+                    "depth": None if self.pair_relation[p] != 2 else float(self.pair_depth[p]),
+                }
+            )
         return {
-            "model": os.path.abspath(model_path), "motion": os.path.abspath(motion_path), "frames": self.frames,
-            "fps": self.fps, "nq": int(nq), "ellipsoid_geoms": self.ellipsoids, "candidate_pairs": self.candidates,
+            "model": os.path.abspath(model_path),
+            "motion": os.path.abspath(motion_path),
+            "frames": self.frames,
+            "fps": self.fps,
+            "nq": int(nq),
+            "ellipsoid_geoms": self.ellipsoids,
+            "candidate_pairs": self.candidates,
             "frames_overlapping": int(np.count_nonzero(self.overlapping)),
             "frames_touching_only": int(np.count_nonzero((self.touching > 0) & (self.overlapping == 0))),
-            "overlapping_pairs": int(self.overlapping.sum()), "touching_pairs": int(self.touching.sum()),
-            "mujoco_contacts": int(self.mujoco_contacts.sum()), "mujoco_ellipsoid_contacts": int(self.mujoco_pairs.sum()),
+            "overlapping_pairs": int(self.overlapping.sum()),
+            "touching_pairs": int(self.touching.sum()),
+            "mujoco_contacts": int(self.mujoco_contacts.sum()),
+            "mujoco_ellipsoid_contacts": int(self.mujoco_pairs.sum()),
             "deepest": float(self.deepest.max()) if self.frames else 0.0,
             "body_pairs": self.body_pairs(),
             "between_frames": self.between_events() if self.between is not None else None,
             "per_frame": {
-                "time": (np.arange(self.frames) / self.fps).tolist(), "touching": self.touching.tolist(),
-                "overlapping": self.overlapping.tolist(), "deepest": self.deepest.tolist(),
-                "mujoco_contacts": self.mujoco_contacts.tolist(), "mujoco_ellipsoid_contacts": self.mujoco_pairs.tolist(),
+                "time": (np.arange(self.frames) / self.fps).tolist(),
+                "touching": self.touching.tolist(),
+                "overlapping": self.overlapping.tolist(),
+                "deepest": self.deepest.tolist(),
+                "mujoco_contacts": self.mujoco_contacts.tolist(),
+                "mujoco_ellipsoid_contacts": self.mujoco_pairs.tolist(),
                 "pairs": per_pair,
             },
-        }  # fmt: skip
+        }
 
 
 def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay", between=False):
@@ -340,14 +376,30 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         deepest[pairs[first, 0]] = depth[first]
         deepest_pair[pairs[first, 0]] = first
     return ReplayResult(
-        fps=float(fps), touching=per_frame["touching"], overlapping=per_frame["overlapping"], deepest=deepest,
-        deepest_pair=deepest_pair, mujoco_contacts=per_frame["mujoco_contacts"], mujoco_pairs=per_frame["mujoco_pairs"],
-        pair_frame=pairs[:, 0].copy(), pair_geoms=geoms, pair_relation=relation, pair_depth=depth,
-        geom_names=names.geoms, body_names=names.bodies, geom_body=names.geom_body, ellipsoids=len(buffer.ids),
-        candidates=candidates, seconds=loop.seconds, analysis_seconds=loop.analysis_seconds,
-        record_seconds=loop.record_seconds, ellipsoid_ids=buffer.ids.astype(np.int64), between=loop.events(),
-        between_candidates=buffer.between.candidates if between else 0, between_seconds=buffer.between_seconds,
-    )  # fmt: skip
+        fps=float(fps),
+        touching=per_frame["touching"],
+        overlapping=per_frame["overlapping"],
+        deepest=deepest,
+        deepest_pair=deepest_pair,
+        mujoco_contacts=per_frame["mujoco_contacts"],
+        mujoco_pairs=per_frame["mujoco_pairs"],
+        pair_frame=pairs[:, 0].copy(),
+        pair_geoms=geoms,
+        pair_relation=relation,
+        pair_depth=depth,
+        geom_names=names.geoms,
+        body_names=names.bodies,
+        geom_body=names.geom_body,
+        ellipsoids=len(buffer.ids),
+        candidates=candidates,
+        seconds=loop.seconds,
+        analysis_seconds=loop.analysis_seconds,
+        record_seconds=loop.record_seconds,
+        ellipsoid_ids=buffer.ids.astype(np.int64),
+        between=loop.events(),
+        between_candidates=buffer.between.candidates if between else 0,
+        between_seconds=buffer.between_seconds,
+    )
 
 
 def frame_ranges(frames, most=8):

@@ -21,7 +21,7 @@ import tomllib
 import mujoco
 
 from .. import shipped
-from ..mujoco import scenes
+from . import scenes
 from .errors import UserError
 from .mjcf import CTRL_MODES, one_line
 
@@ -45,8 +45,21 @@ _SCENE_KEYS = {
     "pile": ("kind", "seed", "ellipsoids", "bin_half_width"),
     "mjcf": ("kind", "path", "key", "ctrl"),
 }
-_CONTROL_KEYS = ("kind", "amplitude", "period", "phase_step", "seed", "arm", "shoulder_flex", "shoulder_abd",
-                 "shoulder_rot", "elbow", "ramp", "stagger", "keys")  # fmt: skip
+_CONTROL_KEYS = (
+    "kind",
+    "amplitude",
+    "period",
+    "phase_step",
+    "seed",
+    "arm",
+    "shoulder_flex",
+    "shoulder_abd",
+    "shoulder_rot",
+    "elbow",
+    "ramp",
+    "stagger",
+    "keys",
+)
 
 
 class ScenarioError(UserError):
@@ -186,8 +199,13 @@ def source_table(name_or_path):
     if not _is_mjcf(path):
         return read_table(path), path
     s = model_scenario(path)
-    return {"description": s.description, "duration": s.duration, "mode": s.mode,
-            "scene": {"kind": "mjcf", "path": s.scene["path"]}, "control": {"kind": "hold"}}, s.path  # fmt: skip
+    return {
+        "description": s.description,
+        "duration": s.duration,
+        "mode": s.mode,
+        "scene": {"kind": "mjcf", "path": s.scene["path"]},
+        "control": {"kind": "hold"},
+    }, s.path
 
 
 def from_table(table, path):
@@ -203,7 +221,9 @@ def from_table(table, path):
     mode = top.get("mode", str, "narrowphase", choices=MODES)
     kinematic = top.get("kinematic", bool, False)
     gravity = top.get("gravity", list, [])
-    if gravity and (len(gravity) != 3 or not all(isinstance(g, (int, float)) and not isinstance(g, bool) for g in gravity)):
+    if gravity and (
+        len(gravity) != 3 or not all(isinstance(g, (int, float)) and not isinstance(g, bool) for g in gravity)
+    ):
         raise top.error("gravity", "must be a list of three numbers (m/s^2)", gravity)
     scene = _scene(top.table_of("scene"), path)
     if scene["kind"] == "mjcf":
@@ -215,18 +235,26 @@ def from_table(table, path):
     if timestep > duration:
         raise top.error("timestep", f"must not exceed the duration {duration}", timestep)
     if duration / timestep > MAX_STEPS:
-        raise top.error("duration", f"is {duration / timestep:.3g} steps of {timestep:g} s; at most {MAX_STEPS:.3g}", duration)
+        raise top.error(
+            "duration", f"is {duration / timestep:.3g} steps of {timestep:g} s; at most {MAX_STEPS:.3g}", duration
+        )
     if scene["kind"] == "pile" and kinematic:
-        raise top.error("kinematic", "must be false for a pile scene (free ellipsoids have no joints to pose)", kinematic)
+        raise top.error(
+            "kinematic", "must be false for a pile scene (free ellipsoids have no joints to pose)", kinematic
+        )
     if scene["kind"] == "mjcf" and kinematic:
         raise top.error(
-            "kinematic", "must be false for an mjcf scene (to pose a model frame by frame: ellipsim replay MODEL MOTION)", kinematic
+            "kinematic",
+            "must be false for an mjcf scene (to pose a model frame by frame: ellipsim replay MODEL MOTION)",
+            kinematic,
         )
     control = _control(top.table_of("control"), kinematic, scene["kind"])
     top.done()
     base = os.path.basename(path)
     name = os.path.splitext(base)[0] if base.endswith((".toml", ".xml")) else base
-    return Scenario(name, path, description, duration, timestep, mode, kinematic, tuple(float(g) for g in gravity), scene, control)
+    return Scenario(
+        name, path, description, duration, timestep, mode, kinematic, tuple(float(g) for g in gravity), scene, control
+    )
 
 
 def _is_mjcf(path):
@@ -262,8 +290,18 @@ def model_scenario(path, *, key=None, ctrl="hold"):
         raise ScenarioError(f"{path}: the model's timestep must be positive, got {timestep!r}")
     name = os.path.splitext(os.path.basename(path))[0]
     scene = {"kind": "mjcf", "path": path, "key": key, "ctrl": ctrl}
-    return Scenario(name, path, f"MJCF model {path}", max(MJCF_DURATION, timestep), timestep, "narrowphase", False, (),
-                    scene, {"kind": "hold"})  # fmt: skip
+    return Scenario(
+        name,
+        path,
+        f"MJCF model {path}",
+        max(MJCF_DURATION, timestep),
+        timestep,
+        "narrowphase",
+        False,
+        (),
+        scene,
+        {"kind": "hold"},
+    )
 
 
 def with_model_options(s, *, key=None, ctrl=None):
@@ -291,7 +329,12 @@ def _scene(c, path):
         model = c.get("path", str, required=True)
         model = os.path.join(os.path.dirname(os.path.abspath(path)), os.path.expanduser(model))
         key = c.get("key", (int, str), None)
-        out = {"kind": kind, "path": os.path.normpath(model), "key": key, "ctrl": c.get("ctrl", str, "hold", choices=CTRL_MODES)}
+        out = {
+            "kind": kind,
+            "path": os.path.normpath(model),
+            "key": key,
+            "ctrl": c.get("ctrl", str, "hold", choices=CTRL_MODES),
+        }
         c.done()
         return out
     out = {"kind": kind, "seed": c.get("seed", int, 0)}
@@ -367,4 +410,6 @@ def _control(c, kinematic, scene_kind):
 def _figure_joints():
     """Names of the figure's actuated joints, in actuator order (what keyframes may name)."""
     model = mujoco.MjModel.from_xml_string(scenes.figure_xml())
-    return tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, model.actuator_trnid[a, 0]) for a in range(model.nu))
+    return tuple(
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, model.actuator_trnid[a, 0]) for a in range(model.nu)
+    )

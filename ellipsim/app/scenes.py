@@ -24,20 +24,53 @@ from ..core.rotations import quaternion_product, quaternions_to_rotations, rotat
 
 #: Limb bodies of one figure, in the body order of models/figure.xml (one ellipsoid geom each).
 LIMBS = (
-    "pelvis", "torso", "head",
-    "upper_arm_l", "lower_arm_l", "hand_l", "upper_arm_r", "lower_arm_r", "hand_r",
-    "thigh_l", "shin_l", "foot_l", "thigh_r", "shin_r", "foot_r",
-)  # fmt: skip
+    "pelvis",
+    "torso",
+    "head",
+    "upper_arm_l",
+    "lower_arm_l",
+    "hand_l",
+    "upper_arm_r",
+    "lower_arm_r",
+    "hand_r",
+    "thigh_l",
+    "shin_l",
+    "foot_l",
+    "thigh_r",
+    "shin_r",
+    "foot_r",
+)
 
 LAYOUTS = ("grid", "line", "facing", "pile")
 
 #: Attributes that hold a name or refer to a named element, in bodies and in the top-level
 #: sections listed in _FIGURE_SECTIONS (MJCF reference: actuator, sensor, contact, equality, tendon).
 _NAME_ATTRS = (
-    "name", "joint", "joint1", "joint2", "jointinparent", "body", "body1", "body2", "geom", "geom1",
-    "geom2", "site", "site1", "site2", "refsite", "cranksite", "slidersite", "tendon", "tendon1",
-    "tendon2", "actuator", "objname", "refname", "target",
-)  # fmt: skip
+    "name",
+    "joint",
+    "joint1",
+    "joint2",
+    "jointinparent",
+    "body",
+    "body1",
+    "body2",
+    "geom",
+    "geom1",
+    "geom2",
+    "site",
+    "site1",
+    "site2",
+    "refsite",
+    "cranksite",
+    "slidersite",
+    "tendon",
+    "tendon1",
+    "tendon2",
+    "actuator",
+    "objname",
+    "refname",
+    "target",
+)
 
 #: Top-level MJCF sections whose elements belong to the figure and are copied with it.
 _FIGURE_SECTIONS = ("contact", "equality", "tendon", "actuator", "sensor")
@@ -388,17 +421,28 @@ def pile_xml(n_ellipsoids, *, seed=0, bin_half_width=0.5, radii=(0.03, 0.12)):
         ("wall_-y", (0, -outer), (half_width + t, t / 2)),
     ):
         ET.SubElement(
-            world, "geom", name=name, type="box", pos=mjcf_numbers((x, y, wall_height / 2)),
-            size=mjcf_numbers((sx, sy, wall_height / 2)), rgba="0.6 0.6 0.65 0.4",
-        )  # fmt: skip
+            world,
+            "geom",
+            name=name,
+            type="box",
+            pos=mjcf_numbers((x, y, wall_height / 2)),
+            size=mjcf_numbers((sx, sy, wall_height / 2)),
+            rgba="0.6 0.6 0.65 0.4",
+        )
     for i in range(n):
         body = ET.SubElement(world, "body", name=f"e{i}", pos=mjcf_numbers(centres[i]), quat=mjcf_numbers(quats[i]))
         ET.SubElement(body, "freejoint", name=f"e{i}")
         hue = (0.35 + 0.5 * (i % 7) / 6, 0.5, 0.85 - 0.5 * (i % 7) / 6)
         ET.SubElement(
-            body, "geom", name=f"e{i}", type="ellipsoid", size=mjcf_numbers(sizes[i]), contype="1",
-            conaffinity="1", rgba=mjcf_numbers((*hue, 1.0)),
-        )  # fmt: skip
+            body,
+            "geom",
+            name=f"e{i}",
+            type="ellipsoid",
+            size=mjcf_numbers(sizes[i]),
+            contype="1",
+            conaffinity="1",
+            rgba=mjcf_numbers((*hue, 1.0)),
+        )
     ET.indent(root)
     return ET.tostring(root, encoding="unicode")
 
@@ -459,18 +503,42 @@ def chain_xml(n_links, *, seed=0):
 
     root, world = _world_root(f"ellipsoid_chain_{n}")
     default = ET.SubElement(ET.SubElement(root, "default"), "default", attrib={"class": "link"})
-    ET.SubElement(default, "geom", type="ellipsoid", size=mjcf_numbers(_LINK_RADII), contype="1", conaffinity="1",
-                  rgba="0.45 0.6 0.8 1")  # fmt: skip
-    ET.SubElement(default, "joint", type="hinge", limited="true", range=f"{-_LINK_RANGE} {_LINK_RANGE}",
-                  damping=repr(_LINK_DAMPING), armature=repr(_LINK_ARMATURE))  # fmt: skip
-    parent = ET.SubElement(world, "body", name="link0", pos=mjcf_numbers(joints[0]), quat=mjcf_numbers(rotations_to_quaternions(frames[0])),
-                           childclass="link")  # fmt: skip
+    ET.SubElement(
+        default,
+        "geom",
+        type="ellipsoid",
+        size=mjcf_numbers(_LINK_RADII),
+        contype="1",
+        conaffinity="1",
+        rgba="0.45 0.6 0.8 1",
+    )
+    ET.SubElement(
+        default,
+        "joint",
+        type="hinge",
+        limited="true",
+        range=f"{-_LINK_RANGE} {_LINK_RANGE}",
+        damping=repr(_LINK_DAMPING),
+        armature=repr(_LINK_ARMATURE),
+    )
+    parent = ET.SubElement(
+        world,
+        "body",
+        name="link0",
+        pos=mjcf_numbers(joints[0]),
+        quat=mjcf_numbers(rotations_to_quaternions(frames[0])),
+        childclass="link",
+    )
     ET.SubElement(parent, "freejoint", name="root")
     ET.SubElement(parent, "geom", name="link0", pos=mjcf_numbers((0, 0, -a)))
     for i in range(1, n):
         relative = frames[i - 1].T @ frames[i]
         parent = ET.SubElement(
-            parent, "body", name=f"link{i}", pos=mjcf_numbers((0, 0, -2 * a)), quat=mjcf_numbers(rotations_to_quaternions(relative))
+            parent,
+            "body",
+            name=f"link{i}",
+            pos=mjcf_numbers((0, 0, -2 * a)),
+            quat=mjcf_numbers(rotations_to_quaternions(relative)),
         )
         ET.SubElement(parent, "joint", name=f"hinge{i}", axis="1 0 0" if i % 2 else "0 1 0")
         ET.SubElement(parent, "geom", name=f"link{i}", pos=mjcf_numbers((0, 0, -a)))
@@ -479,8 +547,11 @@ def chain_xml(n_links, *, seed=0):
 
 
 #: quaternion turning a geom's z axis onto its x / y / z axis (w, x, y, z)
-_Z_ONTO = (np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0]), np.array([math.sqrt(0.5), -math.sqrt(0.5), 0.0, 0.0]),
-           np.array([1.0, 0.0, 0.0, 0.0]))  # fmt: skip
+_Z_ONTO = (
+    np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0]),
+    np.array([math.sqrt(0.5), -math.sqrt(0.5), 0.0, 0.0]),
+    np.array([1.0, 0.0, 0.0, 0.0]),
+)
 
 
 def capsule_twin_xml(xml):

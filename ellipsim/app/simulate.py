@@ -14,10 +14,9 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from ..mujoco import scenes
 from ..mujoco.attachment import attach
 from ..mujoco.validate import validate
-from . import capture, limits, mjcf
+from . import capture, limits, mjcf, scenes
 from .control import Controller
 from .scenario import MODES, Scenario, ScenarioError
 from .stepping import FrameLoop
@@ -51,9 +50,14 @@ def build(s):
             if sc["kind"] == "figures":
                 _check_figures(sc["figures"])
                 xml = scenes.scene_xml(
-                    sc["figures"], layout=sc["layout"], spacing=sc["spacing"], seed=sc["seed"],
-                    drop_height=sc["drop_height"], floor=sc["floor"], fixed_roots=sc["fixed_roots"],
-                )  # fmt: skip
+                    sc["figures"],
+                    layout=sc["layout"],
+                    spacing=sc["spacing"],
+                    seed=sc["seed"],
+                    drop_height=sc["drop_height"],
+                    floor=sc["floor"],
+                    fixed_roots=sc["fixed_roots"],
+                )
             else:
                 xml = scenes.pile_xml(sc["ellipsoids"], seed=sc["seed"], bin_half_width=sc["bin_half_width"])
             model = mujoco.MjModel.from_xml_string(xml)
@@ -149,7 +153,6 @@ class Run:
     between_candidates: int = 0
     between_seconds: float = 0.0
 
-
     def summary(self, wall, *, recording=False, between_asked=False, show=10):
         """The lines `ellipsim run` prints after running: stepping rate, the other costs out of `wall`
         (seconds, the whole run), contacts, ellipsim's counters, `show` contacts between frames at
@@ -174,7 +177,9 @@ class Run:
             )
         if "seen" in c:
             share = c["discarded"] / max(c["seen"], 1)
-            lines.append(f"  filter: {c['seen']} pairs tested, {c['discarded']} skipped ({share:.0%}), {c['passed']} passed to MuJoCo")
+            lines.append(
+                f"  filter: {c['seen']} pairs tested, {c['discarded']} skipped ({share:.0%}), {c['passed']} passed to MuJoCo"
+            )
         elif "calls" in c:
             lines.append(
                 f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
@@ -183,7 +188,9 @@ class Run:
         if self.between is not None:
             lines += capture.between_lines(self.between, self.between_candidates, self.between_seconds, show, "frames")
         elif between_asked:
-            lines.append("  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)")
+            lines.append(
+                "  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)"
+            )
         return lines
 
 
@@ -272,11 +279,21 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
         kept_frames = Kept([loop.names.geoms[g] for g in loop.buffer.ids], centers, state)
     events = loop.events()
     return Run(
-        s, mode, steps, loop.seconds, loop.analysis_seconds, loop.record_seconds, frames,
-        att.counters if att else {}, ncon_sum / steps, int(ncon_max), kept_frames,
+        s,
+        mode,
+        steps,
+        loop.seconds,
+        loop.analysis_seconds,
+        loop.record_seconds,
+        frames,
+        att.counters if att else {},
+        ncon_sum / steps,
+        int(ncon_max),
+        kept_frames,
         capture.describe_events(events, loop.buffer.ids, loop.names) if between else None,
-        loop.buffer.between.candidates if between else 0, loop.buffer.between_seconds,
-    )  # fmt: skip
+        loop.buffer.between.candidates if between else 0,
+        loop.buffer.between_seconds,
+    )
 
 
 def validation(s, steps=None, progress=None, between=False):

@@ -96,8 +96,21 @@ COLUMNS = {
     "deepest_penetration": "mode pass: deepest overlap of two ellipsoids, metres (exact signed distance, recorded frames)",
     "error": "why the variant failed (empty when it ran)",
 }
-_METRICS = ("steps", "wall_seconds", "steps_per_second", "pairs", "mujoco_contacts", "ellipsim_overlaps", "missed",
-            "extra", "near_tangent", "fallbacks", "mujoco_warnings", "deepest_penetration", "error")  # fmt: skip
+_METRICS = (
+    "steps",
+    "wall_seconds",
+    "steps_per_second",
+    "pairs",
+    "mujoco_contacts",
+    "ellipsim_overlaps",
+    "missed",
+    "extra",
+    "near_tangent",
+    "fallbacks",
+    "mujoco_warnings",
+    "deepest_penetration",
+    "error",
+)
 _FLOATS = {"wall_seconds", "steps_per_second", "deepest_penetration"}
 _STRINGS = {"variant", "scenario", "mode", "error"}
 #: Columns that differ between runs of the same variant.
@@ -319,7 +332,13 @@ def columns(variants):
 
 def run_variant(variant):
     """The row of one variant (a dict of COLUMNS' values): both passes, or its error."""
-    row = {"variant": variant.id, "scenario": variant.scenario, **variant.values, "mode": variant.mode, "steps": variant.steps}
+    row = {
+        "variant": variant.id,
+        "scenario": variant.scenario,
+        **variant.values,
+        "mode": variant.mode,
+        "steps": variant.steps,
+    }
     row.update(dict.fromkeys(_METRICS[1:]))
     t0 = time.perf_counter()
     try:
@@ -338,8 +357,14 @@ def _measure(variant):
     validation, _ = simulate.validation(s, variant.steps)
     missed, extra, near = split_disagreements(validation)
     both, _, mujoco_only, ellipsim_only = (int(c) for c in validation.counts.sum(axis=0))
-    out = {"pairs": int(validation.counts.sum()), "mujoco_contacts": both + mujoco_only,
-           "ellipsim_overlaps": both + ellipsim_only, "missed": len(missed), "extra": len(extra), "near_tangent": len(near)}  # fmt: skip
+    out = {
+        "pairs": int(validation.counts.sum()),
+        "mujoco_contacts": both + mujoco_only,
+        "ellipsim_overlaps": both + ellipsim_only,
+        "missed": len(missed),
+        "extra": len(extra),
+        "near_tangent": len(near),
+    }
     if variant.record is None:
         return out | _mode_pass(s, variant, None)
     from .record import Recorder
@@ -381,8 +406,12 @@ def _mode_pass(s, variant, recorder):
     with att if att else contextlib.nullcontext():
         loop.run(data, variant.steps, step, every=simulate.record_every(s))  # the frames `ellipsim run` records
     fallbacks = att.counters.get("fallbacks", 0) if s.mode == "narrowphase" and att else None
-    return {"steps_per_second": variant.steps / max(loop.seconds, 1e-9), "fallbacks": fallbacks,
-            "mujoco_warnings": int(data.warning.number.sum()), "deepest_penetration": deepest}  # fmt: skip
+    return {
+        "steps_per_second": variant.steps / max(loop.seconds, 1e-9),
+        "fallbacks": fallbacks,
+        "mujoco_warnings": int(data.warning.number.sum()),
+        "deepest_penetration": deepest,
+    }
 
 
 # --- backends ------------------------------------------------------------------------------------
@@ -398,7 +427,13 @@ def _ignore_sigint():
 
 
 def _died(variant, how):
-    row = {"variant": variant.id, "scenario": variant.scenario, **variant.values, "mode": variant.mode, "steps": variant.steps}
+    row = {
+        "variant": variant.id,
+        "scenario": variant.scenario,
+        **variant.values,
+        "mode": variant.mode,
+        "steps": variant.steps,
+    }
     row.update(dict.fromkeys(_METRICS[1:]))
     row["error"] = f"WorkerDied: {how}"
     return row
@@ -422,8 +457,9 @@ def _run_local(todo, workers, emit, run=run_variant):
     queue, alone = collections.deque(todo), collections.deque()
     first = True
     while queue or alone:
-        pool = futures.ProcessPoolExecutor(min(workers, len(queue) + len(alone)), mp_context=context,
-                                           initializer=_ignore_sigint)  # fmt: skip
+        pool = futures.ProcessPoolExecutor(
+            min(workers, len(queue) + len(alone)), mp_context=context, initializer=_ignore_sigint
+        )
         if first:  # a worker that cannot even start is no variant's fault
             first = False
             try:
@@ -472,7 +508,11 @@ def _run_local(todo, workers, emit, run=run_variant):
         pool.shutdown(wait=not broken, cancel_futures=True)
         for v, solo in lost:
             if solo:
-                emit(_died(v, "its worker process died while running it alone (out of memory, or a crash in native code)"))
+                emit(
+                    _died(
+                        v, "its worker process died while running it alone (out of memory, or a crash in native code)"
+                    )
+                )
             else:
                 alone.append(v)
 
@@ -675,8 +715,20 @@ def plot_available():
     return True
 
 
-def sweep(scenario, vary=None, *, seeds=None, steps=None, mode=None, out=None, backend="local", workers=None,
-          record=False, plot=True, progress=None):  # fmt: skip
+def sweep(
+    scenario,
+    vary=None,
+    *,
+    seeds=None,
+    steps=None,
+    mode=None,
+    out=None,
+    backend="local",
+    workers=None,
+    record=False,
+    plot=True,
+    progress=None,
+):
     """Run every variant of `scenario` (see plan) and return their rows, in variant order.
 
     out : folder for results.csv, sweep.png, columns.json and the .rrd files (made if missing);
@@ -744,7 +796,12 @@ def sweep(scenario, vary=None, *, seeds=None, steps=None, mode=None, out=None, b
             results.rewrite([v.id for v in variants])
     rows = [_parse_row(fresh[v.id] if v.id in fresh else results.rows[v.id], v) for v in variants]
     if out is not None and plot:
-        plot_rows(rows, list(variants[0].values), os.path.join(out, PLOT), title=f"{variants[0].scenario}: {len(rows)} variants")
+        plot_rows(
+            rows,
+            list(variants[0].values),
+            os.path.join(out, PLOT),
+            title=f"{variants[0].scenario}: {len(rows)} variants",
+        )
     return rows
 
 
@@ -759,18 +816,42 @@ def rows_table(rows, keys):
     def cell(value, fmt="{}"):
         return "" if value is None else fmt.format(value)
 
-    head = ["variant", *keys, "steps/s", "pairs", "MuJoCo", "exact", "missed", "extra", "near", "fallbacks", "deepest mm"]
+    head = [
+        "variant",
+        *keys,
+        "steps/s",
+        "pairs",
+        "MuJoCo",
+        "exact",
+        "missed",
+        "extra",
+        "near",
+        "fallbacks",
+        "deepest mm",
+    ]
     table = [
-        [r["variant"], *(format_value(r[k]) for k in keys), cell(r["steps_per_second"], "{:,.0f}"), cell(r["pairs"]),
-         cell(r["mujoco_contacts"]), cell(r["ellipsim_overlaps"]), cell(r["missed"]), cell(r["extra"]), cell(r["near_tangent"]),
-         cell(r["fallbacks"]), cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}")]
+        [
+            r["variant"],
+            *(format_value(r[k]) for k in keys),
+            cell(r["steps_per_second"], "{:,.0f}"),
+            cell(r["pairs"]),
+            cell(r["mujoco_contacts"]),
+            cell(r["ellipsim_overlaps"]),
+            cell(r["missed"]),
+            cell(r["extra"]),
+            cell(r["near_tangent"]),
+            cell(r["fallbacks"]),
+            cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}"),
+        ]
         + ([f"failed: {r['error']}"] if r["error"] else [])
         for r in rows[:ROWS_SHOWN]
-    ]  # fmt: skip
+    ]
     width = [max(len(str(row[k])) for row in [head, *table] if k < len(row)) for k in range(len(head))]
     lines = ["  " + "  ".join(f"{h:>{w}}" for h, w in zip(head, width))]
     for row in table:
-        lines.append("  " + "  ".join(f"{c:>{w}}" for c, w in zip(row, width)) + ("  " + row[-1] if len(row) > len(head) else ""))
+        lines.append(
+            "  " + "  ".join(f"{c:>{w}}" for c, w in zip(row, width)) + ("  " + row[-1] if len(row) > len(head) else "")
+        )
     if len(rows) > ROWS_SHOWN:
         lines.append(f"  ... and {len(rows) - ROWS_SHOWN} more")
     return lines
@@ -810,11 +891,17 @@ def plot_rows(rows, keys, path, *, title="sweep"):
         return rs[0][xkey] if numeric else position[text]
 
     panels = (
-        ("ellipsoid pairs in contact, all steps (plain MuJoCo pass)", (("mujoco_contacts", "-", "MuJoCo"), ("ellipsim_overlaps", "--", "exact"))),
-        ("disagreements with the exact test (plain MuJoCo pass)", (("missed", "-", "missed"), ("extra", "--", "extra"), ("near_tangent", ":", "near-tangent"))),
+        (
+            "ellipsoid pairs in contact, all steps (plain MuJoCo pass)",
+            (("mujoco_contacts", "-", "MuJoCo"), ("ellipsim_overlaps", "--", "exact")),
+        ),
+        (
+            "disagreements with the exact test (plain MuJoCo pass)",
+            (("missed", "-", "missed"), ("extra", "--", "extra"), ("near_tangent", ":", "near-tangent")),
+        ),
         ("steps per second (mode pass)", (("steps_per_second", "-", None),)),
         ("deepest penetration, mm (mode pass)", (("deepest_penetration", "-", None),)),
-    )  # fmt: skip
+    )
     fig = Figure(figsize=(11, 7), layout="constrained")
     axes = fig.subplots(2, 2, sharex=True)
     colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -834,9 +921,19 @@ def plot_rows(rows, keys, path, *, title="sweep"):
                 text = (label or None) if n == 0 else None  # the series once; the styles are in the title
                 if len(series) == 1:
                     text = what
-                ax.errorbar([x[k] for k in keep], mean, yerr=[lo, hi], fmt="o", ls=style if numeric else "none",
-                            color=colours[c % len(colours)], mfc="none" if style != "-" else None, capsize=3,
-                            label=text, ms=5, lw=1.2)  # fmt: skip
+                ax.errorbar(
+                    [x[k] for k in keep],
+                    mean,
+                    yerr=[lo, hi],
+                    fmt="o",
+                    ls=style if numeric else "none",
+                    color=colours[c % len(colours)],
+                    mfc="none" if style != "-" else None,
+                    capsize=3,
+                    label=text,
+                    ms=5,
+                    lw=1.2,
+                )
         styles = ", ".join(f"{what} {_STYLE[style]}" for _, style, what in columns_ if what)
         ax.set_title(name + (f"\n{styles}" if styles and len(series) > 1 else ""), fontsize=9)
         ax.grid(alpha=0.3)
@@ -851,7 +948,11 @@ def plot_rows(rows, keys, path, *, title="sweep"):
         elif all(isinstance(r[xkey], int) for r in rows):
             ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     failed = len(rows) - len(ok)
-    fig.suptitle(title + (f" ({failed} failed: see results.csv)" if failed else "") +
-                 ("; seeds: mean, bars min-max" if "seed" in keys and xkey != "seed" else ""), fontsize=10)  # fmt: skip
+    fig.suptitle(
+        title
+        + (f" ({failed} failed: see results.csv)" if failed else "")
+        + ("; seeds: mean, bars min-max" if "seed" in keys and xkey != "seed" else ""),
+        fontsize=10,
+    )
     fig.savefig(path, dpi=110)
     return path

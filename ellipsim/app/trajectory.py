@@ -60,15 +60,29 @@ class SceneGeometry:
 
     def __post_init__(self):
         B, G = len(self.body_names), len(self.geom_names)
-        _check_shapes(self, {
-            "body_parent": (B,), "body_pos": (B, 3), "body_quat": (B, 4), "geom_body": (G,), "geom_kind": (G,),
-            "geom_size": (G, 3), "geom_pos": (G, 3), "geom_quat": (G, 4), "geom_rgba": (G, 4),
-        })  # fmt: skip
+        _check_shapes(
+            self,
+            {
+                "body_parent": (B,),
+                "body_pos": (B, 3),
+                "body_quat": (B, 4),
+                "geom_body": (G,),
+                "geom_kind": (G,),
+                "geom_size": (G, 3),
+                "geom_pos": (G, 3),
+                "geom_quat": (G, 4),
+                "geom_rgba": (G, 4),
+            },
+        )
         if B < 1:
             raise ValueError("SceneGeometry.body_names must hold at least the world body")
-        for name, values, top in (("body_parent", self.body_parent, B), ("moving", self.moving, B),
-                                  ("geom_body", self.geom_body, B), ("ellipsoids", self.ellipsoids, G),
-                                  ("geom_kind", self.geom_kind, len(GEOM_KINDS))):  # fmt: skip
+        for name, values, top in (
+            ("body_parent", self.body_parent, B),
+            ("moving", self.moving, B),
+            ("geom_body", self.geom_body, B),
+            ("ellipsoids", self.ellipsoids, G),
+            ("geom_kind", self.geom_kind, len(GEOM_KINDS)),
+        ):
             values = np.asarray(values)
             bad = np.flatnonzero((values < 0) | (values >= top))
             if len(bad):
@@ -114,16 +128,29 @@ class Frames:
     def check(self, geometry):
         """ValueError naming the field when the shapes do not fit `geometry` or values are not finite."""
         f, M, g, K = len(self.frame), len(geometry.moving), len(geometry.ellipsoids), len(self.contact_frame)
-        _check_shapes(self, {
-            "times": (f,), "body_pos": (f, M, 3), "body_quat": (f, M, 4), "state": (f, g), "contact_pos": (K, 3),
-            "contact_normal": (K, 3), "contact_ellipsoids": (K,), "builtin_counts": (f,), "ellipsim_counts": (f,),
-            "touching_counts": (f,), "contact_counts": (f,),
-        })  # fmt: skip
+        _check_shapes(
+            self,
+            {
+                "times": (f,),
+                "body_pos": (f, M, 3),
+                "body_quat": (f, M, 4),
+                "state": (f, g),
+                "contact_pos": (K, 3),
+                "contact_normal": (K, 3),
+                "contact_ellipsoids": (K,),
+                "builtin_counts": (f,),
+                "ellipsim_counts": (f,),
+                "touching_counts": (f,),
+                "contact_counts": (f,),
+            },
+        )
         if f and np.any(np.diff(self.frame) != 1):
             raise ValueError("Frames.frame must be consecutive frame numbers")
         if K and not np.isin(self.contact_frame, self.frame).all():
             bad = np.flatnonzero(~np.isin(self.contact_frame, self.frame))[0]
-            raise ValueError(f"Frames.contact_frame[{bad}] must be one of the chunk's frames, got {self.contact_frame[bad]}")
+            raise ValueError(
+                f"Frames.contact_frame[{bad}] must be one of the chunk's frames, got {self.contact_frame[bad]}"
+            )
         state = np.asarray(self.state)
         bad = np.argwhere((state < 0) | (state > 2))
         if len(bad):

@@ -20,4 +20,3 @@ def stage(fn):
     """A per-pair stage of a kernel, inlined into its caller by numba (LLVM's heuristics would
     leave the larger ones as calls inside the pair loop)."""
     return numba.njit(inline="always", **_OPTIONS)(fn)
-

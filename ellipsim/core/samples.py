@@ -9,9 +9,9 @@ import math
 
 import numpy as np
 
+from .ellipsoids import Ellipsoids
 from .exact.classify import classify
 from .exact.contact_scale import contact_scale
-from .ellipsoids import Ellipsoids
 
 
 def random_ellipsoids(rng, n, *, box=0.75, radii=(0.1, 1.0)):
@@ -34,7 +34,9 @@ def generic_pairs(n, *, seed=0):
 
 def near_contact_pairs(n, *, band=0.1, seed=0):
     """n random pairs with |contact_scale - 1| < band: the pairs that need the full test."""
-    if not (isinstance(band, (int, float, np.floating, np.integer)) and not isinstance(band, bool) and 0 < band < math.inf):
+    if not (
+        isinstance(band, (int, float, np.floating, np.integer)) and not isinstance(band, bool) and 0 < band < math.inf
+    ):
         raise ValueError(f"band must be a positive finite number, got {band!r}")
     rng = np.random.default_rng(seed)
     keep_a, keep_b, total = [], [], 0
@@ -70,10 +72,25 @@ def _dyadic(rng, shape, lo=1, hi=64):
 
 
 STRESS = (
-    "near-tangent 1e-1", "near-tangent 1e-3", "near-tangent 1e-6", "near-tangent 1e-9", "near-tangent 1e-12",
-    "near-tangent 1e-15", "exactly tangent", "spheres", "coaxial spheroids", "identical and contained",
-    "aspect 1e2", "aspect 1e3", "aspect 1e4", "offset 1e3", "offset 1e5", "offset 1e7", "scale 1e-6", "scale 1e6",
-)  # fmt: skip
+    "near-tangent 1e-1",
+    "near-tangent 1e-3",
+    "near-tangent 1e-6",
+    "near-tangent 1e-9",
+    "near-tangent 1e-12",
+    "near-tangent 1e-15",
+    "exactly tangent",
+    "spheres",
+    "coaxial spheroids",
+    "identical and contained",
+    "aspect 1e2",
+    "aspect 1e3",
+    "aspect 1e4",
+    "offset 1e3",
+    "offset 1e5",
+    "offset 1e7",
+    "scale 1e-6",
+    "scale 1e6",
+)
 
 
 def stress_pairs(category, n, *, seed=0):
@@ -105,14 +122,19 @@ def stress_pairs(category, n, *, seed=0):
         off = np.where(np.arange(n) % 3 == 0, 0.0, sign * 2.0**-40)
         axis = _axis_frames(rng, n)[:, :, 0]
         c = axis * (ra + rb + off)[:, None]
-        return (Ellipsoids(np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.repeat(ra[:, None], 3, 1)),
-                Ellipsoids(c, np.tile(np.eye(3), (n, 1, 1)), np.repeat(rb[:, None], 3, 1)))  # fmt: skip
+        return (
+            Ellipsoids(np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.repeat(ra[:, None], 3, 1)),
+            Ellipsoids(c, np.tile(np.eye(3), (n, 1, 1)), np.repeat(rb[:, None], 3, 1)),
+        )
     if category == "coaxial spheroids":
         a0, a1, b0, b1 = (_dyadic(rng, n) for _ in range(4))
         rot = _axis_frames(rng, n)
         off = np.where(np.arange(n) % 3 == 0, 0.0, sign * 2.0**-40)
         c = rot[:, :, 0] * (a0 + b0 + off)[:, None]
-        return (Ellipsoids(np.zeros((n, 3)), rot, np.stack([a0, a1, a1], 1)), Ellipsoids(c, rot, np.stack([b0, b1, b1], 1)))
+        return (
+            Ellipsoids(np.zeros((n, 3)), rot, np.stack([a0, a1, a1], 1)),
+            Ellipsoids(c, rot, np.stack([b0, b1, b1], 1)),
+        )
     if category == "identical and contained":
         a = random_ellipsoids(rng, n)
         kind = np.arange(n) % 3
@@ -121,15 +143,23 @@ def stress_pairs(category, n, *, seed=0):
         tangent = kind == 2  # a sphere of radius r inside one of radius 2r, touching it from inside
         r = _dyadic(rng, n)
         eye = np.tile(np.eye(3), (n, 1, 1))
-        a = Ellipsoids(np.where(tangent[:, None], 0.0, a.centers), np.where(tangent[:, None, None], eye, a.rotations),
-                       np.where(tangent[:, None], 2 * r[:, None], a.radii))  # fmt: skip
-        b = Ellipsoids(np.where(tangent[:, None], np.stack([r, 0 * r, 0 * r], 1), b.centers),
-                       np.where(tangent[:, None, None], eye, b.rotations), np.where(tangent[:, None], r[:, None], b.radii))  # fmt: skip
+        a = Ellipsoids(
+            np.where(tangent[:, None], 0.0, a.centers),
+            np.where(tangent[:, None, None], eye, a.rotations),
+            np.where(tangent[:, None], 2 * r[:, None], a.radii),
+        )
+        b = Ellipsoids(
+            np.where(tangent[:, None], np.stack([r, 0 * r, 0 * r], 1), b.centers),
+            np.where(tangent[:, None, None], eye, b.rotations),
+            np.where(tangent[:, None], r[:, None], b.radii),
+        )
         return a, b
     if category.startswith("aspect"):
         big = float(category.split()[1])
         ra = np.column_stack([np.full(n, big), np.ones(n), rng.uniform(1, 3, n)]) * rng.uniform(0.5, 2, (n, 1))
-        rb = np.column_stack([rng.uniform(1, 3, n), np.full(n, 1 / big) * big / 10, np.ones(n)]) * rng.uniform(0.5, 2, (n, 1))
+        rb = np.column_stack([rng.uniform(1, 3, n), np.full(n, 1 / big) * big / 10, np.ones(n)]) * rng.uniform(
+            0.5, 2, (n, 1)
+        )
         a = Ellipsoids.from_quaternions(np.zeros((n, 3)), rng.normal(size=(n, 4)), ra / big)
         b = Ellipsoids.from_quaternions(rng.normal(size=(n, 3)), rng.normal(size=(n, 4)), rb / big)
         return a, _move_to_scale(a, b, 1.0 + sign * 1e-6)
@@ -139,5 +169,8 @@ def stress_pairs(category, n, *, seed=0):
     if category.startswith("offset"):
         shift = rng.normal(size=(n, 3))
         shift *= k / np.linalg.norm(shift, axis=1, keepdims=True)
-        return (Ellipsoids(a.centers + shift, a.rotations, a.radii), Ellipsoids(b.centers + shift, b.rotations, b.radii))
+        return (
+            Ellipsoids(a.centers + shift, a.rotations, a.radii),
+            Ellipsoids(b.centers + shift, b.rotations, b.radii),
+        )
     return (Ellipsoids(a.centers * k, a.rotations, a.radii * k), Ellipsoids(b.centers * k, b.rotations, b.radii * k))

@@ -1,6 +1,5 @@
 """Every tolerance and threshold of ellipsim, each with where its number comes from."""
 
-
 #: Unit roundoff of float64 (round to nearest): |fl(x op y) - x op y| <= U |x op y|.
 U = 2.0**-53
 

@@ -10,8 +10,8 @@ the compiled callbacks read per process; geom type codes and PAIR_TYPES, the pai
 handles), publish (filling the context, publishing it to LLVM's linker), callbacks (the cfuncs),
 nativecache (their machine code, cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
 (installing them for one data), geoms (ellipsoid geoms and candidate pairs), between (contacts that
-begin and end between two frames or steps), validate, compare, scenes (MJCF builders: figures, piles,
-chains, capsule twins).
+begin and end between two frames or steps), validate, compare.  The scene builders live in
+ellipsim.app.scenes: they import nothing of this glue.
 
 `attach` is imported with the package; the rest on first use (PEP 562), so that attaching from a
 warm cache imports neither numba nor the geometry core.
@@ -25,9 +25,13 @@ from .attachment import MODES, Attachment, attach
 
 _LAZY = {
     "candidate_pairs": "geoms",
-    "validate": "validate", "Validation": "validate", "Disagreement": "validate",
-    "compare_narrowphase": "compare", "NarrowphaseComparison": "compare", "ContactDifference": "compare",
-}  # fmt: skip
+    "validate": "validate",
+    "Validation": "validate",
+    "Disagreement": "validate",
+    "compare_narrowphase": "compare",
+    "NarrowphaseComparison": "compare",
+    "ContactDifference": "compare",
+}
 
 __all__ = ["MODES", "Attachment", "attach", *_LAZY]
 

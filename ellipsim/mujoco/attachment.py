@@ -20,9 +20,22 @@ import numpy as np
 
 from . import nativecache, structs
 from .context import (
-    APART, CONTACTS, FALLBACKS, FILTER, FILTER_PAIR_TYPES, MAX_ATTACHED, NARROW, NCOUNTERS, PAIR_TYPES, RECORD, REGISTRY,
-    SEPARATED, WARM_ADDRESS, WARM_MASK, WARM_SLOT_WORDS,
-)  # fmt: skip
+    APART,
+    CONTACTS,
+    FALLBACKS,
+    FILTER,
+    FILTER_PAIR_TYPES,
+    MAX_ATTACHED,
+    NARROW,
+    NCOUNTERS,
+    PAIR_TYPES,
+    RECORD,
+    REGISTRY,
+    SEPARATED,
+    WARM_ADDRESS,
+    WARM_MASK,
+    WARM_SLOT_WORDS,
+)
 
 MODES = ("filter", "narrowphase")
 _lock = threading.Lock()
@@ -91,8 +104,11 @@ def _claim_slot(attachment):
     slot = int(free[0]) + 1
     a = attachment
     REGISTRY[slot, 1:WARM_ADDRESS] = (
-        a._counters.ctypes.data, _MODE_CODE[a.mode], a._pairs.ctypes.data, len(a._pairs) if a.mode == "record" else 0
-    )  # fmt: skip
+        a._counters.ctypes.data,
+        _MODE_CODE[a.mode],
+        a._pairs.ctypes.data,
+        len(a._pairs) if a.mode == "record" else 0,
+    )
     REGISTRY[slot, WARM_ADDRESS] = a._warm.ctypes.data
     REGISTRY[slot, WARM_MASK] = len(a._warm) - 1 if len(a._warm) > 1 else 0
     REGISTRY[slot, 0] = a.data._address

@@ -22,13 +22,13 @@ import math
 
 import numpy as np
 
-from ..core.motion.broad_phase import swept_pairs as broadphase_swept_pairs
-from ..core.exact.classify import classify
 from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids, orthonormality_defect
+from ..core.exact.classify import classify
+from ..core.motion.broad_phase import swept_pairs as broadphase_swept_pairs
 from ..core.motion.interpolation import poses_at
-from ..core.relation import Relation
 from ..core.motion.time_of_impact import Impact, time_of_impact
+from ..core.relation import Relation
 from ..core.tolerances import BOUNDING_INFLATION, HALF_TURN_TOL, ORTHONORMAL_TOL
 
 #: A geom turning by more than pi - HALF_TURN_MARGIN between two frames has no well-defined
@@ -72,8 +72,17 @@ class Events:
 
     @classmethod
     def empty(cls):
-        return cls(np.zeros(0, dtype=np.int64), np.zeros((0, 2), dtype=np.int64), np.zeros(0), np.zeros(0),
-                   np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int8), np.zeros(0, dtype=bool), np.zeros((0, 3)))  # fmt: skip
+        return cls(
+            np.zeros(0, dtype=np.int64),
+            np.zeros((0, 2), dtype=np.int64),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0, dtype=np.int8),
+            np.zeros(0, dtype=bool),
+            np.zeros((0, 3)),
+        )
 
     @classmethod
     def concatenate(cls, parts):
@@ -138,8 +147,10 @@ class BetweenFrames:
         wrong = np.flatnonzero(defect > ORTHONORMAL_TOL)
         if len(wrong):
             f, x = divmod(int(wrong[0]), g)
-            raise ValueError(f"rotations of geom {x} at frame {frames[f]} must be orthonormal: max |R^T R - I| = "
-                             f"{defect[wrong[0]]:.3g} exceeds the tolerance {ORTHONORMAL_TOL:g}")  # fmt: skip
+            raise ValueError(
+                f"rotations of geom {x} at frame {frames[f]} must be orthonormal: max |R^T R - I| = "
+                f"{defect[wrong[0]]:.3g} exceeds the tolerance {ORTHONORMAL_TOL:g}"
+            )
 
     def check(self, frames, times, centers, rotations, contacts=None):
         """Events of the steps into and within these frames.
@@ -160,10 +171,16 @@ class BetweenFrames:
         if rotations.ndim == 3 and rotations.shape[-1] == 9:  # MuJoCo's xmat rows
             rotations = rotations.reshape(*rotations.shape[:2], 3, 3)
         g = len(self.radii)
-        if centers.shape != (len(frames), g, 3) or rotations.shape != (len(frames), g, 3, 3) or times.shape != frames.shape:
-            raise ValueError(f"centers, rotations and times must have shapes ({len(frames)}, {g}, 3), ({len(frames)}, {g}, 3, 3) "
-                             f"and ({len(frames)},) for {len(frames)} frames of {g} geoms, got {centers.shape}, "
-                             f"{rotations.shape} and {times.shape}")  # fmt: skip
+        if (
+            centers.shape != (len(frames), g, 3)
+            or rotations.shape != (len(frames), g, 3, 3)
+            or times.shape != frames.shape
+        ):
+            raise ValueError(
+                f"centers, rotations and times must have shapes ({len(frames)}, {g}, 3), ({len(frames)}, {g}, 3, 3) "
+                f"and ({len(frames)},) for {len(frames)} frames of {g} geoms, got {centers.shape}, "
+                f"{rotations.shape} and {times.shape}"
+            )
         classify_ends = contacts is None
         contacts = np.zeros((0, 3), dtype=np.int64) if contacts is None else np.asarray(contacts, dtype=np.int64)
         if len(frames) == 0:
@@ -171,7 +188,13 @@ class BetweenFrames:
         last = self._last
         if last is not None and frames[0] != last[0] + 1:
             raise ValueError(f"frames must continue at frame {last[0] + 1}, got frame {frames[0]}")
-        self._last = (frames[-1], times[-1], centers[-1].copy(), rotations[-1].copy(), contacts[contacts[:, 0] == frames[-1], 1:])
+        self._last = (
+            frames[-1],
+            times[-1],
+            centers[-1].copy(),
+            rotations[-1].copy(),
+            contacts[contacts[:, 0] == frames[-1], 1:],
+        )
         if last is not None:
             frames = np.r_[last[0], frames]
             times = np.r_[last[1], times]
@@ -183,7 +206,9 @@ class BetweenFrames:
         bad = ~(np.isfinite(centers).all(axis=2) & np.isfinite(rotations).all(axis=(2, 3)))
         if bad.any():
             f, x = np.argwhere(bad)[0]
-            raise ValueError(f"centers and rotations must be finite, got a non-finite pose of geom {x} at frame {frames[f]}")
+            raise ValueError(
+                f"centers and rotations must be finite, got a non-finite pose of geom {x} at frame {frames[f]}"
+            )
         pairs = swept_pairs(centers, rotations, self.radii, self.rules, self._matrix)
         if len(contacts):  # drop pairs touching at either end of their step
             first = frames[0]
@@ -201,8 +226,11 @@ class BetweenFrames:
         # the four poses of every pair in one batch (validated once: finite, orthonormal rotations)
         rows = np.concatenate([s * g + i, (s + 1) * g + i, s * g + j, (s + 1) * g + j])
         try:
-            every = Ellipsoids(np.take(centers.reshape(-1, 3), rows, axis=0), np.take(rotations.reshape(-1, 3, 3), rows, axis=0),
-                               np.take(self.radii, np.concatenate([i, i, j, j]), axis=0))  # fmt: skip
+            every = Ellipsoids(
+                np.take(centers.reshape(-1, 3), rows, axis=0),
+                np.take(rotations.reshape(-1, 3, 3), rows, axis=0),
+                np.take(self.radii, np.concatenate([i, i, j, j]), axis=0),
+            )
         except ValueError:
             self._explain(frames, rotations)
             raise
@@ -244,11 +272,15 @@ class BetweenFrames:
         frac_end = np.r_[t_end, np.ones(len(h))]
         dt = times[step + 1] - times[step]
         events = Events(
-            frame=frames[step], pair=np.column_stack([np.r_[i_ok[hit], ih], np.r_[j_ok[hit], jh]]).astype(np.int64),
-            toi=frac_begin, begin=times[step] + frac_begin * dt, end=times[step] + frac_end * dt, until=times[step + 1],
+            frame=frames[step],
+            pair=np.column_stack([np.r_[i_ok[hit], ih], np.r_[j_ok[hit], jh]]).astype(np.int64),
+            toi=frac_begin,
+            begin=times[step] + frac_begin * dt,
+            end=times[step] + frac_end * dt,
+            until=times[step + 1],
             status=np.r_[status[hit], np.full(len(h), Impact.UNRESOLVED)].astype(np.int8),
             half_turn=np.r_[np.zeros(len(hit), dtype=bool), np.ones(len(h), dtype=bool)],
             point=np.concatenate([point, mid_h]).reshape(-1, 3),
-        )  # fmt: skip
+        )
         order = np.lexsort((events.pair[:, 1], events.pair[:, 0], events.toi, events.frame))
         return Events(*(getattr(events, f.name)[order] for f in dataclasses.fields(Events)))

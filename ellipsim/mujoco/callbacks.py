@@ -58,23 +58,61 @@ from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
 from ..core._jit import jit
-from ..core.pairs import box, capsule, cylinder
-from ..core.exact.certified_filter import bounding_spheres_apart, separated_by_axes
 from ..core.distance.ellipsoid_pair import GLOBAL, contact_at, pair_signed_distance_from, sigma_lower_bound
+from ..core.exact.certified_filter import bounding_spheres_apart, separated_by_axes
+from ..core.pairs import box, capsule, cylinder
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
 from ..core.vec3 import norm2
 from .context import (
-    APART, BOX, CAPSULE, CONTACTS, CYLINDER, DATA_WORDS, DISCARDED, ELLIPSOID, FALLBACK_BOX, FALLBACK_CAPSULE,
-    FALLBACK_CYLINDER, FALLBACK_ELLIPSOID, FALLBACK_SPHERE, FALLBACKS, FILTER, PAIR_TYPES,
-    MODEL_WORDS, NARROW, OVERRIDE, PASSED, PRECONTACT_WORDS, RECORD, RECORDED, REGISTRY_ADDRESS, REGISTRY_COLUMNS,
-    REGISTRY_ROWS, SEEN, SEPARATED, SPECULATIVE, SPHERE, SYMBOL, WARM_ADDRESS, WARM_EPOCH, WARM_JUMP, WARM_MASK,
-    WARM_SLOT_WORDS, WARM_TIME, WORDS,
-)  # fmt: skip
+    APART,
+    BOX,
+    CAPSULE,
+    CONTACTS,
+    CYLINDER,
+    DATA_WORDS,
+    DISCARDED,
+    ELLIPSOID,
+    FALLBACK_BOX,
+    FALLBACK_CAPSULE,
+    FALLBACK_CYLINDER,
+    FALLBACK_ELLIPSOID,
+    FALLBACK_SPHERE,
+    FALLBACKS,
+    FILTER,
+    MODEL_WORDS,
+    NARROW,
+    OVERRIDE,
+    PAIR_TYPES,
+    PASSED,
+    PRECONTACT_WORDS,
+    RECORD,
+    RECORDED,
+    REGISTRY_ADDRESS,
+    REGISTRY_COLUMNS,
+    REGISTRY_ROWS,
+    SEEN,
+    SEPARATED,
+    SPECULATIVE,
+    SPHERE,
+    SYMBOL,
+    WARM_ADDRESS,
+    WARM_EPOCH,
+    WARM_JUMP,
+    WARM_MASK,
+    WARM_SLOT_WORDS,
+    WARM_TIME,
+    WORDS,
+)
 
 _TYPE, _CONTYPE, _CONAFF = MODEL_WORDS["geom_type"], MODEL_WORDS["geom_contype"], MODEL_WORDS["geom_conaffinity"]
 _SIZE, _MARGIN, _GAP = MODEL_WORDS["geom_size"], MODEL_WORDS["geom_margin"], MODEL_WORDS["geom_gap"]
 _CCD, _OMARGIN, _ENABLE = MODEL_WORDS["opt.ccd_tolerance"], MODEL_WORDS["opt.o_margin"], MODEL_WORDS["opt.enableflags"]
-_XPOS, _XMAT, _TIME, _STEP = DATA_WORDS["geom_xpos"], DATA_WORDS["geom_xmat"], DATA_WORDS["time"], MODEL_WORDS["opt.timestep"]
+_XPOS, _XMAT, _TIME, _STEP = (
+    DATA_WORDS["geom_xpos"],
+    DATA_WORDS["geom_xmat"],
+    DATA_WORDS["time"],
+    MODEL_WORDS["opt.timestep"],
+)
 _DIST, _POS, _NORMAL, _TANGENT = (PRECONTACT_WORDS[k] for k in ("dist", "pos", "normal", "tangent"))
 
 # --- numba intrinsics: the context, typed pointers from addresses, atomics, calls through pointers
@@ -174,7 +212,17 @@ def _geom(xpos, xmat, size, g):
     """Geom g as (centre, rotation row-major, geom_size) tuples (vec3.load layout)."""
     c = (xpos[3 * g], xpos[3 * g + 1], xpos[3 * g + 2])
     k = 9 * g
-    R = (xmat[k], xmat[k + 1], xmat[k + 2], xmat[k + 3], xmat[k + 4], xmat[k + 5], xmat[k + 6], xmat[k + 7], xmat[k + 8])
+    R = (
+        xmat[k],
+        xmat[k + 1],
+        xmat[k + 2],
+        xmat[k + 3],
+        xmat[k + 4],
+        xmat[k + 5],
+        xmat[k + 6],
+        xmat[k + 7],
+        xmat[k + 8],
+    )
     return c, R, (size[3 * g], size[3 * g + 1], size[3 * g + 2])
 
 
@@ -380,7 +428,10 @@ def narrowphase(m, d, con, g1, g2, margin):
             k = _warm_find(table, first, key, epoch)
             if k >= 0:  # the last normal extrapolated by the one before (smooth motion: 1.0-1.3
                 # Newton steps on the bench's settled scenes, 2.0 from the last normal alone)
-                last, before = (normals[k, 1], normals[k, 2], normals[k, 3]), (normals[k, 4], normals[k, 5], normals[k, 6])
+                last, before = (
+                    (normals[k, 1], normals[k, 2], normals[k, 3]),
+                    (normals[k, 4], normals[k, 5], normals[k, 6]),
+                )
                 seed = (2.0 * last[0] - before[0], 2.0 * last[1] - before[1], 2.0 * last[2] - before[2])
                 touching = (table[k, 0] & 1) == 1
         if not touching:  # in contact at the last call: most likely still, go straight to Newton
@@ -432,7 +483,8 @@ def narrowphase(m, d, con, g1, g2, margin):
 CALLBACKS = {
     "filter": (contact_filter, types.intc(types.voidptr, types.voidptr, types.intc, types.intc)),
     "narrowphase": (
-        narrowphase, types.intc(types.voidptr, types.voidptr, types.voidptr, types.intc, types.intc, types.float64)
+        narrowphase,
+        types.intc(types.voidptr, types.voidptr, types.voidptr, types.intc, types.intc, types.float64),
     ),
 }
 
@@ -467,7 +519,9 @@ def _wrapper_for(kind, pyfunc, original):
             return original(library, fndesc, env, call_helper)  # a callee compiled on the way
         target = _target_context()
         module = target.create_module("ellipsim_cfunc_wrapper")
-        callee = ir.Function(module, target.call_conv.get_function_type(fndesc.restype, fndesc.argtypes), fndesc.llvm_func_name)
+        callee = ir.Function(
+            module, target.call_conv.get_function_type(fndesc.restype, fndesc.argtypes), fndesc.llvm_func_name
+        )
         argtys = [target.get_value_type(ty) for ty in fndesc.argtypes]
         wrapty = ir.FunctionType(target.get_value_type(fndesc.restype), argtys)
         wrapfn = ir.Function(module, wrapty, fndesc.llvm_cfunc_wrapper_name)
@@ -482,7 +536,9 @@ def _wrapper_for(kind, pyfunc, original):
                 ct1, ct2 = (_geom_int(builder, ctx, m, _CONTYPE, g) for g in (g1, g2))
                 ca1, ca2 = (_geom_int(builder, ctx, m, _CONAFF, g) for g in (g1, g2))
                 both = builder.or_(builder.and_(ct1, ca2), builder.and_(ct2, ca1))
-                builder.ret(builder.zext(builder.icmp_signed("==", both, ir.Constant(ir.IntType(32), 0)), ir.IntType(32)))
+                builder.ret(
+                    builder.zext(builder.icmp_signed("==", both, ir.Constant(ir.IntType(32), 0)), ir.IntType(32))
+                )
             else:  # MuJoCo's own function for this pair: the fallback word of its row of PAIR_TYPES
                 t1, t2 = _geom_int(builder, ctx, m, _TYPE, g1), _geom_int(builder, ctx, m, _TYPE, g2)
                 i32 = ir.IntType(32)

@@ -217,7 +217,10 @@ def _referee(model, data, step, key, names, mj, el, threshold, explicit):
             f"and its normal reaches only sigma {s_mj:.9g} (ccd_tolerance {model.opt.ccd_tolerance:g})"
         )
     elif not (mj and el):
-        right, reason = "undetermined", f"contact on one side only, no proof in budget: sigma {s_el:.9g} against threshold {threshold:g}"
+        right, reason = (
+            "undetermined",
+            f"contact on one side only, no proof in budget: sigma {s_el:.9g} against threshold {threshold:g}",
+        )
     elif mj and mj[0] < s_el - eps:
         right = "ellipsim"
         reason = (
@@ -226,6 +229,21 @@ def _referee(model, data, step, key, names, mj, el, threshold, explicit):
         )
     else:
         right, reason = "undetermined", f"deep penetration, no proof in budget: sigma {s_el:.9g}"
-    return ContactDifference(step, g1, g2, (names[g1], names[g2]), mj, el, ddist, angle, dpos, s_mj, s_el, proven, right, reason,
-                             threshold, explicit)  # fmt: skip
-
+    return ContactDifference(
+        step,
+        g1,
+        g2,
+        (names[g1], names[g2]),
+        mj,
+        el,
+        ddist,
+        angle,
+        dpos,
+        s_mj,
+        s_el,
+        proven,
+        right,
+        reason,
+        threshold,
+        explicit,
+    )

@@ -33,9 +33,17 @@ REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 
 FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER = 15, 16, 17
 #: pointer fields (the word at the offset holds the array's address) and, dotted, mjOption scalars
 MODEL_WORDS = {
-    "geom_type": 4, "geom_contype": 5, "geom_conaffinity": 6, "geom_size": 7, "geom_margin": 8, "geom_gap": 9,
-    "opt.ccd_tolerance": 10, "opt.o_margin": 11, "opt.enableflags": 12, "opt.timestep": 19,
-}  # fmt: skip
+    "geom_type": 4,
+    "geom_contype": 5,
+    "geom_conaffinity": 6,
+    "geom_size": 7,
+    "geom_margin": 8,
+    "geom_gap": 9,
+    "opt.ccd_tolerance": 10,
+    "opt.o_margin": 11,
+    "opt.enableflags": 12,
+    "opt.timestep": 19,
+}
 #: pointer fields, and "time", a scalar (the word at the offset is the float64 itself)
 DATA_WORDS = {"geom_xpos": 13, "geom_xmat": 14, "time": 18}
 WORDS = 20
@@ -75,9 +83,12 @@ WARM_SLOT_WORDS = 8
 
 # MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
 SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
-    int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
-    int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_BOX),
-)  # fmt: skip
+    int(mujoco.mjtGeom.mjGEOM_SPHERE),
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE),
+    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER),
+    int(mujoco.mjtGeom.mjGEOM_BOX),
+)
 
 
 class PairType(NamedTuple):
@@ -104,7 +115,9 @@ class PairType(NamedTuple):
 #: table though capsule pairs start cold: kept, as the table's size decides which pairs share a set,
 #: and so the trajectories.
 PAIR_TYPES = (
-    PairType("ellipsoid x ellipsoid", ELLIPSOID, ELLIPSOID, FALLBACK_ELLIPSOID, True, True, "core.distance.ellipsoid_pair"),
+    PairType(
+        "ellipsoid x ellipsoid", ELLIPSOID, ELLIPSOID, FALLBACK_ELLIPSOID, True, True, "core.distance.ellipsoid_pair"
+    ),
     PairType("sphere x ellipsoid", SPHERE, ELLIPSOID, FALLBACK_SPHERE, True, True, "core.distance.ellipsoid_pair"),
     PairType("capsule x ellipsoid", CAPSULE, ELLIPSOID, FALLBACK_CAPSULE, False, True, "core.pairs.capsule"),
     PairType("ellipsoid x box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.pairs.box"),

@@ -19,10 +19,10 @@ filterCollisionPair, mj_narrowphase, mj_setContact; checked on the 4.0.0 wheel):
 import mujoco
 import numpy as np
 
-from ..core.motion.broad_phase import sweep_and_prune
-from ..core.exact.classify import classify
 from ..core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ..core.ellipsoids import Ellipsoids, orthonormality_defect
+from ..core.exact.classify import classify
+from ..core.motion.broad_phase import sweep_and_prune
 from ..core.relation import Relation
 from ..core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
 from .attachment import Attachment, check_model_data

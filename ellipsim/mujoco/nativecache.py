@@ -1,7 +1,7 @@
 """The callbacks' machine code: cached across processes and loaded without numba.
 
-numba compiles the callbacks (callbacks.py) in 2.1 s (filter) and 8.5 s (narrowphase) of CPU on
-the 2-core VM (3.1 s and 10.3 s of wall time; ellipsim/app/bench/startup.py), and its own cache cannot make a later process fast: a numba cache hit still pays
+numba compiles the callbacks (callbacks.py) once per machine and platform (how long: the bench report's
+start-up section, bench/results/suite/report.md), and its own cache cannot make a later process fast: a numba cache hit still pays
 `import numba` and its target initialisation (0.6 s at best, measured in the start-up prototype: it
 imports scipy.linalg), and its keys miss callees in other files and MuJoCo's version.  So after a
 compile ellipsim writes the relocatable object code to cache_dir(), and a later process links it
@@ -49,9 +49,12 @@ KINDS = ("filter", "narrowphase")
 FORMAT = 1  # of a .code file; part of every key
 CACHE_ENV, PREBUILT_ENV = "ELLIPSIM_CACHE_DIR", "ELLIPSIM_PREBUILT_DIR"
 NOTICE_PREFIX = "ellipsim: compiling the"
-#: for the notice: wall time of a compile from empty caches, median of 3 on the 2-core VM (numba
-#: 0.68.1, ellipsim/app/bench/startup.py; 2.1 s and 8.5 s of CPU)
-COMPILE_SECONDS = {"filter": "~3 s", "narrowphase": "~1 min"}  # measured on the 2-core VM: 2.3 s, 51 s (bench section 6)
+#: for the notice: wall time of a compile from empty caches, rounded from the bench report's start-up
+#: section (bench/results/suite/report.md, 'cold' rows; ellipsim/app/bench/startup.py measures it)
+COMPILE_SECONDS = {
+    "filter": "~3 s",
+    "narrowphase": "~3 min",
+}
 _CTYPES = {
     "filter": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int),
     "narrowphase": ctypes.CFUNCTYPE(
@@ -84,7 +87,7 @@ class Function:
 
 def function(kind):
     """The callback `kind` ("filter" or "narrowphase"), with the context filled: from the cache, a
-    prebuilt object, or compiled once (~1 min for the narrow phase, announced on the log)."""
+    prebuilt object, or compiled once (announced on the log with COMPILE_SECONDS)."""
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     with _lock:
@@ -105,8 +108,10 @@ def _obtain(kind):
         return Function(kind, address, "prebuilt")
     _log.warning(
         NOTICE_PREFIX + " %s callback for this machine (%s, first run only; cached in %s)",
-        kind, COMPILE_SECONDS[kind], path.parent,
-    )  # fmt: skip
+        kind,
+        COMPILE_SECONDS[kind],
+        path.parent,
+    )
     from . import callbacks
 
     code = callbacks.compile_callback(kind)
@@ -135,7 +140,9 @@ def kernel_sources():
 # An import statement, multi-line parenthesised names included.  Read line by line, not with `ast`
 # (~8 ms a file, 0.1 s for the kernels' 12), erring towards more files: any import outside a
 # top-level def or class counts, even inside a top-level if or try.
-_IMPORT = re.compile(r"^[ \t]*(?:from[ \t]+(\.*)([\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#;]*)|import[ \t]+([^\n#;]*))", re.M)
+_IMPORT = re.compile(
+    r"^[ \t]*(?:from[ \t]+(\.*)([\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#;]*)|import[ \t]+([^\n#;]*))", re.M
+)
 _DEF = re.compile(r"(?:async[ \t]+def|def|class)\b|@")
 _TOP = re.compile(r"^[^\s#]", re.M)
 
@@ -209,10 +216,18 @@ def host_key(kind):
 
     numba_env = sorted(f"{k}={v}" for k, v in os.environ.items() if k.startswith("NUMBA_") and k not in _NUMBA_NEUTRAL)
     return [
-        f"format {FORMAT}", SYMBOL, kind, sources_digest(), structs.layout()["key"], "host",
-        f"numba {_numba_version()}", f"llvmlite {llvmlite.__version__}", "llvm {}.{}.{}".format(*llb.llvm_version_info),
-        *_target(), *numba_env,
-    ]  # fmt: skip
+        f"format {FORMAT}",
+        SYMBOL,
+        kind,
+        sources_digest(),
+        structs.layout()["key"],
+        "host",
+        f"numba {_numba_version()}",
+        f"llvmlite {llvmlite.__version__}",
+        "llvm {}.{}.{}".format(*llb.llvm_version_info),
+        *_target(),
+        *numba_env,
+    ]
 
 
 def portable_key(kind):
@@ -222,7 +237,15 @@ def portable_key(kind):
     not matter."""
     import llvmlite.binding as llb
 
-    return [f"format {FORMAT}", SYMBOL, kind, sources_digest(), structs.layout()["key"], "generic", llb.get_process_triple()]
+    return [
+        f"format {FORMAT}",
+        SYMBOL,
+        kind,
+        sources_digest(),
+        structs.layout()["key"],
+        "generic",
+        llb.get_process_triple(),
+    ]
 
 
 def cache_dir():
@@ -304,7 +327,9 @@ def load(path, parts):
         llb.initialize_native_target()
         llb.initialize_native_asmprinter()
         triple, cpu, features = _target()
-        machine = llb.Target.from_triple(triple).create_target_machine(cpu=cpu, features=features, codemodel="jitdefault")
+        machine = llb.Target.from_triple(triple).create_target_machine(
+            cpu=cpu, features=features, codemodel="jitdefault"
+        )
         engine = llb.create_mcjit_compiler(llb.parse_assembly(""), machine)  # also makes libc/libm resolvable
         if _unresolved(header["undefined"]):
             return None  # finalising would abort the process inside LLVM: compile instead
@@ -339,8 +364,10 @@ def _publish_numba_helpers(names):
     if spec is None or not spec.origin:
         return
     root = pathlib.Path(spec.origin).parent
-    tables = (("numba._helperlib", root, lambda n: "numba_" + n),
-              ("numba.core.runtime._nrt_python", root / "core" / "runtime", lambda n: n if n.startswith("_") else "NRT_" + n))  # fmt: skip
+    tables = (
+        ("numba._helperlib", root, lambda n: "numba_" + n),
+        ("numba.core.runtime._nrt_python", root / "core" / "runtime", lambda n: n if n.startswith("_") else "NRT_" + n),
+    )
     for module_name, folder, c_name in tables:
         try:
             module = sys.modules.get(module_name) or _extension(module_name, folder)

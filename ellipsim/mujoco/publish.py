@@ -25,7 +25,9 @@ def publish_context():
 
         existing = llb.address_of_symbol(SYMBOL)
         if existing is not None and existing != CONTEXT.ctypes.data:
-            raise RuntimeError(f"{SYMBOL} is already defined in this process, at {existing:#x}: two copies of ellipsim?")
+            raise RuntimeError(
+                f"{SYMBOL} is already defined in this process, at {existing:#x}: two copies of ellipsim?"
+            )
         llb.add_symbol(SYMBOL, CONTEXT.ctypes.data)
         _state["published"] = True
 

@@ -39,11 +39,21 @@ TESTED = (4000000, 4001000)
 UNTESTED_ENV = "ELLIPSIM_UNTESTED_MUJOCO"
 
 _SCALARS = {
-    "mjtNum": ctypes.c_double, "double": ctypes.c_double, "float": ctypes.c_float, "int": ctypes.c_int,
-    "unsigned int": ctypes.c_uint, "char": ctypes.c_char, "unsigned char": ctypes.c_ubyte,
-    "mjtByte": ctypes.c_ubyte, "mjtBool": ctypes.c_bool, "mjtSize": ctypes.c_int64, "size_t": ctypes.c_size_t,
-    "uintptr_t": ctypes.c_size_t, "uint64_t": ctypes.c_uint64, "int64_t": ctypes.c_int64,
-}  # fmt: skip
+    "mjtNum": ctypes.c_double,
+    "double": ctypes.c_double,
+    "float": ctypes.c_float,
+    "int": ctypes.c_int,
+    "unsigned int": ctypes.c_uint,
+    "char": ctypes.c_char,
+    "unsigned char": ctypes.c_ubyte,
+    "mjtByte": ctypes.c_ubyte,
+    "mjtBool": ctypes.c_bool,
+    "mjtSize": ctypes.c_int64,
+    "size_t": ctypes.c_size_t,
+    "uintptr_t": ctypes.c_size_t,
+    "uint64_t": ctypes.c_uint64,
+    "int64_t": ctypes.c_int64,
+}
 _READ = {"ptr": ctypes.c_void_p, "i32": ctypes.c_int32, "i64": ctypes.c_int64, "f64": ctypes.c_double}
 
 _PROBE = """<mujoco><worldbody>
@@ -270,7 +280,9 @@ def _scan_words(base, fmt, wanted):
             found[wanted[value]] = off
             if len(found) == len(wanted):
                 return found
-    raise LayoutError(f"mujoco {mujoco.__version__}: fields {sorted(set(wanted.values()) - set(found))} not found by the scan")
+    raise LayoutError(
+        f"mujoco {mujoco.__version__}: fields {sorted(set(wanted.values()) - set(found))} not found by the scan"
+    )
 
 
 def scan():
@@ -314,7 +326,11 @@ def collision_table():
 
 if __name__ == "__main__":
     lay = checked_layout()
-    print(f"mujoco {mujoco.__version__}: sizeof(mjModel) {lay['sizeof']['mjModel']}, sizeof(mjData) "
-          f"{lay['sizeof']['mjData']}, {verify(*_probe())} fields verified against the bindings; key {lay['key']}")  # fmt: skip
+    print(
+        f"mujoco {mujoco.__version__}: sizeof(mjModel) {lay['sizeof']['mjModel']}, sizeof(mjData) "
+        f"{lay['sizeof']['mjData']}, {verify(*_probe())} fields verified against the bindings; key {lay['key']}"
+    )
     for struct, name, mine, scanned in compare_with_scan():
-        print(f"  {struct:5s} {name:20s} introspection {mine:6d}  scan {scanned:6d}  {'ok' if mine == scanned else 'MISMATCH'}")
+        print(
+            f"  {struct:5s} {name:20s} introspection {mine:6d}  scan {scanned:6d}  {'ok' if mine == scanned else 'MISMATCH'}"
+        )

@@ -12,9 +12,16 @@ from ..core.relation import Relation
 from .attachment import check_model_data
 from .between import BetweenFrames, Events
 from .geoms import (
-    PairRecorder, ellipsoid_geoms, enclosing, explicit_pairs, pair_contact_dist, pair_gaps, pair_margins, proof_tolerance,
+    PairRecorder,
+    ellipsoid_geoms,
+    enclosing,
+    explicit_pairs,
+    pair_contact_dist,
+    pair_gaps,
+    pair_margins,
+    proof_tolerance,
     within_threshold,
-)  # fmt: skip
+)
 
 #: Values (float64) of ellipsoid poses `validate` holds before looking between the steps: 2^22 = 32 MB
 #: (12 per ellipsoid and step; at most 1024 steps at a time).
@@ -116,7 +123,9 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
                 centers[held], rotations[held], times[held] = data.geom_xpos[ids], data.geom_xmat[ids], data.time
                 held += 1
                 if held == capacity or step == nstep - 1:
-                    events.append(checker.check(np.arange(first, first + held), times[:held], centers[:held], rotations[:held]))
+                    events.append(
+                        checker.check(np.arange(first, first + held), times[:held], centers[:held], rotations[:held])
+                    )
                     first, held = first + held, 0
             if len(pairs):
                 margin, gap = pair_margins(model, pairs), pair_gaps(model, pairs)
@@ -127,15 +136,33 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
                 n_open[step] = int((~decided).sum())
                 for i in np.flatnonzero(mj != el):
                     g1, g2 = int(pairs[i, 0]), int(pairs[i, 1])
-                    facts = (bool(mj[i]), dist[i], relation[i], margin[i], gap[i], sd[i], bool(decided[i]), bool(explicit[i]))
+                    facts = (
+                        bool(mj[i]),
+                        dist[i],
+                        relation[i],
+                        margin[i],
+                        gap[i],
+                        sd[i],
+                        bool(decided[i]),
+                        bool(explicit[i]),
+                    )
                     disagreements.append(_explain(model, data, step, g1, g2, names, *facts))
             if advance:
                 mujoco.mj_step(model, data)
             if progress is not None:
                 progress(step + 1, nstep)
     passed = Events.concatenate(events) if checker is not None else None
-    return Validation(nstep, counts, ncon, disagreements, passed, ids.astype(np.int64),
-                      checker.candidates if checker is not None else 0, n_explicit, n_open)  # fmt: skip
+    return Validation(
+        nstep,
+        counts,
+        ncon,
+        disagreements,
+        passed,
+        ids.astype(np.int64),
+        checker.candidates if checker is not None else 0,
+        n_explicit,
+        n_open,
+    )
 
 
 def _candidates(model, data, dynamic):
@@ -180,11 +207,28 @@ def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, gap, 
     else:
         right = "ellipsim"
         if mj:
-            reason = (f"{kind}: proven signed distance {sd:.12g} >= margin {margin:g} (proof tolerance {tol:.2g}); "
-                      f"MuJoCo's contact (dist {dist:.12g}) is within its ccd tolerance")  # fmt: skip
+            reason = (
+                f"{kind}: proven signed distance {sd:.12g} >= margin {margin:g} (proof tolerance {tol:.2g}); "
+                f"MuJoCo's contact (dist {dist:.12g}) is within its ccd tolerance"
+            )
         elif relation == Relation.OVERLAPPING:
             reason = f"{kind}: exact: overlapping, below margin {margin:g}; MuJoCo made no contact"
         else:
             reason = f"{kind}: proven signed distance {sd:.12g} < margin {margin:g} (proof tolerance {tol:.2g}); MuJoCo made no contact"
-    return Disagreement(step, g1, g2, (names[g1], names[g2]), mj, float(dist), rel, scale, geom_distance, right, reason,
-                        float(margin), float(gap), sd, explicit)  # fmt: skip
+    return Disagreement(
+        step,
+        g1,
+        g2,
+        (names[g1], names[g2]),
+        mj,
+        float(dist),
+        rel,
+        scale,
+        geom_distance,
+        right,
+        reason,
+        float(margin),
+        float(gap),
+        sd,
+        explicit,
+    )

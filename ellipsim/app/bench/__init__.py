@@ -28,8 +28,16 @@ import time
 from . import accuracy, inside_mujoco, motion, scaling, speculative, startup, stress, table1
 from .common import SIZES, machine_description, plt
 
-SECTIONS = {"accuracy": accuracy, "stress": stress, "scaling": scaling, "table1": table1, "mujoco": inside_mujoco,
-            "startup": startup, "motion": motion, "speculative": speculative}
+SECTIONS = {
+    "accuracy": accuracy,
+    "stress": stress,
+    "scaling": scaling,
+    "table1": table1,
+    "mujoco": inside_mujoco,
+    "startup": startup,
+    "motion": motion,
+    "speculative": speculative,
+}
 
 
 def run(out_dir, *, quick=False, only=None):

@@ -20,9 +20,9 @@ from .common import (
     FLOAT_METHODS,
     MujocoPairs,
     distances_serial,
+    float_runner,
     fmt_err,
     fmt_rate,
-    float_runner,
     interleaved,
     newton_runs,
     pair_runner,
@@ -56,7 +56,10 @@ def measure(size):
         wrong[name], family[name] = np.count_nonzero(fns[name]() != truth) / n, "thesis tests"
     cs_name = "contact_scale > 1 (2 threads)"
     fns[cs_name] = lambda: contact_scale(a, b)  # the parallel kernel
-    wrong[cs_name], family[cs_name] = np.count_nonzero(verdict(contact_scale(a, b) - 1) != truth) / n, "ellipsim contact_scale"
+    wrong[cs_name], family[cs_name] = (
+        np.count_nonzero(verdict(contact_scale(a, b) - 1) != truth) / n,
+        "ellipsim contact_scale",
+    )
     say(f"time vs error: timing {len(fns)} classifiers in {size['rounds']} interleaved rounds ...")
     times = interleaved(fns, size["rounds"])
     rows = [(k, family[k], np.median(times[k]) / n * 1e9, relative(times, k, PLAIN), wrong[k], None, None) for k in fns]
@@ -84,8 +87,17 @@ def measure(size):
     times = interleaved(fns, rounds)
     for k in fns:
         e = np.abs(dists[k][:ref_n] - ref) / rmin
-        rows.append((k, family[k], np.median(times[k]) / nm * 1e9, relative(times, k, NARROW),
-                     np.count_nonzero(verdict(dists[k]) != m_truth) / nm, np.median(e), e.max()))  # fmt: skip
+        rows.append(
+            (
+                k,
+                family[k],
+                np.median(times[k]) / nm * 1e9,
+                relative(times, k, NARROW),
+                np.count_nonzero(verdict(dists[k]) != m_truth) / nm,
+                np.median(e),
+                e.max(),
+            )
+        )
     coal = _coal()
     if coal is not None:
         say("time vs error: coal ...")
@@ -97,13 +109,25 @@ def measure(size):
         fns[NARROW]()
         narrow_seconds = (time.perf_counter() - t0) * k / nm
         e = np.abs(dist[:ref_n] - ref) / rmin if k >= ref_n else np.array([np.nan])
-        rows.append(("coal GJK/EPA (Python calls)", "coal", seconds / k * 1e9, seconds / narrow_seconds,
-                     np.count_nonzero(verdict(dist) != m_truth[:k]) / k, np.median(e), e.max()))  # fmt: skip
+        rows.append(
+            (
+                "coal GJK/EPA (Python calls)",
+                "coal",
+                seconds / k * 1e9,
+                seconds / narrow_seconds,
+                np.count_nonzero(verdict(dist) != m_truth[:k]) / k,
+                np.median(e),
+                e.max(),
+            )
+        )
     notes = {
-        "pairs": n, "mujoco_pairs": nm, "reference": ref_n, "coal": coal is not None,
+        "pairs": n,
+        "mujoco_pairs": nm,
+        "reference": ref_n,
+        "coal": coal is not None,
         "full_vs_ref": float((np.abs(dists[NARROW][:ref_n] - ref) / rmin).max()),
         "tight_vs_ref": float((np.abs(tight[:ref_n] - ref) / rmin).max()),
-    }  # fmt: skip
+    }
     return rows, notes
 
 
@@ -138,8 +162,12 @@ def write(result, size, out, plt):
         f"{pnotes['pairs']} random pairs with |contact_scale - 1| < 0.1 (where no shortcut decides); distances on the "
         f"first {pnotes['mujoco_pairs']}, their error against a 40-digit mpmath reference on the first {pnotes['reference']} "
         "(in units of the smaller ellipsoid's shortest semi-axis).  Single-threaded unless noted; MuJoCo is called "
-        "through ctypes in a compiled loop" + ("; coal through its Python binding (per-call overhead included)." if pnotes["coal"] else
-        "; coal is not installed (pip install 'ellipsim[peers]' adds it)."),
+        "through ctypes in a compiled loop"
+        + (
+            "; coal through its Python binding (per-call overhead included)."
+            if pnotes["coal"]
+            else "; coal is not installed (pip install 'ellipsim[peers]' adds it)."
+        ),
         "",
         "![time against error](pareto.png)",
         "",
@@ -148,7 +176,7 @@ def write(result, size, out, plt):
         "| method | ns/pair | × plain | misclassified |",
         "|---|---:|---:|---:|",
     ]
-    for name, _, ns, rel, wrong, med, mx in prows:
+    for name, _, ns, rel, wrong, med, _mx in prows:
         if med is None:
             L.append(f"| {name} | {ns:.0f} | {rel:.2f} | {fmt_rate(wrong)} |")
     L += [
@@ -174,15 +202,21 @@ def write(result, size, out, plt):
 
 
 def _plot(plt, out, prows):
-    colours = {"ellipsim classify": "C3", "thesis tests": "C0", "ellipsim contact_scale": "C5",
-               "ellipsim narrow phase": "C2", "MuJoCo mj_geomDistance": "C1", "coal": "C4"}  # fmt: skip
+    colours = {
+        "ellipsim classify": "C3",
+        "thesis tests": "C0",
+        "ellipsim contact_scale": "C5",
+        "ellipsim narrow phase": "C2",
+        "MuJoCo mj_geomDistance": "C1",
+        "coal": "C4",
+    }
     fig = plt.figure(figsize=(15, 8), constrained_layout=True)
     grid = fig.add_gridspec(2, 2, height_ratios=[5, 1.2])
     ax1, ax2, key = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, :])
     floor = 1e-7
     # points carry numbers (listed below the plots); labels of points at the same height alternate in height
     placed = {}
-    for k, (name, family, ns, rel, wrong, med, mx) in enumerate(prows, 1):
+    for k, (_name, family, ns, _rel, wrong, _med, mx) in enumerate(prows, 1):
         for ax, y in ((ax1, max(wrong, floor)), (ax2, None if mx is None else max(mx, 1e-17))):
             if y is None:
                 continue
@@ -192,17 +226,34 @@ def _plot(plt, out, prows):
             ax.annotate(str(k), (ns, y), fontsize=7, xytext=(2, 3 + 8 * (j % 4)), textcoords="offset points")
     for family, c in colours.items():
         ax1.scatter([], [], color=c, label=family)
-    ax1.set(xscale="log", yscale="log", xlabel="time per pair [ns]", ylabel=f"misclassified share (0 drawn at {floor:g})",
-            title="classification: time against error")  # fmt: skip
+    ax1.set(
+        xscale="log",
+        yscale="log",
+        xlabel="time per pair [ns]",
+        ylabel=f"misclassified share (0 drawn at {floor:g})",
+        title="classification: time against error",
+    )
     ax1.legend(fontsize=7)
-    ax2.set(xscale="log", yscale="log", xlabel="time per pair [ns]", ylabel="max |distance error| / shortest semi-axis",
-            title="signed distance: time against error")  # fmt: skip
+    ax2.set(
+        xscale="log",
+        yscale="log",
+        xlabel="time per pair [ns]",
+        ylabel="max |distance error| / shortest semi-axis",
+        title="signed distance: time against error",
+    )
     names = [f"{k}: {row[0]}" for k, row in enumerate(prows, 1)]
     cols = 4
     per = -(-len(names) // cols)
     key.axis("off")
-    key.text(0, 1, "\n".join("    ".join(f"{x:<40}" for x in names[i::per]) for i in range(per)),
-             fontsize=7.5, family="monospace", va="top", transform=key.transAxes)  # fmt: skip
+    key.text(
+        0,
+        1,
+        "\n".join("    ".join(f"{x:<40}" for x in names[i::per]) for i in range(per)),
+        fontsize=7.5,
+        family="monospace",
+        va="top",
+        transform=key.transAxes,
+    )
     fig.savefig(os.path.join(out, "pareto.png"), dpi=110)
     plt.close(fig)
 

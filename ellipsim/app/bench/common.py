@@ -18,25 +18,64 @@ import numba
 import numpy as np
 
 from ...core._jit import jit
-from ...core.exact.classify import _classify_float
 from ...core.distance.ellipsoid_pair import pair_signed_distance
 from ...core.distance.sphere_newton import a_frame, bisector_seed, newton, sigma
+from ...core.exact.classify import _classify_float
 from ...core.vec3 import load
 from ...mujoco import structs
 from ...mujoco.attachment import attach
 
 SIZES = {
-    "quick": dict(generic=100_000, near=20_000, mujoco=4_000, stress=600, reference=40, batch_max=100_000,
-                  figures=(1, 4, 16), replay_figures=(1, 4, 16), rounds=5, steps=100, coal=1_000,
-                  scenes=("pile of 40 ellipsoids", "4 figures in a heap"), step_rounds=8, compare_steps=10,
-                  deep_pairs=200, pair_types=100, long_seconds=1.0, motion=1_000, motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024),
-                  motion_contains=20_000, speculative=60),
-    "full": dict(generic=1_000_000, near=100_000, mujoco=20_000, stress=5_000, reference=200, batch_max=1_000_000,
-                 figures=(1, 4, 16, 64), replay_figures=(1, 4, 16, 64), rounds=15, steps=200, coal=5_000,
-                 scenes=None, step_rounds=30, compare_steps=30, deep_pairs=2_000, pair_types=400, long_seconds=10.0, motion=4_000,
-                 motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096), motion_contains=200_000, speculative=400),
-}  # fmt: skip
-FLOAT_METHODS = [(m, s, d) for m in ("descartes", "sturm") for s in ("rearranged", "cofactor") for d in ("float64", "float32")]
+    "quick": dict(
+        generic=100_000,
+        near=20_000,
+        mujoco=4_000,
+        stress=600,
+        reference=40,
+        batch_max=100_000,
+        figures=(1, 4, 16),
+        replay_figures=(1, 4, 16),
+        rounds=5,
+        steps=100,
+        coal=1_000,
+        scenes=("pile of 40 ellipsoids", "4 figures in a heap"),
+        step_rounds=8,
+        compare_steps=10,
+        deep_pairs=200,
+        pair_types=100,
+        long_seconds=1.0,
+        motion=1_000,
+        motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024),
+        motion_contains=20_000,
+        speculative=60,
+    ),
+    "full": dict(
+        generic=1_000_000,
+        near=100_000,
+        mujoco=20_000,
+        stress=5_000,
+        reference=200,
+        batch_max=1_000_000,
+        figures=(1, 4, 16, 64),
+        replay_figures=(1, 4, 16, 64),
+        rounds=15,
+        steps=200,
+        coal=5_000,
+        scenes=None,
+        step_rounds=30,
+        compare_steps=30,
+        deep_pairs=2_000,
+        pair_types=400,
+        long_seconds=10.0,
+        motion=4_000,
+        motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096),
+        motion_contains=200_000,
+        speculative=400,
+    ),
+}
+FLOAT_METHODS = [
+    (m, s, d) for m in ("descartes", "sturm") for s in ("rearranged", "cofactor") for d in ("float64", "float32")
+]
 
 
 def plt():
@@ -109,7 +148,9 @@ def fmt_err(x):
 
 def float_runner(a, b, method, setup, dtype):
     """A function running a thesis test (uncertified) on the pairs, single-threaded."""
-    arrays = [np.ascontiguousarray(x, dtype=dtype) for x in (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)]
+    arrays = [
+        np.ascontiguousarray(x, dtype=dtype) for x in (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
+    ]
     out = np.empty(max(len(a), len(b)), dtype=np.int8)
 
     def run():
@@ -160,7 +201,9 @@ class MujocoPairs:
     """MuJoCo's mj_geomDistance on given pairs: static world geoms whose poses are then set to the
     pairs' exact float64 values, called through ctypes in a compiled loop."""
 
-    _FN = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_int64)
+    _FN = ctypes.CFUNCTYPE(
+        ctypes.c_double, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_int64
+    )
 
     def __init__(self, a, b):
         n = len(a)

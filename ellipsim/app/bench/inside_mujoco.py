@@ -15,22 +15,22 @@
 
 import contextlib
 import ctypes
-from importlib import resources
 import os
 import time
+from importlib import resources
 
 import mujoco
 import numba
 import numpy as np
 
-from ...core.exact.classify import classify
 from ...core.distance.ellipsoid_pair import UNPROVEN, signed_distance
 from ...core.ellipsoids import Ellipsoids
-from ...mujoco import scenes, structs
+from ...core.exact.classify import classify
+from ...mujoco import nativecache, structs
 from ...mujoco.attachment import attach
-from ...mujoco import nativecache
 from ...mujoco.compare import compare_narrowphase
 from ...mujoco.geoms import candidate_pairs
+from .. import scenes
 from . import pair_types
 from .common import STEP_MODES, STEP_STATE, interleaved, relative, say, settled, step_segment, timed_steps
 
@@ -42,7 +42,10 @@ SCENES = {
     "16 figures in a heap": (lambda: scenes.scene_xml(16, layout="pile", seed=1), 1000),
     "64 figures in a heap": (lambda: scenes.scene_xml(64, layout="pile", seed=1), 1000),
 }
-SCENES["MuJoCo's collision_convex/perf/mixed.xml"] = (lambda: resources.files(__package__).joinpath("mixed.xml").read_text(), 1000)
+SCENES["MuJoCo's collision_convex/perf/mixed.xml"] = (
+    lambda: resources.files(__package__).joinpath("mixed.xml").read_text(),
+    1000,
+)
 COMPARED = ("pile of 40 ellipsoids", "pile of 100 ellipsoids", "4 figures in a heap", "16 figures in a heap")
 LONG_RUNS = ("pile of 40 ellipsoids", "16 figures in a heap")
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
@@ -97,8 +100,9 @@ def per_pair(model, data, reps=100):
     mujoco.mj_setState(model, filtered, state, STEP_STATE)
     mujoco.mj_forward(model, filtered)
     with attach(model, data, mode="narrowphase"), attach(model, filtered, mode="filter"):
-        return _per_pair_rounds(ours, theirs, filt, model._address, data._address, filtered._address, con, pairs,
-                                margins, touching, reps)  # fmt: skip
+        return _per_pair_rounds(
+            ours, theirs, filt, model._address, data._address, filtered._address, con, pairs, margins, touching, reps
+        )
 
 
 def _per_pair_rounds(ours, theirs, filt, m, d, df, con, pairs, margins, touching, reps):
@@ -209,12 +213,16 @@ def long_run(xml, seconds):
             wall = time.perf_counter() - t0
         pos = data.xpos[1:]
         out = int(np.count_nonzero((np.abs(pos[:, :2]) > 5).any(axis=1) | (pos[:, 2] < -0.05)))
-        last = np.array(energy[-max(1, int(len(energy) * 0.1)):])
+        last = np.array(energy[-max(1, int(len(energy) * 0.1)) :])
         rows[mode] = dict(
-            kinetic_max=max(energy), kinetic_last=float(last.mean()), depth=depth, out=out,
-            badqacc=int(data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number), wall=wall,
+            kinetic_max=max(energy),
+            kinetic_last=float(last.mean()),
+            depth=depth,
+            out=out,
+            badqacc=int(data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number),
+            wall=wall,
             fallbacks=att.counters["fallbacks"] if att else 0,
-        )  # fmt: skip
+        )
     return rows
 
 
@@ -225,7 +233,10 @@ def capsule_twin(name, size):
     xml = SCENES[name][0]()
     ell = settled(xml, SCENES[name][1])
     cap = settled(scenes.capsule_twin_xml(xml), SCENES[name][1])
-    fns = {"ellipsoids": step_segment(*ell, size["steps"], "narrowphase"), "capsules": step_segment(*cap, size["steps"], "builtin")}
+    fns = {
+        "ellipsoids": step_segment(*ell, size["steps"], "narrowphase"),
+        "capsules": step_segment(*cap, size["steps"], "builtin"),
+    }
     for fn in fns.values():
         fn()
     t = interleaved(fns, size["step_rounds"], self_timed=True)
@@ -278,7 +289,7 @@ def write(result, size, out, plt):
         "| candidate pairs/step | discarded/step | fallbacks/step |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for name, (ngeom, pp, us, speed, counters) in rows.items():
+    for name, (ngeom, _pp, us, speed, counters) in rows.items():
         f, n = speed["filter"], speed["narrowphase"]
         L.append(
             f"| {name} | {ngeom} | {us['builtin']:.0f} | {us['filter']:.0f} | {us['narrowphase']:.0f} "
@@ -294,7 +305,7 @@ def write(result, size, out, plt):
         "| MuJoCo ns/separated pair | filter ns/pair |",
         "|---|---:|---:|---:|---:|---:|",
     ]
-    for name, (ngeom, pp, *_rest) in rows.items():
+    for name, (_ngeom, pp, *_rest) in rows.items():
         t, s = pp["touching"], pp["separated"]
         L.append(f"| {name} | {t[0]:.0f} ({t[3]}) | {t[1]:.0f} | {s[0]:.0f} ({s[3]}) | {s[1]:.0f} | {s[2]:.0f} |")
     touching = [pp["touching"][0] for _, pp, *_r in rows.values() if pp["touching"][3]]
@@ -305,13 +316,19 @@ def write(result, size, out, plt):
         "",
         "| goal | measured | met |",
         "|---|---:|---|",
-        *(f"| <= {goal} ns per {kind} pair | {max(v):.0f} ns | {'yes' if max(v) <= goal else 'no'} |"
-          for goal, kind, v in ((200, "penetrating (touching)", touching), (50, "separated", separated)) if v),
+        *(
+            f"| <= {goal} ns per {kind} pair | {max(v):.0f} ns | {'yes' if max(v) <= goal else 'no'} |"
+            for goal, kind, v in ((200, "penetrating (touching)", touching), (50, "separated", separated))
+            if v
+        ),
         f"| {twin[0]}, narrowphase, within 1.05x of its capsule twin in plain MuJoCo | {twin[1]:.0f} / {twin[2]:.0f} "
         f"µs/step: {twin[3]:.2f}x | {'yes' if twin[3] <= 1.05 else 'no'} |",
-        *(f"| {name} (box walls, or MuJoCo's mixed convex shapes) faster than builtin | narrowphase speed-up "
-          f"{rows[name][3]['narrowphase'][0]:.2f} | {'yes' if rows[name][3]['narrowphase'][0] > 1 else 'no'} |"
-          for name in rows if name.startswith("pile") or "mixed" in name),
+        *(
+            f"| {name} (box walls, or MuJoCo's mixed convex shapes) faster than builtin | narrowphase speed-up "
+            f"{rows[name][3]['narrowphase'][0]:.2f} | {'yes' if rows[name][3]['narrowphase'][0] > 1 else 'no'} |"
+            for name in rows
+            if name.startswith("pile") or "mixed" in name
+        ),
     ]
     L += [
         "",
@@ -374,8 +391,14 @@ def _plot(plt, out, rows):
     a1.set(ylabel="mj_step speed-up over builtin", title="mj_step: speed-up per scene (IQR)")
     a1.legend(fontsize=8)
     shown = []
-    for k, (label, j, kind) in enumerate((("ellipsim, touching", 0, "touching"), ("MuJoCo, touching", 1, "touching"),
-                                          ("ellipsim, separated", 0, "separated"), ("MuJoCo, separated", 1, "separated"))):
+    for k, (label, j, kind) in enumerate(
+        (
+            ("ellipsim, touching", 0, "touching"),
+            ("MuJoCo, touching", 1, "touching"),
+            ("ellipsim, separated", 0, "separated"),
+            ("MuJoCo, separated", 1, "separated"),
+        )
+    ):
         ns = [rows[n][1][kind][j] for n in names]  # nan where a scene has no such pair
         shown += ns
         a2.bar(x + (k - 1.5) * 0.2, ns, 0.2, label=label, color=f"C{k}")

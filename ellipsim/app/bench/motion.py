@@ -12,17 +12,17 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ...core.exact import rational_fallback as rational
 from ...core._jit import jit
+from ...core.ellipsoids import Ellipsoids
+from ...core.exact import rational_fallback as rational
 from ...core.exact.certified_filter import certify_pair
 from ...core.exact.classify import classify
+from ...core.exact.contact_scale import contact_scale
 from ...core.exact.containment import UNDECIDED as CONTAIN_UNDECIDED
 from ...core.exact.containment import certify_containment, contains
-from ...core.ellipsoids import Ellipsoids
-from ...core.exact.contact_scale import contact_scale
+from ...core.motion.time_of_impact import UNRESOLVED, _check, _pose_at, float_poses, load_pair, time_of_impact
 from ...core.relation import SEPARATED, UNDECIDED
 from ...core.samples import random_ellipsoids
-from ...core.motion.time_of_impact import UNRESOLVED, _check, _pose_at, float_poses, load_pair, time_of_impact
 from .common import interleaved, relative, say
 
 
@@ -36,6 +36,7 @@ def _cpu(fn):
         return time.thread_time() - t0
 
     return run
+
 
 # --- motion sets -----------------------------------------------------------------------------------
 
@@ -89,7 +90,9 @@ def tunnel_set(rng, n):
     R = Rotation.random(n, random_state=rng).as_matrix()
     normal = R[:, :, 2]
     plate = np.tile([1.0, 1.0, 0.002], (n, 1))
-    b = Ellipsoids(rng.uniform(-0.3, 0.3, (n, 3)), Rotation.random(n, random_state=rng).as_matrix(), np.full((n, 3), 0.005))
+    b = Ellipsoids(
+        rng.uniform(-0.3, 0.3, (n, 3)), Rotation.random(n, random_state=rng).as_matrix(), np.full((n, 3), 0.005)
+    )
     return Ellipsoids(-3 * normal, R, plate), Ellipsoids(3 * normal, R, plate), b, b
 
 
@@ -183,12 +186,16 @@ def measure(size):
         toi_, status = results["toi"]
         contacts = np.isfinite(toi_)
         rows[name] = dict(
-            pairs=n, toi=np.median(times["toi"]) / n * 1e9, sampled=np.median(times["sampled"]) / n * 1e9,
-            given=np.median(times["given"]) / n * 1e9, ratio=relative(times, "sampled", "toi"),
-            ratio_given=relative(times, "given", "toi"), contacts=int(contacts.sum()),
+            pairs=n,
+            toi=np.median(times["toi"]) / n * 1e9,
+            sampled=np.median(times["sampled"]) / n * 1e9,
+            given=np.median(times["given"]) / n * 1e9,
+            ratio=relative(times, "sampled", "toi"),
+            ratio_given=relative(times, "given", "toi"),
+            contacts=int(contacts.sum()),
             found64=int(np.count_nonzero(contacts & (results["hits"] < 64))),
             unresolved=int(np.count_nonzero(status == UNRESOLVED)),
-        )  # fmt: skip
+        )
         curve = []
         for N in size["motion_samples"]:
             hits = {}
@@ -217,9 +224,15 @@ def measure(size):
     big = Ellipsoids(np.zeros((k, 3)), np.tile(np.eye(3), (k, 1, 1)), np.tile([1.0, 0.75, 0.5], (k, 1)))
     tangent = Ellipsoids(np.tile([0.5, 0.0, 0.0], (k, 1)), big.rotations, np.tile([0.5, 0.375, 0.25], (k, 1)))
     t_tangent = _cpu(lambda: contains(big, tangent, parallel=False))() / k
-    cont = dict(pairs=m, ns=np.median(t["contains"]) / m * 1e9, ratio=relative(t, "contains", "classify"),
-                inside=float(inside.mean()), escalated=int(escalated), same_frame_us=t_same * 1e6,
-                tangent_ms=t_tangent * 1e3)  # fmt: skip
+    cont = dict(
+        pairs=m,
+        ns=np.median(t["contains"]) / m * 1e9,
+        ratio=relative(t, "contains", "classify"),
+        inside=float(inside.mean()),
+        escalated=int(escalated),
+        same_frame_us=t_same * 1e6,
+        tangent_ms=t_tangent * 1e3,
+    )
     return rows, curves, dict(cont, same_frame_batch=k)
 
 
@@ -241,12 +254,17 @@ def write(result, size, out, plt):
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, r in rows.items():
-        L.append(f"| {name} | {r['pairs']} | {r['toi']:.0f} | {r['sampled']:.0f} | {r['ratio']:.2f}x | {r['given']:.0f} | "
-                 f"{r['ratio_given']:.2f}x | {r['contacts']} | {r['found64']} | {r['unresolved']} |")  # fmt: skip
+        L.append(
+            f"| {name} | {r['pairs']} | {r['toi']:.0f} | {r['sampled']:.0f} | {r['ratio']:.2f}x | {r['given']:.0f} | "
+            f"{r['ratio_given']:.2f}x | {r['contacts']} | {r['found64']} | {r['unresolved']} |"
+        )
     L += ["", "Sets: " + "; ".join(f"{k}: {v}" for k, v in SET_NOTES.items()) + ".", ""]
     L += ["![time against samples](motion.png)", ""]
-    L += ["| set | samples a checker needs to find every contact time_of_impact finds | its ns/pair | its worst "
-          "\\|t_N - toi\\| | time_of_impact ns/pair |", "|---|---:|---:|---:|---:|"]  # fmt: skip
+    L += [
+        "| set | samples a checker needs to find every contact time_of_impact finds | its ns/pair | its worst "
+        "\\|t_N - toi\\| | time_of_impact ns/pair |",
+        "|---|---:|---:|---:|---:|",
+    ]
     for name, curve in curves.items():
         need = next((c for c in curve if c[2] == 1.0), None)
         if need is None:
@@ -274,8 +292,13 @@ def _plot(plt, out, rows, curves):
         if need:
             ax.plot([need[0]], [need[1]], "*", ms=14, color=line.get_color())
         bx.plot(N, [c[2] for c in curve], "o-", color=line.get_color(), label=name)
-    ax.set(xscale="log", yscale="log", xlabel="samples N", ylabel="ns per pair (1 thread)",
-           title="time against samples (star: all of time_of_impact's contacts found)")  # fmt: skip
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="samples N",
+        ylabel="ns per pair (1 thread)",
+        title="time against samples (star: all of time_of_impact's contacts found)",
+    )
     ax.legend(fontsize=7)
     bx.set(xscale="log", xlabel="samples N", ylabel="share of time_of_impact's contacts found", ylim=(0, 1.02))
     bx.legend(fontsize=8)

@@ -19,17 +19,21 @@ import numpy as np
 
 from ...core.pairs import box, capsule, cylinder
 from ...core.rotations import quaternions_to_rotations
-from ...mujoco import structs
+from ...mujoco import nativecache, structs
 from ...mujoco.attachment import attach
-from ...mujoco import nativecache
 from .common import interleaved
 
 KINDS = ("capsule", "box", "cylinder")
 CATEGORIES = ("separated", "touching", "penetrating", "deep")
-_TYPE = {"capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "box": mujoco.mjtGeom.mjGEOM_BOX,
-         "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER}  # fmt: skip
+_TYPE = {
+    "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+    "box": mujoco.mjtGeom.mjGEOM_BOX,
+    "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+}
 _KERNEL = {"capsule": capsule.capsule_ellipsoid, "box": box.box_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid}
-_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double)
+_FN = ctypes.CFUNCTYPE(
+    ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double
+)
 
 
 @numba.njit
@@ -58,12 +62,15 @@ def poses(kind, category, n, rng):
     d = rng.normal(size=(n, 3))
     d /= np.linalg.norm(d, axis=1)[:, None]
     cK = d * (2 * (np.linalg.norm(rE, axis=1) + np.linalg.norm(sK, axis=1)) + 0.1)[:, None]
-    small = np.minimum(rE.min(1), sK[:, :3 if kind == "box" else 2].min(1))
+    small = np.minimum(rE.min(1), sK[:, : 3 if kind == "box" else 2].min(1))
     if category == "deep":
         cK = rng.uniform(-0.3, 0.3, (n, 3)) * rE.min(1)[:, None]
         return cE, RE, rE, cK, RK, sK
-    gap = {"separated": 10 ** rng.uniform(-6, -1, n), "touching": np.zeros(n),
-           "penetrating": -rng.uniform(1e-6, 0.5, n) * small}[category]  # fmt: skip
+    gap = {
+        "separated": 10 ** rng.uniform(-6, -1, n),
+        "touching": np.zeros(n),
+        "penetrating": -rng.uniform(1e-6, 0.5, n) * small,
+    }[category]
     for i in range(n):
         E = (tuple(cE[i]), tuple(RE[i].ravel()), tuple(rE[i]))
         K = (tuple(cK[i]), tuple(RK[i].ravel()), tuple(sK[i]))
@@ -77,7 +84,10 @@ def _model(kind, cE, RE, rE, cK, RK, sK):
     the (g1, g2) pairs."""
     spec = mujoco.MjSpec()
     for i in range(len(cE)):
-        for c, R, size, t in ((cE[i], RE[i], rE[i], mujoco.mjtGeom.mjGEOM_ELLIPSOID), (cK[i], RK[i], sK[i], _TYPE[kind])):
+        for c, R, size, t in (
+            (cE[i], RE[i], rE[i], mujoco.mjtGeom.mjGEOM_ELLIPSOID),
+            (cK[i], RK[i], sK[i], _TYPE[kind]),
+        ):
             body = spec.worldbody.add_body(pos=c)
             q = np.empty(4)
             mujoco.mju_mat2Quat(q, R.ravel())
@@ -110,8 +120,10 @@ def measure(size, n=None, seed=0):
                 _calls(ours, m, d, c, pairs, 1)
                 fallbacks = att.counters["fallbacks"]
                 reps = max(1, 20_000 // n)
-                runs = {"ellipsim": lambda: _calls(ours, m, d, c, pairs, reps),
-                        "mujoco": lambda: _calls(theirs, m, d, c, pairs, reps)}  # fmt: skip
+                runs = {
+                    "ellipsim": lambda: _calls(ours, m, d, c, pairs, reps),
+                    "mujoco": lambda: _calls(theirs, m, d, c, pairs, reps),
+                }
                 t = interleaved(runs, 5)
             out[kind][category] = (*(float(np.min(t[k])) / (n * reps) * 1e9 for k in runs), fallbacks, n)
     return out
@@ -130,5 +142,7 @@ def write(result):
     ]
     for kind, rows in result.items():
         for category, (ours, theirs, fallbacks, n) in rows.items():
-            L.append(f"| ellipsoid x {kind} | {category} | {n} | {ours:.0f} | {theirs:.0f} | {theirs / ours:.2f}x | {fallbacks} |")
+            L.append(
+                f"| ellipsoid x {kind} | {category} | {n} | {ours:.0f} | {theirs:.0f} | {theirs / ours:.2f}x | {fallbacks} |"
+            )
     return L

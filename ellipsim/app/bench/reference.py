@@ -65,6 +65,8 @@ def normals(a, b):
     """ellipsim's converged normals as seeds for the reference polish."""
     out = np.empty((len(a), 3))
     for k in range(len(a)):
-        _, _, normal, _, _ = pair_signed_distance(load(a.centers, a.rotations, a.radii, k), load(b.centers, b.rotations, b.radii, k))
+        _, _, normal, _, _ = pair_signed_distance(
+            load(a.centers, a.rotations, a.radii, k), load(b.centers, b.rotations, b.radii, k)
+        )
         out[k] = normal
     return out

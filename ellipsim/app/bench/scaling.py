@@ -7,11 +7,11 @@ import time
 import mujoco
 import numpy as np
 
-from ...core.exact.classify import classify, classify_pairs
 from ...core.ellipsoids import Ellipsoids
+from ...core.exact.classify import classify, classify_pairs
 from ...core.samples import generic_pairs
-from .. import scenario, simulate
 from ...mujoco.geoms import ellipsoid_geoms, frame_pairs
+from .. import scenario, simulate
 from .common import float_runner, interleaved, relative, say
 
 
@@ -39,14 +39,22 @@ def measure(size):
         say(f"scaling: kinematic replay with {nf} figures ...")
         # figure i starts `stagger` s late; shrink it so that every figure dances within the routine
         stagger = min(base.control["stagger"], base.duration / nf)
-        s = scenario.Scenario(**{**base.__dict__, "scene": {**base.scene, "figures": nf},
-                                 "control": {**base.control, "stagger": stagger}})  # fmt: skip
+        s = scenario.Scenario(
+            **{**base.__dict__, "scene": {**base.scene, "figures": nf}, "control": {**base.control, "stagger": stagger}}
+        )
         simulate.run(s, steps=5)  # compile and warm
         t0 = time.perf_counter()
         run = simulate.run(s)
         total = time.perf_counter() - t0
-        replay_rows.append((nf, run.steps, total / run.steps * 1e3, run.seconds / run.steps * 1e3,
-                            int(run.frames.ellipsim_counts.sum())))  # fmt: skip
+        replay_rows.append(
+            (
+                nf,
+                run.steps,
+                total / run.steps * 1e3,
+                run.seconds / run.steps * 1e3,
+                int(run.frames.ellipsim_counts.sum()),
+            )
+        )
     nf = size["replay_figures"][-1]
     say(f"scaling: {nf} figures, ellipsim's frames against mj_kinematics + mj_collision ...")
     return batch_rows, replay_rows, (nf, *kinematic_goal(_replay_scenario(base, nf), size["rounds"]))
@@ -55,8 +63,9 @@ def measure(size):
 def _replay_scenario(base, nf):
     """The replay scenario with nf figures in a line, all dancing within the routine."""
     stagger = min(base.control["stagger"], base.duration / nf)
-    return scenario.Scenario(**{**base.__dict__, "scene": {**base.scene, "figures": nf},
-                                "control": {**base.control, "stagger": stagger}})  # fmt: skip
+    return scenario.Scenario(
+        **{**base.__dict__, "scene": {**base.scene, "figures": nf}, "control": {**base.control, "stagger": stagger}}
+    )
 
 
 def kinematic_goal(s, rounds):
@@ -86,7 +95,9 @@ def kinematic_goal(s, rounds):
             rotations[k] = data.geom_xmat[ids].reshape(-1, 3, 3)
         pairs = frame_pairs(centers, radii, rules)
         g = len(ids)
-        every = Ellipsoids(centers.reshape(-1, 3), rotations.reshape(-1, 3, 3), np.tile(radii, (steps, 1)))  # validated once
+        every = Ellipsoids(
+            centers.reshape(-1, 3), rotations.reshape(-1, 3, 3), np.tile(radii, (steps, 1))
+        )  # validated once
         rel = classify_pairs(every, pairs[:, 0] * g + pairs[:, 1], pairs[:, 0] * g + pairs[:, 2])
         found[:] = [len(pairs), int(np.count_nonzero(rel))]
 
@@ -94,8 +105,13 @@ def kinematic_goal(s, rounds):
     for fn in fns.values():
         fn()
     t = interleaved(fns, max(3, rounds // 3))
-    return (steps, np.median(t["mujoco"]) / steps * 1e3, np.median(t["ellipsim"]) / steps * 1e3,
-            relative(t, "ellipsim", "mujoco"), *found)  # fmt: skip
+    return (
+        steps,
+        np.median(t["mujoco"]) / steps * 1e3,
+        np.median(t["ellipsim"]) / steps * 1e3,
+        relative(t, "ellipsim", "mujoco"),
+        *found,
+    )
 
 
 def write(result, size, out, plt):
@@ -146,7 +162,9 @@ def _plot(plt, out, batch_rows, replay_rows):
     a1.plot(b[:, 0], b[:, 1], "o-", label="exact, 1 thread")
     a1.plot(b[:, 0], b[:, 2], "o-", label="exact, 2 threads")
     a1.plot(b[:, 0], b[:, 3], "o--", label="plain descartes, 1 thread")
-    a1.set(xscale="log", yscale="log", xlabel="pairs per call", ylabel="time per pair [ns]", title="classify: batch size")
+    a1.set(
+        xscale="log", yscale="log", xlabel="pairs per call", ylabel="time per pair [ns]", title="classify: batch size"
+    )
     a1.legend(fontsize=8)
     r = np.array(replay_rows, dtype=float)
     a3.plot(r[:, 0], r[:, 2], "o-", label="total")

@@ -29,8 +29,11 @@ SPACING = 20.0  # metres between pairs along y: no cross-pair contact
 def make_pairs(rng, n):
     """(xml, A, B0, B1, v): n pairs in one model, A static, B free with velocity v (n, 3) along +x."""
     plate = rng.random(n) < 0.5
-    rA = np.where(plate[:, None], np.stack([rng.uniform(0.002, 0.01, n), rng.uniform(0.1, 0.3, n), rng.uniform(0.1, 0.3, n)], 1),
-                  rng.uniform(0.03, 0.2, (n, 3)))
+    rA = np.where(
+        plate[:, None],
+        np.stack([rng.uniform(0.002, 0.01, n), rng.uniform(0.1, 0.3, n), rng.uniform(0.1, 0.3, n)], 1),
+        rng.uniform(0.03, 0.2, (n, 3)),
+    )
     rB = rng.uniform(0.02, 0.06, (n, 3))
     RA = Rotation.from_rotvec(rng.normal(size=(n, 3)) * np.where(plate, 0.2, 1.5)[:, None]).as_matrix()
     RB = Rotation.random(n, random_state=rng).as_matrix()
@@ -44,19 +47,29 @@ def make_pairs(rng, n):
     B = Ellipsoids(cB, RB, rB)
     for _ in range(50):
         mid = 0.5 * (lo + hi)
-        d, _, _, _ = signed_distance(B, Ellipsoids(cB + np.stack([mid, np.zeros(n), np.zeros(n)], 1), RA, rA), parallel=False)
+        d, _, _, _ = signed_distance(
+            B, Ellipsoids(cB + np.stack([mid, np.zeros(n), np.zeros(n)], 1), RA, rA), parallel=False
+        )
         lo, hi = np.where(d > 0, lo, mid), np.where(d > 0, mid, hi)
     cA = cB + np.stack([hi + f * speed * TIMESTEP, np.zeros(n), np.zeros(n)], 1)
     geoms, bodies = [], []
     for i in range(n):
         qa = Rotation.from_matrix(RA[i]).as_quat(scalar_first=True)
         qb = Rotation.from_matrix(RB[i]).as_quat(scalar_first=True)
-        geoms.append(f'<geom type="ellipsoid" size="{float(rA[i, 0])!r} {float(rA[i, 1])!r} {float(rA[i, 2])!r}" pos="{float(cA[i, 0])!r} {float(cA[i, 1])!r} 0" '
-                     f'quat="{float(qa[0])!r} {float(qa[1])!r} {float(qa[2])!r} {float(qa[3])!r}"/>')
-        bodies.append(f'<body pos="0 {float(cB[i, 1])!r} 0" quat="{float(qb[0])!r} {float(qb[1])!r} {float(qb[2])!r} {float(qb[3])!r}"><freejoint/>'
-                      f'<geom type="ellipsoid" size="{float(rB[i, 0])!r} {float(rB[i, 1])!r} {float(rB[i, 2])!r}"/></body>')
-    xml = (f'<mujoco><option timestep="{TIMESTEP}" gravity="0 0 0"/><worldbody>' + "".join(geoms) + "".join(bodies)
-           + "</worldbody></mujoco>")
+        geoms.append(
+            f'<geom type="ellipsoid" size="{float(rA[i, 0])!r} {float(rA[i, 1])!r} {float(rA[i, 2])!r}" pos="{float(cA[i, 0])!r} {float(cA[i, 1])!r} 0" '
+            f'quat="{float(qa[0])!r} {float(qa[1])!r} {float(qa[2])!r} {float(qa[3])!r}"/>'
+        )
+        bodies.append(
+            f'<body pos="0 {float(cB[i, 1])!r} 0" quat="{float(qb[0])!r} {float(qb[1])!r} {float(qb[2])!r} {float(qb[3])!r}"><freejoint/>'
+            f'<geom type="ellipsoid" size="{float(rB[i, 0])!r} {float(rB[i, 1])!r} {float(rB[i, 2])!r}"/></body>'
+        )
+    xml = (
+        f'<mujoco><option timestep="{TIMESTEP}" gravity="0 0 0"/><worldbody>'
+        + "".join(geoms)
+        + "".join(bodies)
+        + "</worldbody></mujoco>"
+    )
     A = Ellipsoids(cA, RA, rA)
     B1 = Ellipsoids(cB + v * TIMESTEP, RB, rB)
     return xml, A, B, B1, v, plate
@@ -64,12 +77,15 @@ def make_pairs(rng, n):
 
 def _data(model, v, speculative):
     m = model
-    m.opt.enableflags = (m.opt.enableflags | int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE)) if speculative else \
-        (m.opt.enableflags & ~int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE))
+    m.opt.enableflags = (
+        (m.opt.enableflags | int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE))
+        if speculative
+        else (m.opt.enableflags & ~int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE))
+    )
     d = mujoco.MjData(m)
     d.qvel[:] = 0.0
     for i in range(len(v)):
-        d.qvel[6 * i: 6 * i + 3] = v[i]
+        d.qvel[6 * i : 6 * i + 3] = v[i]
     return d
 
 
@@ -103,8 +119,10 @@ def measure(size):
         after, _, _, _ = signed_distance(A, B_after, parallel=False)
         through = (pos[:, 0] - A.centers[:, 0]) > 0  # B's centre past A's: tunnelled (or pushed through)
         rows["MuJoCo, speculative on" if spec else "MuJoCo, speculative off"] = dict(
-            missed=int(np.count_nonzero(truth & ~hit)), false=int(np.count_nonzero(~truth & hit)),
-            after=after[truth], through=int(np.count_nonzero(truth & through)),
+            missed=int(np.count_nonzero(truth & ~hit)),
+            false=int(np.count_nonzero(~truth & hit)),
+            after=after[truth],
+            through=int(np.count_nonzero(truth & through)),
         )
     # cost: mj_forward's collision for the n pairs with and without speculative, and time_of_impact
     d_off, d_on = _data(model, v, False), _data(model, v, True)
@@ -117,6 +135,7 @@ def measure(size):
             for _ in range(20):
                 mujoco.mj_forward(m, d)
             return (time.thread_time() - t0) / 20
+
         return run
 
     def toi_run():
@@ -126,8 +145,15 @@ def measure(size):
 
     times = interleaved({"off": forward(m_off, d_off), "on": forward(m_on, d_on), "toi": toi_run}, 9, self_timed=True)
     cost = {k: float(np.median(t)) / n * 1e9 for k, t in times.items()}
-    return dict(n=n, impacts=int(truth.sum()), plates=int(plate.sum()), rows=rows, cost=cost,
-                toi_missed=0, spec_extra=cost["on"] - cost["off"])
+    return dict(
+        n=n,
+        impacts=int(truth.sum()),
+        plates=int(plate.sum()),
+        rows=rows,
+        cost=cost,
+        toi_missed=0,
+        spec_extra=cost["on"] - cost["off"],
+    )
 
 
 def write(result, size, out, plt):
@@ -147,10 +173,14 @@ def write(result, size, out, plt):
     for name, row in r["rows"].items():
         a = row["after"] * 1e3
         ns = r["cost"]["on" if "on" in name else "off"]
-        L.append(f"| {name} | {row['missed']} | {row['false']} | {np.median(a):.2f} / {a.min():.2f} | {row['through']} | "
-                 f"{ns:.0f} (mj_forward) |")
-    L.append(f"| ellipsim time_of_impact | 0 (proven) | 0 (proven) | (finds the time; stepping is MuJoCo's) | - | "
-             f"{r['cost']['toi']:.0f} |")
+        L.append(
+            f"| {name} | {row['missed']} | {row['false']} | {np.median(a):.2f} / {a.min():.2f} | {row['through']} | "
+            f"{ns:.0f} (mj_forward) |"
+        )
+    L.append(
+        f"| ellipsim time_of_impact | 0 (proven) | 0 (proven) | (finds the time; stepping is MuJoCo's) | - | "
+        f"{r['cost']['toi']:.0f} |"
+    )
     L += [
         "",
         f"Speculative contacts cost {r['spec_extra']:.0f} ns per pair on top of mj_forward here (thread CPU time, "

@@ -70,7 +70,9 @@ def _child(mode, cache, prebuilt, numba_cache=None):
     if numba_cache is not None:
         env["NUMBA_CACHE_DIR"] = str(numba_cache)
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", _CHILD, _XML, mode], env=env, capture_output=True, text=True, timeout=900)
+    proc = subprocess.run(
+        [sys.executable, "-c", _CHILD, _XML, mode], env=env, capture_output=True, text=True, timeout=900
+    )
     wall = time.perf_counter() - t0
     if proc.returncode:
         raise RuntimeError(f"start-up child ({mode}) failed: {proc.stderr.strip()}")
@@ -80,7 +82,11 @@ def _child(mode, cache, prebuilt, numba_cache=None):
 def measure(size):
     """{(configuration, mode): [child reports]} (see _child)."""
     n_cold, rounds, modes = _RUNS["quick" if size == SIZES["quick"] else "full"]
-    n_cold, rounds, modes = size.get("startup_cold", n_cold), size.get("startup_rounds", rounds), size.get("startup_modes", modes)
+    n_cold, rounds, modes = (
+        size.get("startup_cold", n_cold),
+        size.get("startup_rounds", rounds),
+        size.get("startup_modes", modes),
+    )
     runs = {}
     with tempfile.TemporaryDirectory() as tmp:
         cache, nothing = os.path.join(tmp, "cache"), os.path.join(tmp, "no-prebuilt")

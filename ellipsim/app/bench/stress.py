@@ -4,16 +4,15 @@ import os
 import time
 
 import numpy as np
-
 from scipy.spatial.transform import Rotation
 
-from ...core.exact.certified_filter import certify
-from ...core.exact.classify import classify
-from ...core.pairs.cylinder import UNPROVEN as CYLINDER_UNPROVEN
-from ...core.pairs.cylinder import cylinder_ellipsoid
 from ...core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ...core.ellipsoids import Ellipsoids
+from ...core.exact.certified_filter import certify
+from ...core.exact.classify import classify
 from ...core.exact.contact_scale import contact_scale
+from ...core.pairs.cylinder import UNPROVEN as CYLINDER_UNPROVEN
+from ...core.pairs.cylinder import cylinder_ellipsoid
 from ...core.relation import UNDECIDED
 from ...core.samples import STRESS, stress_pairs
 from .common import FLOAT_METHODS, MujocoPairs, distances_serial, float_runner, pair_runner, say, verdict
@@ -32,7 +31,11 @@ def measure(size):
         n = len(a)
         t0 = time.perf_counter()
         truth = classify(a, b, parallel=False)
-        exact_info[cat] = (np.count_nonzero(certify(a, b, n, False) == UNDECIDED) / n, (time.perf_counter() - t0) / n * 1e9, n)
+        exact_info[cat] = (
+            np.count_nonzero(certify(a, b, n, False) == UNDECIDED) / n,
+            (time.perf_counter() - t0) / n * 1e9,
+            n,
+        )
         row = {}
         for m, s, d in FLOAT_METHODS:
             row[f"{m} {s} {d}"] = int(np.count_nonzero(float_runner(a, b, m, s, d)() != truth))
@@ -134,7 +137,9 @@ def _plot(plt, out, stable, smethods):
         for j in range(len(smethods)):
             if grid[i, j]:
                 dark = np.log10(grid[i, j] + 1) > 0.6 * np.log10(grid.max() + 1)
-                ax.text(j, i, f"{int(grid[i, j])}", ha="center", va="center", fontsize=6, color="white" if dark else "black")
+                ax.text(
+                    j, i, f"{int(grid[i, j])}", ha="center", va="center", fontsize=6, color="white" if dark else "black"
+                )
     ax.set_xticks(range(len(smethods)), smethods, rotation=60, ha="right", fontsize=7)
     ax.set_yticks(range(len(cats)), cats, fontsize=7)
     ax.set_title("misclassified pairs per stress category (exact: 0 everywhere)")

@@ -49,7 +49,9 @@ def write(result, size, out, plt):
         "|---|---|---:|---:|---:|---:|---:|---:|",
     ]
     for setup, test, ts, os_, tc, oc in t1rows:
-        L.append(f"| {setup} | {test} | {ts:.2f} | {os_:.0f} | {ts * 1e3 / os_:.0f}x | {tc:.2f} | {oc:.0f} | {tc * 1e3 / oc:.0f}x |")
+        L.append(
+            f"| {setup} | {test} | {ts:.2f} | {os_:.0f} | {ts * 1e3 / os_:.0f}x | {tc:.2f} | {oc:.0f} | {tc * 1e3 / oc:.0f}x |"
+        )
     return L
 
 

@@ -34,6 +34,10 @@ def add_parser(sub):
     p.add_argument("--quick", action="store_true", help="smaller sets: under 5 minutes on 2 cores")
     p.add_argument("--out", default="bench-report", metavar="DIR", help="output directory (default bench-report)")
     # the sections are ellipsim/app/bench's SECTIONS, checked once the suite is imported (not at start-up)
-    p.add_argument("--only", nargs="+", metavar="SECTION",
-                   help="run only these sections of the suite (accuracy, stress, ...: a name it does not have lists them)")
+    p.add_argument(
+        "--only",
+        nargs="+",
+        metavar="SECTION",
+        help="run only these sections of the suite (accuracy, stress, ...: a name it does not have lists them)",
+    )
     p.set_defaults(run=bench)

@@ -212,11 +212,14 @@ BIG_SCENE = 200
 def header(s):
     print(f"{s.name}: {s.description}")
     if s.scene["kind"] == "figures" and s.scene["figures"] >= BIG_SCENE:
-        from ...mujoco.scenes import LIMBS
+        from ..scenes import LIMBS
 
         n = s.scene["figures"]
-        print(f"  {n} figures: {len(LIMBS) * n + 1} bodies for MuJoCo to compile, in time that grows with their square "
-              "(500 figures: ~30 s on 2 cores) ...", flush=True)
+        print(
+            f"  {n} figures: {len(LIMBS) * n + 1} bodies for MuJoCo to compile, in time that grows with their square "
+            "(500 figures: ~30 s on 2 cores) ...",
+            flush=True,
+        )
     if s.scene["kind"] == "mjcf":
         sc = s.scene
         start = "default pose" if sc["key"] is None else f"keyframe {sc['key']!r}"
@@ -224,9 +227,14 @@ def header(s):
 
 
 def model_options(p):
-    p.add_argument("--key", metavar="NAME|INDEX", help="an MJCF model's keyframe to start from (default: its default pose)")
-    p.add_argument("--ctrl", choices=("hold", "zero", "keyframe"),
-                   help="an MJCF model's actuators: hold the initial pose (default), zero, or the keyframe's ctrl")
+    p.add_argument(
+        "--key", metavar="NAME|INDEX", help="an MJCF model's keyframe to start from (default: its default pose)"
+    )
+    p.add_argument(
+        "--ctrl",
+        choices=("hold", "zero", "keyframe"),
+        help="an MJCF model's actuators: hold the initial pose (default), zero, or the keyframe's ctrl",
+    )
 
 
 #: Whether the contacts between frames (steps) are looked for unless --between-frames or
@@ -240,8 +248,12 @@ BETWEEN_DEFAULT = True
 
 def between_option(p, what):
     """--between-frames / --no-between-frames; args.between_frames is None when neither is given."""
-    p.add_argument("--between-frames", action=argparse.BooleanOptionalAction, default=None,
-                   help=f"{what} (continuous collision detection; default: {'on' if BETWEEN_DEFAULT else 'off'})")
+    p.add_argument(
+        "--between-frames",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help=f"{what} (continuous collision detection; default: {'on' if BETWEEN_DEFAULT else 'off'})",
+    )
 
 
 def between(args):

@@ -87,13 +87,23 @@ def _plot_compare(path, s, builtin, ours, disagree, near):
 
 def add_parser(sub):
     """The `compare` subcommand and its arguments."""
-    p = sub.add_parser("compare", help="MuJoCo's built-in contacts vs ellipsim's exact verdicts, per frame and in total")
+    p = sub.add_parser(
+        "compare", help="MuJoCo's built-in contacts vs ellipsim's exact verdicts, per frame and in total"
+    )
     p.add_argument("scenario", help="a name from `ellipsim list`, a path to a .toml file, or an MJCF .xml model")
     p.add_argument("--steps", type=positive_int, help="steps to compare (default: the scenario's duration)")
     p.add_argument("--json", metavar="FILE.json", help="write the counts and every disagreement as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="plot the per-frame counts (needs the 'plot' extra)")
-    p.add_argument("--show", type=non_negative_int, default=10, help="disagreements (and pairs passed through each other) to print (default 10)")
-    between_option(p, "also find ellipsoid pairs separated at two consecutive steps that touch in between (passed "
-                   "through each other within one step), on the interpolated motion")
+    p.add_argument(
+        "--show",
+        type=non_negative_int,
+        default=10,
+        help="disagreements (and pairs passed through each other) to print (default 10)",
+    )
+    between_option(
+        p,
+        "also find ellipsoid pairs separated at two consecutive steps that touch in between (passed "
+        "through each other within one step), on the interpolated motion",
+    )
     model_options(p)
     p.set_defaults(run=compare)

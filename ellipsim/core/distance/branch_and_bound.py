@@ -91,9 +91,9 @@ import math
 import numpy as np
 
 from .._jit import jit, stage
-from .sphere_newton import CONVERGED, newton, tangent_basis, unit
 from ..tolerances import BB_ERR_SIGMA_ULPS, BB_MAX_PATCHES, BB_PATCH_SLACK_ULPS, NEWTON_MAX_ITER
 from ..vec3 import cross3, matvec, norm2, rotate_t
+from .sphere_newton import CONVERGED, newton, tangent_basis, unit
 
 #: How global_max ends: the maximum found is proven global (GLOBAL), the budget ran out (UNPROVEN:
 #: the best found, no proof), or a climb reached sigma > 0 (SEPARATED_MAX: sigma is concave on the
@@ -135,7 +135,13 @@ def sigma_only(c, e, a, U, b):
     x0, x1, x2 = a[0] * c[0], a[1] * c[1], a[2] * c[2]
     w = rotate_t(U, c)
     y0, y1, y2 = b[0] * w[0], b[1] * w[1], b[2] * w[2]
-    return c[0] * e[0] + c[1] * e[1] + c[2] * e[2] - math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) - math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    return (
+        c[0] * e[0]
+        + c[1] * e[1]
+        + c[2] * e[2]
+        - math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        - math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    )
 
 
 def _rho_table(levels):
@@ -309,7 +315,9 @@ def _curvature(kw, ks, cs, sn, A, B, eh):
         kgk = _sym2_max(m00 * K[0] + m01 * K[1], m00 * K[1] + m01 * K[2], m10 * K[1] + m11 * K[2])
         kgk += 32.0 * U64 * kmax * kmax * (abs(G[0]) + abs(G[1]) + abs(G[2]))  # K's rounding: ||dK|| <= 8 u kmax
         kb0, kb1 = K[0] * bv[0] + K[1] * bv[1], K[1] * bv[0] + K[2] * bv[1]
-        beta = (math.sqrt(kb0 * kb0 + kb1 * kb1) + kmax * (bverr * 1.5 + 16.0 * U64 * (abs(bv[0]) + abs(bv[1])))) * (1.0 + 8.0 * U64)
+        beta = (math.sqrt(kb0 * kb0 + kb1 * kb1) + kmax * (bverr * 1.5 + 16.0 * U64 * (abs(bv[0]) + abs(bv[1])))) * (
+            1.0 + 8.0 * U64
+        )
         h2 = (hhi * hhi + 2.0 * beta + kgk * (1.0 + 16.0 * U64)) * (1.0 + 8.0 * U64)
         hx = math.sqrt(h2) * (1.0 + 2.0 * U64)
         r = hlo / hx
@@ -401,7 +409,7 @@ def certify_region(m, e, a, U, b, amax, bmax, S, err_sigma, tol):
     lb2 = max(_sym2_max(B[3][0], B[3][1], B[3][2]), 1e-300)
     T = min(1.0, 8.0 * min(A[0] / math.sqrt(la2), B[0] / math.sqrt(lb2)))
     bestT, best_reach, best_pmin = 0.0, 0.0, 0.0
-    for k in range(64):
+    for _k in range(64):
         P, pmin = _curvature(T, T, cs, sn, A, B, eh)
         if pmin - Vp > 0.0 and need <= pmin - Vp:
             reach = max(T, (pmin * T - 2.0 * ghi) / Vp)
@@ -421,7 +429,7 @@ def certify_region(m, e, a, U, b, amax, bmax, S, err_sigma, tol):
         ks2 = 0.5 * bestT
         kw2 = 0.0
         t = bestT
-        for k in range(10):
+        for _k in range(10):
             t *= 2.0
             P, pmin = _curvature(t, ks2, cs, sn, A, B, eh)
             if pmin - Vp > 0.0 and need <= pmin - Vp:
@@ -442,7 +450,12 @@ def certify_region(m, e, a, U, b, amax, bmax, S, err_sigma, tol):
     m11 = K[1] * P[1] + K[2] * P[2]
     kp0, kp1, kp2 = m00 * K[0] + m01 * K[1], m00 * K[1] + m01 * K[2], m10 * K[1] + m11 * K[2]
     muK, muK_err = _sym2_min(kp0, kp1, kp2)
-    muK = muK - muK_err - 1e-13 * (abs(kp0) + abs(kp1) + abs(kp2)) - 64.0 * U64 * kmax * kmax * (abs(P[0]) + abs(P[1]) + abs(P[2]))
+    muK = (
+        muK
+        - muK_err
+        - 1e-13 * (abs(kp0) + abs(kp1) + abs(kp2))
+        - 64.0 * U64 * kmax * kmax * (abs(P[0]) + abs(P[1]) + abs(P[2]))
+    )
     r_in = max(kmin, (pmin * kmin - 2.0 * ghi) / Vp * (1.0 - 1e-14))
     if muK > 0.0:  # |x| <= r with |V'| r^2 + 2 |g| r <= mu_K
         r_in = max(r_in, (math.sqrt(ghi * ghi + Vp * muK) - ghi) / Vp * (1.0 - 1e-13))
@@ -454,8 +467,30 @@ def certify_region(m, e, a, U, b, amax, bmax, S, err_sigma, tol):
     R_out = 2.0 * math.sin(0.5 * math.atan(r_out)) + 1e-9
     if R_in <= 0.0:
         return False, m, s, z21
-    region = (m[0], m[1], m[2], t1[0], t1[1], t1[2], t2[0], t2[1], t2[2], Ki[0], Ki[1], Ki[2], 1.0 / kmin,
-              P[0], P[1], P[2], Vp, ghi, R_in, R_out, R_in, muK)
+    region = (
+        m[0],
+        m[1],
+        m[2],
+        t1[0],
+        t1[1],
+        t1[2],
+        t2[0],
+        t2[1],
+        t2[2],
+        Ki[0],
+        Ki[1],
+        Ki[2],
+        1.0 / kmin,
+        P[0],
+        P[1],
+        P[2],
+        Vp,
+        ghi,
+        R_in,
+        R_out,
+        R_in,
+        muK,
+    )
     return True, m, s, region
 
 
@@ -530,8 +565,30 @@ def _match(m, regions, nd):
 
 @stage
 def _widen1(d, D):
-    return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11], d[12], d[13], d[14], d[15],
-            d[16], d[17], d[18], d[19], max(d[20], D), d[21])
+    return (
+        d[0],
+        d[1],
+        d[2],
+        d[3],
+        d[4],
+        d[5],
+        d[6],
+        d[7],
+        d[8],
+        d[9],
+        d[10],
+        d[11],
+        d[12],
+        d[13],
+        d[14],
+        d[15],
+        d[16],
+        d[17],
+        d[18],
+        d[19],
+        max(d[20], D),
+        d[21],
+    )
 
 
 @stage
@@ -636,7 +693,7 @@ def _next(fp, level, i, j, root):
     return fp, level, i + 1, j - 1, False
 
 
-@jit  # a function of its own, not inlined into its caller: the narrow-phase callback compiles in 51 s, not 72 s
+@jit  # a function of its own, not inlined into its caller: the narrow-phase callback compiles faster
 def global_max(n0, v0, have0, e, a, U, b, M, scale, tol, max_patches):
     """Proven global maximum of sigma on the unit sphere, in A's frame.
 

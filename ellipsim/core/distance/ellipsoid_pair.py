@@ -36,15 +36,24 @@ import numpy as np
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import check_pair, check_parallel
-from .branch_and_bound import GLOBAL as BB_GLOBAL, UNPROVEN as BB_UNPROVEN
-from .spheroids import parallel_max, tilted_max
-from .branch_and_bound import SEPARATED_MAX, climb, global_max, sigma_only
-from .sphere_newton import CONVERGED, a_frame, bisector_seed, newton, rolling_radius, unit
 from ..tolerances import (
-    BB_FRAME_ULPS, BB_MAX_PATCHES, BB_TOL_REL, BB_TOL_ULPS, FIRST_RUN_ITER, NEWTON_MAX_ITER, U, WARM_SCALE_MAX, WARM_SCALE_MIN,
+    BB_FRAME_ULPS,
+    BB_MAX_PATCHES,
+    BB_TOL_REL,
+    BB_TOL_ULPS,
+    FIRST_RUN_ITER,
+    NEWTON_MAX_ITER,
+    WARM_SCALE_MAX,
+    WARM_SCALE_MIN,
     WARM_SIGMA_SLACK_ULPS,
-)  # fmt: skip
+    U,
+)
 from ..vec3 import load, matvec, norm2, rotate_t, rotation_defect, scaled, unit_scale
+from .branch_and_bound import GLOBAL as BB_GLOBAL
+from .branch_and_bound import SEPARATED_MAX, climb, global_max, sigma_only
+from .branch_and_bound import UNPROVEN as BB_UNPROVEN
+from .sphere_newton import CONVERGED, a_frame, bisector_seed, newton, rolling_radius, unit
+from .spheroids import parallel_max, tilted_max
 
 #: What signed_distance reports per pair: GLOBAL (the returned maximum is proven global, to the
 #: module's TOL), UNPROVEN (the branch and bound's budget ran out: the best maximum found, no proof).
@@ -288,7 +297,13 @@ def sigma_lower_bound(A, B, n):
     za, zb = rotate_t(Ra, m), rotate_t(Rb, m)
     x0, x1, x2 = ra[0] * za[0], ra[1] * za[1], ra[2] * za[2]
     y0, y1, y2 = rb[0] * zb[0], rb[1] * zb[1], rb[2] * zb[2]
-    v = m[0] * d[0] + m[1] * d[1] + m[2] * d[2] - math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) - math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    v = (
+        m[0] * d[0]
+        + m[1] * d[1]
+        + m[2] * d[2]
+        - math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        - math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    )
     return v - WARM_SIGMA_SLACK_ULPS * U * S
 
 

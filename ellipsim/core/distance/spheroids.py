@@ -34,7 +34,8 @@ and bounds sigma on a cell by its second-order Taylor expansion (the section's c
 import math
 
 from .._jit import jit, stage
-from ..tolerances import BB_ERR_SIGMA_ULPS, COAXIAL_MAX_NODES, PARALLEL_CANDIDATE_TILT as CANDIDATE_TILT, TILTED_MAX_NODES
+from ..tolerances import BB_ERR_SIGMA_ULPS, COAXIAL_MAX_NODES, TILTED_MAX_NODES
+from ..tolerances import PARALLEL_CANDIDATE_TILT as CANDIDATE_TILT
 
 U64 = 2.0**-53
 MAX_LEVEL = 52  # arcs of pi 2^-52: far below any tolerance reached
@@ -93,7 +94,12 @@ def _delta(e, a, U, b, k, S):
     dfu = 0.0
     for p in range(3):
         for q in range(p, 3):
-            v = U[3 * p] * U[3 * q] + U[3 * p + 1] * U[3 * q + 1] + U[3 * p + 2] * U[3 * q + 2] - (1.0 if p == q else 0.0)
+            v = (
+                U[3 * p] * U[3 * q]
+                + U[3 * p + 1] * U[3 * q + 1]
+                + U[3 * p + 2] * U[3 * q + 2]
+                - (1.0 if p == q else 0.0)
+            )
             dfu = max(dfu, abs(v))
     dfu += 4.0 * U64  # each entry: three products and their sums, <= 3 u, and the - 1
     # |U^T n|^2 = 1 +- 3 def moves h_B^2 by <= 3 pb^2 def, so h_B by that over h_B + its model >= 2 min(qb, pb)
@@ -249,7 +255,10 @@ def _inv_roots(q, qlo):
     lo, hi = max(q[0] - q[1], qlo), q[0] + q[1]
     i_hi, i_lo = (1.0 + U4) / math.sqrt(lo), (1.0 - U4) / math.sqrt(hi)
     j_hi, j_lo = i_hi * i_hi * i_hi * (1.0 + U4), i_lo * i_lo * i_lo * (1.0 - U4)
-    return (0.5 * (i_hi + i_lo), 0.5 * (i_hi - i_lo) * (1.0 + U4)), (0.5 * (j_hi + j_lo), 0.5 * (j_hi - j_lo) * (1.0 + U4))
+    return (0.5 * (i_hi + i_lo), 0.5 * (i_hi - i_lo) * (1.0 + U4)), (
+        0.5 * (j_hi + j_lo),
+        0.5 * (j_hi - j_lo) * (1.0 + U4),
+    )
 
 
 @stage
@@ -485,8 +494,22 @@ def tilted_max(e, a, U, b, tol, S, n0):
     t0 = math.atan2(math.sqrt(n0[k1] * n0[k1] + n0[k2] * n0[k2]), n0[k])
     p0 = math.atan2(n0[k2], n0[k1])
     ok, bt, bp, moved, nodes = axis_bb(
-        e[k], e[k1], e[k2], 0, qa * qa, pa * pa, qb * qb - pb * pb, pb * pb, U[3 * k + j], U[3 * k1 + j], U[3 * k2 + j],
-        tol1, S, amax * amax, t0, p0,
+        e[k],
+        e[k1],
+        e[k2],
+        0,
+        qa * qa,
+        pa * pa,
+        qb * qb - pb * pb,
+        pb * pb,
+        U[3 * k + j],
+        U[3 * k1 + j],
+        U[3 * k2 + j],
+        tol1,
+        S,
+        amax * amax,
+        t0,
+        p0,
     )
     if not moved:
         return ok, n0, nodes

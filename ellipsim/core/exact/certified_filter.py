@@ -25,8 +25,6 @@ import numpy as np
 
 from .. import threads
 from .._jit import jit, stage
-from .pair_frame import invariants, pencil, pencil_mag, shape
-from .contact_scale import initial_mu, pw_step, pw_value
 from ..relation import OVERLAPPING, SEPARATED, UNDECIDED
 from ..tolerances import (
     BOUNDING_INFLATION,
@@ -45,6 +43,9 @@ from ..tolerances import (
     TAU,
 )
 from ..vec3 import load, matvec, norm2, reciprocal, rotate_t, rotate_t_mag
+from .contact_scale import initial_mu, pw_step, pw_value
+from .pair_frame import invariants, pencil, pencil_mag, shape
+
 
 @stage
 def _positive(value, mag, err):

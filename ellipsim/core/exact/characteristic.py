@@ -14,8 +14,8 @@ import numpy as np
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import check_choice, check_pair, check_parallel
-from .pair_frame import coefficients, invariants, offset, shape
 from ..vec3 import load, matvec, reciprocal, sandwich
+from .pair_frame import coefficients, invariants, offset, shape
 
 SETUPS = ("rearranged", "cofactor")
 

@@ -9,16 +9,15 @@ path (certified_filter.py) and exact rationals where that path is unsure (ration
 
 import numpy as np
 
-from . import rational_fallback as rational
 from .. import threads
 from .._jit import jit, stage
+from ..ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel
+from ..relation import UNDECIDED
+from ..vec3 import load
+from . import rational_fallback as rational
 from .certified_filter import certify, certify_pair
 from .characteristic import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
-from ..ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel
-from ..relation import UNDECIDED, Relation
 from .root_tests import descartes_relation, sturm_relation
-from ..vec3 import load
-
 
 METHODS = ("exact", "sturm", "descartes")
 DTYPES = ("float64", "float32")
@@ -116,9 +115,20 @@ def classify_pairs(batch, first, second, *, parallel=None):
         raise ValueError(f"first and second must have the same length, got {len(first)} and {len(second)}")
     k = len(first)
     out = np.empty(k, dtype=np.int8)
-    threads.run(_certify_indexed, k, check_parallel(parallel, k), batch.centers, batch.rotations, batch.radii, first, second, out)
+    threads.run(
+        _certify_indexed,
+        k,
+        check_parallel(parallel, k),
+        batch.centers,
+        batch.rotations,
+        batch.radii,
+        first,
+        second,
+        out,
+    )
     for i in np.flatnonzero(out == UNDECIDED):
         a, b = first[i], second[i]
-        out[i] = rational.relation(batch.centers[a], batch.rotations[a], batch.radii[a],
-                                   batch.centers[b], batch.rotations[b], batch.radii[b])  # fmt: skip
+        out[i] = rational.relation(
+            batch.centers[a], batch.rotations[a], batch.radii[a], batch.centers[b], batch.rotations[b], batch.radii[b]
+        )
     return out

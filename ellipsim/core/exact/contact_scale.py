@@ -17,9 +17,9 @@ import numpy as np
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import check_pair, check_parallel
-from .pair_frame import invariants, offset, shape
-from ..vec3 import load, matvec, norm2, reciprocal, scaled, unit_scale
 from ..tolerances import PW_MAX_ITER, PW_RTOL
+from ..vec3 import load, matvec, norm2, reciprocal, scaled, unit_scale
+from .pair_frame import invariants, offset, shape
 
 
 @stage

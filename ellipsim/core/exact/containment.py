@@ -43,10 +43,7 @@ import numpy as np
 
 from .. import threads
 from .._jit import jit, stage
-from .certified_filter import _in_float_range, _positive, bounding_spheres_apart
 from ..ellipsoids import check_pair, check_parallel
-from .pair_frame import invariants, offset, shape
-from .rational_fallback import _remainder, _strip, exact_pair
 from ..tolerances import (
     AXIS_SLACK,
     CONTAIN_NEWTON_STEPS,
@@ -58,6 +55,9 @@ from ..tolerances import (
     JACOBI_SWEEPS,
 )
 from ..vec3 import cross3, cross3_mag, load, matvec, norm2, reciprocal
+from .certified_filter import _in_float_range, _positive, bounding_spheres_apart
+from .pair_frame import invariants, offset, shape
+from .rational_fallback import _remainder, _strip, exact_pair
 
 INSIDE, NOT_INSIDE = 1, 0
 UNDECIDED = -1
@@ -330,7 +330,9 @@ def contains(a, b, *, parallel=None):
     sa, sb = int(len(a) > 1), int(len(b) > 1)
     for i in np.flatnonzero(out == UNDECIDED):
         ia, ib = i * sa, i * sb
-        out[i] = contains_exact(a.centers[ia], a.rotations[ia], a.radii[ia], b.centers[ib], b.rotations[ib], b.radii[ib])
+        out[i] = contains_exact(
+            a.centers[ia], a.rotations[ia], a.radii[ia], b.centers[ib], b.rotations[ib], b.radii[ib]
+        )
     return out.astype(bool)
 
 

@@ -31,7 +31,7 @@ ch. 3; leaf roundings such as 1/r and c_b - c_a are counted).  The depth of each
 as [n].  Kernels that need only the values leave the mags unused and LLVM drops them.
 """
 
-from .._jit import jit, stage
+from .._jit import stage
 from ..vec3 import column, cross3, cross3_mag, dot3, norm2, reciprocal, rotate_t, rotate_t_mag
 
 

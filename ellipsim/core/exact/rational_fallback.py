@@ -45,8 +45,10 @@ def pencil_coefficients(ca, Ra, ra, cb, Rb, rb):
     e = [sum(Ra[k][i] * d[k] for k in range(3)) / ra[i] for i in range(3)]
     K = [[sum(W[k][i] * W[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
     t1 = K[0][0] + K[1][1] + K[2][2]
-    t2 = (K[0][0] * K[1][1] - K[0][1] * K[1][0]) + (K[0][0] * K[2][2] - K[0][2] * K[2][0]) + (
-        K[1][1] * K[2][2] - K[1][2] * K[2][1]
+    t2 = (
+        (K[0][0] * K[1][1] - K[0][1] * K[1][0])
+        + (K[0][0] * K[2][2] - K[0][2] * K[2][0])
+        + (K[1][1] * K[2][2] - K[1][2] * K[2][1])
     )
     cK = _cofactor(K)
     t3 = sum(K[0][k] * cK[0][k] for k in range(3))

@@ -227,11 +227,32 @@ def _capsule_motion(centers, rotations, axis, half, ends, bend):
 def _capsule_gap(a0, a1, b0, b1, t, reach):
     """Distance less `reach` at t of the segments whose ends (2, 3) move linearly from a0 to a1 and
     from b0 to b1."""
-    pa0, pa1, pa2 = a0[0, 0] + t * (a1[0, 0] - a0[0, 0]), a0[0, 1] + t * (a1[0, 1] - a0[0, 1]), a0[0, 2] + t * (a1[0, 2] - a0[0, 2])
-    qa0, qa1, qa2 = a0[1, 0] + t * (a1[1, 0] - a0[1, 0]), a0[1, 1] + t * (a1[1, 1] - a0[1, 1]), a0[1, 2] + t * (a1[1, 2] - a0[1, 2])
-    pb0, pb1, pb2 = b0[0, 0] + t * (b1[0, 0] - b0[0, 0]), b0[0, 1] + t * (b1[0, 1] - b0[0, 1]), b0[0, 2] + t * (b1[0, 2] - b0[0, 2])
-    qb0, qb1, qb2 = b0[1, 0] + t * (b1[1, 0] - b0[1, 0]), b0[1, 1] + t * (b1[1, 1] - b0[1, 1]), b0[1, 2] + t * (b1[1, 2] - b0[1, 2])
-    return _segment_distance(pa0, pa1, pa2, pb0, pb1, pb2, qa0 - pa0, qa1 - pa1, qa2 - pa2, qb0 - pb0, qb1 - pb1, qb2 - pb2) - reach
+    pa0, pa1, pa2 = (
+        a0[0, 0] + t * (a1[0, 0] - a0[0, 0]),
+        a0[0, 1] + t * (a1[0, 1] - a0[0, 1]),
+        a0[0, 2] + t * (a1[0, 2] - a0[0, 2]),
+    )
+    qa0, qa1, qa2 = (
+        a0[1, 0] + t * (a1[1, 0] - a0[1, 0]),
+        a0[1, 1] + t * (a1[1, 1] - a0[1, 1]),
+        a0[1, 2] + t * (a1[1, 2] - a0[1, 2]),
+    )
+    pb0, pb1, pb2 = (
+        b0[0, 0] + t * (b1[0, 0] - b0[0, 0]),
+        b0[0, 1] + t * (b1[0, 1] - b0[0, 1]),
+        b0[0, 2] + t * (b1[0, 2] - b0[0, 2]),
+    )
+    qb0, qb1, qb2 = (
+        b0[1, 0] + t * (b1[1, 0] - b0[1, 0]),
+        b0[1, 1] + t * (b1[1, 1] - b0[1, 1]),
+        b0[1, 2] + t * (b1[1, 2] - b0[1, 2]),
+    )
+    return (
+        _segment_distance(
+            pa0, pa1, pa2, pb0, pb1, pb2, qa0 - pa0, qa1 - pa1, qa2 - pa2, qb0 - pb0, qb1 - pb1, qb2 - pb2
+        )
+        - reach
+    )
 
 
 @jit
@@ -350,8 +371,20 @@ def swept_pairs(centers, rotations, radii, rho, allowed=None):
     ends, bend = np.empty((F, g, 2, 3)), np.empty((F - 1, g))
     _capsule_motion(centers, rotations, axis, half, ends, bend)
     keep = np.empty((len(blocks), SWEEP_BLOCK), dtype=bool)
-    threads.run(_step_pairs, len(blocks), len(blocks) >= PARALLEL_MIN_PAIRS, blocks, SWEEP_BLOCK, centers, rho, ends, bend,
-                cap, big, keep)  # fmt: skip
+    threads.run(
+        _step_pairs,
+        len(blocks),
+        len(blocks) >= PARALLEL_MIN_PAIRS,
+        blocks,
+        SWEEP_BLOCK,
+        centers,
+        rho,
+        ends,
+        bend,
+        cap,
+        big,
+        keep,
+    )
     p, k = np.nonzero(keep)
     pairs = np.column_stack([blocks[p, 0] * SWEEP_BLOCK + k, blocks[p, 1], blocks[p, 2]])
     return pairs[np.argsort(pairs[:, 0], kind="stable")]

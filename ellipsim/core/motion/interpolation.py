@@ -200,11 +200,31 @@ def _poses_at(C0, R0, C1, R1, W, t, C, R):
     for i in range(C.shape[0]):
         ti = t[i * st]
         Rt = rotation_at(
-            (R0[i, 0, 0], R0[i, 0, 1], R0[i, 0, 2], R0[i, 1, 0], R0[i, 1, 1], R0[i, 1, 2], R0[i, 2, 0], R0[i, 2, 1], R0[i, 2, 2]),
-            (R1[i, 0, 0], R1[i, 0, 1], R1[i, 0, 2], R1[i, 1, 0], R1[i, 1, 1], R1[i, 1, 2], R1[i, 2, 0], R1[i, 2, 1], R1[i, 2, 2]),
+            (
+                R0[i, 0, 0],
+                R0[i, 0, 1],
+                R0[i, 0, 2],
+                R0[i, 1, 0],
+                R0[i, 1, 1],
+                R0[i, 1, 2],
+                R0[i, 2, 0],
+                R0[i, 2, 1],
+                R0[i, 2, 2],
+            ),
+            (
+                R1[i, 0, 0],
+                R1[i, 0, 1],
+                R1[i, 0, 2],
+                R1[i, 1, 0],
+                R1[i, 1, 1],
+                R1[i, 1, 2],
+                R1[i, 2, 0],
+                R1[i, 2, 1],
+                R1[i, 2, 2],
+            ),
             (W[i, 0], W[i, 1], W[i, 2]),
             ti,
-        )  # fmt: skip
+        )
         for j in range(3):
             if ti == 0.0:
                 C[i, j] = C0[i, j]
@@ -231,7 +251,9 @@ def poses_at(x0, x1, t):
     bad = np.flatnonzero(np.any(x0.radii != x1.radii, axis=1))
     if len(bad):
         i = int(bad[0])
-        raise ValueError(f"x1.radii[{i}] must equal x0.radii[{i}], got {x1.radii[i].tolist()} and {x0.radii[i].tolist()}")
+        raise ValueError(
+            f"x1.radii[{i}] must equal x0.radii[{i}], got {x1.radii[i].tolist()} and {x0.radii[i].tolist()}"
+        )
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
     if t.ndim != 1 or len(t) not in (1, len(x0)):
         raise ValueError(f"t must be a number or have shape ({len(x0)},), got shape {t.shape}")

@@ -48,9 +48,10 @@ from enum import IntEnum
 
 import numpy as np
 
-from ..exact import rational_fallback as rational
 from .. import threads
 from .._jit import jit, stage
+from ..ellipsoids import Ellipsoids, check_parallel
+from ..exact import rational_fallback as rational
 from ..exact.certified_filter import (
     _in_float_range,
     _positive,
@@ -60,10 +61,8 @@ from ..exact.certified_filter import (
     pencil_positive,
     witness,
 )
-from ..ellipsoids import Ellipsoids, check_parallel
-from .interpolation import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
-from ..exact.pair_frame import cofactors, invariants, offset, shape
 from ..exact.contact_scale import initial_mu, pw_maximize, pw_value
+from ..exact.pair_frame import cofactors, invariants, offset, shape
 from ..relation import SEPARATED, UNDECIDED
 from ..tolerances import (
     BOUNDING_INFLATION,
@@ -84,6 +83,7 @@ from ..tolerances import (
     U,
 )
 from ..vec3 import cross3, cross3_mag, matvec, norm2, reciprocal
+from .interpolation import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
 
 # Statuses (int8), as `Impact` reports them; NEED_EXACT is internal (the kernel asks for rationals).
 NO_CONTACT, CONTACT, CONTACT_AT_FLOAT_POSE, UNRESOLVED = 0, 1, 2, 3
@@ -448,8 +448,17 @@ def _pose_at(t, pair):
     piece = 0 if t <= 0.5 else 1
     half = pair[13][0] if piece == 0 else pair[13][1]
     phi = t - float(piece)
-    ca, Ra, cb, Rb = _pose(piece, t, pair[1] if piece == 0 else pair[3], pair[5] if piece == 0 else pair[7],
-                           rodrigues(pair[10], phi), rodrigues(pair[11], phi), half[15], half[16], half[10])  # fmt: skip
+    ca, Ra, cb, Rb = _pose(
+        piece,
+        t,
+        pair[1] if piece == 0 else pair[3],
+        pair[5] if piece == 0 else pair[7],
+        rodrigues(pair[10], phi),
+        rodrigues(pair[11], phi),
+        half[15],
+        half[16],
+        half[10],
+    )
     return ca, Ra, half[4], cb, Rb, half[5]
 
 
@@ -520,15 +529,55 @@ def _pair_data(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb):
     turn = 1.00001 * (dra * rma + drb * rmb)
     ec0 = 4.01 * U * (_norm(d0) + _norm(da) + _norm(db))
     ec1 = 4.01 * U * (_norm(d1) + _norm(da) + _norm(db))
-    half0 = (cofactors(Ra0), cofactors(Rb0), wa, wb, ra_s, rb_s, rma, rmb, tha, thb, d0, _abs3(d0), v, mv,
-             ec0 + turn, da, db)  # fmt: skip
-    half1 = (cofactors(Ra1), cofactors(Rb1), wa, wb, ra_s, rb_s, rma, rmb, tha, thb, d1, _abs3(d1), v, mv,
-             ec1 + turn, da, db)  # fmt: skip
+    half0 = (
+        cofactors(Ra0),
+        cofactors(Rb0),
+        wa,
+        wb,
+        ra_s,
+        rb_s,
+        rma,
+        rmb,
+        tha,
+        thb,
+        d0,
+        _abs3(d0),
+        v,
+        mv,
+        ec0 + turn,
+        da,
+        db,
+    )
+    half1 = (
+        cofactors(Ra1),
+        cofactors(Rb1),
+        wa,
+        wb,
+        ra_s,
+        rb_s,
+        rma,
+        rmb,
+        tha,
+        thb,
+        d1,
+        _abs3(d1),
+        v,
+        mv,
+        ec1 + turn,
+        da,
+        db,
+    )
     # _witness_relation's room per body: (DELTA_R r_max (1 + 1e-5) + 1.00001 |c - c~|) / r_min, rounded up
     ec = max(ec0, ec1) * 1.00001
     ka = (dra * rma * (1.00001) + ec) / min(ra_s[0], ra_s[1], ra_s[2]) * 1.01
     kb = (drb * rmb * (1.00001) + ec) / min(rb_s[0], rb_s[1], rb_s[2]) * 1.01
-    swept = (d0, d1, v, (rma + rmb) * BOUNDING_INFLATION, 4.01 * U * (_norm(d0) + _norm(d1) + _norm(da) + _norm(db)) + turn)
+    swept = (
+        d0,
+        d1,
+        v,
+        (rma + rmb) * BOUNDING_INFLATION,
+        4.01 * U * (_norm(d0) + _norm(d1) + _norm(da) + _norm(db)) + turn,
+    )
     return (ca0, Ra0, ca1, Ra1, cb0, Rb0, cb1, Rb1, ra, rb, wa, wb, p, (half0, half1), (ka, kb)), swept
 
 
@@ -684,9 +733,19 @@ def toi_pair(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb, ot, orel, o
 def _loads(A0, A1, B0, B1, ia, ib):
     """Pair (ia, ib)'s twelve tuples: centre, rotation, centre, rotation, radii, w for A, then for B."""
     return (
-        _load3(A0[0], ia), _load9(A0[1], ia), _load3(A1[0], ia), _load9(A1[1], ia), _load3(A0[2], ia), _load3(A1[2], ia),
-        _load3(B0[0], ib), _load9(B0[1], ib), _load3(B1[0], ib), _load9(B1[1], ib), _load3(B0[2], ib), _load3(B1[2], ib),
-    )  # fmt: skip
+        _load3(A0[0], ia),
+        _load9(A0[1], ia),
+        _load3(A1[0], ia),
+        _load9(A1[1], ia),
+        _load3(A0[2], ia),
+        _load3(A1[2], ia),
+        _load3(B0[0], ib),
+        _load9(B0[1], ib),
+        _load3(B1[0], ib),
+        _load9(B1[1], ib),
+        _load3(B0[2], ib),
+        _load3(B1[2], ib),
+    )
 
 
 @stage
@@ -704,10 +763,22 @@ def _run_pair(i, A0, A1, B0, B1, sa, sb, OT, OR, OC, out, status, t_exact, steps
     Cb1, Rb1, Wb = B1
     ia, ib = i * sa, i * sb
     out[i], status[i], t_exact[i], steps[i] = toi_pair(
-        _load3(Ca0, ia), _load9(Ra0, ia), _load3(Ca1, ia), _load9(Ra1, ia), _load3(ra, ia), _load3(Wa, ia),
-        _load3(Cb0, ib), _load9(Rb0, ib), _load3(Cb1, ib), _load9(Rb1, ib), _load3(rb, ib), _load3(Wb, ib),
-        OT[i], OR[i], OC[i],
-    )  # fmt: skip
+        _load3(Ca0, ia),
+        _load9(Ra0, ia),
+        _load3(Ca1, ia),
+        _load9(Ra1, ia),
+        _load3(ra, ia),
+        _load3(Wa, ia),
+        _load3(Cb0, ib),
+        _load9(Rb0, ib),
+        _load3(Cb1, ib),
+        _load9(Rb1, ib),
+        _load3(rb, ib),
+        _load3(Wb, ib),
+        OT[i],
+        OR[i],
+        OC[i],
+    )
 
 
 @jit
@@ -736,7 +807,14 @@ def float_poses(arrays, idx, t):
     """(ca, Ra, ra, cb, Rb, rb) arrays of the float poses of pairs idx at times t, as the kernel builds
     them; `arrays` as _check returns them."""
     k = len(idx)
-    out = (np.empty((k, 3)), np.empty((k, 3, 3)), np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3, 3)), np.empty((k, 3)))
+    out = (
+        np.empty((k, 3)),
+        np.empty((k, 3, 3)),
+        np.empty((k, 3)),
+        np.empty((k, 3)),
+        np.empty((k, 3, 3)),
+        np.empty((k, 3)),
+    )
     _float_poses(*arrays, np.asarray(idx, dtype=np.int64), np.asarray(t, dtype=np.float64), *out)
     return out
 
@@ -769,8 +847,12 @@ def _check(a0, a1, b0, b1):
     if na != nb and na != 1 and nb != 1:
         raise ValueError(f"a0 and b0 must have the same length or one of them length 1, got {na} and {nb}")
     n = 0 if na == 0 or nb == 0 else max(na, nb)
-    arrays = ((a0.centers, a0.rotations, a0.radii), (a1.centers, a1.rotations, wa),
-              (b0.centers, b0.rotations, b0.radii), (b1.centers, b1.rotations, wb))  # fmt: skip
+    arrays = (
+        (a0.centers, a0.rotations, a0.radii),
+        (a1.centers, a1.rotations, wa),
+        (b0.centers, b0.rotations, b0.radii),
+        (b1.centers, b1.rotations, wb),
+    )
     return arrays, n
 
 

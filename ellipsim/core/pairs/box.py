@@ -37,13 +37,22 @@ by more than 1e-12 of the smaller shortest half-size; every maximum certified or
 import math
 
 from .._jit import jit, stage
-from .point_ellipsoid import (
-    circle_max_bound, contact_in_world, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2,
-    secular_roots, support,
-)  # fmt: skip
 from ..distance.sphere_newton import rolling_radius, unit
 from ..tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
 from ..vec3 import column, norm2, rotate_t
+from .point_ellipsoid import (
+    circle_max_bound,
+    contact_in_world,
+    foot2,
+    foot3,
+    from_plane,
+    pole_normal,
+    project_ellipse,
+    sd_upper,
+    sd_upper2,
+    secular_roots,
+    support,
+)
 
 #: How box_ellipsoid proved its maximum (as capsule.py): CERTIFIED or ENUMERATED, both proofs.
 CERTIFIED, ENUMERATED = 0, 1

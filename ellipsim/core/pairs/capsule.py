@@ -42,11 +42,17 @@ import math
 
 from .._jit import jit, stage
 from ..distance.sphere_newton import rolling_radius, tangent_basis, unit
-from .point_ellipsoid import (
-    circle_max_bound, contact_in_world, foot3, pole_normal, sd_upper, secular_roots, support,
-)  # fmt: skip
 from ..tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
 from ..vec3 import column, dot3, norm2, rotate_t
+from .point_ellipsoid import (
+    circle_max_bound,
+    contact_in_world,
+    foot3,
+    pole_normal,
+    sd_upper,
+    secular_roots,
+    support,
+)
 
 #: How capsule_ellipsoid proved its maximum: CERTIFIED (an upper bound within PAIR_CERT_REL of the
 #: smaller shortest half-size of the value) or ENUMERATED (every critical point of every smooth piece
@@ -87,7 +93,6 @@ def centre_line_bound(E, K):
     scale = math.sqrt(ee) + max(ra[0], ra[1], ra[2], rk[0], rk[1])
     v = sigma_capsule(a2, e, u, rk[1], rk[0], (e[0] * s, e[1] * s, e[2] * s))
     return v - PAIR_SIGMA_SLACK_ULPS * U * scale
-
 
 
 # --- the kernel -----------------------------------------------------------------------------------

@@ -37,14 +37,23 @@ bounds at 8 fixed azimuths and 7-start Newton climb, which left half of its deep
 import math
 
 from .._jit import jit, stage
-from .point_ellipsoid import (
-    circle_max_bound, contact_in_world, foot2, foot3, from_plane, pole_normal, project_ellipse, sd_upper, sd_upper2,
-    secular_roots, support,
-)  # fmt: skip
 from ..distance.sphere_newton import rolling_radius, tangent_basis, unit
 from ..distance.spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, _axis_of, axis_bb
 from ..tolerances import BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
 from ..vec3 import column, cross3, norm2, rotate_t
+from .point_ellipsoid import (
+    circle_max_bound,
+    contact_in_world,
+    foot2,
+    foot3,
+    from_plane,
+    pole_normal,
+    project_ellipse,
+    sd_upper,
+    sd_upper2,
+    secular_roots,
+    support,
+)
 
 #: How cylinder_ellipsoid ended: CERTIFIED (an upper bound within PAIR_CERT_REL of the smaller
 #: shortest half-size of the value), ENUMERATED (every piece bounded or solved) or UNPROVEN.
@@ -104,7 +113,7 @@ def _rim_newton(a2, e, u, L, r, sg, n):
     p = math.atan2(_dot(n, w2), _dot(n, w1))
     b = min(max(b, 1e-6), 0.5 * math.pi - 1e-6)
     value = -math.inf
-    for it in range(NEWTON_MAX_ITER):
+    for _it in range(NEWTON_MAX_ITER):
         cb, sb, cp, sp = math.cos(b), math.sin(b), math.cos(p), math.sin(p)
         c = (cp * w1[0] + sp * w2[0], cp * w1[1] + sp * w2[1], cp * w1[2] + sp * w2[2])
         dc = (-sp * w1[0] + cp * w2[0], -sp * w1[1] + cp * w2[1], -sp * w1[2] + cp * w2[2])
@@ -121,7 +130,10 @@ def _rim_newton(a2, e, u, L, r, sg, n):
 
         # H = -(A/h - an an^T/h^3) applied to x, y
         def hq(x, y):
-            return -(a2[0] * x[0] * y[0] + a2[1] * x[1] * y[1] + a2[2] * x[2] * y[2]) * ih + _dot(an, x) * _dot(an, y) * ih * ih * ih
+            return (
+                -(a2[0] * x[0] * y[0] + a2[1] * x[1] * y[1] + a2[2] * x[2] * y[2]) * ih
+                + _dot(an, x) * _dot(an, y) * ih * ih * ih
+            )
 
         fbb = hq(nb, nb) - _dot(G, n) + r * sb
         fpp = hq(npp, npp) - sb * _dot(G, c)
@@ -168,7 +180,6 @@ def _rim_newton(a2, e, u, L, r, sg, n):
 def sigma_rim(a2, q, u, r, n):
     """f_rim(n) = n.q - h_E(n) - r |P n| for the unit n."""
     h = math.sqrt(a2[0] * n[0] * n[0] + a2[1] * n[1] * n[1] + a2[2] * n[2] * n[2])
-    nu = _dot(n, u)
     return _dot(n, q) - h - r * perp(n, u)
 
 
@@ -546,13 +557,33 @@ def axis_max(a2, e, u, L, r, tol, scale, n0):
     nu = (_dot(n0, u), _dot(n0, w1), _dot(n0, w2))
     t0, p0 = math.atan2(math.sqrt(nu[1] * nu[1] + nu[2] * nu[2]), nu[0]), math.atan2(nu[2], nu[1])
     ok, t, p, moved, _ = axis_bb(
-        _dot(e, u), _dot(e, w1), _dot(e, w2), 1, L, r, qb * qb - pb * pb, pb * pb, u[j], w1[j], w2[j], tol1, scale, 0.0, t0, p0
+        _dot(e, u),
+        _dot(e, w1),
+        _dot(e, w2),
+        1,
+        L,
+        r,
+        qb * qb - pb * pb,
+        pb * pb,
+        u[j],
+        w1[j],
+        w2[j],
+        tol1,
+        scale,
+        0.0,
+        t0,
+        p0,
     )
     n = n0
     if moved:
         ct, st, cp, sp = math.cos(t), math.sin(t), math.cos(p), math.sin(p)
-        n = unit((ct * u[0] + st * (cp * w1[0] + sp * w2[0]), ct * u[1] + st * (cp * w1[1] + sp * w2[1]),
-                  ct * u[2] + st * (cp * w1[2] + sp * w2[2])))  # fmt: skip
+        n = unit(
+            (
+                ct * u[0] + st * (cp * w1[0] + sp * w2[0]),
+                ct * u[1] + st * (cp * w1[1] + sp * w2[1]),
+                ct * u[2] + st * (cp * w1[2] + sp * w2[2]),
+            )
+        )
     return ok, n, sigma_cylinder(a2, e, u0, L, r, n)
 
 

@@ -21,6 +21,7 @@ from ..distance.sphere_newton import unit
 from ..tolerances import CRITICAL_MAX_ITER, POLE_RTOL, SECULAR_LAST, SECULAR_MAX_ITER, U
 from ..vec3 import dot3, matvec, norm2
 
+
 @stage
 def contact_in_world(E, a2, n, value):
     """(normal, pos) in world coordinates for the ellipsoid E (centre, rotation row-major, sizes) of a
@@ -94,7 +95,11 @@ def _pole_limit(a2, q, amin):
     x1 = 0.0 if d1 else a2[1] * q[1] / (a2[1] - amin)
     x2 = 0.0 if d2 else a2[2] * q[2] / (a2[2] - amin)
     rest = max(1.0 - x0 * x0 / a2[0] - x1 * x1 / a2[1] - x2 * x2 / a2[2], 0.0)
-    qd = (q[0] * q[0] / a2[0] if d0 else 0.0) + (q[1] * q[1] / a2[1] if d1 else 0.0) + (q[2] * q[2] / a2[2] if d2 else 0.0)
+    qd = (
+        (q[0] * q[0] / a2[0] if d0 else 0.0)
+        + (q[1] * q[1] / a2[1] if d1 else 0.0)
+        + (q[2] * q[2] / a2[2] if d2 else 0.0)
+    )
     if qd > 0.0:
         f = math.sqrt(rest / qd)
         x0 = q[0] * f if d0 else x0

@@ -215,7 +215,7 @@ def test_fit_prints_short_numbers_and_writes_mjcf_that_encloses_the_meshes(tmp_p
     box = trimesh.creation.box([0.2, 0.1, 0.05])
     box.apply_translation([1e-15, 0.3, 0.0])  # a centre with 1e-15 noise: printed as 0
     box.export(tmp_path / "foot.obj")
-    out = tmp_path / "limbs.xml"
+    out = tmp_path / "model" / "limbs.xml"  # model/ is made
     assert (
         main(["fit", str(tmp_path / "arm.stl"), str(tmp_path / "foot.obj"), "--method", "mvee", "--out", str(out)]) == 0
     )

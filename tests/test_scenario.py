@@ -405,9 +405,11 @@ def test_compare_plot(tmp_path):
         (["run", "dance-party"], "unknown scenario 'dance-party'; available:"),
         (["run", "pile", "--mode", "gjk"], "invalid choice: 'gjk'"),
         (["run", "pile", "--steps", "0"], "expected a positive integer, got 0"),
-        (["run", "pile", "--record", "/no/such/dir/x.rrd"], "--record: directory '/no/such/dir' does not exist"),
+        (["run", "pile", "--record", "/dev/null/x.rrd"], "--record: '/dev/null' is not a directory"),
         (["run", "pile", "--record", "out.txt"], "--record must name a .rrd file, got 'out.txt'"),
-        (["compare", "pile", "--json", "/no/such/dir/x.json"], "--json: directory '/no/such/dir' does not exist"),
+        (["compare", "pile", "--json", "/dev/null/d/x.json"], "--json: '/dev/null' is not a directory"),
+        (["compare", "pile", "--plot", "/dev/null/x.png"], "--plot: '/dev/null' is not a directory"),
+        (["fit", "arm.stl", "--out", "/dev/null/x.xml"], "--out: '/dev/null' is not a directory"),
         (["view", "/no/such/file.rrd"], "/no/such/file.rrd"),
     ],
 )

@@ -291,9 +291,11 @@ def test_cli_names_scenario_output_and_missing_ray(tmp_path, monkeypatch, capsys
     assert "unknown scenario 'tumbel'" in one_line_error(cli("sweep", "tumbel", "--out", str(tmp_path / "o")))
     (tmp_path / "file").write_text("")
     assert "--out '" in one_line_error(cli("sweep", "tumble", "--out", str(tmp_path / "file")))
-    assert "does not exist" in one_line_error(cli("sweep", "tumble", "--out", str(tmp_path / "no" / "o")))
-    out = tmp_path / "o"
+    line = one_line_error(cli("sweep", "tumble", "--out", str(tmp_path / "file" / "o")))
+    assert f"--out: '{tmp_path / 'file'}' is not a directory" in line
+    out = tmp_path / "sweeps" / "o"  # folders made if missing, as --help says (the README's `--out sweeps/pile`)
     assert main(["sweep", "tumble", "--steps", "5", "--out", str(out), "--workers", "1"]) == 0
+    assert (out / sw.RESULTS).is_file()
     capsys.readouterr()
     assert main(["sweep", "tumble", "--steps", "5", "--vary", "timestep=0.002", "--out", str(out)]) == 2
     assert "holds the results of another sweep" in capsys.readouterr().err

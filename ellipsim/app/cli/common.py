@@ -148,17 +148,33 @@ def steps_of(s, args, check):
 
 
 def check_output(path, suffix, option):
-    """The output file's name must end in `suffix`, not be a directory, and its directory must exist
-    and be writable: checked before running."""
+    """The output file's name must end in `suffix`, not be a directory, and its folder must be one we
+    can write in, or be missing under one (made_parents makes it when the file is written): checked
+    before running."""
     if not path.endswith(suffix):
         raise UserError(f"{option} must name a {suffix} file, got {path!r}")
     if os.path.isdir(path):
         raise UserError(f"{option}: {path!r} is a directory, not a {suffix} file")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise UserError(f"{option}: directory {folder!r} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+    existing = existing_ancestor(os.path.dirname(os.path.abspath(path)))
+    if not os.path.isdir(existing):
+        raise UserError(f"{option}: {existing!r} is not a directory (in {path!r})")
+    if not os.access(existing, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
         raise UserError(f"{option}: cannot write {path!r} (permission denied)")
+
+
+def existing_ancestor(folder):
+    """`folder` (absolute) if it exists, else its nearest ancestor that does."""
+    while not os.path.exists(folder) and os.path.dirname(folder) != folder:
+        folder = os.path.dirname(folder)
+    return folder
+
+
+def made_parents(path, option):
+    """Make the missing folders of the output file `path` (as --help says: "made if missing")."""
+    try:
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    except OSError as exc:
+        raise write_error(option, path, exc) from None
 
 
 def write_error(option, path, exc):
@@ -169,6 +185,7 @@ def write_error(option, path, exc):
 def write_json(path, report):
     """Write `report` to `path` through a partial file renamed when complete (none is left behind)."""
     partial = f"{path}.part"
+    made_parents(path, "--json")
     try:
         with open(partial, "w") as f:
             json.dump(report, f, indent=1)
@@ -184,6 +201,7 @@ def recorder_for(path):
     """A record.Recorder for --record (ValueError on a bad path is a user mistake)."""
     from .. import record
 
+    made_parents(path, "--record")
     try:
         return record.Recorder(path)
     except ValueError as exc:

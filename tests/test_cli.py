@@ -1,5 +1,6 @@
 import errno
 import io
+import json
 import os
 import re
 import signal
@@ -135,6 +136,19 @@ def test_compare_quotes_the_near_tangent_band(monkeypatch, capsys):
     monkeypatch.setattr("ellipsim.app.comparison.NEAR_TANGENT", 3e-6)
     assert main(["compare", "replay", "--steps", "5", "--show", "0"]) == 0
     assert "within 3e-06 m of touching" in capsys.readouterr().out
+
+
+def test_compare_json_is_compact_in_a_folder_made_for_it(tmp_path, capsys):
+    """A per-step array is one line, not a number a line; the folders of --json are made."""
+    out = tmp_path / "reports" / "june" / "replay.json"
+    assert main(["compare", "replay", "--steps", "300", "--json", str(out)]) == 0
+    text = out.read_text()
+    report = json.loads(text)
+    assert report["steps"] == 300 and len(report["per_frame"]["both"]) == 300
+    lines = text.splitlines()
+    assert len(lines) <= 30 + len(report["disagreements"]) + len(report["passed_through"] or []), text[:2000]
+    both = next(line for line in lines if line.lstrip().startswith('"both"'))
+    assert json.loads(both.split(": ", 1)[1].rstrip(",")) == report["per_frame"]["both"]
 
 
 def _unwritable(*args, **kwargs):

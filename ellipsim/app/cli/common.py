@@ -182,13 +182,28 @@ def write_error(option, path, exc):
     return UserError(f"{option}: cannot write {path!r}: {getattr(exc, 'strerror', None) or exc}")
 
 
+def json_text(value, indent=0):
+    """`value` as JSON text a reader can scan: a dict a key per line, a list of dicts a dict per line
+    (each on one line), any other list on one line (a per-step array of 1500 numbers is one line,
+    not 1500)."""
+    pad = " " * indent
+    if isinstance(value, dict) and value:
+        items = (f"{pad} {json.dumps(str(k))}: {json_text(v, indent + 1)}" for k, v in value.items())
+        return "{\n" + ",\n".join(items) + f"\n{pad}}}"
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        items = (f"{pad} {json.dumps(v, separators=(', ', ': '))}" for v in value)
+        return "[\n" + ",\n".join(items) + f"\n{pad}]"
+    return json.dumps(value, separators=(",", ":"))
+
+
 def write_json(path, report):
-    """Write `report` to `path` through a partial file renamed when complete (none is left behind)."""
+    """Write `report` (json_text) to `path` through a partial file renamed when complete (none is
+    left behind); the missing folders of `path` are made."""
     partial = f"{path}.part"
     made_parents(path, "--json")
     try:
         with open(partial, "w") as f:
-            json.dump(report, f, indent=1)
+            f.write(json_text(report) + "\n")
         os.replace(partial, path)
     except OSError as exc:
         raise write_error("--json", path, exc) from None

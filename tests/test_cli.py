@@ -186,8 +186,15 @@ def test_output_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys
 @pytest.mark.parametrize(
     "sig, status, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")]
 )
-def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig, status, word):
-    out = tmp_path / "crowd.rrd"
+def test_interrupted_recording_keeps_its_frames(tmp_path, sig, status, word):
+    """Ctrl-C or SIGTERM during `run --record`: the frames so far are a complete recording that
+    rerun reads, in a folder made for it, and the one line says at which step and how many frames."""
+    from test_record import Recording
+
+    from ellipsim.app import scenario, simulate
+
+    out = tmp_path / "runs" / "crowd.rrd"  # runs/ is made: parents of an output are made if missing
+    out.parent.parent.joinpath("crowd.rrd").write_bytes(b"")  # a neighbour the recording must not touch
     proc = subprocess.Popen(
         [sys.executable, "-m", "ellipsim", "run", "crowd", "--steps", "200000", "--record", str(out)],
         stdout=subprocess.PIPE,
@@ -197,13 +204,28 @@ def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig,
     try:
         line = proc.stderr.readline()  # the progress bar's first line: stepping has begun
         assert "crowd [" in line, line
+        time.sleep(0.5)
         proc.send_signal(sig)
-        _, err = proc.communicate(timeout=60)
+        _, err = proc.communicate(timeout=300)
     finally:
         proc.kill()
     assert proc.returncode == status, err
-    assert err.strip().splitlines()[-1] == f"ellipsim: {word}" and "Traceback" not in err
-    assert os.listdir(tmp_path) == []  # neither the recording nor its partial file
+    last = err.strip().splitlines()[-1]
+    found = re.fullmatch(rf"ellipsim: {word} at step (\d+)/200000; recording of (\d+) frames kept in (.+)", last)
+    assert found and "Traceback" not in err, err
+    steps, frames = int(found[1]), int(found[2])
+    assert found[3] == str(out) and 0 < steps < 200000
+    every = simulate.record_every(scenario.load("crowd"))
+    assert frames == -(-steps // every)  # a frame at every `every`-th step from step 0
+    got, _, counts = Recording(str(out)).temporal("/counts/pairs/builtin", "Scalars:scalars")
+    assert got == list(range(frames)) and len(counts) == frames
+    assert sorted(os.listdir(out.parent)) == ["crowd.rrd"]  # no partial file beside it
+    assert out.parent.parent.joinpath("crowd.rrd").read_bytes() == b""
+
+
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
 
 
 def test_progress_shows_a_rate_only_once_it_means_something(monkeypatch):

@@ -9,7 +9,7 @@ import sys
 import time
 
 from ... import shipped
-from ..errors import UserError
+from ..errors import STOPS, UserError
 
 
 class Parser(argparse.ArgumentParser):
@@ -69,7 +69,7 @@ class Progress:
 
     The rate and the time left are shown only once they mean something: measured from WARMUP
     seconds after the start (the first steps pay for compiling kernels and touching memory) over at
-    least WARMUP seconds more.
+    least WARMUP seconds more.  `done` is the count of the last call.
     """
 
     WARMUP = 1.0  # seconds
@@ -82,8 +82,10 @@ class Progress:
         self.shown = -1.0
         self.anchor = None  # (seconds, done) from which the rate is measured
         self.open = False  # a redrawn line is on the terminal without its newline
+        self.done = 0
 
     def __call__(self, done, total=None):
+        self.done = done
         total = total or self.total
         now = time.perf_counter() - self.t0
         if self.anchor is None and now >= self.WARMUP:
@@ -213,19 +215,26 @@ def write_json(path, report):
 
 
 def recorder_for(path):
-    """A record.Recorder for --record (ValueError on a bad path is a user mistake)."""
+    """A record.Recorder for --record that keeps its frames on Ctrl-C or SIGTERM (ValueError on a
+    bad path is a user mistake); the missing folders of `path` are made."""
     from .. import record
 
     made_parents(path, "--record")
     try:
-        return record.Recorder(path)
+        return record.Recorder(path, keep_partial=True)
     except ValueError as exc:
         raise UserError(f"--record: {exc}") from None
 
 
+#: What a stopped command kept, said after "ellipsim: interrupted" / "terminated" (cleared per command).
+stop_notes = []
+
+
 def recorded(recorder, fn, *args, **kwargs):
     """fn(*args, recorder=recorder, **kwargs), then the recording completed and moved into place;
-    on any error or interruption the partial file is removed.  Returns (fn's result, size in bytes)."""
+    on an error the partial file is removed, on Ctrl-C or SIGTERM the frames recorded so far are
+    kept (record.Recorder keep_partial) and stop_notes says where and how many, and at which step of
+    kwargs["progress"] (a Progress) it stopped.  Returns (fn's result, size in bytes)."""
     if recorder is None:
         return fn(*args, **kwargs), 0
     try:
@@ -234,6 +243,12 @@ def recorded(recorder, fn, *args, **kwargs):
         return result, os.path.getsize(recorder.path)
     except OSError as exc:
         raise write_error("--record", recorder.path, exc) from None
+    except STOPS:
+        if recorder.kept:
+            progress = kwargs.get("progress")
+            where = f"at {progress.unit.removesuffix('s')} {progress.done}/{progress.total}; " if progress else ""
+            stop_notes.append(f"{where}recording of {recorder.kept} frames kept in {recorder.path}")
+        raise
 
 
 #: From this many figures on, say before building that MuJoCo's compile will take a while: its

@@ -231,13 +231,34 @@ class Terminal(io.StringIO):
 def test_progress_shows_a_rate_only_once_it_means_something(monkeypatch):
     clock = iter([0.0, 0.1, 0.5, 1.5, 2.0, 2.6, 3.0])
     monkeypatch.setattr(time, "perf_counter", lambda: next(clock))
-    stream = io.StringIO()
+    stream = Terminal()
     bar = Progress("x", 100, stream=stream)
     for done in (1, 5, 20, 30, 60, 70):
         bar(done)
-    lines = stream.getvalue().splitlines()
+    lines = stream.getvalue().split("\r")[1:]  # redrawn in place
+    assert len(lines) == 6 and bar.done == 70
     assert not any("/s" in line or "left" in line for line in lines[:3])  # compile and warm-up: no rate
     assert lines[-1].endswith("70/100 steps, 33/s, 1 s left")  # (70 - 20) / (3.0 - 1.5) s from the anchor
+
+
+def test_progress_without_a_terminal_prints_by_time_not_by_tenths(monkeypatch):
+    """In a log (no terminal) a line at the start, then one per Progress.INTERVAL seconds with the
+    time elapsed and left, and the last: not ten lines minutes apart, nor one per call."""
+    clock = iter([0.0, 0.5, 5.0, 10.0, 15.4, 16.0, 20.0, 30.0, 31.5, 40.0])
+    monkeypatch.setattr(time, "perf_counter", lambda: next(clock))
+    stream = io.StringIO()
+    bar = Progress("x", 1000, stream=stream)
+    assert Progress.INTERVAL == 15.0
+    for done in (1, 100, 200, 300, 320, 400, 600, 610, 1000):
+        bar(done)
+    lines = stream.getvalue().splitlines()
+    assert [line.split("] ")[1].split(",")[0] for line in lines] == [
+        "  0.1% 1/1000 steps in 0 s",  # the first call: stepping has begun
+        " 32.0% 320/1000 steps in 16 s",  # 15.5 s after the first line
+        " 61.0% 610/1000 steps in 32 s",
+        "100.0% 1000/1000 steps in 40 s",  # the end, whenever it comes
+    ]
+    assert lines[1].endswith("320/1000 steps in 16 s, 20/s, 34 s left")  # (320 - 100) / (16 - 5) s from the anchor
 
 
 # --- fit -------------------------------------------------------------------------------------------

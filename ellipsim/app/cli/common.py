@@ -65,7 +65,9 @@ def install_hint(extra):
 
 
 class Progress:
-    """A progress bar on stderr: redrawn in place on a terminal, a line every 10% otherwise.
+    """A progress bar on stderr: redrawn in place on a terminal; otherwise (a log, a pipe) a line at
+    the first step, then every INTERVAL seconds of wall time and at the end, each with the time
+    elapsed.
 
     The rate and the time left are shown only once they mean something: measured from WARMUP
     seconds after the start (the first steps pay for compiling kernels and touching memory) over at
@@ -73,13 +75,14 @@ class Progress:
     """
 
     WARMUP = 1.0  # seconds
+    INTERVAL = 15.0  # seconds between two lines without a terminal: a log shows life, not a line a step
 
     def __init__(self, label, total, stream=None, unit="steps"):
         self.label, self.total, self.unit = label, total, unit
         self.stream = stream or sys.stderr
         self.tty = self.stream.isatty()
         self.t0 = time.perf_counter()
-        self.shown = -1.0
+        self.shown = None  # when the last line was drawn (seconds from t0)
         self.anchor = None  # (seconds, done) from which the rate is measured
         self.open = False  # a redrawn line is on the terminal without its newline
         self.done = 0
@@ -91,11 +94,13 @@ class Progress:
         if self.anchor is None and now >= self.WARMUP:
             self.anchor = (now, done)
         frac = done / total
-        if done < total and (now - self.shown < 0.2 if self.tty else frac * 10 < int(self.shown * 10) + 1):
+        if done < total and self.shown is not None and now - self.shown < (0.2 if self.tty else self.INTERVAL):
             return
-        self.shown = now if self.tty else frac
+        self.shown = now
         bar = "#" * int(30 * frac)
         line = f"{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{total} {self.unit}"
+        if not self.tty:
+            line += f" in {now:.0f} s"
         if self.anchor is not None and now - self.anchor[0] >= self.WARMUP and done > self.anchor[1]:
             rate = (done - self.anchor[1]) / (now - self.anchor[0])
             line += f", {rate:,.0f}/s"

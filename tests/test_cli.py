@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 
 import mujoco
 import numpy as np
@@ -149,6 +150,35 @@ def test_compare_json_is_compact_in_a_folder_made_for_it(tmp_path, capsys):
     assert len(lines) <= 30 + len(report["disagreements"]) + len(report["passed_through"] or []), text[:2000]
     both = next(line for line in lines if line.lstrip().startswith('"both"'))
     assert json.loads(both.split(": ", 1)[1].rstrip(",")) == report["per_frame"]["both"]
+
+
+def _disagreement(step):
+    return types.SimpleNamespace(
+        step=step,
+        names=("a", "b"),
+        mujoco_contact=True,
+        relation="separated",
+        contact_scale=1.01,
+        geom_distance=0.01,
+        right="ellipsim",
+        reason="r",
+    )
+
+
+@pytest.mark.parametrize(
+    "show, more",
+    [(2, "    ... and 2 more (--show N, or --json)"), (4, None), (0, "    ... and 4 more (--show N, or --json)")],
+)
+def test_compare_says_how_many_disagreements_it_does_not_show(show, more):
+    from ellipsim.app.comparison import Comparison
+
+    counts = np.array([[0, 3, 4, 0]])
+    validation = types.SimpleNamespace(counts=counts, contacts_disabled=False)
+    c = Comparison("s", 1, validation, counts[:, 2], counts[:, 0], [_disagreement(k) for k in range(4)], [], [])
+    lines = c.summary(show)
+    shown = [line for line in lines if line.startswith("    step ")]
+    assert [line.split(":")[0] for line in shown] == [f"    step {k}" for k in range(min(show, 4))]
+    assert [line for line in lines if "more" in line] == ([more] if more else [])
 
 
 def _unwritable(*args, **kwargs):

@@ -78,12 +78,15 @@ class Comparison:
             f"  disagreements: {len(self.missed)} missed (MuJoCo contact, ellipsim separated), {len(self.extra)} extra "
             f"(ellipsim overlapping, no MuJoCo contact), {len(self.near)} within {NEAR_TANGENT:g} m of touching",
         ]
-        for d in (self.missed + self.extra + self.near)[:show]:
+        disagreements = self.missed + self.extra + self.near
+        for d in disagreements[:show]:
             lines.append(
                 f"    step {d.step}: {d.names[0]} / {d.names[1]}: MuJoCo {'contact' if d.mujoco_contact else 'none'}, "
                 f"ellipsim {d.relation}, contact_scale {d.contact_scale:.9f}, mj_geomDistance {d.geom_distance:.3g}; "
                 f"right: {d.right} ({d.reason})"
             )
+        if len(disagreements) > show:
+            lines.append(f"    ... and {len(disagreements) - show} more (--show N, or --json)")
         if self.passed_through is not None:
             from .capture import between_lines
 

@@ -181,6 +181,20 @@ def test_compare_says_how_many_disagreements_it_does_not_show(show, more):
     assert [line for line in lines if "more" in line] == ([more] if more else [])
 
 
+def test_narrow_phase_counts_add_up(capsys):
+    """pairs = certified apart + measured beyond the margin + contacts + fallbacks, all shown."""
+    assert main(["run", "pile", "--steps", "300", "--mode", "narrowphase"]) == 0
+    line = next(line for line in capsys.readouterr().out.splitlines() if "narrow phase:" in line)
+    found = re.fullmatch(
+        r"  narrow phase: (\d+) pairs = (\d+) certified apart \+ (\d+) measured beyond the margin \+ (\d+) "
+        r"contacts \+ (\d+) fallbacks to MuJoCo",
+        line,
+    )
+    assert found, line
+    total, *parts = (int(x) for x in found.groups())
+    assert total == sum(parts) and parts[1] > 0 and parts[2] > 0  # the pile has pairs of each kind
+
+
 def _unwritable(*args, **kwargs):
     raise PermissionError(errno.EACCES, "Permission denied")
 

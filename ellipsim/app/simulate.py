@@ -182,8 +182,8 @@ class Run:
             )
         elif "calls" in c:
             lines.append(
-                f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
-                f"{c['fallbacks']} fallbacks to MuJoCo"
+                f"  narrow phase: {c['calls']} pairs = {c['separated']} certified apart + {c['apart']} measured beyond "
+                f"the margin + {c['contacts']} contacts + {c['fallbacks']} fallbacks to MuJoCo"
             )
         if self.between is not None:
             lines += capture.between_lines(self.between, self.between_candidates, self.between_seconds, show, "frames")

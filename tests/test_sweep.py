@@ -112,7 +112,7 @@ def test_a_model_sweeps_its_timestep_and_mode(tmp_path):
         (
             {"scene.figures": [1, "two"]},
             {},
-            r"vary scene\.figures=two: .*key 'scene\.figures' must be a int, got 'two'",
+            r"vary scene\.figures=two: .*key 'scene\.figures' must be an int, got 'two'",
         ),
         ({"timestep": [0.002, -1]}, {}, r"vary timestep=-1: .*key 'timestep' must be positive, got -1"),
         (
@@ -270,7 +270,7 @@ def test_recordings_one_per_variant_named_and_identified_by_it(tmp_path):
     "args, message",
     [
         (["--vary", "scene.figurs=2"], "--vary scene.figurs=2: "),
-        (["--vary", "scene.figures=two"], "key 'scene.figures' must be a int, got 'two'"),
+        (["--vary", "scene.figures=two"], "key 'scene.figures' must be an int, got 'two'"),
         (["--vary", "scene.figures=0"], "--vary scene.figures=0: "),
         (["--vary", "scene.figures"], "--vary 'scene.figures': expected KEY=V1,V2,..."),
         (["--vary", "scene.figures=1", "--vary", "scene.figures=2"], "--vary scene.figures: given twice"),

@@ -170,10 +170,11 @@ class _Checker:
         what = " or ".join(k.__name__ for k in kind) if isinstance(kind, tuple) else kind.__name__
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
+        what = ("an " if what[0] in "aeiou" else "a ") + what  # an int, a float
         if kind is bool and not isinstance(value, bool) or kind is not bool and isinstance(value, bool):
-            raise self.error(key, f"must be a {what}", value)
+            raise self.error(key, f"must be {what}", value)
         if not isinstance(value, kind):
-            raise self.error(key, f"must be a {what}", value)
+            raise self.error(key, f"must be {what}", value)
         if kind is float and not math.isfinite(value):
             raise self.error(key, "must be finite", value)
         if choices is not None and value not in choices:

@@ -308,7 +308,8 @@ def _model_timestep(path, label):
     try:
         return float(mujoco.MjSpec.from_file(path).option.timestep)
     except ValueError as exc:
-        raise ScenarioError(f"{label}: MuJoCo cannot read the model {path!r}: {one_line(exc)}") from None
+        model = "this model" if label == path else f"the model {path!r}"  # the path once, where label names it
+        raise ScenarioError(f"{label}: MuJoCo cannot read {model}: {one_line(exc)}") from None
 
 
 def model_scenario(path, *, key=None, ctrl="hold"):

@@ -181,6 +181,29 @@ def test_compare_says_how_many_disagreements_it_does_not_show(show, more):
     assert [line for line in lines if "more" in line] == ([more] if more else [])
 
 
+CONTACTS_OFF = """<mujoco><option><flag contact="disable"/></option><worldbody>
+  <body><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>
+  <body pos="0.05 0 0"><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>
+</worldbody></mujoco>"""
+
+
+def test_a_model_without_contacts_says_so(tmp_path, capsys):
+    """dm_control's fish disables contacts: say so, not `agreement 0/0 (0.0000%)`."""
+    from ellipsim.mujoco.validate import contacts_disabled
+
+    path = tmp_path / "off.xml"
+    path.write_text(CONTACTS_OFF)
+    assert contacts_disabled(mujoco.MjModel.from_xml_string(CONTACTS_OFF))
+    assert not contacts_disabled(mujoco.MjModel.from_xml_string(CONTACTS_OFF.replace('contact="disable"', "")))
+    assert main(["compare", str(path), "--steps", "5"]) == 0
+    out = capsys.readouterr().out
+    assert 'none to compare: the model disables contacts (<option><flag contact="disable"/>)' in out
+    assert "agreement 0/0" not in out
+    assert main(["run", str(path), "--steps", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "contacts per step (all geoms): mean 0.0, max 0; none: the model disables contacts" in out
+
+
 def test_narrow_phase_counts_add_up(capsys):
     """pairs = certified apart + measured beyond the margin + contacts + fallbacks, all shown."""
     assert main(["run", "pile", "--steps", "300", "--mode", "narrowphase"]) == 0

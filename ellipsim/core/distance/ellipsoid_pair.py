@@ -337,7 +337,9 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
         UNPROVEN (the proof's budget ran out; the best found)
     """
     n = check_pair(a, b)
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000:
+    if not (type(max_iter) is int and 1 <= max_iter <= 1_000_000) and (  # (the usual case in one test)
+        isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000
+    ):
         raise ValueError(f"max_iter must be an integer from 1 to 1000000, got {max_iter!r}")
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)

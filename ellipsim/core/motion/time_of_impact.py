@@ -883,10 +883,21 @@ def _rigid_turns(r0, r1, R0, R1):
 
 
 @jit
-def _toi_small(Ca0, Ra0, ra0, Ca1, Ra1, ra1, Cb0, Rb0, rb0, Cb1, Rb1, rb1, n):
+def _toi_small(Ca0, Ra0, ra0, Ca1, Ra1, ra1, Cb0, Rb0, rb0, Cb1, Rb1, rb1):
     """time_of_impact of a small batch in one compiled call (issue 20: numpy's checks and allocations
-    cost ~10x the kernel on one pair): (done, toi, status), done False when a check fails or a pair
-    asks for the exact relation, which time_of_impact's general path then reports or resolves."""
+    cost ~10x the kernel on one pair): (done, toi, status).  done is False, and nothing computed, unless
+    the bodies' lengths make 1 to SMALL_BATCH_PAIRS pairs, and False when a check fails or a pair asks
+    for the exact relation: time_of_impact's general path then reports or resolves it."""
+    na, nb = Ca0.shape[0], Cb0.shape[0]
+    n = max(na, nb)
+    if (
+        na != Ca1.shape[0]
+        or nb != Cb1.shape[0]
+        or min(na, nb) == 0
+        or n > SMALL_BATCH_PAIRS
+        or (na != nb and min(na, nb) != 1)
+    ):
+        return False, np.empty(0), np.empty(0, dtype=np.int8)
     out, status = np.empty(n), np.empty(n, dtype=np.int8)
     ok, wa = _rigid_turns(ra0, ra1, Ra0, Ra1)
     if not ok:
@@ -904,22 +915,6 @@ def _toi_small(Ca0, Ra0, ra0, Ca1, Ra1, ra1, Cb0, Rb0, rb0, Cb1, Rb1, rb1, n):
         if status[i] == NEED_EXACT:
             return False, out, status
     return True, out, status
-
-
-def _small(a0, a1, b0, b1, parallel):
-    """Whether a call may take _toi_small: four Ellipsoids of consistent lengths making 1 to
-    SMALL_BATCH_PAIRS pairs and a valid `parallel` (every other input goes the general way, which names
-    what is wrong)."""
-    if not (type(a0) is type(a1) is type(b0) is type(b1) is Ellipsoids):
-        return False
-    na, nb = len(a0.centers), len(b0.centers)
-    if na != len(a1.centers) or nb != len(b1.centers) or (na != nb and na != 1 and nb != 1):
-        return False
-    return (
-        0 < min(na, nb)  # (an empty batch makes no pairs, the other's length notwithstanding)
-        and max(na, nb) <= SMALL_BATCH_PAIRS
-        and (parallel is None or isinstance(parallel, (bool, np.bool_)))
-    )
 
 
 def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
@@ -941,7 +936,13 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
     the end of the last contact.  For consecutive frames, index one validated batch per frame by the
     candidate pairs (`frame[k][ia]`, no re-validation) and concatenate the steps into one call.
     """
-    if _small(a0, a1, b0, b1, parallel):  # serial whatever `parallel` says (below 2 CHUNK_MIN_PAIRS)
+    if (  # a small batch in one compiled call (serial whatever `parallel` says: below 2 CHUNK_MIN_PAIRS)
+        (parallel is None or parallel is False or parallel is True)
+        and type(a0) is Ellipsoids
+        and type(a1) is Ellipsoids
+        and type(b0) is Ellipsoids
+        and type(b1) is Ellipsoids
+    ):
         done, out, status = _toi_small(
             a0.centers,
             a0.rotations,
@@ -955,7 +956,6 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
             b1.centers,
             b1.rotations,
             b1.radii,
-            max(len(a0.centers), len(b0.centers)),
         )
         if done:
             return (out, status) if return_status else out

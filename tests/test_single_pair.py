@@ -12,7 +12,7 @@ from ellipsim import Ellipsoids, classify, signed_distance, time_of_impact
 from ellipsim.core.ellipsoids import indices_of
 from ellipsim.core.motion.time_of_impact import Impact
 from ellipsim.core.samples import generic_pairs, stress_pairs
-from ellipsim.core.tolerances import SMALL_BATCH_PAIRS
+from ellipsim.core.tolerances import CHUNK_MIN_PAIRS, SMALL_BATCH_PAIRS
 
 I = np.eye(3)
 BIG = 3 * SMALL_BATCH_PAIRS  # a batch past the small-batch paths
@@ -153,3 +153,8 @@ def test_indices_of_matches_flatnonzero_on_both_sides_of_the_small_batch_size():
     for n in (0, 1, SMALL_BATCH_PAIRS, SMALL_BATCH_PAIRS + 1, 200):
         codes = rng.integers(-1, 3, n).astype(np.int8)
         assert list(indices_of(codes, -1)) == np.flatnonzero(codes == -1).tolist()
+
+
+def test_small_batches_are_below_threads_splitting():
+    """The small-batch paths run serially: threads.run would not split them either, parallel=True or not."""
+    assert 1 <= SMALL_BATCH_PAIRS < 2 * CHUNK_MIN_PAIRS

@@ -43,6 +43,7 @@ from ..tolerances import (
     BB_TOL_ULPS,
     FIRST_RUN_ITER,
     NEWTON_MAX_ITER,
+    SMALL_BATCH_PAIRS,
     WARM_SCALE_MAX,
     WARM_SCALE_MIN,
     WARM_SIGMA_SLACK_ULPS,
@@ -344,5 +345,9 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
-    threads.run(_distances, n, check_parallel(parallel, n), *arrays, int(max_iter), dist, normal, pos, status)
+    parallel = check_parallel(parallel, n)
+    if n <= SMALL_BATCH_PAIRS:  # in one piece, as threads.run would run it, without its call (issue 20)
+        _distances(*arrays, int(max_iter), dist, normal, pos, status, 0, n)
+    else:
+        threads.run(_distances, n, parallel, *arrays, int(max_iter), dist, normal, pos, status)
     return dist, normal, pos, status

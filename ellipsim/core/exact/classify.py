@@ -13,9 +13,10 @@ from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel, indices_of
 from ..relation import UNDECIDED
+from ..tolerances import SMALL_BATCH_PAIRS
 from ..vec3 import load
 from . import rational_fallback as rational
-from .certified_filter import certify, certify_pair
+from .certified_filter import _certify, certify, certify_pair
 from .characteristic import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
 from .root_tests import descartes_relation, sturm_relation
 
@@ -78,7 +79,11 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
             raise ValueError("setup and dtype apply to the 'sturm' and 'descartes' methods; 'exact' has neither")
     parallel = check_parallel(parallel, n)
     if method == "exact":
-        return resolve_undecided(a, b, certify(a, b, n, parallel))
+        if n > SMALL_BATCH_PAIRS:
+            return resolve_undecided(a, b, certify(a, b, n, parallel))
+        out = np.empty(n, dtype=np.int8)  # certify's kernel in one piece, as threads.run would run it
+        _certify(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out, 0, n)
+        return resolve_undecided(a, b, out)
     arrays = [a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii]
     if dtype == "float32":
         arrays = [x.astype(np.float32) for x in arrays]

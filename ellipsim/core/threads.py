@@ -76,8 +76,11 @@ def run(kernel, n, parallel, *args):
     """kernel(*args, lo, hi) over [0, n): in one piece in this thread, or, when `parallel` and the
     batch has at least 2 * CHUNK_MIN_PAIRS pairs, in chunks on `workers()` threads.  The calling
     thread takes chunks too, so a call progresses even while other calls keep the pool busy."""
+    if not parallel or n < 2 * CHUNK_MIN_PAIRS:  # decided before workers(): its affinity query costs a
+        kernel(*args, 0, n)  # system call, a quarter of a one-pair call's overhead (issue 20)
+        return
     w = workers()
-    if not parallel or w < 2 or n < 2 * CHUNK_MIN_PAIRS:
+    if w < 2:
         kernel(*args, 0, n)
         return
     chunks = min(w * CHUNKS_PER_THREAD, n // CHUNK_MIN_PAIRS)

@@ -76,6 +76,12 @@ PARALLEL_MIN_PAIRS = 10_000
 CHUNKS_PER_THREAD = 4
 CHUNK_MIN_PAIRS = 2_000
 
+#: Batches up to this long take the small-batch paths of the public calls (issue 20): the kernel called
+#: without threads.run (which runs batches below 2 CHUNK_MIN_PAIRS in one piece too), a Python scan of a
+#: few codes instead of numpy's ~1.3 us np.flatnonzero, and time_of_impact's checks, set-up and kernel in
+#: one compiled call.  The results are the same on either path (tests/test_single_pair.py).
+SMALL_BATCH_PAIRS = 16
+
 # --- MuJoCo contact filter (ellipsim/mujoco/callbacks.py) ----------------------------------------------
 
 #: The filter grows each body by half of margin + gap + FILTER_CCD_FACTOR * ccd_tolerance.  MuJoCo's

@@ -7,9 +7,13 @@ import time
 import mujoco
 import numpy as np
 
+from ...core.distance.ellipsoid_pair import _distances, signed_distance
 from ...core.ellipsoids import Ellipsoids
+from ...core.exact.certified_filter import _certify
 from ...core.exact.classify import classify, classify_pairs
+from ...core.motion import time_of_impact as toi
 from ...core.samples import generic_pairs
+from ...core.tolerances import NEWTON_MAX_ITER
 from ...mujoco.geoms import ellipsoid_geoms, frame_pairs
 from .. import scenario, simulate
 from .common import float_runner, interleaved, relative, say
@@ -57,7 +61,59 @@ def measure(size):
         )
     nf = size["replay_figures"][-1]
     say(f"scaling: {nf} figures, ellipsim's frames against mj_kinematics + mj_collision ...")
-    return batch_rows, replay_rows, (nf, *kinematic_goal(_replay_scenario(base, nf), size["rounds"]))
+    goal = (nf, *kinematic_goal(_replay_scenario(base, nf), size["rounds"]))
+    say("scaling: one pair per call ...")
+    return batch_rows, replay_rows, goal, one_pair_calls(size["rounds"])
+
+
+#: Calls per timed round of one_pair_calls (a round times a loop: one call is near the timer's resolution).
+ONE_PAIR_CALLS = 2_000
+
+
+def one_pair_calls(rounds):
+    """{function: (kernel µs, public call µs)} for one generic pair per call: classify, signed_distance
+    and time_of_impact from Python with pre-built Ellipsoids, against their batch kernel called
+    directly on the pair with its outputs allocated and its checks done beforehand (numba's dispatch
+    of the arrays included: what any call from Python pays).  Minimum over interleaved rounds."""
+    a, b = generic_pairs(2, seed=3)
+    x, y = a[:1], b[:1]
+    x1 = Ellipsoids(x.centers + 0.3, x.rotations, x.radii)
+    y1 = Ellipsoids(y.centers - 0.3, y.rotations, y.radii)
+    arrays = (x.centers, x.rotations, x.radii, y.centers, y.rotations, y.radii)
+    code = np.empty(1, dtype=np.int8)
+    dist, normal, pos, status = np.empty(1), np.empty((1, 3)), np.empty((1, 3)), np.empty(1, dtype=np.int8)
+    motion, _ = toi._check(x, x1, y, y1)
+    oracle = (
+        np.zeros((1, toi.TOI_MAX_ORACLE)),
+        np.zeros((1, toi.TOI_MAX_ORACLE), dtype=np.int8),
+        np.zeros(1, np.int64),
+    )
+    t, st, t_exact, steps, idx = np.empty(1), np.empty(1, np.int8), np.empty(1), np.empty(1, np.int64), np.arange(1)
+    one = {
+        "classify": (lambda: _certify(*arrays, code, 0, 1), lambda: classify(x, y)),
+        "signed_distance": (
+            lambda: _distances(*arrays, NEWTON_MAX_ITER, dist, normal, pos, status, 0, 1),
+            lambda: signed_distance(x, y),
+        ),
+        "time_of_impact": (
+            lambda: toi._toi(*motion, idx, *oracle, t, st, t_exact, steps, 0, 1),
+            lambda: toi.time_of_impact(x, x1, y, y1),
+        ),
+    }
+
+    def looped(fn):
+        def run():
+            for _ in range(ONE_PAIR_CALLS):
+                fn()
+
+        return run
+
+    fns = {f"{name} {k}": looped(f) for name, pair in one.items() for k, f in zip(("kernel", "call"), pair)}
+    for fn in fns.values():
+        fn()  # compile and warm
+    t = interleaved(fns, max(5, rounds))
+    best = {k: float(np.min(v)) / ONE_PAIR_CALLS * 1e6 for k, v in t.items()}
+    return {name: (best[f"{name} kernel"], best[f"{name} call"]) for name in one}
 
 
 def _replay_scenario(base, nf):
@@ -116,7 +172,7 @@ def kinematic_goal(s, rounds):
 
 def write(result, size, out, plt):
     """The section's markdown, and scaling.png in `out`."""
-    batch_rows, replay_rows, goal = result
+    batch_rows, replay_rows, goal, one_pair = result
     _plot(plt, out, batch_rows, replay_rows)
     L = [
         "## 3. Scaling",
@@ -124,12 +180,26 @@ def write(result, size, out, plt):
         "![scaling](scaling.png)",
         "",
         "Batches of generic pairs; the three functions timed in the same interleaved rounds.  Below ~10 pairs a "
-        "call's Python overhead (input checks) dominates: batch your pairs.",
+        "call's Python overhead (input checks, numba's dispatch) dominates: batch your pairs.",
         "",
         "| pairs per call | exact, ns/pair | exact, 2 threads | plain descartes, ns/pair |",
         "|---:|---:|---:|---:|",
     ]
     L += [f"| {n} | {s:.0f} | {p:.0f} | {q:.0f} |" for n, s, p, q in batch_rows]
+    L += [
+        "",
+        "One generic pair per call from Python, pre-built Ellipsoids: each public function against its batch kernel "
+        "called directly on the pair (outputs allocated and checks done beforehand; numba's dispatch of the arrays "
+        f"included), loops of {ONE_PAIR_CALLS} calls in interleaved rounds, the fastest round.  Issue 20's goal: a "
+        "call within 1.5 µs of its kernel.",
+        "",
+        "| one pair per call | kernel, µs | public call, µs | overhead, µs | goal: <= 1.5 |",
+        "|---|---:|---:|---:|---|",
+    ]
+    L += [
+        f"| {name} | {k:.2f} | {c:.2f} | {c - k:.2f} | {'met' if c - k <= 1.5 else 'not met'} |"
+        for name, (k, c) in one_pair.items()
+    ]
     L += [
         "",
         "The kinematic replay scenario with more figures in a line (all dancing: the stagger is at most the routine's "

@@ -43,6 +43,7 @@ from ..tolerances import (
     BB_TOL_ULPS,
     FIRST_RUN_ITER,
     NEWTON_MAX_ITER,
+    SMALL_BATCH_PAIRS,
     WARM_SCALE_MAX,
     WARM_SCALE_MIN,
     WARM_SIGMA_SLACK_ULPS,
@@ -337,10 +338,16 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
         UNPROVEN (the proof's budget ran out; the best found)
     """
     n = check_pair(a, b)
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000:
+    if not (type(max_iter) is int and 1 <= max_iter <= 1_000_000) and (  # (the usual case in one test)
+        isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000
+    ):
         raise ValueError(f"max_iter must be an integer from 1 to 1000000, got {max_iter!r}")
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
-    threads.run(_distances, n, check_parallel(parallel, n), *arrays, int(max_iter), dist, normal, pos, status)
+    parallel = check_parallel(parallel, n)
+    if n <= SMALL_BATCH_PAIRS:  # in one piece, as threads.run would run it, without its call (issue 20)
+        _distances(*arrays, int(max_iter), dist, normal, pos, status, 0, n)
+    else:
+        threads.run(_distances, n, parallel, *arrays, int(max_iter), dist, normal, pos, status)
     return dist, normal, pos, status

@@ -70,6 +70,7 @@ from ..tolerances import (
     ERR_WITNESS,
     PW_RTOL,
     RODRIGUES_ERR,
+    SMALL_BATCH_PAIRS,
     TAU,
     TOI_FALSI_RTOL,
     TOI_FALSI_STEPS,
@@ -83,7 +84,15 @@ from ..tolerances import (
     U,
 )
 from ..vec3 import cross3, cross3_mag, matvec, norm2, reciprocal
-from .interpolation import matmul, rodrigues, rodrigues_apply, rodrigues_matrix, rotation_vectors
+from .interpolation import (
+    HALF_TURN_TOL,
+    _rotation_vectors,
+    matmul,
+    rodrigues,
+    rodrigues_apply,
+    rodrigues_matrix,
+    rotation_vectors,
+)
 
 # Statuses (int8), as `Impact` reports them; NEED_EXACT is internal (the kernel asks for rationals).
 NO_CONTACT, CONTACT, CONTACT_AT_FLOAT_POSE, UNRESOLVED = 0, 1, 2, 3
@@ -856,6 +865,58 @@ def _check(a0, a1, b0, b1):
     return arrays, n
 
 
+@jit
+def _rigid_turns(r0, r1, R0, R1):
+    """_check_motion's tests of one body in compiled code: its (n, 3) rotation vectors and whether it
+    passes them (equal semi-axes, no turn within HALF_TURN_TOL of a half turn)."""
+    n = r0.shape[0]
+    w, angle = np.empty((n, 3)), np.empty(n)
+    for i in range(n):
+        for j in range(3):
+            if r0[i, j] != r1[i, j]:
+                return False, w
+    _rotation_vectors(R0, R1, w, angle)
+    for i in range(n):
+        if math.pi - angle[i] < HALF_TURN_TOL:
+            return False, w
+    return True, w
+
+
+@jit
+def _toi_small(Ca0, Ra0, ra0, Ca1, Ra1, ra1, Cb0, Rb0, rb0, Cb1, Rb1, rb1):
+    """time_of_impact of a small batch in one compiled call (issue 20: numpy's checks and allocations
+    cost ~10x the kernel on one pair): (done, toi, status).  done is False, and nothing computed, unless
+    the bodies' lengths make 1 to SMALL_BATCH_PAIRS pairs, and False when a check fails or a pair asks
+    for the exact relation: time_of_impact's general path then reports or resolves it."""
+    na, nb = Ca0.shape[0], Cb0.shape[0]
+    n = max(na, nb)
+    if (
+        na != Ca1.shape[0]
+        or nb != Cb1.shape[0]
+        or min(na, nb) == 0
+        or n > SMALL_BATCH_PAIRS
+        or (na != nb and min(na, nb) != 1)
+    ):
+        return False, np.empty(0), np.empty(0, dtype=np.int8)
+    out, status = np.empty(n), np.empty(n, dtype=np.int8)
+    ok, wa = _rigid_turns(ra0, ra1, Ra0, Ra1)
+    if not ok:
+        return False, out, status
+    ok, wb = _rigid_turns(rb0, rb1, Rb0, Rb1)
+    if not ok:
+        return False, out, status
+    OT = np.zeros((n, TOI_MAX_ORACLE))
+    OR = np.zeros((n, TOI_MAX_ORACLE), dtype=np.int8)
+    OC = np.zeros(n, dtype=np.int64)
+    t_exact, steps = np.empty(n), np.empty(n, dtype=np.int64)
+    arrays = ((Ca0, Ra0, ra0), (Ca1, Ra1, wa), (Cb0, Rb0, rb0), (Cb1, Rb1, wb))
+    _toi(*arrays, np.arange(n), OT, OR, OC, out, status, t_exact, steps, 0, n)
+    for i in range(n):
+        if status[i] == NEED_EXACT:
+            return False, out, status
+    return True, out, status
+
+
 def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
     """First t in [0, 1] at which a(t) and b(t) are not separated; inf when separated for all t in [0, 1].
 
@@ -875,6 +936,29 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
     the end of the last contact.  For consecutive frames, index one validated batch per frame by the
     candidate pairs (`frame[k][ia]`, no re-validation) and concatenate the steps into one call.
     """
+    if (  # a small batch in one compiled call (serial whatever `parallel` says: below 2 CHUNK_MIN_PAIRS)
+        (parallel is None or parallel is False or parallel is True)
+        and type(a0) is Ellipsoids
+        and type(a1) is Ellipsoids
+        and type(b0) is Ellipsoids
+        and type(b1) is Ellipsoids
+    ):
+        done, out, status = _toi_small(
+            a0.centers,
+            a0.rotations,
+            a0.radii,
+            a1.centers,
+            a1.rotations,
+            a1.radii,
+            b0.centers,
+            b0.rotations,
+            b0.radii,
+            b1.centers,
+            b1.rotations,
+            b1.radii,
+        )
+        if done:
+            return (out, status) if return_status else out
     arrays, n = _check(a0, a1, b0, b1)
     parallel = check_parallel(parallel, n)
     out, status, t_exact = np.empty(n), np.empty(n, dtype=np.int8), np.empty(n)

@@ -28,25 +28,26 @@ from ...mujoco.attachment import attach
 SIZES = {
     "quick": dict(
         generic=100_000,
-        near=20_000,
-        mujoco=4_000,
-        stress=600,
-        reference=40,
+        near=10_000,
+        mujoco=2_000,
+        stress=300,
+        reference=20,
         batch_max=100_000,
         figures=(1, 4, 16),
         replay_figures=(1, 4, 16),
         rounds=5,
         steps=100,
-        coal=1_000,
+        coal=500,
         scenes=("pile of 40 ellipsoids", "4 figures in a heap"),
         step_rounds=8,
         compare_steps=10,
-        deep_pairs=200,
+        deep_pairs=60,
         pair_types=100,
+        pair_type_calls=4_000,
         long_seconds=1.0,
-        motion=1_000,
+        motion=500,
         motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024),
-        motion_contains=20_000,
+        motion_contains=10_000,
         speculative=60,
     ),
     "full": dict(
@@ -66,6 +67,7 @@ SIZES = {
         compare_steps=30,
         deep_pairs=2_000,
         pair_types=400,
+        pair_type_calls=20_000,
         long_seconds=10.0,
         motion=4_000,
         motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096),
@@ -219,20 +221,32 @@ class MujocoPairs:
         self.data.geom_xmat[:n], self.data.geom_xmat[n:] = a.rotations.reshape(n, 9), b.rotations.reshape(n, 9)
         self.pairs = np.column_stack([np.arange(n), np.arange(n) + n]).astype(np.int64)
         self.distmax = 10.0 * float(max(a.radii.max(), b.radii.max()) + np.abs(b.centers - a.centers).max())
-        fn = self._FN(ctypes.cast(structs.mujoco_library().mj_geomDistance, ctypes.c_void_p).value)
-
-        @numba.njit
-        def loop(m, d, pairs, distmax, out):
-            for k in range(pairs.shape[0]):
-                out[k] = fn(m, d, pairs[k, 0], pairs[k, 1], distmax, 0)
-
-        self._loop = loop
+        self._loop = _geom_distance_loop(ctypes.cast(structs.mujoco_library().mj_geomDistance, ctypes.c_void_p).value)
 
     def run(self, tolerance, iterations):
         self.model.opt.ccd_tolerance, self.model.opt.ccd_iterations = tolerance, iterations
         out = np.empty(len(self.pairs))
         self._loop(self.model._address, self.data._address, self.pairs, self.distmax, out)
         return out
+
+
+_LOOPS = {}
+
+
+def _geom_distance_loop(address):
+    """The compiled loop calling mj_geomDistance (at `address`) over pairs, compiled once per process:
+    a fresh one per MujocoPairs cost ~0.2 s of compiling each, 19 times a run (section 2 builds one per
+    category)."""
+    if address not in _LOOPS:
+        fn = MujocoPairs._FN(address)
+
+        @numba.njit
+        def loop(m, d, pairs, distmax, out):
+            for k in range(pairs.shape[0]):
+                out[k] = fn(m, d, pairs[k, 0], pairs[k, 1], distmax, 0)
+
+        _LOOPS[address] = loop
+    return _LOOPS[address]
 
 
 # --- mj_step --------------------------------------------------------------------------------------

@@ -56,7 +56,25 @@ _NARROW_FN = ctypes.CFUNCTYPE(
 )
 
 
-def _filter_loop(fn):
+_LOOPS = {}
+
+
+def _once(make):
+    """make(address) compiled once per process and address: the loops close over a ctypes function, and
+    compiling them anew per scene cost ~0.1 s each."""
+
+    def get(address):
+        if (make, address) not in _LOOPS:
+            _LOOPS[make, address] = make(address)
+        return _LOOPS[make, address]
+
+    return get
+
+
+@_once
+def _filter_loop(address):
+    fn = _FILTER_FN(address)
+
     @numba.njit
     def loop(m, d, pairs, reps):
         total = 0
@@ -68,7 +86,10 @@ def _filter_loop(fn):
     return loop
 
 
-def _narrow_loop(fn):
+@_once
+def _narrow_loop(address):
+    fn = _NARROW_FN(address)
+
     @numba.njit
     def loop(m, d, con, pairs, margins, reps):
         total = 0
@@ -84,9 +105,9 @@ def per_pair(model, data, reps=100):
     """ns per call at data's state over the ellipsoid-ellipsoid candidate pairs, split by the exact
     relation: {"touching"|"separated": (ellipsim narrowphase, MuJoCo GJK/EPA, filter, pairs)}."""
     table, n = structs.collision_table()
-    theirs = _narrow_loop(_NARROW_FN(table[ELL * n + ELL]))
-    ours = _narrow_loop(_NARROW_FN(nativecache.function("narrowphase").address))
-    filt = _filter_loop(_FILTER_FN(nativecache.function("filter").address))
+    theirs = _narrow_loop(table[ELL * n + ELL])
+    ours = _narrow_loop(nativecache.function("narrowphase").address)
+    filt = _filter_loop(nativecache.function("filter").address)
     pairs = candidate_pairs(model, data)
     pairs = np.ascontiguousarray(pairs[(model.geom_type[pairs] == ELL).all(axis=1)].astype(np.int64))
     geoms = lambda g: Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(-1, 3, 3), model.geom_size[g])  # noqa: E731

@@ -119,7 +119,7 @@ def measure(size, n=None, seed=0):
             with attach(model, data, mode="narrowphase", warm_start=False) as att:
                 _calls(ours, m, d, c, pairs, 1)
                 fallbacks = att.counters["fallbacks"]
-                reps = max(1, 20_000 // n)
+                reps = max(1, size["pair_type_calls"] // n)
                 runs = {
                     "ellipsim": lambda: _calls(ours, m, d, c, pairs, reps),
                     "mujoco": lambda: _calls(theirs, m, d, c, pairs, reps),

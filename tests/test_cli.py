@@ -1,11 +1,13 @@
 import errno
 import io
+import json
 import os
 import re
 import signal
 import subprocess
 import sys
 import time
+import types
 
 import mujoco
 import numpy as np
@@ -137,6 +139,85 @@ def test_compare_quotes_the_near_tangent_band(monkeypatch, capsys):
     assert "within 3e-06 m of touching" in capsys.readouterr().out
 
 
+def test_compare_json_is_compact_in_a_folder_made_for_it(tmp_path, capsys):
+    """A per-step array is one line, not a number a line; the folders of --json are made."""
+    out = tmp_path / "reports" / "june" / "replay.json"
+    assert main(["compare", "replay", "--steps", "300", "--json", str(out)]) == 0
+    text = out.read_text()
+    report = json.loads(text)
+    assert report["steps"] == 300 and len(report["per_frame"]["both"]) == 300
+    lines = text.splitlines()
+    assert len(lines) <= 30 + len(report["disagreements"]) + len(report["passed_through"] or []), text[:2000]
+    both = next(line for line in lines if line.lstrip().startswith('"both"'))
+    assert json.loads(both.split(": ", 1)[1].rstrip(",")) == report["per_frame"]["both"]
+
+
+def _disagreement(step):
+    return types.SimpleNamespace(
+        step=step,
+        names=("a", "b"),
+        mujoco_contact=True,
+        relation="separated",
+        contact_scale=1.01,
+        geom_distance=0.01,
+        right="ellipsim",
+        reason="r",
+    )
+
+
+@pytest.mark.parametrize(
+    "show, more",
+    [(2, "    ... and 2 more (--show N, or --json)"), (4, None), (0, "    ... and 4 more (--show N, or --json)")],
+)
+def test_compare_says_how_many_disagreements_it_does_not_show(show, more):
+    from ellipsim.app.comparison import Comparison
+
+    counts = np.array([[0, 3, 4, 0]])
+    validation = types.SimpleNamespace(counts=counts, contacts_disabled=False)
+    c = Comparison("s", 1, validation, counts[:, 2], counts[:, 0], [_disagreement(k) for k in range(4)], [], [])
+    lines = c.summary(show)
+    shown = [line for line in lines if line.startswith("    step ")]
+    assert [line.split(":")[0] for line in shown] == [f"    step {k}" for k in range(min(show, 4))]
+    assert [line for line in lines if "more" in line] == ([more] if more else [])
+
+
+CONTACTS_OFF = """<mujoco><option><flag contact="disable"/></option><worldbody>
+  <body><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>
+  <body pos="0.05 0 0"><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>
+</worldbody></mujoco>"""
+
+
+def test_a_model_without_contacts_says_so(tmp_path, capsys):
+    """dm_control's fish disables contacts: say so, not `agreement 0/0 (0.0000%)`."""
+    from ellipsim.mujoco.validate import contacts_disabled
+
+    path = tmp_path / "off.xml"
+    path.write_text(CONTACTS_OFF)
+    assert contacts_disabled(mujoco.MjModel.from_xml_string(CONTACTS_OFF))
+    assert not contacts_disabled(mujoco.MjModel.from_xml_string(CONTACTS_OFF.replace('contact="disable"', "")))
+    assert main(["compare", str(path), "--steps", "5"]) == 0
+    out = capsys.readouterr().out
+    assert 'none to compare: the model disables contacts (<option><flag contact="disable"/>)' in out
+    assert "agreement 0/0" not in out
+    assert main(["run", str(path), "--steps", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "contacts per step (all geoms): mean 0.0, max 0; none: the model disables contacts" in out
+
+
+def test_narrow_phase_counts_add_up(capsys):
+    """pairs = certified apart + measured beyond the margin + contacts + fallbacks, all shown."""
+    assert main(["run", "pile", "--steps", "300", "--mode", "narrowphase"]) == 0
+    line = next(line for line in capsys.readouterr().out.splitlines() if "narrow phase:" in line)
+    found = re.fullmatch(
+        r"  narrow phase: (\d+) pairs = (\d+) certified apart \+ (\d+) measured beyond the margin \+ (\d+) "
+        r"contacts \+ (\d+) fallbacks to MuJoCo",
+        line,
+    )
+    assert found, line
+    total, *parts = (int(x) for x in found.groups())
+    assert total == sum(parts) and parts[1] > 0 and parts[2] > 0  # the pile has pairs of each kind
+
+
 def _unwritable(*args, **kwargs):
     raise PermissionError(errno.EACCES, "Permission denied")
 
@@ -172,8 +253,15 @@ def test_output_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys
 @pytest.mark.parametrize(
     "sig, status, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")]
 )
-def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig, status, word):
-    out = tmp_path / "crowd.rrd"
+def test_interrupted_recording_keeps_its_frames(tmp_path, sig, status, word):
+    """Ctrl-C or SIGTERM during `run --record`: the frames so far are a complete recording that
+    rerun reads, in a folder made for it, and the one line says at which step and how many frames."""
+    from test_record import Recording
+
+    from ellipsim.app import scenario, simulate
+
+    out = tmp_path / "runs" / "crowd.rrd"  # runs/ is made: parents of an output are made if missing
+    out.parent.parent.joinpath("crowd.rrd").write_bytes(b"")  # a neighbour the recording must not touch
     proc = subprocess.Popen(
         [sys.executable, "-m", "ellipsim", "run", "crowd", "--steps", "200000", "--record", str(out)],
         stdout=subprocess.PIPE,
@@ -183,25 +271,61 @@ def test_interrupted_run_ends_in_one_line_and_leaves_no_recording(tmp_path, sig,
     try:
         line = proc.stderr.readline()  # the progress bar's first line: stepping has begun
         assert "crowd [" in line, line
+        time.sleep(0.5)
         proc.send_signal(sig)
-        _, err = proc.communicate(timeout=60)
+        _, err = proc.communicate(timeout=300)
     finally:
         proc.kill()
     assert proc.returncode == status, err
-    assert err.strip().splitlines()[-1] == f"ellipsim: {word}" and "Traceback" not in err
-    assert os.listdir(tmp_path) == []  # neither the recording nor its partial file
+    last = err.strip().splitlines()[-1]
+    found = re.fullmatch(rf"ellipsim: {word} at step (\d+)/200000; recording of (\d+) frames kept in (.+)", last)
+    assert found and "Traceback" not in err, err
+    steps, frames = int(found[1]), int(found[2])
+    assert found[3] == str(out) and 0 < steps < 200000
+    every = simulate.record_every(scenario.load("crowd"))
+    assert frames == -(-steps // every)  # a frame at every `every`-th step from step 0
+    got, _, counts = Recording(str(out)).temporal("/counts/pairs/builtin", "Scalars:scalars")
+    assert got == list(range(frames)) and len(counts) == frames
+    assert sorted(os.listdir(out.parent)) == ["crowd.rrd"]  # no partial file beside it
+    assert out.parent.parent.joinpath("crowd.rrd").read_bytes() == b""
+
+
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
 
 
 def test_progress_shows_a_rate_only_once_it_means_something(monkeypatch):
     clock = iter([0.0, 0.1, 0.5, 1.5, 2.0, 2.6, 3.0])
     monkeypatch.setattr(time, "perf_counter", lambda: next(clock))
-    stream = io.StringIO()
+    stream = Terminal()
     bar = Progress("x", 100, stream=stream)
     for done in (1, 5, 20, 30, 60, 70):
         bar(done)
-    lines = stream.getvalue().splitlines()
+    lines = stream.getvalue().split("\r")[1:]  # redrawn in place
+    assert len(lines) == 6 and bar.done == 70
     assert not any("/s" in line or "left" in line for line in lines[:3])  # compile and warm-up: no rate
     assert lines[-1].endswith("70/100 steps, 33/s, 1 s left")  # (70 - 20) / (3.0 - 1.5) s from the anchor
+
+
+def test_progress_without_a_terminal_prints_by_time_not_by_tenths(monkeypatch):
+    """In a log (no terminal) a line at the start, then one per Progress.INTERVAL seconds with the
+    time elapsed and left, and the last: not ten lines minutes apart, nor one per call."""
+    clock = iter([0.0, 0.5, 5.0, 10.0, 15.4, 16.0, 20.0, 30.0, 31.5, 40.0])
+    monkeypatch.setattr(time, "perf_counter", lambda: next(clock))
+    stream = io.StringIO()
+    bar = Progress("x", 1000, stream=stream)
+    assert Progress.INTERVAL == 15.0
+    for done in (1, 100, 200, 300, 320, 400, 600, 610, 1000):
+        bar(done)
+    lines = stream.getvalue().splitlines()
+    assert [line.split("] ")[1].split(",")[0] for line in lines] == [
+        "  0.1% 1/1000 steps in 0 s",  # the first call: stepping has begun
+        " 32.0% 320/1000 steps in 16 s",  # 15.5 s after the first line
+        " 61.0% 610/1000 steps in 32 s",
+        "100.0% 1000/1000 steps in 40 s",  # the end, whenever it comes
+    ]
+    assert lines[1].endswith("320/1000 steps in 16 s, 20/s, 34 s left")  # (320 - 100) / (16 - 5) s from the anchor
 
 
 # --- fit -------------------------------------------------------------------------------------------
@@ -215,7 +339,7 @@ def test_fit_prints_short_numbers_and_writes_mjcf_that_encloses_the_meshes(tmp_p
     box = trimesh.creation.box([0.2, 0.1, 0.05])
     box.apply_translation([1e-15, 0.3, 0.0])  # a centre with 1e-15 noise: printed as 0
     box.export(tmp_path / "foot.obj")
-    out = tmp_path / "limbs.xml"
+    out = tmp_path / "model" / "limbs.xml"  # model/ is made
     assert (
         main(["fit", str(tmp_path / "arm.stl"), str(tmp_path / "foot.obj"), "--method", "mvee", "--out", str(out)]) == 0
     )

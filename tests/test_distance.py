@@ -13,8 +13,9 @@ from hypothesis import strategies as st
 from reference import sigma_stationary
 from scipy.spatial.transform import Rotation as Rot
 
+import ellipsim
 import ellipsim.mujoco as plugin
-from ellipsim import Ellipsoids, signed_distance
+from ellipsim import DistanceStatus, Ellipsoids, signed_distance
 from ellipsim.app import scenes as figures
 from ellipsim.core.distance.ellipsoid_pair import GLOBAL, UNPROVEN
 from ellipsim.mujoco import structs as mjstruct
@@ -264,7 +265,7 @@ def test_coaxial_spheroids_in_mujoco_are_proven_not_handed_back():
     assert status[0] == GLOBAL and dist[0] == pytest.approx(-0.2, abs=1e-4)
     with plugin.attach(model, mine, mode="narrowphase") as att:
         mujoco.mj_forward(model, mine)
-    assert att.counters == {"calls": 1, "separated": 0, "contacts": 1, "fallbacks": 0}
+    assert att.counters == {"calls": 1, "separated": 0, "apart": 0, "contacts": 1, "fallbacks": 0}
     assert mine.ncon == plain.ncon == 1 and mine.contact.dist[0] == dist[0]
 
 
@@ -446,3 +447,15 @@ def test_sphere_on_a_turned_spheroid_axis_is_proven(offset):
     b = Ellipsoids([R[:, 2] * 0.1 + R[:, 0] * offset * 0], [R], [[0.25, 0.25, 0.8]])
     dist, status = assert_matches_reference(a, b)
     assert status == GLOBAL and dist < -0.3
+
+
+def test_the_status_has_names_that_equal_the_kernel_codes():
+    """ellipsim.DistanceStatus names the int8 codes signed_distance returns (defined apart from the
+    kernel's module, so its codes must stay the kernel's)."""
+    assert [(m.name, int(m)) for m in DistanceStatus] == [("GLOBAL", GLOBAL), ("UNPROVEN", UNPROVEN)]
+    a = Ellipsoids([[0.0, 0, 0]], [np.eye(3)], [[1.0, 0.5, 0.25]])
+    b = Ellipsoids([[3.0, 0, 0]], [np.eye(3)], [[0.5, 0.5, 0.5]])
+    status = signed_distance(a, b)[3]
+    assert status.dtype == np.int8 and status[0] == DistanceStatus.GLOBAL and status[0] != DistanceStatus.UNPROVEN
+    assert DistanceStatus(int(status[0])) is ellipsim.DistanceStatus.GLOBAL
+    assert "DistanceStatus" in ellipsim.__all__

@@ -106,6 +106,7 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
 
 def test_every_public_name_resolves_to_its_module():
     import ellipsim.core.distance.ellipsoid_pair
+    import ellipsim.core.distance.status
     import ellipsim.core.ellipsoids
     import ellipsim.core.exact.characteristic
     import ellipsim.core.exact.classify
@@ -120,6 +121,7 @@ def test_every_public_name_resolves_to_its_module():
     assert ellipsim.Relation is ellipsim.core.relation.Relation
     assert ellipsim.contact_scale is ellipsim.core.exact.contact_scale.contact_scale
     assert ellipsim.signed_distance is ellipsim.core.distance.ellipsoid_pair.signed_distance
+    assert ellipsim.DistanceStatus is ellipsim.core.distance.status.DistanceStatus
     assert ellipsim.characteristic_polynomial is ellipsim.core.exact.characteristic.characteristic_polynomial
     assert ellipsim.mujoco.compare_narrowphase is ellipsim.mujoco.compare.compare_narrowphase
     assert ellipsim.mujoco.candidate_pairs is ellipsim.mujoco.geoms.candidate_pairs

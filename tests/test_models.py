@@ -195,9 +195,10 @@ def test_model_errors_are_one_line(models):
     broken = variant(models, "broken.xml", "<worldbody>", "<worldbody><bodyy/>")
     with pytest.raises(
         scenario.ScenarioError,
-        match=r"broken\.xml: MuJoCo cannot read the model .*unrecognized element; Element 'bodyy'",
-    ):
+        match=r"broken\.xml: MuJoCo cannot read this model: .*unrecognized element; Element 'bodyy'",
+    ) as info:
         scenario.load(str(broken))
+    assert str(info.value).count("broken.xml") == 1  # the path once, not again as "the model '...'"
     missing = variant(models, "missing.xml", 'file="zoo_assets.xml"', 'file="gone.xml"')
     with pytest.raises(scenario.ScenarioError, match=r"Error opening file 'gone\.xml'; Element 'include'") as info:
         scenario.load(str(missing))

@@ -87,6 +87,28 @@ def test_malformed_files_name_the_file_and_key(tmp_path, text, message):
         scenario.load(write(tmp_path, text))
 
 
+@pytest.mark.parametrize(
+    "text, missing",
+    [
+        (
+            GOOD.replace("duration = 0.2\n", "").replace("timestep = 0.002\n", "").replace("figures = 2\n", ""),
+            "missing key 'duration', key 'timestep' and key 'scene.figures'",
+        ),
+        (GOOD.split("[scene]")[0], "missing table [scene] and table [control]"),
+        (
+            'timestep = 0.01\n[scene]\nkind = "pile"\n[control]\nkind = "keyframes"\n',
+            "missing key 'duration', key 'scene.ellipsoids' and key 'control.keys'",
+        ),
+        (GOOD.replace("duration = 0.2\n", ""), "missing key 'duration'"),
+    ],
+)
+def test_every_missing_key_is_named_in_one_message(tmp_path, text, missing):
+    """Not one run per missing key: the message lists them all (each named once)."""
+    with pytest.raises(scenario.ScenarioError) as info:
+        scenario.load(write(tmp_path, text))
+    assert str(info.value) == f"{tmp_path / 's.toml'}: {missing}"
+
+
 PILE = """
 duration = 0.02
 timestep = 0.002
@@ -405,9 +427,11 @@ def test_compare_plot(tmp_path):
         (["run", "dance-party"], "unknown scenario 'dance-party'; available:"),
         (["run", "pile", "--mode", "gjk"], "invalid choice: 'gjk'"),
         (["run", "pile", "--steps", "0"], "expected a positive integer, got 0"),
-        (["run", "pile", "--record", "/no/such/dir/x.rrd"], "--record: directory '/no/such/dir' does not exist"),
+        (["run", "pile", "--record", "/dev/null/x.rrd"], "--record: '/dev/null' is not a directory"),
         (["run", "pile", "--record", "out.txt"], "--record must name a .rrd file, got 'out.txt'"),
-        (["compare", "pile", "--json", "/no/such/dir/x.json"], "--json: directory '/no/such/dir' does not exist"),
+        (["compare", "pile", "--json", "/dev/null/d/x.json"], "--json: '/dev/null' is not a directory"),
+        (["compare", "pile", "--plot", "/dev/null/x.png"], "--plot: '/dev/null' is not a directory"),
+        (["fit", "arm.stl", "--out", "/dev/null/x.xml"], "--out: '/dev/null' is not a directory"),
         (["view", "/no/such/file.rrd"], "/no/such/file.rrd"),
     ],
 )

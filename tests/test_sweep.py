@@ -112,7 +112,7 @@ def test_a_model_sweeps_its_timestep_and_mode(tmp_path):
         (
             {"scene.figures": [1, "two"]},
             {},
-            r"vary scene\.figures=two: .*key 'scene\.figures' must be a int, got 'two'",
+            r"vary scene\.figures=two: .*key 'scene\.figures' must be an int, got 'two'",
         ),
         ({"timestep": [0.002, -1]}, {}, r"vary timestep=-1: .*key 'timestep' must be positive, got -1"),
         (
@@ -270,7 +270,7 @@ def test_recordings_one_per_variant_named_and_identified_by_it(tmp_path):
     "args, message",
     [
         (["--vary", "scene.figurs=2"], "--vary scene.figurs=2: "),
-        (["--vary", "scene.figures=two"], "key 'scene.figures' must be a int, got 'two'"),
+        (["--vary", "scene.figures=two"], "key 'scene.figures' must be an int, got 'two'"),
         (["--vary", "scene.figures=0"], "--vary scene.figures=0: "),
         (["--vary", "scene.figures"], "--vary 'scene.figures': expected KEY=V1,V2,..."),
         (["--vary", "scene.figures=1", "--vary", "scene.figures=2"], "--vary scene.figures: given twice"),
@@ -291,9 +291,11 @@ def test_cli_names_scenario_output_and_missing_ray(tmp_path, monkeypatch, capsys
     assert "unknown scenario 'tumbel'" in one_line_error(cli("sweep", "tumbel", "--out", str(tmp_path / "o")))
     (tmp_path / "file").write_text("")
     assert "--out '" in one_line_error(cli("sweep", "tumble", "--out", str(tmp_path / "file")))
-    assert "does not exist" in one_line_error(cli("sweep", "tumble", "--out", str(tmp_path / "no" / "o")))
-    out = tmp_path / "o"
+    line = one_line_error(cli("sweep", "tumble", "--out", str(tmp_path / "file" / "o")))
+    assert f"--out: '{tmp_path / 'file'}' is not a directory" in line
+    out = tmp_path / "sweeps" / "o"  # folders made if missing, as --help says (the README's `--out sweeps/pile`)
     assert main(["sweep", "tumble", "--steps", "5", "--out", str(out), "--workers", "1"]) == 0
+    assert (out / sw.RESULTS).is_file()
     capsys.readouterr()
     assert main(["sweep", "tumble", "--steps", "5", "--vary", "timestep=0.002", "--out", str(out)]) == 2
     assert "holds the results of another sweep" in capsys.readouterr().err

@@ -71,19 +71,26 @@ class Comparison:
     def summary(self, show):
         """The lines `ellipsim compare` prints, `show` disagreements and passed-through pairs at most."""
         agree, pairs, builtin, ours = self.agree, self.pairs, self.builtin, self.ours
+        if self.validation.contacts_disabled and pairs == 0:
+            agreement = 'none to compare: the model disables contacts (<option><flag contact="disable"/>)'
+        else:
+            agreement = f"agreement {agree}/{pairs} ({agree / max(pairs, 1):.4%})"
         lines = [
-            f"  candidate ellipsoid pairs: {pairs} over {self.steps} steps; agreement {agree}/{pairs} ({agree / max(pairs, 1):.4%})",
+            f"  candidate ellipsoid pairs: {pairs} over {self.steps} steps; {agreement}",
             f"  in contact per frame: MuJoCo mean {builtin.mean():.2f} (max {builtin.max()}), ellipsim mean {ours.mean():.2f} (max {ours.max()})",
             f"  totals: MuJoCo {builtin.sum()}, ellipsim {ours.sum()}",
             f"  disagreements: {len(self.missed)} missed (MuJoCo contact, ellipsim separated), {len(self.extra)} extra "
             f"(ellipsim overlapping, no MuJoCo contact), {len(self.near)} within {NEAR_TANGENT:g} m of touching",
         ]
-        for d in (self.missed + self.extra + self.near)[:show]:
+        disagreements = self.missed + self.extra + self.near
+        for d in disagreements[:show]:
             lines.append(
                 f"    step {d.step}: {d.names[0]} / {d.names[1]}: MuJoCo {'contact' if d.mujoco_contact else 'none'}, "
                 f"ellipsim {d.relation}, contact_scale {d.contact_scale:.9f}, mj_geomDistance {d.geom_distance:.3g}; "
                 f"right: {d.right} ({d.reason})"
             )
+        if len(disagreements) > show:
+            lines.append(f"    ... and {len(disagreements) - show} more (--show N, or --json)")
         if self.passed_through is not None:
             from .capture import between_lines
 
@@ -107,6 +114,7 @@ class Comparison:
             "near_tangent": len(self.near),
             "agreement": self.agree,
             "pairs": self.pairs,
+            "contacts_disabled": self.validation.contacts_disabled,
             "per_frame": {
                 "builtin_contacts": self.builtin.tolist(),
                 "ellipsim_overlaps": self.ours.tolist(),

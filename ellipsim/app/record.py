@@ -5,7 +5,7 @@ them).  A Recorder writes while a run goes: the model's shapes once, static (`be
 chunk of frames as columns with `RecordingStream.send_columns` (`write`), on two timelines, "time"
 (a duration, seconds) and "frame" (a sequence).  The file is written under a temporary name in the
 same folder and renamed to its own name only when complete (`close`): an interrupted run leaves
-no truncated recording behind.  Every recording gets a fresh recording id, so two runs opened
+no truncated recording behind (or, with keep_partial, a complete recording of the frames so far).  Every recording gets a fresh recording id, so two runs opened
 together in one viewer stay two recordings.
 
 What is written (B bodies, G geoms):
@@ -53,6 +53,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .errors import STOPS
 from .trajectory import GEOM_KINDS, Frames, SceneGeometry
 
 TOUCHING_COLOR = (255, 176, 0, 255)  # amber
@@ -123,11 +124,13 @@ class Recorder:
 
     path : str or os.PathLike ending in ".rrd", in an existing directory; replaced only by `close`.
     Used as a context manager, an exception (or Ctrl-C) inside the block removes the partial file
-    and leaves `path` as it was.  ValueError names a bad path or bad data; OSError a file that
-    cannot be created.
+    and leaves `path` as it was; with keep_partial=True, Ctrl-C or SIGTERM (errors.STOPS) instead
+    keeps the frames written so far, if any: the file is completed and moved to `path` as `close`
+    does, and `kept` is their number (0: nothing kept).  ValueError names a bad path or bad data;
+    OSError a file that cannot be created.
     """
 
-    def __init__(self, path, *, app_id="ellipsim"):
+    def __init__(self, path, *, app_id="ellipsim", keep_partial=False):
         self.path = _check_save_path(path)
         folder, base = os.path.split(os.path.abspath(self.path))
         self.partial = os.path.join(folder, f".{base}.{uuid.uuid4().hex[:12]}.part")
@@ -135,6 +138,8 @@ class Recorder:
         self.recording_id = str(uuid.uuid4())
         self.rec = None
         self.frames_written = 0
+        self.keep_partial = keep_partial
+        self.kept = 0
 
     def __enter__(self):
         return self
@@ -142,6 +147,12 @@ class Recorder:
     def __exit__(self, kind, value, tb):
         if kind is None:
             self.close()
+        elif self.keep_partial and issubclass(kind, STOPS) and self.rec is not None and self.frames_written:
+            try:
+                self.close()  # flushed, then renamed in one os.replace: `path` is whole or as it was
+            except Exception:  # the stop is what to report; close removed the partial file
+                return False
+            self.kept = self.frames_written
         else:
             self.abort()
         return False

@@ -121,6 +121,35 @@ def _unknown(path, prefix, table, known):
         raise ScenarioError(f"{path}: unknown key '{prefix}{unknown[0]}' ({hint}known here: {', '.join(known)})")
 
 
+#: The key each kind of scene, and of control, cannot do without.
+_SCENE_REQUIRED = {"figures": "figures", "pile": "ellipsoids", "mjcf": "path"}
+_CONTROL_REQUIRED = {"keyframes": "keys"}
+
+
+def _missing(path, table):
+    """ScenarioError naming every required key and table the scenario `table` lacks, in one message
+    (a table whose kind or keys are wrong is left to the checks that name those)."""
+    missing = [f"key '{k}'" for k in ("duration",) if k not in table]
+    scene, control = table.get("scene"), table.get("control")
+    if scene is None:
+        missing.append("table [scene]")
+    elif isinstance(scene, dict) and scene.get("kind", "figures") in _SCENE_REQUIRED:
+        kind = scene.get("kind", "figures")
+        if kind != "mjcf" and "timestep" not in table:
+            missing.append("key 'timestep'")
+        if not set(scene) - set(_SCENE_KEYS[kind]) and _SCENE_REQUIRED[kind] not in scene:
+            missing.append(f"key 'scene.{_SCENE_REQUIRED[kind]}'")
+    if control is None:
+        missing.append("table [control]")
+    elif isinstance(control, dict) and not set(control) - set(_CONTROL_KEYS):
+        need = _CONTROL_REQUIRED.get(control.get("kind", "hold"))
+        if need is not None and need not in control:
+            missing.append(f"key 'control.{need}'")
+    if missing:
+        listed = missing[0] if len(missing) == 1 else ", ".join(missing[:-1]) + " and " + missing[-1]
+        raise ScenarioError(f"{path}: missing {listed}")
+
+
 class _Checker:
     """Reads typed values out of a TOML table; errors name the file and the dotted key."""
 
@@ -141,10 +170,11 @@ class _Checker:
         what = " or ".join(k.__name__ for k in kind) if isinstance(kind, tuple) else kind.__name__
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
+        what = ("an " if what[0] in "aeiou" else "a ") + what  # an int, a float
         if kind is bool and not isinstance(value, bool) or kind is not bool and isinstance(value, bool):
-            raise self.error(key, f"must be a {what}", value)
+            raise self.error(key, f"must be {what}", value)
         if not isinstance(value, kind):
-            raise self.error(key, f"must be a {what}", value)
+            raise self.error(key, f"must be {what}", value)
         if kind is float and not math.isfinite(value):
             raise self.error(key, "must be finite", value)
         if choices is not None and value not in choices:
@@ -215,6 +245,7 @@ def from_table(table, path):
     if not isinstance(table, dict):
         raise ScenarioError(f"{path}: a scenario must be a table, got {table!r}")
     _unknown(path, "", table, _TOP_KEYS)
+    _missing(path, table)
     top = _Checker(path, table)
     description = top.get("description", str, "")
     duration = top.get("duration", float, required=True, positive=True)
@@ -277,7 +308,8 @@ def _model_timestep(path, label):
     try:
         return float(mujoco.MjSpec.from_file(path).option.timestep)
     except ValueError as exc:
-        raise ScenarioError(f"{label}: MuJoCo cannot read the model {path!r}: {one_line(exc)}") from None
+        model = "this model" if label == path else f"the model {path!r}"  # the path once, where label names it
+        raise ScenarioError(f"{label}: MuJoCo cannot read {model}: {one_line(exc)}") from None
 
 
 def model_scenario(path, *, key=None, ctrl="hold"):

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from ..mujoco.attachment import attach
-from ..mujoco.validate import validate
+from ..mujoco.validate import contacts_disabled, validate
 from . import capture, limits, mjcf, scenes
 from .control import Controller
 from .scenario import MODES, Scenario, ScenarioError
@@ -152,6 +152,7 @@ class Run:
     between: list = None
     between_candidates: int = 0
     between_seconds: float = 0.0
+    contacts_disabled: bool = False  # the model disables contacts (validate.contacts_disabled)
 
     def summary(self, wall, *, recording=False, between_asked=False, show=10):
         """The lines `ellipsim run` prints after running: stepping rate, the other costs out of `wall`
@@ -167,7 +168,12 @@ class Run:
             f"  not in that: model build and kernel loading {rest:.2f} s, "
             f"ellipsim's verdicts on {len(fr.times)} frames {self.analysis_seconds:.2f} s"
             + (f", recording {self.record_seconds:.2f} s" if recording else ""),
-            f"  contacts per step (all geoms): mean {self.contacts_mean:.1f}, max {self.contacts_max}",
+            f"  contacts per step (all geoms): mean {self.contacts_mean:.1f}, max {self.contacts_max}"
+            + (
+                '; none: the model disables contacts (<option><flag contact="disable"/>)'
+                if self.contacts_disabled
+                else ""
+            ),
         ]
         if len(fr.times):
             lines.append(
@@ -182,8 +188,8 @@ class Run:
             )
         elif "calls" in c:
             lines.append(
-                f"  narrow phase: {c['calls']} pairs, {c['separated']} certified apart, {c['contacts']} contacts, "
-                f"{c['fallbacks']} fallbacks to MuJoCo"
+                f"  narrow phase: {c['calls']} pairs = {c['separated']} certified apart + {c['apart']} measured beyond "
+                f"the margin + {c['contacts']} contacts + {c['fallbacks']} fallbacks to MuJoCo"
             )
         if self.between is not None:
             lines += capture.between_lines(self.between, self.between_candidates, self.between_seconds, show, "frames")
@@ -293,6 +299,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
         capture.describe_events(events, loop.buffer.ids, loop.names) if between else None,
         loop.buffer.between.candidates if between else 0,
         loop.buffer.between_seconds,
+        contacts_disabled(model),
     )
 
 

@@ -11,6 +11,7 @@ import time
 
 from ..mujoco.between import Events
 from . import capture
+from .errors import STOPS
 
 
 class FrameLoop:
@@ -34,19 +35,28 @@ class FrameLoop:
         self.recorder, self.on_chunk = recorder, on_chunk
         self.seconds = self.analysis_seconds = self.record_seconds = 0.0
         self._events = []  # between.Events, in frame order
+        self._writing = False
+        self.steps_done = 0
         if recorder is not None:
             recorder.begin(capture.geometry(model, title, self.names))
 
     def run(self, data, steps, step, *, every=1, progress=None):
         """step(k) for k = 0 .. steps - 1, a frame of `data` (at data.time) after every k % every == 0,
         then the last chunk and the background check; the buffer is closed, also on an error.
-        progress : optional callable(k + 1, steps)."""
+        progress : optional callable(k + 1, steps).
+        On Ctrl-C or SIGTERM (errors.STOPS) with a recorder that keeps partial recordings
+        (record.Recorder keep_partial), the frames still in the buffer are decided and recorded
+        first, and progress is told the steps done, before the exception goes on; `steps_done` is
+        their number."""
         buffer = self.buffer
         t0 = time.perf_counter()
+        self.steps_done = 0
         try:
             for k in range(steps):
                 step(k)
-                if k % every == 0 and buffer.add(data, data.time):
+                full = k % every == 0 and buffer.add(data, data.time)
+                self.steps_done = k + 1
+                if full:
                     self._flush()
                 if progress is not None:
                     progress(k + 1, steps)
@@ -55,6 +65,12 @@ class FrameLoop:
             found = buffer.collect(wait=True)
             self.analysis_seconds += time.perf_counter() - t1
             self._keep(found)
+        except STOPS:
+            if getattr(self.recorder, "keep_partial", False) and not self._writing:
+                self._flush()  # a second Ctrl-C here ends it: the recorder keeps what it has
+            if progress is not None:
+                progress(self.steps_done, steps)
+            raise
         finally:
             buffer.close()
         self.seconds = time.perf_counter() - t0 - self.analysis_seconds - self.record_seconds
@@ -73,7 +89,9 @@ class FrameLoop:
         if chunk is None:
             return
         if self.recorder is not None:
+            self._writing = True  # stopped while writing a chunk: no second try at it
             self.recorder.write(chunk.frames)
+            self._writing = False
             self.record_seconds += time.perf_counter() - t1
         self._keep(([chunk.events] if chunk.events is not None else []) + self.buffer.collect())
 

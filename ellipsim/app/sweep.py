@@ -695,14 +695,15 @@ def already_done(variants, out):
 
 
 def check_out(out):
-    """SweepError when `out` cannot be the output directory (made if missing, in an existing folder)."""
+    """SweepError when `out` cannot be the output directory (made if missing, with its missing parents)."""
     out = os.fspath(out)
     if os.path.exists(out) and not os.path.isdir(out):
         raise SweepError(f"out {out!r} exists and is not a directory")
-    parent = os.path.dirname(os.path.abspath(out))
-    if not os.path.isdir(parent):
-        raise SweepError(f"out: directory {parent!r} does not exist")
-    target = out if os.path.isdir(out) else parent
+    target = os.path.abspath(out)
+    while not os.path.exists(target) and os.path.dirname(target) != target:  # the nearest folder that exists
+        target = os.path.dirname(target)
+    if not os.path.isdir(target):
+        raise SweepError(f"out: {target!r} is not a directory (in {out!r})")
     if not os.access(target, os.W_OK | os.X_OK):
         raise SweepError(f"out: cannot write in {os.path.abspath(target)!r} (permission denied)")
 

@@ -43,8 +43,7 @@ SHIPPED_ENV = "ELLIPSIM_KERNELS_DIR"
 GENERIC = ("x86_64-unknown-linux-gnu", "generic", "")
 #: where a prebuild writes (the shipped folder); set only by ellipsim.prebuild's child process
 BUILD_ENV = "ELLIPSIM_KERNELS_BUILD"
-#: the notice before a compile; the time: `ellipsim run handshake` 10 s, `compare pile` 9 s of compile on
-#: the 2-core VM without shipped kernels (ELLIPSIM_KERNELS_DIR=empty), more for the bench's sections
+#: the notice before a compile (its time: a command run with ELLIPSIM_KERNELS_DIR an empty folder)
 NOTICE = (
     "ellipsim: compiling kernels for this machine as they are first used (first run only, typically 10-60 s "
     "a command; cached in %s)"

@@ -221,13 +221,19 @@ class Attachment:
         """Per-data counts of the ellipsoid (and, narrowphase, capsule, box and cylinder with ellipsoid) pairs ellipsim handled.
 
         filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (proven apart
-        beyond the margin, no contact) + contacts + fallbacks (to MuJoCo's function) + pairs measured
-        apart beyond the margin.
+        beyond the margin, no contact) + apart (their signed distance measured beyond the margin, no
+        contact) + contacts + fallbacks (to MuJoCo's function).
         """
         c = [int(x) for x in self._counters]
         if self.mode == "narrowphase":
             calls = c[SEPARATED] + c[CONTACTS] + c[APART] + c[FALLBACKS]
-            return {"calls": calls, "separated": c[SEPARATED], "contacts": c[CONTACTS], "fallbacks": c[FALLBACKS]}
+            return {
+                "calls": calls,
+                "separated": c[SEPARATED],
+                "apart": c[APART],
+                "contacts": c[CONTACTS],
+                "fallbacks": c[FALLBACKS],
+            }
         return {"seen": c[0], "discarded": c[1], "passed": c[2]}
 
     def __enter__(self):

@@ -59,6 +59,8 @@ class Validation:
     undetermined : (steps,) int64, candidates whose verdict is not proven (within the proof tolerance
         of the margin, or an UNPROVEN maximum): counted in `counts` by ellipsim's float estimate, and
         reported as right = "undetermined" when that disagrees with MuJoCo
+    contacts_disabled : the model disables contacts (<option><flag contact="disable"/>: MuJoCo
+        collides nothing, so there is no candidate pair and nothing to compare; contacts_disabled())
     passed_through : between.Events, ellipsoid pairs separated at step k and at step k + 1 that touch in
         between on the interpolated motion (pairs index `ellipsoid_ids`; the geoms themselves, margins
         not included); None when not looked for.  mj_step's motion between two steps is not that
@@ -76,6 +78,7 @@ class Validation:
     between_candidates: int = 0
     explicit: np.ndarray = None
     undetermined: np.ndarray = None
+    contacts_disabled: bool = False
 
     def totals(self):
         return {name: int(self.counts[:, k].sum()) for k, name in enumerate(self.COLUMNS)}
@@ -162,7 +165,14 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
         checker.candidates if checker is not None else 0,
         n_explicit,
         n_open,
+        contacts_disabled(model),
     )
+
+
+def contacts_disabled(model):
+    """True when the model disables contacts (<option><flag contact="disable"/>, as dm_control's fish
+    does): MuJoCo's collision makes no contact and calls no collision callback."""
+    return bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
 
 
 def _candidates(model, data, dynamic):

@@ -18,8 +18,10 @@ over `common` (argument types, progress, output files, the options they share).
 SCENARIO is a name from `ellipsim list` or a path to a .toml file; MODEL.xml any MJCF file (its
 includes and assets are found relative to it, as MuJoCo does).  A user mistake (unknown scenario,
 malformed file, bad argument, a request larger than memory) ends with one line on stderr and exit
-status 2; Ctrl-C with one line and status 130, SIGTERM with status 143 (a recording being written is
-then not left behind half-written).
+status 2; Ctrl-C with one line and status 130, SIGTERM with status 143: a recording being written
+then keeps the frames so far (completed, then renamed into place: never left half-written), and the
+line says at which step and how many frames, e.g. `ellipsim: interrupted at step 812/1500; recording
+of 102 frames kept in handshake.rrd`.
 """
 
 import os
@@ -28,18 +30,14 @@ import sys
 
 import ellipsim
 
-from ..errors import UserError
+from ..errors import Terminated, UserError
 from . import bench, compare, demo, fit, replay, run, scenarios, sweep, view
-from .common import Parser, Progress, end_lines, progress_bars
+from .common import Parser, Progress, end_lines, progress_bars, stop_notes
 
 __all__ = ["main", "parser", "script", "Progress", "UserError"]
 
 #: The subcommands, in the order --help lists them.
 COMMANDS = (run, compare, replay, fit, sweep, view, bench, scenarios, demo)
-
-
-class Terminated(BaseException):
-    """SIGTERM arrived: unwinds like KeyboardInterrupt, so that partial outputs are removed."""
 
 
 def parser():
@@ -69,6 +67,7 @@ def main(argv=None):
     except ValueError:  # not the main thread (main() called from a thread): leave signals alone
         pass
     progress_bars.clear()
+    stop_notes.clear()
     try:
         return args.run(args)
     except UserError as exc:  # errors.UserError: the scenario's, model's, motion's, sweep's errors too
@@ -77,11 +76,11 @@ def main(argv=None):
         return 2
     except KeyboardInterrupt:
         end_lines()
-        print("ellipsim: interrupted", file=sys.stderr)
+        print(" ".join(["ellipsim: interrupted", *stop_notes]), file=sys.stderr)
         return 130
     except Terminated:
         end_lines()
-        print("ellipsim: terminated", file=sys.stderr)
+        print(" ".join(["ellipsim: terminated", *stop_notes]), file=sys.stderr)
         return 143
     except BrokenPipeError:  # `ellipsim ... | head`: the reader left, nothing to report
         sys.stderr.close()

@@ -9,7 +9,7 @@ import sys
 import time
 
 from ... import shipped
-from ..errors import UserError
+from ..errors import STOPS, UserError
 
 
 class Parser(argparse.ArgumentParser):
@@ -65,35 +65,42 @@ def install_hint(extra):
 
 
 class Progress:
-    """A progress bar on stderr: redrawn in place on a terminal, a line every 10% otherwise.
+    """A progress bar on stderr: redrawn in place on a terminal; otherwise (a log, a pipe) a line at
+    the first step, then every INTERVAL seconds of wall time and at the end, each with the time
+    elapsed.
 
     The rate and the time left are shown only once they mean something: measured from WARMUP
     seconds after the start (the first steps pay for compiling kernels and touching memory) over at
-    least WARMUP seconds more.
+    least WARMUP seconds more.  `done` is the count of the last call.
     """
 
     WARMUP = 1.0  # seconds
+    INTERVAL = 15.0  # seconds between two lines without a terminal: a log shows life, not a line a step
 
     def __init__(self, label, total, stream=None, unit="steps"):
         self.label, self.total, self.unit = label, total, unit
         self.stream = stream or sys.stderr
         self.tty = self.stream.isatty()
         self.t0 = time.perf_counter()
-        self.shown = -1.0
+        self.shown = None  # when the last line was drawn (seconds from t0)
         self.anchor = None  # (seconds, done) from which the rate is measured
         self.open = False  # a redrawn line is on the terminal without its newline
+        self.done = 0
 
     def __call__(self, done, total=None):
+        self.done = done
         total = total or self.total
         now = time.perf_counter() - self.t0
         if self.anchor is None and now >= self.WARMUP:
             self.anchor = (now, done)
         frac = done / total
-        if done < total and (now - self.shown < 0.2 if self.tty else frac * 10 < int(self.shown * 10) + 1):
+        if done < total and self.shown is not None and now - self.shown < (0.2 if self.tty else self.INTERVAL):
             return
-        self.shown = now if self.tty else frac
+        self.shown = now
         bar = "#" * int(30 * frac)
         line = f"{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{total} {self.unit}"
+        if not self.tty:
+            line += f" in {now:.0f} s"
         if self.anchor is not None and now - self.anchor[0] >= self.WARMUP and done > self.anchor[1]:
             rate = (done - self.anchor[1]) / (now - self.anchor[0])
             line += f", {rate:,.0f}/s"
@@ -148,17 +155,33 @@ def steps_of(s, args, check):
 
 
 def check_output(path, suffix, option):
-    """The output file's name must end in `suffix`, not be a directory, and its directory must exist
-    and be writable: checked before running."""
+    """The output file's name must end in `suffix`, not be a directory, and its folder must be one we
+    can write in, or be missing under one (made_parents makes it when the file is written): checked
+    before running."""
     if not path.endswith(suffix):
         raise UserError(f"{option} must name a {suffix} file, got {path!r}")
     if os.path.isdir(path):
         raise UserError(f"{option}: {path!r} is a directory, not a {suffix} file")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise UserError(f"{option}: directory {folder!r} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+    existing = existing_ancestor(os.path.dirname(os.path.abspath(path)))
+    if not os.path.isdir(existing):
+        raise UserError(f"{option}: {existing!r} is not a directory (in {path!r})")
+    if not os.access(existing, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
         raise UserError(f"{option}: cannot write {path!r} (permission denied)")
+
+
+def existing_ancestor(folder):
+    """`folder` (absolute) if it exists, else its nearest ancestor that does."""
+    while not os.path.exists(folder) and os.path.dirname(folder) != folder:
+        folder = os.path.dirname(folder)
+    return folder
+
+
+def made_parents(path, option):
+    """Make the missing folders of the output file `path` (as --help says: "made if missing")."""
+    try:
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    except OSError as exc:
+        raise write_error(option, path, exc) from None
 
 
 def write_error(option, path, exc):
@@ -166,12 +189,28 @@ def write_error(option, path, exc):
     return UserError(f"{option}: cannot write {path!r}: {getattr(exc, 'strerror', None) or exc}")
 
 
+def json_text(value, indent=0):
+    """`value` as JSON text a reader can scan: a dict a key per line, a list of dicts a dict per line
+    (each on one line), any other list on one line (a per-step array of 1500 numbers is one line,
+    not 1500)."""
+    pad = " " * indent
+    if isinstance(value, dict) and value:
+        items = (f"{pad} {json.dumps(str(k))}: {json_text(v, indent + 1)}" for k, v in value.items())
+        return "{\n" + ",\n".join(items) + f"\n{pad}}}"
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        items = (f"{pad} {json.dumps(v, separators=(', ', ': '))}" for v in value)
+        return "[\n" + ",\n".join(items) + f"\n{pad}]"
+    return json.dumps(value, separators=(",", ":"))
+
+
 def write_json(path, report):
-    """Write `report` to `path` through a partial file renamed when complete (none is left behind)."""
+    """Write `report` (json_text) to `path` through a partial file renamed when complete (none is
+    left behind); the missing folders of `path` are made."""
     partial = f"{path}.part"
+    made_parents(path, "--json")
     try:
         with open(partial, "w") as f:
-            json.dump(report, f, indent=1)
+            f.write(json_text(report) + "\n")
         os.replace(partial, path)
     except OSError as exc:
         raise write_error("--json", path, exc) from None
@@ -181,18 +220,26 @@ def write_json(path, report):
 
 
 def recorder_for(path):
-    """A record.Recorder for --record (ValueError on a bad path is a user mistake)."""
+    """A record.Recorder for --record that keeps its frames on Ctrl-C or SIGTERM (ValueError on a
+    bad path is a user mistake); the missing folders of `path` are made."""
     from .. import record
 
+    made_parents(path, "--record")
     try:
-        return record.Recorder(path)
+        return record.Recorder(path, keep_partial=True)
     except ValueError as exc:
         raise UserError(f"--record: {exc}") from None
 
 
+#: What a stopped command kept, said after "ellipsim: interrupted" / "terminated" (cleared per command).
+stop_notes = []
+
+
 def recorded(recorder, fn, *args, **kwargs):
     """fn(*args, recorder=recorder, **kwargs), then the recording completed and moved into place;
-    on any error or interruption the partial file is removed.  Returns (fn's result, size in bytes)."""
+    on an error the partial file is removed, on Ctrl-C or SIGTERM the frames recorded so far are
+    kept (record.Recorder keep_partial) and stop_notes says where and how many, and at which step of
+    kwargs["progress"] (a Progress) it stopped.  Returns (fn's result, size in bytes)."""
     if recorder is None:
         return fn(*args, **kwargs), 0
     try:
@@ -201,6 +248,12 @@ def recorded(recorder, fn, *args, **kwargs):
         return result, os.path.getsize(recorder.path)
     except OSError as exc:
         raise write_error("--record", recorder.path, exc) from None
+    except STOPS:
+        if recorder.kept:
+            progress = kwargs.get("progress")
+            where = f"at {progress.unit.removesuffix('s')} {progress.done}/{progress.total}; " if progress else ""
+            stop_notes.append(f"{where}recording of {recorder.kept} frames kept in {recorder.path}")
+        raise
 
 
 #: From this many figures on, say before building that MuJoCo's compile will take a while: its

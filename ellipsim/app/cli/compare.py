@@ -11,6 +11,7 @@ from .common import (
     header,
     install_hint,
     load_scenario,
+    made_parents,
     model_options,
     non_negative_int,
     positive_int,
@@ -77,6 +78,7 @@ def _plot_compare(path, s, builtin, ours, disagree, near):
     ax.set_ylabel("ellipsoid pairs in contact")
     ax.set_title(f"{s.name}: MuJoCo vs ellipsim, per step")
     ax.legend(loc="best", fontsize=8)
+    made_parents(path, "--plot")
     try:
         fig.savefig(path, dpi=120)
     except OSError as exc:

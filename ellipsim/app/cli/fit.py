@@ -3,7 +3,7 @@
 import os
 
 from ..errors import UserError
-from .common import check_output, positive_int, write_error
+from .common import check_output, made_parents, positive_int, write_error
 
 
 def fit(args):
@@ -23,6 +23,7 @@ def fit(args):
             raise UserError(str(exc)) from None
     print("\n".join(fitting.summary_lines(limbs, method=args.method, digits=args.digits)))
     if args.out:
+        made_parents(args.out, "--out")
         try:
             with open(args.out, "w") as f:
                 f.write(fitting.limbs_xml(limbs, method=args.method))

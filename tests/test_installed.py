@@ -7,6 +7,7 @@ a wheel that misses models/ or scenarios/ fails here.
 """
 
 import os
+import pathlib
 import subprocess
 import sys
 
@@ -23,14 +24,19 @@ def test_shipped_data_is_installed_with_the_package(tmp_path):
         "import importlib.resources as r, ellipsim\n"
         "models = sorted(p.name for p in r.files('ellipsim.models').iterdir() if p.name.endswith('.xml'))\n"
         "scenarios = sorted(p.name for p in r.files('ellipsim.scenarios').iterdir() if p.name.endswith('.toml'))\n"
-        "print(ellipsim.__file__); print(','.join(models)); print(','.join(scenarios))\n"
+        "kernels = sorted(str(p.relative_to(r.files('ellipsim') / 'kernels')) for p in (r.files('ellipsim') / 'kernels').rglob('*.nb?'))\n"
+        "print(ellipsim.__file__); print(','.join(models)); print(','.join(scenarios)); print(','.join(kernels))\n"
     )
     proc = installed("-c", code, tmp_path=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    where, models, scenarios = proc.stdout.splitlines()
+    where, models, scenarios, kernels = proc.stdout.splitlines()
     assert not where.startswith(str(tmp_path))
     assert "figure.xml" in models.split(",")
     assert {"crowd.toml", "handshake.toml", "pile.toml", "replay.toml", "tumble.toml"} <= set(scenarios.split(","))
+    checkout = pathlib.Path(__file__).resolve().parents[1] / "ellipsim" / "kernels"
+    assert kernels.split(",") == sorted(
+        str(p.relative_to(checkout)) for p in checkout.rglob("*.nb?")
+    )  # shipped kernels
 
 
 @pytest.mark.slow

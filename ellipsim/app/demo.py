@@ -56,7 +56,7 @@ def run_demo(pairs, seed, *, say=print):
     from ellipsim.core.samples import generic_pairs
 
     say(f"ellipsim demo: {pairs} random ellipsoid pairs (half colliding, thesis 5.1.1), seed {seed}")
-    say("  loading kernels (compiled on first use, ~15 s; cached afterwards) ...")
+    say("  loading kernels ...")
     warm = generic_pairs(4, seed=1)
     _, t_compile = _timed(lambda: [es.classify(*warm, parallel=p, **kw) for _, kw in METHODS for p in (False, True)])
     (a, b), t_gen = _timed(lambda: generic_pairs(pairs, seed=seed))

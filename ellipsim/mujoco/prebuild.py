@@ -45,7 +45,15 @@ def main(argv):
         import subprocess
 
         with tempfile.TemporaryDirectory() as numba_cache:
-            env = dict(os.environ, NUMBA_CPU_NAME="generic", NUMBA_CPU_FEATURES="", NUMBA_CACHE_DIR=numba_cache)
+            # the callees come from the shipped kernels (generic too) or compile; never from a cache
+            # of host-CPU code
+            env = dict(
+                os.environ,
+                NUMBA_CPU_NAME="generic",
+                NUMBA_CPU_FEATURES="",
+                NUMBA_CACHE_DIR=numba_cache,
+                **{nativecache.CACHE_ENV: numba_cache},
+            )
             return subprocess.call([sys.executable, "-m", "ellipsim.mujoco.prebuild", outdir], env=env)
     for path in build(outdir):
         print(f"wrote {path}")

@@ -4,7 +4,7 @@ install).
 
 Configurations (ellipsim's cache is ELLIPSIM_CACHE_DIR, the shipped objects ELLIPSIM_PREBUILT_DIR):
 
-- cold: empty ellipsim cache, no prebuilt objects, empty numba cache: a compile on a fresh install
+- cold: empty ellipsim cache, no prebuilt callbacks, no shipped kernels, empty numba cache: the compile
   of a platform without shipped objects;
 - prebuilt: empty ellipsim cache, the shipped CPU-generic objects: a fresh install;
 - warm: the cache the cold runs wrote;
@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from ...core import kernel_cache
 from ...mujoco import nativecache
 from .common import SIZES, say
 
@@ -60,15 +61,21 @@ print(json.dumps({"part": t1 - t0, "part_cpu": time.process_time() - cpu0, "atta
                   "numba": "numba" in sys.modules}))
 """
 
-#: runs per configuration: (cold runs per mode, warm / prebuilt / MuJoCo-alone rounds, modes)
-_RUNS = {"quick": (1, 3, ("narrowphase",)), "full": (3, 10, ("narrowphase", "filter"))}
+#: runs per configuration: (cold runs per mode, warm / prebuilt / MuJoCo-alone rounds, the modes
+#: compiled cold and then loaded warm, the modes loaded prebuilt).  --quick compiles only the filter
+#: (the narrow phase's cold compile takes minutes: the full run measures it)
+_RUNS = {
+    "quick": (1, 2, ("filter",), ("filter", "narrowphase")),
+    "full": (3, 10, ("narrowphase", "filter"), ("narrowphase", "filter")),
+}
 
 
 def _child(mode, cache, prebuilt, numba_cache=None):
     """One fresh interpreter: the child's report plus "wall", the whole process's wall time."""
     env = dict(os.environ, **{nativecache.CACHE_ENV: str(cache), nativecache.PREBUILT_ENV: str(prebuilt)})
-    if numba_cache is not None:
+    if numba_cache is not None:  # a cold start: nor numba's cache nor the shipped kernels
         env["NUMBA_CACHE_DIR"] = str(numba_cache)
+        env[kernel_cache.SHIPPED_ENV] = str(prebuilt)
     t0 = time.perf_counter()
     proc = subprocess.run(
         [sys.executable, "-c", _CHILD, _XML, mode], env=env, capture_output=True, text=True, timeout=900
@@ -79,14 +86,68 @@ def _child(mode, cache, prebuilt, numba_cache=None):
     return dict(json.loads(proc.stdout), wall=wall, notice=nativecache.NOTICE_PREFIX in proc.stderr)
 
 
+#: The README's commands as a new user runs them (short settings at the quick size), each in a
+#: fresh process: first on empty caches (a fresh install: the shipped kernels and callbacks), then again.
+def _readme_commands(tmp, quick):
+    from .. import scenes
+
+    model = os.path.join(tmp, "figure.xml")
+    with open(model, "w") as f:
+        f.write(scenes.scene_xml(2))
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(model)
+    rng = np.random.default_rng(0)
+    frames = 60 if quick else 300
+    motion = np.repeat(m.qpos0[None], frames, 0) + 0.05 * rng.standard_normal((frames, m.nq)) * (np.arange(m.nq) >= 7)
+    np.save(os.path.join(tmp, "walk.npy"), motion)
+    short = ["--steps", "300"] if quick else []
+    commands = {
+        "run handshake --record": ["run", "handshake", *short, "--record", os.path.join(tmp, "handshake.rrd")],
+        "run replay --record": ["run", "replay", *short, "--record", os.path.join(tmp, "dance.rrd")],
+        "compare pile --json": ["compare", "pile", *(["--steps", "100"] if quick else []), "--json", os.path.join(tmp, "p.json")],
+        "replay MODEL MOTION --json --record": [
+            "replay", model, os.path.join(tmp, "walk.npy"), "--json", os.path.join(tmp, "w.json"),
+            "--record", os.path.join(tmp, "w.rrd"),
+        ],
+        "demo": ["demo"],
+    }  # fmt: skip
+    return dict(list(commands.items())[:1]) if quick else commands  # --quick: the README's first command
+
+
+def first_runs(size):
+    """{command: (first run s, second run s, the first's stderr said it compiles)}: each README command
+    twice in fresh processes on one fresh set of caches."""
+    quick = size == SIZES["quick"]
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "ELLIPSIM_"))}
+        for name, argv in _readme_commands(tmp, quick).items():
+            env_k = dict(env, ELLIPSIM_CACHE_DIR=os.path.join(tmp, f"cache-{len(out)}"))
+            times, notices = [], []
+            for _ in range(2):
+                say(f"start-up: first and second run of `ellipsim {name}` ...")
+                t0 = time.perf_counter()
+                proc = subprocess.run(
+                    [sys.executable, "-m", "ellipsim", *argv], env=env_k, capture_output=True, text=True, timeout=1800
+                )
+                times.append(time.perf_counter() - t0)
+                if proc.returncode:
+                    raise RuntimeError(f"`ellipsim {name}` failed: {proc.stderr.strip()[-500:]}")
+                notices.append("compiling" in proc.stderr)
+            out[name] = (times[0], times[1], notices[0])
+    return out
+
+
 def measure(size):
-    """{(configuration, mode): [child reports]} (see _child)."""
-    n_cold, rounds, modes = _RUNS["quick" if size == SIZES["quick"] else "full"]
+    """{(configuration, mode): [child reports]} (see _child), and "first runs": first_runs(size)."""
+    n_cold, rounds, modes, prebuilt_modes = _RUNS["quick" if size == SIZES["quick"] else "full"]
     n_cold, rounds, modes = (
         size.get("startup_cold", n_cold),
         size.get("startup_rounds", rounds),
         size.get("startup_modes", modes),
     )
+    prebuilt_modes = size.get("startup_modes", prebuilt_modes)
     runs = {}
     with tempfile.TemporaryDirectory() as tmp:
         cache, nothing = os.path.join(tmp, "cache"), os.path.join(tmp, "no-prebuilt")
@@ -105,8 +166,10 @@ def measure(size):
         for k in range(rounds):
             for mode in modes:
                 runs.setdefault(("warm", mode), []).append(_child(mode, cache, nothing))
+            for mode in prebuilt_modes:
                 runs.setdefault(("prebuilt", mode), []).append(_child(mode, os.path.join(tmp, f"empty-{k}"), shipped))
             runs.setdefault(("MuJoCo alone", "none"), []).append(_child("none", cache, nothing))
+    runs["first runs"] = first_runs(size)
     return runs
 
 
@@ -125,6 +188,7 @@ def write(result, size, out, plt):
         "| process CPU s | callback from | numba imported | notice |",
         "|---|---|---:|---:|---:|---:|---:|---:|---|---|---|",
     ]
+    firsts = result.pop("first runs", {})
     for (config, mode), reports in result.items():
         col = {k: np.array([r[k] for r in reports]) for k in ("part", "part_cpu", "attach", "wall", "cpu")}
         med = {k: float(np.median(v)) for k, v in col.items()}
@@ -138,7 +202,20 @@ def write(result, size, out, plt):
         )
     L += [
         "",
-        "Regenerate the shipped objects after changing a kernel the callbacks use: `python -m ellipsim.mujoco.prebuild`.",
+        "The README's commands on a fresh install: each run twice in fresh processes on one fresh set of caches "
+        "(the first loads the shipped kernels and callbacks; the issue's goal: the first within 1.5x of the second).",
+        "",
+        "| command | first run s | second run s | first / second | first run compiled |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for name, (first, second, compiled) in firsts.items():
+        L.append(
+            f"| `ellipsim {name}` | {first:.2f} | {second:.2f} | **{first / second:.2f}** | {'yes' if compiled else 'no'} |"
+        )
+    L += [
+        "",
+        "Regenerate the shipped objects after changing a kernel: `python -m ellipsim.app.prebuild` (every numba kernel "
+        "of the README's commands and public functions), then `python -m ellipsim.mujoco.prebuild` (the callbacks).",
         "",
     ]
     return L

@@ -156,9 +156,15 @@ def parallel_max(e, a, U, b, tol, S):
         if not d2 < 0.0:
             break
         step = max(-0.2, min(0.2, -d1 / d2))
-        tn = min(math.pi, max(0.0, t + step))
-        gn, _, _, _ = _g_grad(math.cos(tn), math.sin(tn), ek, ep, qa2, pa2, qb2, pb2)
-        if not gn >= best:
+        gained = False
+        for _ in range(40):  # backtracking: a full Newton step may overshoot a sharp peak
+            tn = min(math.pi, max(0.0, t + step))
+            gn, _, _, _ = _g_grad(math.cos(tn), math.sin(tn), ek, ep, qa2, pa2, qb2, pb2)
+            if gn >= best:
+                gained = True
+                break
+            step *= 0.5
+        if not gained:
             break
         best, bt, t = gn, tn, tn
         if abs(step) < 1e-15:

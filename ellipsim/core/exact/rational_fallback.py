@@ -89,6 +89,8 @@ def distinct_positive_roots(coefficients):
     if p[-1] == 0:
         raise ValueError("distinct_positive_roots needs a nonzero constant term")
     n = len(p) - 1
+    if n == 0:  # a nonzero constant
+        return 0
     chain = [p, _strip([c * (n - k) for k, c in enumerate(p[:-1])])]
     while len(chain[-1]) > 1:
         r = _remainder(chain[-2], chain[-1])

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from .. import threads
-from .._jit import jit
+from .._jit import jit, stage
 from ..tolerances import PARALLEL_MIN_PAIRS, U
 
 
@@ -164,8 +164,22 @@ def _compact(out, count, blocks):
 @jit
 def _segment_distance(p0, p1, p2, q0, q1, q2, d10, d11, d12, d20, d21, d22):
     """Distance between segments p + s d1 and q + t d2, s, t in [0, 1]: Ericson, Real-Time Collision
-    Detection (2005) 5.1.9, ClosestPtSegmentSegment."""
+    Detection (2005) 5.1.9, ClosestPtSegmentSegment.  Computed on the offsets scaled by a power of two
+    to the order of 1 (exact: same result bit for bit at ordinary scales), since its denominator is
+    of the fourth power of the scale: at 2^+-260 it overflowed or underflowed."""
     r0, r1, r2 = p0 - q0, p1 - q1, p2 - q2
+    m = max(abs(r0), abs(r1), abs(r2), abs(d10), abs(d11), abs(d12), abs(d20), abs(d21), abs(d22))
+    k = math.frexp(m)[1] if 0.0 < m < math.inf else 0
+    if -200 < k < 200:  # a * e - b * b within float64's range: as written
+        return _segment_distance_scaled(r0, r1, r2, d10, d11, d12, d20, d21, d22)
+    u = math.ldexp(1.0, -k)
+    dist = _segment_distance_scaled(r0 * u, r1 * u, r2 * u, d10 * u, d11 * u, d12 * u, d20 * u, d21 * u, d22 * u)
+    return math.ldexp(dist, k)
+
+
+@stage
+def _segment_distance_scaled(r0, r1, r2, d10, d11, d12, d20, d21, d22):
+    """_segment_distance on the offset r = p - q of the segments' starts."""
     a = d10 * d10 + d11 * d11 + d12 * d12
     e = d20 * d20 + d21 * d21 + d22 * d22
     f = d20 * r0 + d21 * r1 + d22 * r2

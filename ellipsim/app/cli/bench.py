@@ -32,7 +32,7 @@ def bench(args):
 def add_parser(sub):
     """The `bench` subcommand and its arguments."""
     p = sub.add_parser("bench", help="time against error, numerical stress, scaling, thesis Table 1: report + plots")
-    p.add_argument("--quick", action="store_true", help="smaller sets: under 5 minutes on 2 cores")
+    p.add_argument("--quick", action="store_true", help="smaller sets: about 1 minute on 2 cores")
     p.add_argument(
         "--out", default="bench-report", metavar="DIR", help="output directory (made if missing; default bench-report)"
     )

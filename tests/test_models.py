@@ -268,6 +268,7 @@ def test_run_and_compare_a_model_from_the_command_line(tmp_path):
         "per_frame",
         "disagreements",
         "passed_through",
+        "contacts_disabled",
     } == set(got)
     assert got["passed_through"] is None or isinstance(got["passed_through"], list)  # None: not looked for
     assert got["scenario"] == "zoo" and got["steps"] == 100 and got["ellipsim_overlaps"] > 0

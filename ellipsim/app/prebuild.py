@@ -52,22 +52,34 @@ def _public_functions():
 
 def _glue():
     """The MuJoCo glue's public functions on a pile (their kernels: candidate pairs, the exact verdicts)."""
+    import itertools
+    import re
+
     import mujoco
 
     import ellipsim.mujoco as em
 
     from . import scenes
 
-    model = mujoco.MjModel.from_xml_string(scenes.pile_xml(12, seed=1))
-    data = mujoco.MjData(model)
-    em.candidate_pairs(model, data)
-    em.validate(model, data, 5, between=True)
-    em.compare_narrowphase(model, mujoco.MjData(model), 5)
+    k = itertools.count()
+
+    def swap(m):  # every pair type: ellipsoids, capsules and cylinders heaped in a bin of box walls
+        kind = ("ellipsoid", "capsule", "cylinder")[next(k) % 3]
+        return m[0] if kind == "ellipsoid" else f'type="{kind}" size="{m[1]} {m[2]}"'
+
+    xml = re.sub(r'type="ellipsoid" size="(\S+) (\S+) \S+"', swap, scenes.pile_xml(18, seed=1, bin_half_width=0.3))
+    model = mujoco.MjModel.from_xml_string(xml)
+    for steps in (1, 200):  # the pile settled: deep and shallow contacts of every pair type
+        data = mujoco.MjData(model)
+        mujoco.mj_step(model, data, steps)
+        em.candidate_pairs(model, data)
+        em.validate(model, data, 5, between=True)
+        em.compare_narrowphase(model, data, 5)
 
 
 def _commands(tmp):
     """The README's commands on short settings (the README's own paths under tmp)."""
-    from . import cli, scenes
+    from . import bench, cli, scenes
 
     model = tmp / "figure.xml"
     model.write_text(scenes.scene_xml(2))
@@ -94,6 +106,8 @@ def _commands(tmp):
             str(tmp / "walk.json"),
         ],
         ["demo", "--pairs", "2000"],
+        # the bench's own kernels (the start-up section compiles in children of its own: not here)
+        ["bench", "--quick", "--out", str(tmp / "bench"), "--only", *(s for s in bench.SECTIONS if s != "startup")],
     ]
     for argv in runs:
         with contextlib.redirect_stdout(io.StringIO()):
@@ -135,7 +149,8 @@ def main(argv):
         status = subprocess.call([sys.executable, "-m", "ellipsim.app.prebuild"], env=env)
     if status:
         return status
-    shutil.rmtree(out / "mujoco", ignore_errors=True)  # the callbacks' own kernels: they ship as callbacks
+    # out/mujoco: the callbacks' own kernels, which a compile of the callbacks loads (a platform
+    # with these kernels but other sources than the prebuilt callbacks')
     size = kernel_cache.compress_shipped(out)
     print(f"wrote {len(list(out.rglob('*.nbc')))} kernels, {size / 1e6:.1f} MB compressed, into {out}")
     return 0

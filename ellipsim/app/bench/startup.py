@@ -216,8 +216,8 @@ def write(result, size, out, plt):
         )
     L += [
         "",
-        "Regenerate the shipped objects after changing a kernel: `python -m ellipsim.app.prebuild` (every numba kernel "
-        "of the README's commands and public functions), then `python -m ellipsim.mujoco.prebuild` (the callbacks).",
+        "Regenerate the shipped objects after changing a kernel: `python -m ellipsim.app.prebuild` (the callbacks, "
+        "then every numba kernel of the README's commands and public functions).",
         "",
     ]
     return L

@@ -1,9 +1,7 @@
 """The glue's one table of pair types (context.PAIR_TYPES) against the code that uses it, and the
-glue's import graph: no cycle, and the Python-side modules load no callback code."""
+Python-side glue modules load no callback code (no import cycle anywhere: tests/test_layout.py)."""
 
-import ast
 import ctypes
-import pathlib
 import subprocess
 import sys
 
@@ -16,9 +14,6 @@ from ellipsim.core.tolerances import DIST_TOL
 from ellipsim.mujoco import attachment, context, geoms, nativecache, publish, structs
 from ellipsim.mujoco.context import FILTER_PAIR_TYPES, PAIR_TYPES, RECORDED
 
-GLUE = pathlib.Path(em.__file__).parent
-#: (module, top-level function, module it imports) allowed to import back: none
-BACK_EDGES = set()
 TYPES = {
     "plane": int(mujoco.mjtGeom.mjGEOM_PLANE),
     "sphere": context.SPHERE,
@@ -29,67 +24,6 @@ TYPES = {
 }
 SIZES = {"sphere": ".12", "capsule": ".08 .15", "ellipsoid": ".1 .15 .2", "cylinder": ".1 .15", "box": ".1 .12 .14"}
 NAMES = {v: k for k, v in TYPES.items()}
-
-
-def _glue_imports(path):
-    """{(top-level function or "", glue module)}: every import of a module of ellipsim.mujoco in the
-    file at `path`, at module level or inside a function."""
-    tree = ast.parse(path.read_text())
-    found = set()
-    for top in tree.body:
-        where = top.name if isinstance(top, (ast.FunctionDef, ast.ClassDef)) else ""
-        for node in ast.walk(top):
-            if isinstance(node, ast.ImportFrom):
-                if node.level == 1:
-                    targets = [a.name for a in node.names] if node.module is None else [node.module.split(".")[0]]
-                elif node.level == 0 and (node.module or "").startswith("ellipsim.mujoco."):
-                    targets = [node.module.split(".")[2]]
-                else:
-                    targets = []
-            elif isinstance(node, ast.Import):
-                targets = [a.name.split(".")[2] for a in node.names if a.name.startswith("ellipsim.mujoco.")]
-            else:
-                continue
-            found |= {(where, t) for t in targets if (GLUE / f"{t}.py").is_file()}
-    return found
-
-
-def _cycle(edges):
-    """A cycle [a, b, ..., a] in the directed graph {a: {b, ...}}, or None."""
-    state = {}
-
-    def visit(node, path):
-        state[node] = "open"
-        for nxt in sorted(edges.get(node, ())):
-            if state.get(nxt) == "open":
-                return path[path.index(nxt) :] + [nxt]
-            if nxt not in state:
-                found = visit(nxt, path + [nxt])
-                if found:
-                    return found
-        state[node] = "done"
-        return None
-
-    for start in sorted(edges):
-        if start not in state:
-            found = visit(start, [start])
-            if found:
-                return found
-    return None
-
-
-def test_no_import_cycle_among_glue_modules():
-    edges, back = {}, set()
-    for path in sorted(GLUE.glob("*.py")):
-        module = path.stem
-        for where, target in _glue_imports(path):
-            if (module, where, target) in BACK_EDGES:
-                back.add((module, where, target))
-            elif target != module:
-                edges.setdefault(module, set()).add(target)
-    assert back == BACK_EDGES  # each allowed back edge still exists (else drop it from the list)
-    assert _cycle(edges) is None, f"import cycle {' -> '.join(_cycle(edges))}"
-    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
 
 
 @pytest.mark.parametrize("module", ["geoms", "compare", "validate"])

@@ -151,6 +151,7 @@ def test_importing_the_validate_module_keeps_the_validate_function():
 CORE_FOLDERS = ("exact", "distance", "pairs", "motion")
 CORE_FOUNDATION = {
     "_jit",
+    "cache_root",
     "ellipsoids",
     "kernel_cache",
     "relation",

@@ -33,6 +33,8 @@ import zlib
 import numba
 from numba.core import caching
 
+from .cache_root import cache_root
+
 _PACKAGE = pathlib.Path(__file__).resolve().parents[1]  # ellipsim/
 _CORE = _PACKAGE / "core"
 #: prebuilt objects shipped in the package (python -m ellipsim.app.prebuild writes them)
@@ -54,18 +56,11 @@ _announced = threading.Event()
 
 
 def user_dir():
-    """$ELLIPSIM_CACHE_DIR/kernels, else $NUMBA_CACHE_DIR/ellipsim/kernels, else
-    $XDG_CACHE_HOME/ellipsim/kernels or ~/.cache/ellipsim/kernels (the callbacks' cache's root,
-    mujoco/nativecache.cache_dir)."""
+    """The prebuild's $ELLIPSIM_KERNELS_BUILD, else kernels/ under the user's cache root
+    (cache_root.cache_root, which the MuJoCo callbacks' cache shares)."""
     if os.environ.get(BUILD_ENV):
         return pathlib.Path(os.environ[BUILD_ENV])
-    if os.environ.get("ELLIPSIM_CACHE_DIR"):
-        root = pathlib.Path(os.environ["ELLIPSIM_CACHE_DIR"])
-    elif os.environ.get("NUMBA_CACHE_DIR"):
-        root = pathlib.Path(os.environ["NUMBA_CACHE_DIR"]) / "ellipsim"
-    else:
-        root = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache") / "ellipsim"
-    return root / "kernels"
+    return cache_root() / "kernels"
 
 
 def sources_digest(folder):

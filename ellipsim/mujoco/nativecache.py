@@ -41,13 +41,14 @@ import re
 import sys
 import threading
 
+from ..core.cache_root import cache_root
 from . import structs
 from .context import SYMBOL
 from .publish import fill_context, publish_context
 
 KINDS = ("filter", "narrowphase")
 FORMAT = 1  # of a .code file; part of every key
-CACHE_ENV, PREBUILT_ENV = "ELLIPSIM_CACHE_DIR", "ELLIPSIM_PREBUILT_DIR"
+PREBUILT_ENV = "ELLIPSIM_PREBUILT_DIR"
 NOTICE_PREFIX = "ellipsim: compiling the"
 #: for the notice: wall time of a compile from empty caches, rounded from the bench report's start-up
 #: section (bench/results/suite/report.md, 'cold' rows; ellipsim/app/bench/startup.py measures it)
@@ -249,12 +250,8 @@ def portable_key(kind):
 
 
 def cache_dir():
-    """$ELLIPSIM_CACHE_DIR, else $NUMBA_CACHE_DIR/ellipsim, else $XDG_CACHE_HOME/ellipsim or ~/.cache/ellipsim."""
-    if os.environ.get(CACHE_ENV):
-        return pathlib.Path(os.environ[CACHE_ENV])
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return pathlib.Path(os.environ["NUMBA_CACHE_DIR"]) / "ellipsim"
-    return pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache") / "ellipsim"
+    """The compiled callbacks' folder: the user's cache root (core/cache_root.py)."""
+    return cache_root()
 
 
 def prebuilt_dir():

@@ -16,6 +16,7 @@ import os
 import sys
 import tempfile
 
+from ..core.cache_root import CACHE_ENV
 from . import nativecache, publish
 
 
@@ -52,7 +53,7 @@ def main(argv):
                 NUMBA_CPU_NAME="generic",
                 NUMBA_CPU_FEATURES="",
                 NUMBA_CACHE_DIR=numba_cache,
-                **{nativecache.CACHE_ENV: numba_cache},
+                **{CACHE_ENV: numba_cache},
             )
             return subprocess.call([sys.executable, "-m", "ellipsim.mujoco.prebuild", outdir], env=env)
     for path in build(outdir):

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from ...core import kernel_cache
+from ...core import cache_root, kernel_cache
 from ...mujoco import nativecache
 from .common import SIZES, say
 
@@ -72,7 +72,7 @@ _RUNS = {
 
 def _child(mode, cache, prebuilt, numba_cache=None):
     """One fresh interpreter: the child's report plus "wall", the whole process's wall time."""
-    env = dict(os.environ, **{nativecache.CACHE_ENV: str(cache), nativecache.PREBUILT_ENV: str(prebuilt)})
+    env = dict(os.environ, **{cache_root.CACHE_ENV: str(cache), nativecache.PREBUILT_ENV: str(prebuilt)})
     if numba_cache is not None:  # a cold start: nor numba's cache nor the shipped kernels
         env["NUMBA_CACHE_DIR"] = str(numba_cache)
         env[kernel_cache.SHIPPED_ENV] = str(prebuilt)

@@ -402,11 +402,24 @@ def pencil_polynomials(K, e):
     return [_interpolate(xs[: k + 1], [minor_sum(M, k) for M in mats[: k + 1]]) for k in (4, 1, 2, 3)]
 
 
-def _peval(p, x):
-    v = Fraction(0)
-    for c in p:
-        v = v * x + c
-    return v
+def _integral(p):
+    """The Fraction polynomial p times the positive lcm of its denominators: integer coefficients, the
+    same sign as p everywhere."""
+    m = math.lcm(*(c.denominator for c in p)) if p else 1
+    return [c.numerator * (m // c.denominator) for c in p]
+
+
+def _sign(ip, x):
+    """Sign of the integer polynomial ip at the Fraction x = n/d, in integers only: d^deg ip(n/d) by
+    homogeneous Horner (d > 0 keeps the sign), no gcd per operation as Fraction arithmetic has."""
+    if not ip:
+        return 0
+    n, d = x.numerator, x.denominator
+    v, dk = ip[0], 1
+    for c in ip[1:]:
+        dk *= d
+        v = v * n + c * dk
+    return (v > 0) - (v < 0)
 
 
 def _deriv(p):
@@ -437,72 +450,100 @@ def _squarefree(p):
     return _quotient(p, g) if len(g) > 1 else p
 
 
-def _sturm_chain(p):
-    chain = [p, _deriv(p)]
-    while len(chain[-1]) > 1:
-        r = _remainder(chain[-2], chain[-1])
-        if not r:
-            break
-        chain.append([-c for c in r])
-    return chain
+class _Sturm:
+    """The Sturm sequence of a square-free polynomial p (integer members, _integral) and its root
+    counts; sign variations are memoised per point, as bisection revisits each end."""
+
+    def __init__(self, p):
+        chain = [p, _deriv(p)] if len(p) > 1 else [p]
+        while len(chain[-1]) > 1:
+            r = _remainder(chain[-2], chain[-1])
+            if not r:
+                break
+            chain.append([-c for c in r])
+        self.chain = [_integral(q) for q in chain]
+        self.memo = {}
+
+    def sign(self, x):
+        """Sign of p at x."""
+        return _sign(self.chain[0], x)
+
+    def variations(self, x):
+        v = self.memo.get(x)
+        if v is None:
+            s = [v > 0 for v in (_sign(q, x) for q in self.chain) if v != 0]
+            v = self.memo[x] = sum(1 for a, b in zip(s, s[1:]) if a != b)
+        return v
+
+    def count(self, lo, hi):
+        """Distinct roots of p in (lo, hi]."""
+        return self.variations(lo) - self.variations(hi)
 
 
-def _count(chain, lo, hi):
-    """Distinct roots of the chain's (square-free) polynomial in (lo, hi]."""
+def _log2(x):
+    """floor(log2 x) to within one, for x > 0."""
+    return x.numerator.bit_length() - x.denominator.bit_length()
 
-    def variations(x):
-        s = [v > 0 for v in (_peval(q, x) for q in chain) if v != 0]
-        return sum(1 for a, b in zip(s, s[1:]) if a != b)
 
-    return variations(lo) - variations(hi)
+def _split(lo, hi):
+    """A point strictly between 0 < lo < hi: a power of two halfway in exponent while hi/lo > 4 (roots of
+    float-built polynomials span hundreds of binades), the midpoint otherwise."""
+    if hi > 4 * lo:
+        e = (_log2(lo) + _log2(hi)) // 2
+        mid = Fraction(1 << e) if e >= 0 else Fraction(1, 1 << -e)
+        if lo < mid < hi:
+            return mid
+    return (lo + hi) / 2
 
 
 def _positive_roots(p):
-    """(roots, square-free part, its Sturm chain): the distinct positive roots of p, each ("exact", r) or
-    ("interval", lo, hi) with exactly one root in the open interval (lo, hi)."""
+    """(roots, square-free part, its Sturm sequence): the distinct positive roots of p, each ("exact", r)
+    or ("interval", lo, hi) with exactly one root in the open interval (lo, hi)."""
     p = _squarefree(_strip(p))
+    while len(p) > 1 and p[-1] == 0:
+        p = p[:-1]  # a factor mu: the positive roots stay
+    sturm = _Sturm(p)
     if len(p) <= 1:
-        return [], p, [p]
-    chain = _sturm_chain(p)
-    bound = 1 + max(abs(c / p[0]) for c in p[1:])  # Cauchy's bound on |roots|
-    out, stack = [], [(Fraction(0), Fraction(bound))]
+        return [], p, sturm
+    top = max(abs(c) for c in p[1:])
+    hi = 1 + top / abs(p[0])  # Cauchy's bound on |roots|
+    lo = abs(p[-1]) / (abs(p[-1]) + max(abs(c) for c in p[:-1])) / 2  # half its bound for 1/roots
+    out, stack = [], [(lo, hi)]
     while stack:
         lo, hi = stack.pop()
-        k = _count(chain, lo, hi)
+        k = sturm.count(lo, hi)
         if k == 0:
             continue
         if k == 1:
-            out.append(("exact", hi) if _peval(p, hi) == 0 else ("interval", lo, hi))
+            out.append(("exact", hi) if sturm.sign(hi) == 0 else ("interval", lo, hi))
             continue
-        mid = (lo + hi) / 2
+        mid = _split(lo, hi)
         stack += [(lo, mid), (mid, hi)]
-    return out, p, chain
+    return out, p, sturm
 
 
-def _sign_at_root(q, root, chain, sf):
-    """Sign of the polynomial q at an isolated root of the square-free sf (Sturm chain `chain`)."""
+def _sign_at_root(q, root, sturm, sf):
+    """Sign of the polynomial q at an isolated root of the square-free sf (its Sturm sequence `sturm`)."""
     if not q:
         return 0
+    iq = _integral(q)
     if root[0] == "exact":
-        v = _peval(q, root[1])
-        return (v > 0) - (v < 0)
+        return _sign(iq, root[1])
     _, lo, hi = root
     g = _gcd(sf, q)
-    if len(g) > 1 and _count(_sturm_chain(g), lo, hi) > 0:
+    if len(g) > 1 and _Sturm(g).count(lo, hi) > 0:
         return 0  # q shares the root
     qs = _squarefree(q)
     if len(qs) <= 1:
         return (q[0] > 0) - (q[0] < 0)
-    qchain = _sturm_chain(qs)
+    qsturm = _Sturm(qs)
     while True:  # refine (lo, hi) around the root until q has no root in it
-        mid = (lo + hi) / 2
-        if _count(qchain, lo, hi) == 0 and _peval(q, mid) != 0:
-            v = _peval(q, mid)
-            return (v > 0) - (v < 0)
-        if _peval(sf, mid) == 0:
-            v = _peval(q, mid)
-            return (v > 0) - (v < 0)
-        if _count(chain, lo, mid) == 1:
+        mid = _split(lo, hi)
+        if qsturm.count(lo, hi) == 0 and _sign(iq, mid) != 0:
+            return _sign(iq, mid)
+        if sturm.sign(mid) == 0:
+            return _sign(iq, mid)
+        if sturm.count(lo, mid) == 1:
             hi = mid
         else:
             lo = mid
@@ -511,8 +552,8 @@ def _sign_at_root(q, root, chain, sf):
 def contains_exact(ca, Ra, ra, cb, Rb, rb):
     """INSIDE (1) or NOT_INSIDE (0) for one pair, in rationals (module docstring)."""
     T, E1, E2, E3 = pencil_polynomials(*frame_matrices(ca, Ra, ra, cb, Rb, rb))
-    roots, sf, chain = _positive_roots(T)
+    roots, sf, sturm = _positive_roots(T)
     for root in roots:
-        if all(_sign_at_root(E, root, chain, sf) >= 0 for E in (E1, E2, E3)):
+        if all(_sign_at_root(E, root, sturm, sf) >= 0 for E in (E1, E2, E3)):
             return INSIDE
     return NOT_INSIDE

@@ -71,6 +71,17 @@ def test_a_kernel_compiles_once_announced_then_loads_and_recompiles_when_its_sou
     assert third.stdout.split() == ["15.0", "0"] and third.stderr.count("ellipsim: compiling kernels") == 1
 
 
+def test_an_unreadable_shipped_object_is_a_miss_not_an_error(tmp_path):
+    # a truncated or half-rewritten file (a checkout during a prebuild) compiles the kernel instead
+    shipped = object.__new__(kernel_cache._ShippedFile)
+    shipped._cache_path = str(tmp_path)
+    (tmp_path / "torn.nbc").write_bytes(b"not zlib at all")
+    (tmp_path / "short.nbc").write_bytes(__import__("zlib").compress(b"\x80\x04\x95"))
+    assert shipped._load_data("torn.nbc") is None
+    assert shipped._load_data("short.nbc") is None
+    assert shipped._load_data("absent.nbc") is None
+
+
 @pytest.mark.skipif(not kernel_cache.platform_matches(), reason="the shipped kernels are for x86-64 Linux")
 def test_a_fresh_install_loads_the_shipped_kernels_of_the_public_functions(tmp_path):
     # fails when a change to the core is committed without `python -m ellipsim.app.prebuild`

@@ -135,8 +135,14 @@ class _ShippedFile(caching.IndexDataCacheFile):
     (compress_shipped) to a third of their size."""
 
     def _load_data(self, name):
-        with open(self._data_path(name), "rb") as f:
-            return pickle.loads(zlib.decompress(f.read()))
+        """The object, or None (a miss: compiled instead) when the file cannot be read back, e.g. a
+        checkout where a prebuild is rewriting the folder; never an error for the caller."""
+        try:
+            with open(self._data_path(name), "rb") as f:
+                return pickle.loads(zlib.decompress(f.read()))
+        except (OSError, EOFError, zlib.error, pickle.UnpicklingError) as exc:
+            _log.debug("shipped kernel %s unreadable (%s): compiling it", name, exc)
+            return None
 
     def save(self, key, data):
         raise OSError("the shipped kernels are read-only")

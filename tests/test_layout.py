@@ -95,6 +95,8 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.split() == [
         "ellipsim",
+        "ellipsim.core",
+        "ellipsim.core.cache_root",
         "ellipsim.mujoco",
         "ellipsim.mujoco.attachment",
         "ellipsim.mujoco.context",

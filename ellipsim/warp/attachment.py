@@ -1,0 +1,230 @@
+"""attach(m): ellipsim's ellipsoid contacts inside MuJoCo Warp's collision, for one model instance.
+
+MuJoCo Warp has no collider registration; it has one per-model hook, m.callback.contactfilter(m, d),
+called at the end of collision_driver.collision with all of d writable.  An attachment
+
+* takes its pairs away from the built-in narrow phase by editing this model's own pair tables
+  (nxn_geom_pair_filtered / nxn_pairid_filtered for the NXN broad phase, entry 0 of nxn_pairid set to
+  -2 for the SAP ones, geom_pair_type_count so no kernel is built for a type left without pairs); no
+  module global of mujoco_warp is touched, so other models run plain Warp bit for bit;
+* in the hook, launches one kernel (kernels.py) over all worlds and its pairs that appends their
+  contacts to d.contact with write_contact's semantics (after the built-in ones, so the contact
+  order differs from plain Warp's: compare contacts as a set);
+* on detach, puts the tables and the previous hook back as they were.
+
+Sleeping: collision() runs twice per step when sleeping is on, the second time with awake_prev (the
+incremental pass, which must only add the pairs the first pass skipped); the hook is not told which
+pass it is in, so it reads collision()'s own awake_prev argument from its caller's frame (checked:
+a hook called from anywhere else raises).
+
+Pairs taken: ellipsoid x ellipsoid and sphere x ellipsoid, except explicit pairs and pairs with a
+collision sensor (they stay with Warp: a sensor needs Warp's own collision record).  Capsule, box and
+cylinder x ellipsoid stay with Warp's GJK/EPA for now (their ports of core/pairs are not written).
+
+Graph capture: the hook launches one kernel on arrays made at attach (pair table, counters); it makes
+no array, reads nothing back to the host and takes no branch on device data, so it is capturable on
+CUDA.  On CPU Warp does not capture; tests/test_warp.py checks that a call makes no new array and
+keeps every array the attachment launches with, and the bench measures it on CUDA where one is present.
+"""
+
+import sys
+
+import numpy as np
+import warp as wp
+from mujoco_warp._src import types as mjw_types
+
+from . import kernels
+
+ELLIPSOID, SPHERE = kernels.ELLIPSOID, kernels.SPHERE
+assert (SPHERE, ELLIPSOID) == (int(mjw_types.GeomType.SPHERE), int(mjw_types.GeomType.ELLIPSOID))
+#: (type1, type2) with type1 <= type2, as MuJoCo Warp orders a pair's geoms.
+PAIR_TYPES = ((SPHERE, ELLIPSOID), (ELLIPSOID, ELLIPSOID))
+COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep")
+
+
+def _trid(i, j, n):
+    """MuJoCo Warp's index of the unordered type pair (i, j) in geom_pair_type_count (io.py)."""
+    i, j = (j, i) if j < i else (i, j)
+    return (i * (2 * n - i - 1)) // 2 + j
+
+
+def _upper_tri(n, i, j):
+    """MuJoCo Warp's index of geoms (i < j) in nxn_pairid (io.py, upper_tri_index)."""
+    return i * (2 * n - i - 1) // 2 + j - i - 1
+
+
+class Attachment:
+    """ellipsim's contacts on one mujoco_warp Model (module docstring).  Use attach(m)."""
+
+    def __init__(self, m):
+        if not isinstance(m, mjw_types.Model):
+            raise TypeError(f"m must be a mujoco_warp Model (mujoco_warp.put_model), got {type(m).__name__}")
+        hook = m.callback.contactfilter
+        if isinstance(getattr(hook, "__self__", None), Attachment):
+            raise ValueError("m is already attached: detach it first (one attachment per model)")
+        self.model = m
+        self._previous_hook = hook
+        self._saved = {
+            name: getattr(m, name)
+            for name in ("nxn_geom_pair_filtered", "nxn_pairid_filtered", "nxn_pairid", "geom_pair_type_count")
+        }
+        device = m.geom_type.device
+        geom_type = m.geom_type.numpy()
+        pairs = m.nxn_geom_pair_filtered.numpy()
+        pairid = m.nxn_pairid_filtered.numpy()
+        t1, t2 = geom_type[pairs[:, 0]], geom_type[pairs[:, 1]]
+        lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
+        typed = np.zeros(len(pairs), bool)
+        for a, b in PAIR_TYPES:
+            typed |= (lo == a) & (hi == b)
+        take = typed & (pairid[:, 0] == -1) & (pairid[:, 1] == -1)
+        # geoms ordered as _add_geom_pair orders them: lower type first, the normal from the first
+        ordered = np.where((t1 > t2)[:, None], pairs[:, ::-1], pairs)[take]
+        self.pairs = ordered.astype(np.int32)
+        self.npairs = len(self.pairs)
+        self._pair_geom = wp.array(self.pairs.reshape(-1, 2), dtype=wp.vec2i, device=device)
+        self._pair_id = wp.array(pairid[take].reshape(-1, 2), dtype=wp.vec2i, device=device)
+        self._counters = wp.zeros(kernels.NCOUNTERS, dtype=int, device=device)
+        # this model's tables without the taken pairs
+        keep = ~take
+        ngeom = len(geom_type)
+        full = m.nxn_pairid.numpy().copy()
+        taken = pairs[take]
+        if len(taken):
+            idx = _upper_tri(ngeom, np.minimum(taken[:, 0], taken[:, 1]), np.maximum(taken[:, 0], taken[:, 1]))
+            full[idx, 0] = -2
+        count = list(m.geom_pair_type_count)
+        ntypes = len(mjw_types.GeomType)
+        for a, b in zip(lo[take], hi[take]):
+            count[_trid(int(a), int(b), ntypes)] -= 1
+        self._tables = {
+            "nxn_geom_pair_filtered": wp.array(pairs[keep].reshape(-1, 2), dtype=wp.vec2i, device=device),
+            "nxn_pairid_filtered": wp.array(pairid[keep].reshape(-1, 2), dtype=wp.vec2i, device=device),
+            "nxn_pairid": wp.array(full.reshape(-1, 2), dtype=wp.vec2i, device=device),
+            "geom_pair_type_count": tuple(count),
+        }
+        for name, value in self._tables.items():
+            setattr(m, name, value)
+        m.callback.contactfilter = self._hook
+        self.attached = True
+
+    # the hook ------------------------------------------------------------------------------------
+
+    def _hook(self, m, d):
+        if m is not self.model:
+            raise RuntimeError("an ellipsim attachment's hook was called with another model")
+        caller = sys._getframe(1)
+        if caller.f_code.co_name != "collision" or "awake_prev" not in caller.f_locals:
+            raise RuntimeError("ellipsim.warp's contact hook runs only from mujoco_warp's collision()")
+        awake_prev = caller.f_locals["awake_prev"]
+        self.launch(d, awake_prev)
+        if self._previous_hook is not None:
+            self._previous_hook(m, d)
+
+    def launch(self, d, awake_prev=None):
+        """Append ellipsim's contacts of every world to d (what the hook does after Warp's narrow phase)."""
+        m = self.model
+        if self.npairs == 0 or d.naconmax == 0:
+            return
+        enable_sleep = bool(m.opt.enableflags & mjw_types.EnableBit.SLEEP)
+        incremental = awake_prev is not None
+        kernel = kernels.contact_kernel(enable_sleep, incremental)
+        c = d.contact
+        wp.launch(
+            kernel,
+            dim=(d.nworld, self.npairs),
+            inputs=[
+                self._pair_geom,
+                self._pair_id,
+                m.geom_type,
+                m.geom_bodyid,
+                m.geom_size,
+                m.geom_rbound,
+                m.geom_condim,
+                m.geom_priority,
+                m.geom_solmix,
+                m.geom_solref,
+                m.geom_solimp,
+                m.geom_friction,
+                m.geom_margin,
+                m.geom_gap,
+                m.geom_adhesion,
+                m.pair_dim,
+                m.pair_solref,
+                m.pair_solreffriction,
+                m.pair_solimp,
+                m.pair_margin,
+                m.pair_gap,
+                m.pair_adhesion,
+                m.pair_friction,
+                d.geom_xpos,
+                d.geom_xmat,
+                d.body_awake,
+                awake_prev if incremental else d.body_awake,
+                d.naconmax,
+            ],
+            outputs=[
+                c.dist,
+                c.pos,
+                c.frame,
+                c.includemargin,
+                c.friction,
+                c.solref,
+                c.solreffriction,
+                c.solimp,
+                c.dim,
+                c.geom,
+                c.efc_address,
+                c.worldid,
+                c.type,
+                c.geomcollisionid,
+                c.adhesion,
+                d.nacon,
+                self._counters,
+            ],
+            device=m.geom_type.device,
+        )
+
+    # the user's side -----------------------------------------------------------------------------
+
+    @property
+    def counters(self):
+        """Totals since attach (or reset_counters) over all worlds and calls: pairs (evaluated by the
+        narrow phase, past the bounding spheres), contacts (appended, overflow included), unproven
+        (maxima not proven global: the best of 13 Newton runs is used), overflow (contacts not written
+        because d.naconmax was reached), deep (pairs beyond the shallow-contact proof).  Reading
+        synchronises with the device."""
+        values = self._counters.numpy()
+        return dict(zip(COUNTER_NAMES, (int(v) for v in values)))
+
+    def reset_counters(self):
+        self._counters.zero_()
+
+    def detach(self):
+        """Put back the model's pair tables and its previous hook; calling it twice is harmless."""
+        if not self.attached:
+            return
+        m = self.model
+        if m.callback.contactfilter != self._hook:
+            raise RuntimeError("m.callback.contactfilter was replaced after attach: restore it before detach")
+        for name, value in self._saved.items():
+            setattr(m, name, value)
+        m.callback.contactfilter = self._previous_hook
+        self.attached = False
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.detach()
+
+    def __repr__(self):
+        state = "attached" if self.attached else "detached"
+        return f"<ellipsim.warp.Attachment {state}: {self.npairs} pairs per world>"
+
+
+def attach(m):
+    """Give ellipsim's contacts to the sphere x ellipsoid and ellipsoid x ellipsoid pairs of the
+    mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
+    Attachment (a context manager; .detach(), .counters)."""
+    return Attachment(m)

@@ -1,0 +1,499 @@
+"""The ellipsoid narrow phase as Warp functions and one kernel over all worlds and pairs.
+
+A float64 port of core/distance/sphere_newton.py and the shallow-contact proof of
+core/distance/ellipsoid_pair.py (the thesis' support-function formulation: the signed distance is the
+maximum over unit n of sigma(n) = n.(c_B - c_A) - h_A(n) - h_B(-n), h(n) = |diag(r) R^T n|, Schneider &
+Eberly 10.5.2), same operations in the same order, on the float32 poses MuJoCo Warp holds widened to
+float64, float32 out.
+
+Reading of a pose (the issue's choice): as the CPU narrow phase reads it.  R_A^T takes the pair into
+A's frame (e = R_A^T d, U = R_A^T R_B) and B's support function is |diag(r_B) U^T n|: the float32
+geom_xmat widened exactly, used as given, not orthonormalised; so on the same widened poses this kernel
+and `ellipsim.signed_distance` compute the same maximum (tests/test_warp.py compares them).
+
+Proofs, as in ellipsoid_pair.pair_signed_distance: a converged Newton run is the global maximum when
+sigma > 0 (sigma is concave on the ball) or when the depth is below rho = rolling_radius(A) +
+rolling_radius(B).  Deeper pairs, and runs that do not converge, get the best of 13 Newton runs (the
+bisector and the six axis directions of each body) and the status UNPROVEN: the CPU's branch and bound
+(core/distance/branch_and_bound.py) is not ported, so they are counted (Attachment.counters), never
+reported as proven.  Any sigma(n) is a lower bound on the distance, so a pair left without a contact
+(dist >= margin + gap) is separated beyond margin + gap whatever the status.
+
+No allocation, no host synchronisation: fixed-size locals only (Warp kernels cannot allocate), one
+launch per call, counters by atomics into arrays allocated once at attach.
+"""
+
+import numpy as np
+import warp as wp
+
+F64 = wp.float64
+
+#: Newton's limits, as core/tolerances.py (NEWTON_MAX_ITER, NEWTON_STEP_TOL; the first run FIRST_RUN_ITER).
+MAX_ITER = 40
+FIRST_RUN_ITER = 10
+STEP_TOL = 1e-5
+
+#: MuJoCo's mjtGeom codes of the types the kernel reads.
+SPHERE, ELLIPSOID = 2, 4
+
+#: Per pair: the maximum proven global, or not (the best of the 13 runs).
+GLOBAL, UNPROVEN = 0, 1
+
+#: How one Newton run ended (sphere_newton.py).
+CONVERGED, NOT_CONVERGED = 0, 1
+
+#: The counters' slots (Attachment.counters names them).
+C_PAIRS, C_CONTACTS, C_UNPROVEN, C_OVERFLOW, C_DEEP = 0, 1, 2, 3, 4
+NCOUNTERS = 5
+
+
+@wp.func
+def _sigma(n: wp.vec3d, e: wp.vec3d, a2: wp.vec3d, M: wp.mat33d) -> wp.float64:
+    """sigma(n) for any nonzero n, scaled to unit length (sphere_newton.sigma)."""
+    s = F64(1.0) / wp.sqrt(wp.dot(n, n))
+    u = n * s
+    ha = wp.sqrt(a2[0] * u[0] * u[0] + a2[1] * u[1] * u[1] + a2[2] * u[2] * u[2])
+    mu = M * u
+    hb = wp.sqrt(u[0] * mu[0] + u[1] * mu[1] + u[2] * mu[2])
+    return u[0] * e[0] + u[1] * e[1] + u[2] * e[2] - ha - hb
+
+
+@wp.func
+def _unit(v: wp.vec3d) -> wp.vec3d:
+    s = wp.dot(v, v)
+    if s == F64(0.0):
+        return wp.vec3d(F64(1.0), F64(0.0), F64(0.0))
+    return v * (F64(1.0) / wp.sqrt(s))
+
+
+@wp.func
+def _tangent1(n: wp.vec3d) -> wp.vec3d:
+    """The first unit vector completing the unit n to an orthonormal frame (sphere_newton.tangent_basis)."""
+    t = wp.vec3d(-n[2], F64(0.0), n[0])  # e_y x n
+    if wp.abs(n[0]) < F64(0.6):
+        t = wp.vec3d(F64(0.0), n[2], -n[1])  # e_x x n
+    return t * (F64(1.0) / wp.sqrt(wp.dot(t, t)))
+
+
+@wp.func
+def _newton(n0: wp.vec3d, e: wp.vec3d, a2: wp.vec3d, M: wp.mat33d, scale: wp.float64, max_iter: int):
+    """Maximise sigma on the unit sphere from the unit n0 (sphere_newton.newton without the abandon
+    test): (n*, sigma before the last step, CONVERGED or NOT_CONVERGED)."""
+    n = n0
+    value = F64(0.0)
+    for _it in range(max_iter):
+        a = wp.cw_mul(a2, n)
+        b = M * n
+        ha = wp.sqrt(a[0] * n[0] + a[1] * n[1] + a[2] * n[2])
+        hb = wp.sqrt(b[0] * n[0] + b[1] * n[1] + b[2] * n[2])
+        inv = F64(1.0) / (ha * hb)
+        ia = hb * inv
+        ib = ha * inv
+        value = n[0] * e[0] + n[1] * e[1] + n[2] * e[2] - ha - hb
+        t1 = _tangent1(n)
+        t2 = wp.vec3d(n[1] * t1[2] - n[2] * t1[1], n[2] * t1[0] - n[0] * t1[2], n[0] * t1[1] - n[1] * t1[0])
+        at1 = wp.dot(a, t1)
+        at2 = wp.dot(a, t2)
+        bt1 = wp.dot(b, t1)
+        bt2 = wp.dot(b, t2)
+        g1 = wp.dot(e, t1) - at1 * ia - bt1 * ib
+        g2 = wp.dot(e, t2) - at2 * ia - bt2 * ib
+        gg = g1 * g1 + g2 * g2
+        m1 = M * t1
+        m2 = M * t2
+        ia3 = ia * ia * ia
+        ib3 = ib * ib * ib
+        d11 = a2[0] * t1[0] * t1[0] + a2[1] * t1[1] * t1[1] + a2[2] * t1[2] * t1[2]
+        d12 = a2[0] * t1[0] * t2[0] + a2[1] * t1[1] * t2[1] + a2[2] * t1[2] * t2[2]
+        d22 = a2[0] * t2[0] * t2[0] + a2[1] * t2[1] * t2[1] + a2[2] * t2[2] * t2[2]
+        q11 = wp.dot(t1, m1)
+        q12 = wp.dot(t2, m1)
+        q22 = wp.dot(t2, m2)
+        h11 = -(d11 * ia - at1 * at1 * ia3) - (q11 * ib - bt1 * bt1 * ib3) - value
+        h12 = -(d12 * ia - at1 * at2 * ia3) - (q12 * ib - bt1 * bt2 * ib3)
+        h22 = -(d22 * ia - at2 * at2 * ia3) - (q22 * ib - bt2 * bt2 * ib3) - value
+        det = h11 * h22 - h12 * h12
+        shift = F64(0.0)
+        if not (h11 < F64(-1e-12) * scale and det > F64(1e-24) * scale * scale):  # not negative definite
+            top = F64(0.5) * (h11 + h22) + wp.sqrt(F64(0.25) * (h11 - h22) * (h11 - h22) + h12 * h12)
+            if gg <= (F64(1e-14) * scale) * (F64(1e-14) * scale) and top <= F64(1e-10) * scale:
+                return n, value, CONVERGED  # a flat maximum: any n is optimal
+            if gg < F64(1e-4) * top * top:
+                # near a saddle or a minimum: 0.3 rad along the direction of positive curvature
+                v1 = top - h22
+                v2 = h12
+                if v1 * v1 + v2 * v2 < h12 * h12 + (top - h11) * (top - h11):
+                    v1 = h12
+                    v2 = top - h11
+                if not (v1 * v1 + v2 * v2 > F64(0.0)):
+                    v1 = F64(1.0)
+                    v2 = F64(0.0)
+                    if h11 < h22:
+                        v1 = F64(0.0)
+                        v2 = F64(1.0)
+                vs = F64(0.3) / wp.sqrt(v1 * v1 + v2 * v2)
+                v1 = v1 * vs
+                v2 = v2 * vs
+                p = n + t1 * v1 + t2 * v2
+                q = n - t1 * v1 - t2 * v2
+                if _sigma(p, e, a2, M) >= _sigma(q, e, a2, M):
+                    n = _unit(p)
+                else:
+                    n = _unit(q)
+                continue
+            shift = wp.max(top, F64(0.0)) + F64(1e-3) * scale + wp.sqrt(gg)
+            h11 = h11 - shift
+            h22 = h22 - shift
+            det = h11 * h22 - h12 * h12
+        idet = F64(1.0) / det
+        x1 = -(h22 * g1 - h12 * g2) * idet
+        x2 = -(h11 * g2 - h12 * g1) * idet
+        step2 = x1 * x1 + x2 * x2
+        if step2 > F64(0.25):
+            f = F64(0.5) / wp.sqrt(step2)
+            x1 = x1 * f
+            x2 = x2 * f
+            step2 = F64(0.25)
+        m = n + t1 * x1 + t2 * x2
+        if step2 > F64(1e-2):  # backtrack until sigma grows
+            for _k in range(10):
+                if _sigma(m, e, a2, M) >= value:
+                    break
+                x1 = F64(0.5) * x1
+                x2 = F64(0.5) * x2
+                step2 = F64(0.25) * step2
+                m = n + t1 * x1 + t2 * x2
+        n = m * (F64(1.0) / wp.sqrt(F64(1.0) + step2))
+        if step2 <= F64(STEP_TOL * STEP_TOL) and shift == F64(0.0):
+            return n, value, CONVERGED
+    return n, value, NOT_CONVERGED
+
+
+@wp.func
+def _bisector_seed(e: wp.vec3d, a2: wp.vec3d, U: wp.mat33d, rb2: wp.vec3d) -> wp.vec3d:
+    """The bisector of Q_A d and Q_B d in A's frame (sphere_newton.bisector_seed)."""
+    na = wp.vec3d(e[0] * a2[1] * a2[2], e[1] * a2[0] * a2[2], e[2] * a2[0] * a2[1])
+    z = wp.transpose(U) * e
+    nb = U * wp.vec3d(z[0] * rb2[1] * rb2[2], z[1] * rb2[0] * rb2[2], z[2] * rb2[0] * rb2[1])
+    la = wp.sqrt(wp.dot(na, na))
+    lb = wp.sqrt(wp.dot(nb, nb))
+    return _unit(na * lb + nb * la)
+
+
+@wp.func
+def _rolling_radius(r: wp.vec3d) -> wp.float64:
+    lo = wp.min(r[0], wp.min(r[1], r[2]))
+    hi = wp.max(r[0], wp.max(r[1], r[2]))
+    return lo * lo / hi
+
+
+@wp.func
+def _widen3(v: wp.vec3) -> wp.vec3d:
+    return wp.vec3d(F64(v[0]), F64(v[1]), F64(v[2]))
+
+
+@wp.func
+def _radii(geom_type: int, size: wp.vec3) -> wp.vec3d:
+    """The semi-axes of an ellipsoid geom, or (r, r, r) for a sphere (size (r, 0, 0))."""
+    if geom_type == SPHERE:
+        return wp.vec3d(F64(size[0]), F64(size[0]), F64(size[0]))
+    return _widen3(size)
+
+
+@wp.func
+def _widen33(R: wp.mat33) -> wp.mat33d:
+    return wp.mat33d(
+        F64(R[0, 0]), F64(R[0, 1]), F64(R[0, 2]),
+        F64(R[1, 0]), F64(R[1, 1]), F64(R[1, 2]),
+        F64(R[2, 0]), F64(R[2, 1]), F64(R[2, 2]),
+    )  # fmt: skip
+
+
+@wp.func
+def _axis(k: int) -> wp.vec3d:
+    """+e_k for k < 3, -e_(k-3) for k from 3 to 5."""
+    v = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+    if k < 3:
+        v[k] = F64(1.0)
+    else:
+        v[k - 3] = F64(-1.0)
+    return v
+
+
+@wp.func
+def _sandwich(R: wp.mat33d, w: wp.vec3d) -> wp.mat33d:
+    """R diag(w) R^T, symmetric, in vec3.sandwich's order of operations."""
+    s00 = R[0, 0] * R[0, 0] * w[0] + R[0, 1] * R[0, 1] * w[1] + R[0, 2] * R[0, 2] * w[2]
+    s01 = R[0, 0] * R[1, 0] * w[0] + R[0, 1] * R[1, 1] * w[1] + R[0, 2] * R[1, 2] * w[2]
+    s02 = R[0, 0] * R[2, 0] * w[0] + R[0, 1] * R[2, 1] * w[1] + R[0, 2] * R[2, 2] * w[2]
+    s11 = R[1, 0] * R[1, 0] * w[0] + R[1, 1] * R[1, 1] * w[1] + R[1, 2] * R[1, 2] * w[2]
+    s12 = R[1, 0] * R[2, 0] * w[0] + R[1, 1] * R[2, 1] * w[1] + R[1, 2] * R[2, 2] * w[2]
+    s22 = R[2, 0] * R[2, 0] * w[0] + R[2, 1] * R[2, 1] * w[1] + R[2, 2] * R[2, 2] * w[2]
+    return wp.mat33d(s00, s01, s02, s01, s11, s12, s02, s12, s22)
+
+
+@wp.func
+def ellipsoid_pair(ca: wp.vec3d, Ra: wp.mat33d, ra: wp.vec3d, cb: wp.vec3d, Rb: wp.mat33d, rb: wp.vec3d):
+    """(status, dist, normal from A to B, pos, deep) of two ellipsoids in world coordinates, float64
+    (ellipsoid_pair.pair_signed_distance's shallow path; module docstring for the rest)."""
+    d = cb - ca
+    RaT = wp.transpose(Ra)
+    e = RaT * d
+    U = RaT * Rb
+    a2 = wp.cw_mul(ra, ra)
+    rb2 = wp.cw_mul(rb, rb)
+    M = _sandwich(U, rb2)
+    scale = wp.max(wp.max(ra[0], wp.max(ra[1], ra[2])), wp.max(rb[0], wp.max(rb[1], rb[2])))
+    rho = _rolling_radius(ra) + _rolling_radius(rb)
+    n, value, run = _newton(_bisector_seed(e, a2, U, rb2), e, a2, M, scale, FIRST_RUN_ITER)
+    status = GLOBAL
+    deep = 0
+    if not (run == CONVERGED and value >= -rho):
+        # deep, or the first run stalled: the best of 13 runs, unproven
+        deep = 1
+        best = _sigma(n, e, a2, M)
+        best_run = run
+        for k in range(12):
+            axis = _axis(k % 6)
+            if k >= 6:
+                axis = U * axis  # B's axes, in A's frame
+            m, v, r2 = _newton(axis, e, a2, M, scale, MAX_ITER)
+            v = _sigma(m, e, a2, M)
+            if v > best:
+                best = v
+                best_run = r2
+                n = m
+        value = best
+        # any converged local maximum above -rho is global (the rolling-radius argument holds for every
+        # local maximum: the global one is then above -rho too); otherwise the best is unproven
+        status = UNPROVEN
+        if best_run == CONVERGED and value >= -rho:
+            status = GLOBAL
+            deep = 0
+    # the support points and their midpoint (ellipsoid_pair._contact_at), sigma recomputed at n
+    x = wp.cw_mul(ra, n)
+    w = wp.transpose(U) * n
+    y = wp.cw_mul(rb, w)
+    ha = wp.sqrt(wp.dot(x, x))
+    hb = wp.sqrt(wp.dot(y, y))
+    value = wp.dot(n, e) - ha - hb
+    inv = F64(0.5) / (ha * hb)
+    ia = hb * inv
+    ib = ha * inv
+    bp = U * wp.cw_mul(rb, y)
+    mid = wp.cw_mul(ra, x) * ia + e * F64(0.5) - bp * ib
+    return status, value, Ra * n, ca + Ra * mid, deep
+
+
+_KERNELS = {}
+
+
+def contact_kernel(enable_sleep, incremental):
+    """The kernel over (world, ellipsim pair) for one choice of MuJoCo Warp's sleeping flags (as its
+    _nxn_broadphase is specialised); built once per process per choice, shared by every attachment
+    (it holds code only; each launch passes its model's arrays)."""
+    key = (bool(enable_sleep), bool(incremental))
+    if key in _KERNELS:
+        return _KERNELS[key]
+    from mujoco_warp._src.collision_core import contact_margin_gap, contact_material_params
+    from mujoco_warp._src.math import make_frame
+    from mujoco_warp._src.types import ContactType, SleepState, vec5
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def ellipsim_contacts(
+        # the attachment's pair table
+        pair_geom: wp.array[wp.vec2i],
+        pair_id: wp.array[wp.vec2i],
+        # Model:
+        geom_type: wp.array[int],
+        geom_bodyid: wp.array[int],
+        geom_size: wp.array2d[wp.vec3],
+        geom_rbound: wp.array2d[float],
+        geom_condim: wp.array[int],
+        geom_priority: wp.array[int],
+        geom_solmix: wp.array2d[float],
+        geom_solref: wp.array2d[wp.vec2],
+        geom_solimp: wp.array2d[vec5],
+        geom_friction: wp.array2d[wp.vec3],
+        geom_margin: wp.array2d[float],
+        geom_gap: wp.array2d[float],
+        geom_adhesion: wp.array2d[float],
+        pair_dim: wp.array[int],
+        pair_solref: wp.array2d[wp.vec2],
+        pair_solreffriction: wp.array2d[wp.vec2],
+        pair_solimp: wp.array2d[vec5],
+        pair_margin: wp.array2d[float],
+        pair_gap: wp.array2d[float],
+        pair_adhesion: wp.array2d[float],
+        pair_friction: wp.array2d[vec5],
+        # Data in:
+        geom_xpos_in: wp.array2d[wp.vec3],
+        geom_xmat_in: wp.array2d[wp.mat33],
+        body_awake_in: wp.array2d[int],
+        body_awake_prev_in: wp.array2d[int],
+        naconmax_in: int,
+        # Data out:
+        contact_dist_out: wp.array[float],
+        contact_pos_out: wp.array[wp.vec3],
+        contact_frame_out: wp.array[wp.mat33],
+        contact_includemargin_out: wp.array[float],
+        contact_friction_out: wp.array[vec5],
+        contact_solref_out: wp.array[wp.vec2],
+        contact_solreffriction_out: wp.array[wp.vec2],
+        contact_solimp_out: wp.array[vec5],
+        contact_dim_out: wp.array[int],
+        contact_geom_out: wp.array[wp.vec2i],
+        contact_efc_address_out: wp.array2d[int],
+        contact_worldid_out: wp.array[int],
+        contact_type_out: wp.array[int],
+        contact_geomcollisionid_out: wp.array[int],
+        contact_adhesion_out: wp.array[float],
+        nacon_out: wp.array[int],
+        # the attachment's counters
+        counters_out: wp.array[int],
+    ):
+        worldid, k = wp.tid()
+        geoms = pair_geom[k]
+        g1 = geoms[0]
+        g2 = geoms[1]
+        pairid = pair_id[k]
+        if wp.static(enable_sleep):  # as _nxn_broadphase: pairs of sleeping bodies are skipped
+            s1 = body_awake_in[worldid, geom_bodyid[g1]]
+            s2 = body_awake_in[worldid, geom_bodyid[g2]]
+            if s1 == SleepState.ASLEEP and s2 == SleepState.ASLEEP:
+                return
+            if (s1 == SleepState.ASLEEP and s2 == SleepState.STATIC) or (
+                s2 == SleepState.ASLEEP and s1 == SleepState.STATIC
+            ):
+                return
+            if wp.static(incremental):  # only the pairs the first pass skipped
+                w1 = body_awake_prev_in[worldid, geom_bodyid[g1]]
+                w2 = body_awake_prev_in[worldid, geom_bodyid[g2]]
+                skipped = (
+                    (w1 == SleepState.ASLEEP and w2 == SleepState.ASLEEP)
+                    or (w1 == SleepState.ASLEEP and w2 == SleepState.STATIC)
+                    or (w2 == SleepState.ASLEEP and w1 == SleepState.STATIC)
+                )
+                if not skipped:
+                    return
+        margin, gap = contact_margin_gap(geom_margin, geom_gap, pair_margin, pair_gap, geoms, pairid[0], worldid)
+        # bounding spheres (float32 rbound, a float64 sum): apart beyond margin + gap, no contact possible
+        p1 = _widen3(geom_xpos_in[worldid, g1])
+        p2 = _widen3(geom_xpos_in[worldid, g2])
+        reach = (
+            F64(geom_rbound[worldid % geom_rbound.shape[0], g1])
+            + F64(geom_rbound[worldid % geom_rbound.shape[0], g2])
+            + F64(margin)
+            + F64(gap)
+        )
+        dd = p2 - p1
+        if wp.dot(dd, dd) > reach * reach and reach >= F64(0.0):
+            return
+        wp.atomic_add(counters_out, C_PAIRS, 1)
+        sid = worldid % geom_size.shape[0]
+        status, dist, normal, pos, deep = ellipsoid_pair(
+            p1,
+            _widen33(geom_xmat_in[worldid, g1]),
+            _radii(geom_type[g1], geom_size[sid, g1]),
+            p2,
+            _widen33(geom_xmat_in[worldid, g2]),
+            _radii(geom_type[g2], geom_size[sid, g2]),
+        )
+        if status != GLOBAL:
+            wp.atomic_add(counters_out, C_UNPROVEN, 1)
+        if deep != 0:
+            wp.atomic_add(counters_out, C_DEEP, 1)
+        if not (dist < F64(margin) + F64(gap)):
+            return
+        condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
+            geom_condim,
+            geom_priority,
+            geom_solmix,
+            geom_solref,
+            geom_solimp,
+            geom_friction,
+            geom_adhesion,
+            pair_dim,
+            pair_solref,
+            pair_solreffriction,
+            pair_solimp,
+            pair_adhesion,
+            pair_friction,
+            geoms,
+            pairid[0],
+            worldid,
+        )
+        # write_contact's semantics (collision_core.py), the slot kept to count an overflow: the pair
+        # table holds no collision-sensor pair and no excluded one (attachment.py), so a detected contact
+        # is a constraint contact, active when dist < margin or adhesive within the gap
+        dist32 = wp.float32(dist)
+        if (adhesion != 0.0) and (dist32 >= margin):
+            condim = 1
+        cid = wp.atomic_add(nacon_out, 0, 1)
+        wp.atomic_add(counters_out, C_CONTACTS, 1)
+        if cid >= naconmax_in:
+            wp.atomic_add(counters_out, C_OVERFLOW, 1)
+            return
+        contact_dist_out[cid] = dist32
+        contact_pos_out[cid] = wp.vec3(wp.float32(pos[0]), wp.float32(pos[1]), wp.float32(pos[2]))
+        contact_frame_out[cid] = make_frame(
+            wp.vec3(wp.float32(normal[0]), wp.float32(normal[1]), wp.float32(normal[2]))
+        )
+        contact_geom_out[cid] = geoms
+        contact_worldid_out[cid] = worldid
+        contact_includemargin_out[cid] = margin
+        contact_dim_out[cid] = condim
+        contact_friction_out[cid] = friction
+        contact_solref_out[cid] = solref
+        contact_solreffriction_out[cid] = solreffriction
+        contact_solimp_out[cid] = solimp
+        contact_adhesion_out[cid] = adhesion
+        contact_type_out[cid] = int(ContactType.CONSTRAINT)
+        contact_geomcollisionid_out[cid] = 0
+        for i in range(contact_efc_address_out.shape[1]):
+            contact_efc_address_out[cid, i] = -1
+
+    _KERNELS[key] = ellipsim_contacts
+    return ellipsim_contacts
+
+
+@wp.kernel(enable_backward=False)
+def _pair_distances(
+    ca: wp.array[wp.vec3],
+    Ra: wp.array[wp.mat33],
+    ra: wp.array[wp.vec3],
+    cb: wp.array[wp.vec3],
+    Rb: wp.array[wp.mat33],
+    rb: wp.array[wp.vec3],
+    dist: wp.array[wp.float64],
+    normal: wp.array[wp.vec3d],
+    pos: wp.array[wp.vec3d],
+    status: wp.array[int],
+):
+    i = wp.tid()
+    st, v, nrm, p, _deep = ellipsoid_pair(
+        _widen3(ca[i]), _widen33(Ra[i]), _widen3(ra[i]), _widen3(cb[i]), _widen33(Rb[i]), _widen3(rb[i])
+    )
+    dist[i] = v
+    normal[i] = nrm
+    pos[i] = p
+    status[i] = st
+
+
+def pair_distances(ca, Ra, ra, cb, Rb, rb, device="cpu"):
+    """The kernel's signed distance of float32 ellipsoid poses (n, 3), (n, 3, 3), (n, 3) each, in float64
+    before the float32 rounding the contact kernel applies: (dist, normal, pos, status) as numpy arrays.
+    For tests and the bench (one launch over the n pairs); the MuJoCo Warp path is attach()."""
+    arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in (ca, Ra, ra, cb, Rb, rb)]
+    n = len(arrays[0])
+    for x, shape in zip(arrays, ((3,), (3, 3), (3,)) * 2):
+        if x.shape != (n, *shape):
+            raise ValueError(f"pose arrays must be (n, 3), (n, 3, 3), (n, 3) for one n, got {x.shape}")
+    types = (wp.vec3, wp.mat33, wp.vec3) * 2
+    inputs = [wp.array(x, dtype=t, device=device) for x, t in zip(arrays, types)]
+    dist = wp.empty(n, dtype=wp.float64, device=device)
+    normal = wp.empty(n, dtype=wp.vec3d, device=device)
+    pos = wp.empty(n, dtype=wp.vec3d, device=device)
+    status = wp.empty(n, dtype=int, device=device)
+    wp.launch(_pair_distances, dim=n, inputs=inputs, outputs=[dist, normal, pos, status], device=device)
+    return dist.numpy(), normal.numpy(), pos.numpy(), status.numpy()

@@ -1,0 +1,354 @@
+"""ellipsim.warp on Warp's CPU device: the kernel against the CPU narrow phase on the same float32 poses,
+attached models against plain MuJoCo Warp (contacts, trajectories, tables), two models, overflow,
+sleeping, SAP, and what the hook may not do (allocate, read back)."""
+
+import subprocess
+import sys
+
+import mujoco
+import mujoco_warp as mjw
+import numpy as np
+import pytest
+import warp as wp
+from mujoco_warp._src import types as mjw_types
+from scipy.spatial.transform import Rotation as Rot
+
+import ellipsim
+import ellipsim.warp as ew
+from ellipsim.core.ellipsoids import orthonormality_defect
+from ellipsim.core.samples import generic_pairs
+from ellipsim.core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
+from ellipsim.warp import kernels
+
+SPHERE, ELLIPSOID = 2, 4
+
+
+@pytest.fixture(autouse=True)
+def cpu():
+    with wp.ScopedDevice("cpu"):
+        yield
+
+
+def _cpu(ca, Ra, ra, cb, Rb, rb):
+    """ellipsim's CPU narrow phase on float32 poses widened to float64 (the kernel's reading)."""
+    w = lambda x: np.asarray(x, np.float32).astype(np.float64)  # noqa: E731
+    return ellipsim.signed_distance(ellipsim.Ellipsoids(w(ca), w(Ra), w(ra)), ellipsim.Ellipsoids(w(cb), w(Rb), w(rb)))
+
+
+def _f32(*xs):
+    return [np.asarray(x, np.float32) for x in xs]
+
+
+def _check_against_cpu(ca, Ra, ra, cb, Rb, rb):
+    """Proven pairs: the CPU's distance, normal and point; unproven ones: within 1e-6 of the smallest
+    semi-axis of the CPU's proven maximum and never above it (sigma at any n is a lower bound)."""
+    ca, Ra, ra, cb, Rb, rb = _f32(ca, Ra, ra, cb, Rb, rb)
+    dw, nw, pw, sw = kernels.pair_distances(ca, Ra, ra, cb, Rb, rb)
+    dc, nc, pc, sc = _cpu(ca, Ra, ra, cb, Rb, rb)
+    assert np.all(sc == 0)  # the reference is proven everywhere here
+    rmin = np.minimum(ra.min(1), rb.min(1)).astype(float)
+    size = np.maximum(ra.max(1), rb.max(1)).astype(float) + np.abs(cb - ca).sum(1)
+    proven = sw == kernels.GLOBAL
+    # the same maximum: the same operations where the first run proves it (LLVM may contract a product
+    # into an fma), a restart where the CPU's branch and bound proves it; normal and point to below the
+    # float32 rounding of the contact written (2^-23 = 1.2e-7)
+    np.testing.assert_array_less(np.abs(dw - dc)[proven], 1e-13 * size[proven])
+    np.testing.assert_array_less(np.linalg.norm(nw - nc, axis=1)[proven], 1e-7)
+    np.testing.assert_array_less(np.linalg.norm(pw - pc, axis=1)[proven], 1e-7 * size[proven])
+    np.testing.assert_array_less(np.abs(dw - dc)[~proven], 1e-6 * rmin[~proven])
+    # the CPU's maximum is proven within its tolerance (ellipsoid_pair.py's TOL: on float32 rotations
+    # the (BB_TOL_ULPS u + 6 delta) S term, delta the orthonormality defect of the frame it works in:
+    # A's, or B's when A is a sphere)
+    delta = np.maximum(orthonormality_defect(Ra.astype(float)), orthonormality_defect(Rb.astype(float))) + 4 * U
+    cpu_tol = np.maximum(BB_TOL_REL * rmin, (BB_TOL_ULPS * U + 6 * delta) * size)
+    np.testing.assert_array_less((dw - dc)[~proven], cpu_tol[~proven])
+    # unproven only where the rolling-radius proof cannot apply: deeper than the rolling radii
+    roll = lambda r: r.min(1) ** 2 / r.max(1)  # noqa: E731
+    assert np.all(dc[~proven] < -(roll(ra) + roll(rb))[~proven] * (1 - 1e-9))
+    return dw, sw
+
+
+def test_the_kernel_is_the_cpu_narrow_phase_on_the_same_float32_poses():
+    a, b = generic_pairs(600, seed=3)
+    dw, sw = _check_against_cpu(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
+    assert (dw > 0).sum() > 100 and (dw < 0).sum() > 100  # both sides of contact
+    assert np.mean(sw == kernels.GLOBAL) > 0.6
+
+
+@pytest.mark.parametrize("offset", [0.0, 100.0])
+@pytest.mark.parametrize("gap", [-0.5, -1e-6, 0.0, 1e-6, 0.01])
+def test_touching_shallow_and_apart_pairs_near_the_origin_and_100_m_away(offset, gap):
+    """B moved along the CPU's normal so its distance from A is `gap` times A's smallest semi-axis."""
+    rng = np.random.default_rng(int(1e6 * gap) % 1000 + int(offset))
+    n = 120
+    ra = rng.uniform(0.05, 0.5, (n, 3)) * rng.choice([1.0, 10.0], (n, 1)) ** np.array([1, 0, 0])
+    rb = rng.uniform(0.05, 0.5, (n, 3))
+    Ra, Rb = Rot.random(n, random_state=rng).as_matrix(), Rot.random(n, random_state=rng).as_matrix()
+    ca = offset + rng.uniform(-1, 1, (n, 3))
+    cb = ca + rng.normal(size=(n, 3)) * 0.2
+    d, nrm, _, _ = _cpu(ca, Ra, ra, cb, Rb, rb)
+    rmin = np.minimum(ra.min(1), rb.min(1))
+    cb = cb + nrm * (gap * rmin - d)[:, None]
+    _check_against_cpu(ca, Ra, ra, cb, Rb, rb)
+
+
+def test_spheres_against_ellipsoids():
+    rng = np.random.default_rng(9)
+    n = 200
+    r = rng.uniform(0.02, 0.3, n)
+    ra = np.repeat(r[:, None], 3, 1)
+    rb = rng.uniform(0.02, 0.6, (n, 3))
+    ca = rng.uniform(-1, 1, (n, 3))
+    cb = ca + rng.normal(size=(n, 3)) * 0.3
+    _check_against_cpu(
+        ca, np.broadcast_to(np.eye(3), (n, 3, 3)), ra, cb, Rot.random(n, random_state=rng).as_matrix(), rb
+    )
+
+
+def test_pair_distances_checks_its_shapes():
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        kernels.pair_distances(
+            np.zeros((2, 3)), np.zeros((2, 3, 3)), np.ones((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)), np.ones((2, 3))
+        )
+
+
+# -- attached models ------------------------------------------------------------------------------
+
+PILE = """
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="3 3 .1"/>
+    {bodies}
+  </worldbody>
+</mujoco>
+"""
+
+
+def _pile(n=8, seed=0, sleep=False, extra=""):
+    """n free bodies, each an ellipsoid (some a sphere, one with a margin), in a heap that overlaps,
+    and a box and a capsule that stay with Warp."""
+    rng = np.random.default_rng(seed)
+    bodies = []
+    for i in range(n):
+        x, y, z = rng.uniform(-0.15, 0.15), rng.uniform(-0.15, 0.15), 0.12 + 0.09 * i
+        euler = " ".join(f"{v:.3f}" for v in rng.uniform(-90, 90, 3))
+        if i % 4 == 3:
+            geom = f'<geom type="sphere" size="{rng.uniform(0.04, 0.08):.3f}"/>'
+        else:
+            size = " ".join(f"{v:.3f}" for v in rng.uniform(0.03, 0.14, 3))
+            margin = ' margin="0.01"' if i == 2 else ""
+            geom = f'<geom type="ellipsoid" size="{size}"{margin}/>'
+        bodies.append(f'<body pos="{x:.3f} {y:.3f} {z:.3f}" euler="{euler}"><freejoint/>{geom}</body>')
+    bodies.append('<body pos="0.4 0 0.1"><freejoint/><geom type="box" size=".05 .05 .05"/></body>')
+    bodies.append('<body pos="0.4 0.02 0.2"><freejoint/><geom type="capsule" size=".03 .05"/></body>')
+    xml = PILE.format(bodies="\n    ".join(bodies))
+    if sleep:
+        xml = xml.replace('<option timestep="0.002"/>', '<option timestep="0.002"><flag sleep="enable"/></option>')
+    return mujoco.MjModel.from_xml_string(xml.replace("</worldbody>", extra + "</worldbody>"))
+
+
+def _warp(mjm, nworld=3, naconmax=512, seed=1):
+    """A mujoco_warp model and data of mjm, each world's free bodies nudged differently."""
+    mjd = mujoco.MjData(mjm)
+    rng = np.random.default_rng(seed)
+    m = mjw.put_model(mjm)
+    d = mjw.put_data(mjm, mjd, nworld=nworld, naconmax=naconmax)
+    qpos = np.tile(mjm.qpos0, (nworld, 1))
+    for j in range(mjm.njnt):
+        if mjm.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            a = mjm.jnt_qposadr[j]
+            qpos[1:, a : a + 3] += rng.normal(scale=0.01, size=(nworld - 1, 3))
+    d.qpos.assign(qpos.astype(np.float32))
+    return m, d
+
+
+def _contacts(d):
+    """The contacts of d as a sorted list of (world, g1, g2, dist, pos, frame row 0) tuples."""
+    n = min(int(d.nacon.numpy()[0]), d.naconmax)
+    c = d.contact
+    rows = zip(c.worldid.numpy()[:n], c.geom.numpy()[:n], c.dist.numpy()[:n], c.pos.numpy()[:n], c.frame.numpy()[:n])
+    return sorted((int(w), int(g[0]), int(g[1]), float(s), tuple(p), tuple(f[0])) for w, g, s, p, f in rows)
+
+
+def _ellipsim_pairs(mjm, att):
+    return {(int(a), int(b)) for a, b in att.pairs}
+
+
+def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
+    mjm = _pile()
+    m, d = _warp(mjm)
+    mjw.forward(m, d)
+    plain = _contacts(d)
+    att = ew.attach(m)
+    assert att.npairs > 0 and "attached" in repr(att)
+    mjw.forward(m, d)
+    got = _contacts(d)
+    taken = _ellipsim_pairs(mjm, att)
+    # every other contact is plain Warp's, bit for bit
+    assert [c for c in got if (c[1], c[2]) not in taken] == [c for c in plain if (c[1], c[2]) not in taken]
+    # ellipsim's: exactly the pairs the CPU narrow phase puts within margin + gap, its distance in float32
+    xpos, xmat, size = d.geom_xpos.numpy(), d.geom_xmat.numpy(), m.geom_size.numpy()[0]
+    radii = lambda g: np.repeat(size[g][:1], 3) if mjm.geom_type[g] == SPHERE else size[g]  # noqa: E731
+    expected = []
+    for w in range(d.nworld):
+        for g1, g2 in att.pairs:
+            dist, nrm, pos, st = _cpu(xpos[w, g1], xmat[w, g1], radii(g1), xpos[w, g2], xmat[w, g2], radii(g2))
+            margin = mjm.geom_margin[g1] + mjm.geom_margin[g2] + mjm.geom_gap[g1] + mjm.geom_gap[g2]
+            if dist[0] < margin:
+                expected.append((w, int(g1), int(g2), float(np.float32(dist[0]))))
+    mine = [c[:4] for c in got if (c[1], c[2]) in taken]
+    assert len(expected) >= 3 * d.nworld  # the heap overlaps
+    assert sorted(mine) == sorted(expected)
+    assert att.counters["contacts"] == len(expected) and att.counters["overflow"] == 0
+    att.detach()
+    mjw.forward(m, d)
+    assert _contacts(d) == plain  # detached: plain Warp again
+
+
+def test_a_model_without_ellipsoid_pairs_steps_bit_identically_and_two_models_are_independent():
+    # ellipsoid x plane is Warp's own analytic pair; box and capsule do not collide with the ellipsoid
+    mjm = mujoco.MjModel.from_xml_string(
+        PILE.format(
+            bodies='<body pos="0 0 .2" euler="20 30 0"><freejoint/><geom type="ellipsoid" size=".1 .05 .03"/></body>'
+            '<body pos=".3 0 .2"><freejoint/><geom type="box" size=".05 .05 .05" contype="2" conaffinity="2"/></body>'
+            '<body pos=".3 0 .4"><freejoint/><geom type="capsule" size=".03 .05" contype="2" conaffinity="2"/></body>'
+        ).replace('type="plane"', 'type="plane" contype="3" conaffinity="3"')
+    )
+    runs = []
+    for attached in (False, True):
+        m, d = _warp(mjm, nworld=2)
+        att = ew.attach(m) if attached else None
+        for _ in range(30):
+            mjw.step(m, d)
+        runs.append(d.qpos.numpy().copy())
+        if att:
+            assert att.npairs == 0
+    np.testing.assert_array_equal(runs[0], runs[1])
+    # two models in one process: attaching one leaves the other plain
+    heap = _pile(n=6)
+    m1, d1 = _warp(heap)
+    m2, d2 = _warp(heap)
+    m3, d3 = _warp(heap)
+    with ew.attach(m1) as att1:
+        att2 = ew.attach(m2)
+        for _ in range(5):
+            for m, d in ((m1, d1), (m2, d2), (m3, d3)):
+                mjw.step(m, d)
+        assert att1.counters["pairs"] > 0 and att2.counters["pairs"] > 0
+        assert att1.counters == att2.counters  # same model, same motion
+        np.testing.assert_array_equal(d1.qpos.numpy(), d2.qpos.numpy())
+    assert not att1.attached and att2.attached
+    m4, d4 = _warp(heap)
+    for _ in range(5):
+        mjw.step(m4, d4)
+    np.testing.assert_array_equal(d3.qpos.numpy(), d4.qpos.numpy())  # m3 ran plain Warp
+
+
+def test_detach_restores_the_tables_and_the_previous_hook_and_errors_are_clear():
+    mjm = _pile(n=4)
+    m, _ = _warp(mjm)
+    calls = []
+    m.callback.contactfilter = lambda m_, d_: calls.append(1)
+    before = {k: getattr(m, k) for k in ("nxn_geom_pair_filtered", "nxn_pairid_filtered", "nxn_pairid")}
+    count = m.geom_pair_type_count
+    att = ew.attach(m)
+    assert m.nxn_geom_pair_filtered.shape[0] == before["nxn_geom_pair_filtered"].shape[0] - att.npairs
+    with pytest.raises(ValueError, match="already attached"):
+        ew.attach(m)
+    d = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=1, naconmax=64)
+    mjw.collision(m, d)
+    assert calls == [1]  # the user's hook still runs, after ellipsim's contacts
+    att.detach()
+    att.detach()
+    assert all(getattr(m, k) is v for k, v in before.items()) and m.geom_pair_type_count == count
+    mjw.collision(m, d)
+    assert calls == [1, 1]
+    with pytest.raises(TypeError, match="mujoco_warp Model"):
+        ew.attach(mjm)
+    with pytest.raises(RuntimeError, match="collision"):
+        with ew.attach(m) as att:
+            att._hook(m, d)  # not called by mujoco_warp's collision()
+
+
+def test_overflow_is_counted_and_nothing_is_written_past_naconmax():
+    mjm = _pile()
+    m, d = _warp(mjm, nworld=2, naconmax=512)
+    with ew.attach(m) as att:
+        mjw.kinematics(m, d)
+        mjw.collision(m, d)
+        full = att.counters["contacts"]
+        builtin = int(d.nacon.numpy()[0]) - full
+        assert full >= 4
+        small = builtin + full // 2
+        m2, d2 = _warp(mjm, nworld=2, naconmax=small)
+        with ew.attach(m2) as att2:
+            mjw.kinematics(m2, d2)
+            mjw.collision(m2, d2)
+            c = att2.counters
+            assert c["contacts"] == full and c["overflow"] == full - full // 2
+            assert int(d2.nacon.numpy()[0]) == builtin + full  # Warp's own overflow signal: nacon > naconmax
+            assert d2.contact.dist.shape[0] == small
+
+
+def test_sleeping_incremental_pass_adds_only_the_pairs_the_first_pass_skipped():
+    mjm = _pile(n=8, sleep=True)
+    m, d = _warp(mjm, nworld=2)
+    awake, asleep = int(mjw_types.SleepState.AWAKE), int(mjw_types.SleepState.ASLEEP)
+    with ew.attach(m):
+        mjw.kinematics(m, d)
+        state = d.body_awake.numpy().copy()
+        everyone = state.copy()
+        everyone[:, 1:] = awake
+        d.body_awake.assign(everyone)
+        mjw.collision(m, d)
+        reference = _contacts(d)
+        before = everyone.copy()
+        before[:, 1:5] = asleep  # four bodies asleep in pass 1, awake for pass 2
+        d.body_awake.assign(before)
+        mjw.collision(m, d)
+        first = _contacts(d)
+        d.body_awake.assign(everyone)
+        mjw.collision(m, d, awake_prev=wp.array(before, dtype=int))
+        both = _contacts(d)
+    assert len(first) < len(reference)
+    assert sorted(both) == sorted(reference)  # nothing twice, nothing missed
+
+
+def test_sap_broad_phase_gives_the_nxn_contacts():
+    mjm = _pile()
+    out = []
+    for phase in (mjw_types.BroadphaseType.NXN, mjw_types.BroadphaseType.SAP_TILE):
+        m, d = _warp(mjm)
+        m.opt.broadphase = phase
+        with ew.attach(m):
+            mjw.forward(m, d)
+            out.append(_contacts(d))
+    assert out[0] == out[1] and len(out[0]) > 0
+
+
+def test_the_hook_allocates_nothing_and_reads_nothing_back(monkeypatch):
+    """What graph capture on CUDA needs, checked on CPU: launch makes no array and calls no .numpy()."""
+    mjm = _pile(n=6)
+    m, d = _warp(mjm)
+    att = ew.attach(m)
+    mjw.kinematics(m, d)
+    att.launch(d)  # compiled and warm
+    made = []
+    monkeypatch.setattr(type(d.nacon), "numpy", lambda self: made.append("numpy"))
+    for name in ("array", "empty", "zeros", "clone", "empty_like", "zeros_like", "synchronize"):
+        real = getattr(wp, name)
+        monkeypatch.setattr(wp, name, lambda *a, _real=real, _name=name, **k: made.append(_name) or _real(*a, **k))
+    att.launch(d)
+    monkeypatch.undo()
+    assert made == []
+    att.detach()
+
+
+def test_import_ellipsim_loads_no_warp_and_a_missing_extra_names_it():
+    code = "import sys, ellipsim; print('warp' in sys.modules, 'mujoco_warp' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "False"]
+    code = "import sys; sys.modules['warp'] = None\ntry:\n import ellipsim.warp\nexcept ImportError as e:\n print(e)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "pip install 'ellipsim[warp]'" in out.stdout and len(out.stdout.strip().splitlines()) == 1

@@ -352,3 +352,62 @@ def test_import_ellipsim_loads_no_warp_and_a_missing_extra_names_it():
     code = "import sys; sys.modules['warp'] = None\ntry:\n import ellipsim.warp\nexcept ImportError as e:\n print(e)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert "pip install 'ellipsim[warp]'" in out.stdout and len(out.stdout.strip().splitlines()) == 1
+
+
+def test_an_explicit_pair_is_taken_with_its_own_margin():
+    mjm = mujoco.MjModel.from_xml_string(
+        """<mujoco><worldbody>
+        <body><freejoint/><geom name="a" type="ellipsoid" size=".2 .1 .05" contype="0" conaffinity="0"/></body>
+        <body pos=".05 .02 .11" euler="0 0 30"><freejoint/>
+          <geom name="b" type="ellipsoid" size=".1 .1 .05" contype="0" conaffinity="0"/></body>
+        </worldbody><contact><pair geom1="b" geom2="a" margin="0.02"/></contact></mujoco>"""
+    )
+    m, d = _warp(mjm, nworld=1)
+    with ew.attach(m) as att:
+        assert att.npairs == 1
+        mjw.kinematics(m, d)
+        mjw.collision(m, d)
+        (w, g1, g2, dist, _, _), *rest = _contacts(d)
+    assert rest == [] and (g1, g2) == (0, 1)  # ordered as Warp orders a pair: by type, then index
+    xpos, xmat = d.geom_xpos.numpy()[0], d.geom_xmat.numpy()[0]
+    expected = _cpu(xpos[0], xmat[0], mjm.geom_size[0], xpos[1], xmat[1], mjm.geom_size[1])[0][0]
+    assert 0 < expected < 0.02 and dist == np.float32(expected)
+    assert d.contact.includemargin.numpy()[0] == np.float32(0.02)
+
+
+def _epa_iterations(m):
+    """collision_convex.convex_narrowphase's choice of EPA iterations, from the model's pair counts."""
+    from mujoco_warp._src.collision_driver import MJ_COLLISION_TABLE
+
+    n = len(mjw_types.GeomType)
+    trid = lambda i, j: (min(i, j) * (2 * n - min(i, j) - 1)) // 2 + max(i, j)  # noqa: E731
+    convex = [trid(a.value, b.value) for (a, b), k in MJ_COLLISION_TABLE.items() if k == mjw_types.CollisionType.CONVEX]
+    box = m.geom_pair_type_count[trid(6, 6)]
+    return 16 if box == sum(m.geom_pair_type_count[i] for i in convex) else m.opt.ccd_iterations
+
+
+def test_box_pairs_keep_warps_own_epa_settings_beside_an_attachment():
+    """Warp runs box x box EPA for 16 iterations when they are all its convex pairs (collision_convex.py):
+    taking the ellipsoid pairs away must not switch that on."""
+    bodies = (
+        '<body pos="0 0 .05"><freejoint/><geom type="box" size=".05 .05 .05" contype="2" conaffinity="2"/></body>'
+        '<body pos=".02 .01 .145" euler="5 7 40"><freejoint/>'
+        '<geom type="box" size=".05 .05 .05" contype="2" conaffinity="2"/></body>'
+        '<body pos="1 0 .1"><freejoint/><geom type="ellipsoid" size=".1 .05 .05"/></body>'
+        '<body pos="1.05 0 .19" euler="20 0 0"><freejoint/><geom type="ellipsoid" size=".1 .05 .05"/></body>'
+    )
+    # boxes and ellipsoids do not meet: box x box and ellipsoid x ellipsoid are the only convex pairs
+    mjm = mujoco.MjModel.from_xml_string(
+        PILE.format(bodies=bodies).replace('type="plane"', 'type="plane" contype="3" conaffinity="3"')
+    )
+    out, epa = [], []
+    for attached in (False, True):
+        m, d = _warp(mjm, nworld=1)
+        att = ew.attach(m) if attached else None
+        assert att is None or att.npairs == 1
+        epa.append(_epa_iterations(m))
+        mjw.kinematics(m, d)
+        mjw.collision(m, d)
+        out.append([c for c in _contacts(d) if mjm.geom_type[c[1]] == mujoco.mjtGeom.mjGEOM_BOX])
+    assert len(out[0]) > 0 and out[0] == out[1]
+    assert epa[0] == epa[1]  # Warp's own choice, as plain

@@ -17,8 +17,9 @@ incremental pass, which must only add the pairs the first pass skipped); the hoo
 pass it is in, so it reads collision()'s own awake_prev argument from its caller's frame (checked:
 a hook called from anywhere else raises).
 
-Pairs taken: ellipsoid x ellipsoid and sphere x ellipsoid, except explicit pairs and pairs with a
-collision sensor (they stay with Warp: a sensor needs Warp's own collision record).  Capsule, box and
+Pairs taken: ellipsoid x ellipsoid and sphere x ellipsoid, from the model's collision rules and its
+explicit <pair>s (their margin, gap and material), except pairs with a collision sensor (they stay with
+Warp: a sensor reads Warp's own collision record).  Capsule, box and
 cylinder x ellipsoid stay with Warp's GJK/EPA for now (their ports of core/pairs are not written).
 
 Graph capture: the hook launches one kernel on arrays made at attach (pair table, counters); it makes
@@ -53,6 +54,31 @@ def _upper_tri(n, i, j):
     return i * (2 * n - i - 1) // 2 + j - i - 1
 
 
+def _counts_without(m, lo, hi):
+    """geom_pair_type_count less the taken pairs (lo, hi: their types), so Warp builds and launches no
+    narrow-phase kernel for a type left without pairs; unchanged where that would change what Warp does
+    with the pairs it keeps: its convex narrow phase runs EPA for 16 iterations instead of
+    opt.ccd_iterations when box x box pairs are all the convex pairs there are (collision_convex.py), so
+    then the taken types keep their counts and their kernels run over no pair of theirs."""
+    from mujoco_warp._src.collision_driver import MJ_COLLISION_TABLE
+
+    ntypes = len(mjw_types.GeomType)
+    before = list(m.geom_pair_type_count)
+    after = list(before)
+    for a, b in zip(lo, hi):
+        after[_trid(int(a), int(b), ntypes)] -= 1
+    convex = [
+        _trid(int(a), int(b), ntypes)
+        for (a, b), kind in MJ_COLLISION_TABLE.items()
+        if kind == mjw_types.CollisionType.CONVEX
+    ]
+    boxbox = _trid(int(mjw_types.GeomType.BOX), int(mjw_types.GeomType.BOX), ntypes)
+    nccd = lambda c: sum(c[i] for i in convex)  # noqa: E731
+    box_only_before = before[boxbox] > 0 and before[boxbox] == nccd(before)
+    box_only_after = after[boxbox] > 0 and after[boxbox] == nccd(after)
+    return tuple(before if box_only_after != box_only_before else after)
+
+
 class Attachment:
     """ellipsim's contacts on one mujoco_warp Model (module docstring).  Use attach(m)."""
 
@@ -77,7 +103,7 @@ class Attachment:
         typed = np.zeros(len(pairs), bool)
         for a, b in PAIR_TYPES:
             typed |= (lo == a) & (hi == b)
-        take = typed & (pairid[:, 0] == -1) & (pairid[:, 1] == -1)
+        take = typed & (pairid[:, 0] >= -1) & (pairid[:, 1] == -1)  # default and explicit pairs, no sensor
         # geoms ordered as _add_geom_pair orders them: lower type first, the normal from the first
         ordered = np.where((t1 > t2)[:, None], pairs[:, ::-1], pairs)[take]
         self.pairs = ordered.astype(np.int32)
@@ -93,15 +119,12 @@ class Attachment:
         if len(taken):
             idx = _upper_tri(ngeom, np.minimum(taken[:, 0], taken[:, 1]), np.maximum(taken[:, 0], taken[:, 1]))
             full[idx, 0] = -2
-        count = list(m.geom_pair_type_count)
-        ntypes = len(mjw_types.GeomType)
-        for a, b in zip(lo[take], hi[take]):
-            count[_trid(int(a), int(b), ntypes)] -= 1
+        count = _counts_without(m, lo[take], hi[take])
         self._tables = {
             "nxn_geom_pair_filtered": wp.array(pairs[keep].reshape(-1, 2), dtype=wp.vec2i, device=device),
             "nxn_pairid_filtered": wp.array(pairid[keep].reshape(-1, 2), dtype=wp.vec2i, device=device),
             "nxn_pairid": wp.array(full.reshape(-1, 2), dtype=wp.vec2i, device=device),
-            "geom_pair_type_count": tuple(count),
+            "geom_pair_type_count": count,
         }
         for name, value in self._tables.items():
             setattr(m, name, value)
@@ -128,11 +151,12 @@ class Attachment:
             return
         enable_sleep = bool(m.opt.enableflags & mjw_types.EnableBit.SLEEP)
         incremental = awake_prev is not None
-        kernel = kernels.contact_kernel(enable_sleep, incremental)
+        per_thread = kernels.PAIRS_PER_THREAD["cuda" if m.geom_type.device.is_cuda else "cpu"]
+        kernel = kernels.contact_kernel(enable_sleep, incremental, per_thread)
         c = d.contact
         wp.launch(
             kernel,
-            dim=(d.nworld, self.npairs),
+            dim=(d.nworld, -(-self.npairs // per_thread)),
             inputs=[
                 self._pair_geom,
                 self._pair_id,

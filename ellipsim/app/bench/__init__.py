@@ -17,6 +17,8 @@ each:
    sampling checker needs to find the same contacts; contains
 8. speculative: MuJoCo 4.0's speculative contacts against time_of_impact on fast ellipsoids: missed
    impacts, where the body ends after the step, cost
+9. warp: ellipsim on MuJoCo Warp (the warp extra) against Warp's GJK/EPA: accuracy per distance category,
+   cost per pair, collision and mjw.step per world-step on the heap and the pile
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -25,7 +27,7 @@ import datetime
 import os
 import time
 
-from . import accuracy, inside_mujoco, motion, scaling, speculative, startup, stress, table1
+from . import accuracy, inside_mujoco, motion, on_warp, scaling, speculative, startup, stress, table1
 from .common import SIZES, machine_description, plt
 
 SECTIONS = {
@@ -37,6 +39,7 @@ SECTIONS = {
     "startup": startup,
     "motion": motion,
     "speculative": speculative,
+    "warp": on_warp,
 }
 
 

@@ -59,13 +59,16 @@ def make_pairs(rng, n, kind, category, offset):
     shape = np.where(
         (aspect == 0)[:, None],
         rng.uniform(1, 2, (n, 3)),
-        np.where((aspect == 1)[:, None], np.array([10.0, 1, 1]), np.array([10.0, 10, 1])) * rng.uniform(0.8, 1.2, (n, 3)),
+        np.where((aspect == 1)[:, None], np.array([10.0, 1, 1]), np.array([10.0, 10, 1]))
+        * rng.uniform(0.8, 1.2, (n, 3)),
     )
     ra = base * shape
     if kind == "sphere":
         ra = np.repeat(ra[:, :1], 3, 1) / 3
     rb = rng.uniform(0.02, 0.1, (n, 1)) * np.where(
-        (rng.random(n) < 0.5)[:, None], rng.uniform(1, 2, (n, 3)), np.array([10.0, 1, 1]) * rng.uniform(0.8, 1.2, (n, 3))
+        (rng.random(n) < 0.5)[:, None],
+        rng.uniform(1, 2, (n, 3)),
+        np.array([10.0, 1, 1]) * rng.uniform(0.8, 1.2, (n, 3)),
     )
     Ra = Rotation.random(n, random_state=rng).as_matrix()
     Rb = Rotation.random(n, random_state=rng).as_matrix()

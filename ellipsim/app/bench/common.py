@@ -49,10 +49,6 @@ SIZES = {
         motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024),
         motion_contains=10_000,
         speculative=60,
-        warp_pairs=200,
-        warp_cost_worlds=20_000,
-        warp_worlds=16,
-        warp_settle=1000,
     ),
     "full": dict(
         generic=1_000_000,
@@ -77,10 +73,6 @@ SIZES = {
         motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096),
         motion_contains=200_000,
         speculative=400,
-        warp_pairs=1_000,
-        warp_cost_worlds=100_000,
-        warp_worlds=64,
-        warp_settle=1000,
     ),
 }
 FLOAT_METHODS = [

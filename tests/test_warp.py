@@ -411,3 +411,60 @@ def test_box_pairs_keep_warps_own_epa_settings_beside_an_attachment():
         out.append([c for c in _contacts(d) if mjm.geom_type[c[1]] == mujoco.mjtGeom.mjGEOM_BOX])
     assert len(out[0]) > 0 and out[0] == out[1]
     assert epa[0] == epa[1]  # Warp's own choice, as plain
+
+
+# -- the command line -----------------------------------------------------------------------------
+
+
+def test_run_engine_warp_steps_every_world_and_reports_them(tmp_path, capsys):
+    from ellipsim.app import cli
+
+    path = tmp_path / "heap.xml"
+    mujoco.mj_saveLastXML(str(path), _pile(n=6))
+    assert cli.main(["run", str(path), "--engine", "warp", "--worlds", "3", "--steps", "40"]) == 0
+    out = capsys.readouterr().out
+    assert "40 steps x 3 worlds" in out and "world-steps/s in total" in out
+    line = next(x for x in out.splitlines() if "Warp contacts per world" in x)
+    assert line.count(",") >= 2  # one mean per world
+    assert "ellipsim on Warp:" in out and "0 contacts over naconmax" in out
+
+
+def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
+    from ellipsim.app import cli
+
+    path = tmp_path / "heap.xml"
+    mujoco.mj_saveLastXML(str(path), _pile(n=6))
+    report = tmp_path / "warp.json"
+    argv = ["compare", str(path), "--engine", "warp", "--worlds", "2", "--steps", "6", "--json", str(report)]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    r = __import__("json").loads(report.read_text())
+    assert r["engine"] == "warp" and r["worlds"] == 2 and r["steps"] == 6
+    assert r["checked"] > 0 and r["exact_contacts"] > 0
+    assert f"missed {len(r['missed'])}, extra {len(r['extra'])}" in out
+
+
+@pytest.mark.parametrize(
+    "argv, shown",
+    [
+        (["run", "handshake", "--worlds", "2"], "--worlds and --device are for --engine warp"),
+        (["compare", "pile", "--engine", "warp", "--plot", "x.png"], "--plot and --between-frames are for"),
+    ],
+)
+def test_engine_warp_mistakes_are_one_line_errors(argv, shown, capsys):
+    from ellipsim.app import cli
+
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ellipsim: error: ") and shown in err and err.count("\n") == 1
+
+
+def test_device_cuda_is_refused_where_warp_finds_none():
+    from ellipsim.app import warp_run
+    from ellipsim.app.errors import UserError
+
+    if wp.get_cuda_device_count() > 0:
+        assert warp_run.check_device("cuda") == "cuda"
+    else:
+        with pytest.raises(UserError, match="--device cuda: Warp finds no CUDA device"):
+            warp_run.check_device("cuda")

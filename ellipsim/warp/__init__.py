@@ -18,6 +18,6 @@ except ImportError as exc:  # one line, naming the extra
         f"ellipsim.warp needs the warp extra: pip install 'ellipsim[warp]' (warp-lang, mujoco-warp 4.0); {exc}"
     ) from None
 
-from .attachment import COUNTER_NAMES, PAIR_TYPES, Attachment, attach
+from .attachment import COUNTER_NAMES, PAIR_TYPES, Attachment, attach, candidate_pairs
 
-__all__ = ["attach", "Attachment", "COUNTER_NAMES", "PAIR_TYPES"]
+__all__ = ["attach", "Attachment", "candidate_pairs", "COUNTER_NAMES", "PAIR_TYPES"]

@@ -54,6 +54,24 @@ def _upper_tri(n, i, j):
     return i * (2 * n - i - 1) // 2 + j - i - 1
 
 
+def _selection(geom_type, pairs, pairid):
+    """(mask over the model's filtered pair table of the pairs taken, those pairs (k, 2) int32 with their
+    geoms ordered as _add_geom_pair orders them: the lower type first, the normal from the first)."""
+    t1, t2 = geom_type[pairs[:, 0]], geom_type[pairs[:, 1]]
+    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
+    typed = np.zeros(len(pairs), bool)
+    for a, b in PAIR_TYPES:
+        typed |= (lo == a) & (hi == b)
+    take = typed & (pairid[:, 0] >= -1) & (pairid[:, 1] == -1)  # default and explicit pairs, no sensor
+    ordered = np.where((t1 > t2)[:, None], pairs[:, ::-1], pairs)[take]
+    return take, ordered.astype(np.int32).reshape(-1, 2)
+
+
+def candidate_pairs(m):
+    """The pairs attach(m) would take from the mujoco_warp Model m, as Attachment.pairs, without attaching."""
+    return _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), m.nxn_pairid_filtered.numpy())[1]
+
+
 def _counts_without(m, lo, hi):
     """geom_pair_type_count less the taken pairs (lo, hi: their types), so Warp builds and launches no
     narrow-phase kernel for a type left without pairs; unchanged where that would change what Warp does
@@ -98,15 +116,9 @@ class Attachment:
         geom_type = m.geom_type.numpy()
         pairs = m.nxn_geom_pair_filtered.numpy()
         pairid = m.nxn_pairid_filtered.numpy()
-        t1, t2 = geom_type[pairs[:, 0]], geom_type[pairs[:, 1]]
-        lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-        typed = np.zeros(len(pairs), bool)
-        for a, b in PAIR_TYPES:
-            typed |= (lo == a) & (hi == b)
-        take = typed & (pairid[:, 0] >= -1) & (pairid[:, 1] == -1)  # default and explicit pairs, no sensor
-        # geoms ordered as _add_geom_pair orders them: lower type first, the normal from the first
-        ordered = np.where((t1 > t2)[:, None], pairs[:, ::-1], pairs)[take]
-        self.pairs = ordered.astype(np.int32)
+        take, ordered = _selection(geom_type, pairs, pairid)
+        lo, hi = np.sort(geom_type[pairs[take]].reshape(-1, 2), axis=1).T
+        self.pairs = ordered
         self.npairs = len(self.pairs)
         self._pair_geom = wp.array(self.pairs.reshape(-1, 2), dtype=wp.vec2i, device=device)
         self._pair_id = wp.array(pairid[take].reshape(-1, 2), dtype=wp.vec2i, device=device)
@@ -119,7 +131,7 @@ class Attachment:
         if len(taken):
             idx = _upper_tri(ngeom, np.minimum(taken[:, 0], taken[:, 1]), np.maximum(taken[:, 0], taken[:, 1]))
             full[idx, 0] = -2
-        count = _counts_without(m, lo[take], hi[take])
+        count = _counts_without(m, lo, hi)
         self._tables = {
             "nxn_geom_pair_filtered": wp.array(pairs[keep].reshape(-1, 2), dtype=wp.vec2i, device=device),
             "nxn_pairid_filtered": wp.array(pairid[keep].reshape(-1, 2), dtype=wp.vec2i, device=device),

@@ -26,7 +26,13 @@ def compare(args):
     from .. import simulate
     from ..comparison import Comparison
 
+    if args.engine != "warp" and (args.worlds is not None or args.device is not None):
+        raise UserError("--worlds and --device are for --engine warp")
+    if args.engine == "warp" and (args.plot or args.between_frames):
+        raise UserError("--plot and --between-frames are for --engine mujoco (not yet for --engine warp)")
     s = load_scenario(args)
+    if args.engine == "warp":
+        return _compare_warp(args, s)
     if args.json:
         check_output(args.json, ".json", "--json")
     if args.plot:
@@ -44,6 +50,30 @@ def compare(args):
     if args.plot:
         _plot_compare(args.plot, s, result.builtin, result.ours, result.missed + result.extra, result.near)
         print(f"  plot: {args.plot}")
+    return 0
+
+
+def _compare_warp(args, s):
+    """`compare --engine warp`: plain Warp's contacts in every world against the exact test (app/warp_compare.py)."""
+    from .. import simulate, warp_compare, warp_run
+
+    if args.json:
+        check_output(args.json, ".json", "--json")
+    warp_run.quiet()
+    device = warp_run.check_device(args.device or "cpu")
+    steps = steps_of(s, args, simulate.check_steps)
+    nworld = args.worlds or 1
+    header(s)
+    print(
+        f"  comparing MuJoCo Warp's contacts ({device}, {nworld} worlds) with ellipsim over {steps} steps; the first "
+        "run on a machine compiles Warp's kernels (minutes on CPU, then cached)",
+        flush=True,
+    )
+    result = warp_compare.compare(s, steps=steps, nworld=nworld, device=device, progress=bar(f"  {s.name}", steps))
+    print("\n".join(result.summary(args.show)))
+    if args.json:
+        write_json(args.json, result.report())
+        print(f"  report: {args.json}")
     return 0
 
 
@@ -108,4 +138,12 @@ def add_parser(sub):
         "through each other within one step), on the interpolated motion",
     )
     model_options(p)
+    p.add_argument(
+        "--engine",
+        choices=("mujoco", "warp"),
+        default="mujoco",
+        help="check MuJoCo C's contacts (default) or MuJoCo Warp's (the warp extra), every world",
+    )
+    p.add_argument("--worlds", type=positive_int, help="--engine warp: worlds stepped at once (default 1)")
+    p.add_argument("--device", choices=("cpu", "cuda"), help="--engine warp: Warp's device (default cpu)")
     p.set_defaults(run=compare)

@@ -2,6 +2,7 @@
 
 import time
 
+from ..errors import UserError
 from .common import (
     bar,
     between,
@@ -21,7 +22,11 @@ def run(args):
     """Simulate a scenario or model, print a summary, optionally save a rerun recording."""
     from .. import simulate
 
+    if args.engine != "warp" and (args.worlds is not None or args.device is not None):
+        raise UserError("--worlds and --device are for --engine warp")
     s = load_scenario(args)
+    if args.engine == "warp":
+        return _run_warp(args, s)
     if args.record:
         check_output(args.record, ".rrd", "--record")
     steps = steps_of(s, args, simulate.check_steps)
@@ -46,6 +51,41 @@ def run(args):
     return 0
 
 
+def _run_warp(args, s):
+    """`run --engine warp`: the scenario in --worlds worlds on MuJoCo Warp (app/warp_run.py)."""
+    from .. import simulate, warp_run
+
+    if args.record:
+        check_output(args.record, ".rrd", "--record")
+    warp_run.quiet()
+    device = warp_run.check_device(args.device or "cpu")
+    steps = steps_of(s, args, simulate.check_steps)
+    nworld = args.worlds or 1
+    mode = args.mode or s.mode
+    header(s)
+    print(
+        f"  {steps} steps of {s.timestep:g} s in {nworld} worlds on MuJoCo Warp ({device}), "
+        f"{'plain Warp' if mode == 'builtin' else 'ellipsim attached'}; the first run on a machine compiles "
+        "Warp's kernels (minutes on CPU, then cached)",
+        flush=True,
+    )
+    recorder = recorder_for(args.record) if args.record else None
+    result, size = recorded(
+        recorder,
+        warp_run.run,
+        s,
+        steps=steps,
+        nworld=nworld,
+        device=device,
+        mode=mode,
+        progress=bar(f"  {s.name}", steps),
+    )
+    print("\n".join(result.summary()))
+    if recorder:
+        print(f"  recording (world 0): {args.record} ({size / 1e6:.1f} MB); view it with: ellipsim view {args.record}")
+    return 0
+
+
 #: Contacts between frames `ellipsim run` prints at most.
 BETWEEN_SHOWN = 10
 
@@ -67,4 +107,12 @@ def add_parser(sub):
         "between, on the interpolated motion",
     )
     model_options(p)
+    p.add_argument(
+        "--engine",
+        choices=("mujoco", "warp"),
+        default="mujoco",
+        help="MuJoCo C (default) or MuJoCo Warp (the warp extra), ellipsim attached unless --mode builtin",
+    )
+    p.add_argument("--worlds", type=positive_int, help="--engine warp: worlds stepped at once (default 1)")
+    p.add_argument("--device", choices=("cpu", "cuda"), help="--engine warp: Warp's device (default cpu)")
     p.set_defaults(run=run)

@@ -1,0 +1,168 @@
+"""`ellipsim compare ... --engine warp`: plain MuJoCo Warp's own contacts, every world, against the exact test.
+
+The scenario runs in N worlds on plain Warp (nothing attached).  At each compared step, every candidate
+sphere x ellipsoid and ellipsoid x ellipsoid pair of every world (the model's collision rules, as
+ellipsim.warp takes them) whose bounding spheres come within margin + gap gets ellipsim's CPU narrow
+phase on Warp's float32 poses widened to float64 (proven global maxima, or counted unproven); a pair the
+exact test puts within margin + gap that Warp left without a contact is missed, a Warp contact the exact
+test does not make is extra; on pairs both have, the distance error (over the pair's smallest
+semi-axis) and the normal's angle.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from ..core.distance.ellipsoid_pair import signed_distance
+from ..core.ellipsoids import Ellipsoids
+from . import simulate, warp_run
+from .scenario import ScenarioError
+
+
+@dataclasses.dataclass
+class WarpComparison:
+    name: str
+    nworld: int
+    steps: int
+    pairs: int  # candidate pairs per world
+    checked: int  # (world, step, pair) triples measured exactly
+    exact: int  # of which within margin + gap
+    missed: list  # (step, world, g1, g2, exact dist) of each miss
+    extra: list  # (step, world, g1, g2, Warp's dist, exact dist)
+    dist_err: np.ndarray  # per common contact, over r_min
+    angle: np.ndarray  # per common contact, degrees
+    unproven: int
+
+    def summary(self, show):
+        e = self.dist_err
+        lines = [
+            f"  Warp's contacts on {self.pairs} ellipsoid pairs per world x {self.nworld} worlds x {self.steps} steps: "
+            f"{self.checked} pairs within reach measured exactly, {self.exact} exact contacts",
+            f"  missed {len(self.missed)}, extra {len(self.extra)}"
+            + (
+                f"; on {e.size} common contacts distance error / r_min max {e.max():.1e} (median {np.median(e):.1e}), "
+                f"normal max {self.angle.max():.2g} deg"
+                if e.size
+                else ""
+            )
+            + (f"; {self.unproven} exact maxima unproven" if self.unproven else ""),
+        ]
+        for kind, rows in (("missed", self.missed), ("extra", self.extra)):
+            for row in rows[:show]:
+                lines.append(
+                    f"    {kind}: step {row[0]}, world {row[1]}, geoms {row[2]} x {row[3]}, " + _dists(kind, row)
+                )
+            if len(rows) > show:
+                lines.append(f"    ... and {len(rows) - show} more {kind}")
+        return lines
+
+    def report(self):
+        e = self.dist_err
+        return dict(
+            scenario=self.name,
+            engine="warp",
+            worlds=self.nworld,
+            steps=self.steps,
+            pairs_per_world=self.pairs,
+            checked=self.checked,
+            exact_contacts=self.exact,
+            missed=[dict(step=r[0], world=r[1], geoms=[r[2], r[3]], exact_dist=r[4]) for r in self.missed],
+            extra=[
+                dict(step=r[0], world=r[1], geoms=[r[2], r[3]], warp_dist=r[4], exact_dist=r[5]) for r in self.extra
+            ],
+            dist_err_max=float(e.max()) if e.size else None,
+            normal_err_max_deg=float(self.angle.max()) if e.size else None,
+            unproven=self.unproven,
+        )
+
+
+def _dists(kind, row):
+    if kind == "missed":
+        return f"exact distance {row[4]:.3g} m, no Warp contact"
+    return f"Warp distance {row[4]:.3g} m, exact {row[5]:.3g} m"
+
+
+def compare(s, *, steps, nworld, device="cpu", progress=None):
+    """Step scenario s in nworld worlds on plain MuJoCo Warp and check its contacts (module docstring)."""
+    import mujoco
+
+    wp, mjw, ew = warp_run._warp()
+    if s.kinematic:
+        raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
+    simulate.check_steps(s, steps)
+    model, data = simulate.build(s)
+    control = simulate.controller(model, data, s)
+    mujoco.mj_forward(model, data)
+    with wp.ScopedDevice(device):
+        m = mjw.put_model(model)
+        naconmax = nworld * max(64, warp_run.CONTACTS_PER_GEOM * model.ngeom)
+        d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
+        pairs = ew.candidate_pairs(m)
+    return _run(s, model, control, m, d, pairs, steps, nworld, naconmax, device, progress)
+
+
+def _run(s, model, control, m, d, pairs, steps, nworld, naconmax, device, progress):
+    wp, mjw, _ = warp_run._warp()
+    g1, g2 = pairs[:, 0], pairs[:, 1]
+    sphere = model.geom_type == 2
+    radii = np.where(sphere[:, None], model.geom_size[:, :1], model.geom_size).astype(np.float32)
+    rbound = radii.max(1)
+    reach = (
+        rbound[g1]
+        + rbound[g2]
+        + model.geom_margin[g1]
+        + model.geom_margin[g2]
+        + model.geom_gap[g1]
+        + model.geom_gap[g2]
+    )
+    limit = (model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]).astype(np.float32)
+    missed, extra, errs, angles = [], [], [], []
+    checked = exact_n = unproven = 0
+    index = {(int(a), int(b)): k for k, (a, b) in enumerate(pairs)}
+    with wp.ScopedDevice(device):
+        for k in range(steps):
+            if model.nu:
+                ctrl = np.asarray(control(k * s.timestep), np.float32)
+                d.ctrl.assign(np.broadcast_to(ctrl, (nworld, ctrl.size)))
+            mjw.step(m, d)
+            xpos, xmat = d.geom_xpos.numpy(), d.geom_xmat.numpy()
+            n = min(int(d.nacon.numpy()[0]), naconmax)
+            cw, cg, cd, cf = (
+                a.numpy()[:n] for a in (d.contact.worldid, d.contact.geom, d.contact.dist, d.contact.frame)
+            )
+            warp = {}
+            for i in range(n):
+                key = index.get((int(cg[i, 0]), int(cg[i, 1])))
+                if key is not None:
+                    warp[(int(cw[i]), key)] = (float(cd[i]), cf[i, 0])
+            for w in range(nworld):
+                near = np.nonzero(np.linalg.norm(xpos[w, g2] - xpos[w, g1], axis=1) <= reach)[0]
+                keys = set(near.tolist()) | {p for (ww, p) in warp if ww == w}
+                sel = np.array(sorted(keys), dtype=int)
+                if sel.size == 0:
+                    continue
+                wide = lambda x: x.astype(np.float64)  # noqa: E731
+                dist, normal, _, status = signed_distance(
+                    Ellipsoids(wide(xpos[w, g1[sel]]), wide(xmat[w, g1[sel]]), wide(radii[g1[sel]])),
+                    Ellipsoids(wide(xpos[w, g2[sel]]), wide(xmat[w, g2[sel]]), wide(radii[g2[sel]])),
+                )
+                checked += sel.size
+                unproven += int(np.count_nonzero(status))
+                for j, p in enumerate(sel):
+                    want = dist[j] < limit[p]
+                    exact_n += bool(want)
+                    got = warp.get((w, int(p)))
+                    if want and got is None:
+                        missed.append((k, w, int(g1[p]), int(g2[p]), float(dist[j])))
+                    elif got is not None and not want:
+                        extra.append((k, w, int(g1[p]), int(g2[p]), got[0], float(dist[j])))
+                    elif got is not None:
+                        rmin = min(radii[g1[p]].min(), radii[g2[p]].min())
+                        errs.append(abs(got[0] - dist[j]) / rmin)
+                        a, b = np.asarray(got[1], float), normal[j]
+                        angles.append(np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b)))
+            if progress:
+                progress(k + 1, steps)
+    return WarpComparison(
+        s.name, nworld, steps, len(pairs), checked, exact_n, missed, extra, np.array(errs), np.array(angles), unproven
+    )

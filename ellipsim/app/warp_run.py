@@ -1,0 +1,154 @@
+"""`ellipsim run ... --engine warp`: a scenario in N worlds on MuJoCo Warp, ellipsim attached (ellipsim.warp).
+
+Every world starts from the scenario's initial state; a scenario's controls at the step's time go to
+every world.  World 0 is mirrored into a MuJoCo C MjData at each recorded frame (qpos copied back,
+mj_forward), which is what the frame counts and `--record` see: ellipsim's verdicts on world 0's pose,
+beside MuJoCo C's contacts on it.  The Warp contacts per world are counted at the same frames (one
+read-back per frame, not per step).
+"""
+
+import dataclasses
+import time
+
+import mujoco
+import numpy as np
+
+from . import simulate
+from .scenario import ScenarioError
+from .stepping import FrameLoop
+
+#: Contact slots per world given to Warp (d.naconmax = worlds x this, at least 64 per world).
+CONTACTS_PER_GEOM = 4
+
+
+def _warp():
+    try:
+        import mujoco_warp as mjw
+        import warp as wp
+
+        import ellipsim.warp as ew
+    except ImportError as exc:
+        raise ScenarioError(str(exc).split(";")[0]) from None
+    return wp, mjw, ew
+
+
+def quiet():
+    """Warp's start-up banner and per-module load lines off: for the CLI, which owns its process (a
+    library call leaves Warp's settings as the user set them)."""
+    wp, _, _ = _warp()
+    wp.config.quiet = True
+    wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)  # the "Module ... load" lines
+
+
+def check_device(device):
+    """'cpu' or 'cuda', checked against what Warp sees; ScenarioError otherwise."""
+    wp, _, _ = _warp()
+    if device not in ("cpu", "cuda"):
+        raise ScenarioError(f"--device must be cpu or cuda, got {device!r}")
+    if device == "cuda" and wp.get_cuda_device_count() == 0:
+        raise ScenarioError("--device cuda: Warp finds no CUDA device here (use --device cpu)")
+    return device
+
+
+@dataclasses.dataclass
+class WarpRun:
+    """What `run` returns: stepping wall time, steps, worlds, per-frame Warp contacts per world (F, N),
+    world 0's frame counts (simulate.FrameCounts), the attachment's counters, overflowed steps."""
+
+    scenario: object
+    mode: str
+    steps: int
+    nworld: int
+    device: str
+    seconds: float
+    contacts: np.ndarray
+    frames: simulate.FrameCounts
+    counters: dict
+    overflow_frames: int
+
+    def summary(self):
+        rate = self.steps / max(self.seconds, 1e-9)
+        c = self.contacts
+        who = "ellipsim attached" if self.mode != "builtin" else "plain Warp"
+        lines = [
+            f"  stepping on Warp ({self.device}, {who}): {self.seconds:.2f} s for {self.steps} steps x {self.nworld} worlds, "
+            f"{rate:,.0f} steps/s per world, {rate * self.nworld:,.0f} world-steps/s in total",
+            f"  Warp contacts per world at {len(c)} frames: mean {c.mean():.1f} over all worlds, per world "
+            + ", ".join(f"{x:.1f}" for x in c.mean(0)[:8])
+            + (f", ... ({self.nworld} worlds)" if self.nworld > 8 else ""),
+        ]
+        fr = self.frames
+        if len(fr.times):
+            lines.append(
+                f"  world 0 at {len(fr.times)} frames: ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
+                f"(max {fr.ellipsim_counts.max()}), MuJoCo C's contacts on the same poses mean {fr.builtin_counts.mean():.1f}"
+            )
+        if self.counters:
+            k = self.counters
+            lines.append(
+                f"  ellipsim on Warp: {k['pairs']} pairs evaluated, {k['contacts']} contacts, {k['unproven']} unproven "
+                f"maxima, {k['overflow']} contacts over naconmax"
+            )
+        if self.overflow_frames:
+            lines.append(
+                f"  warning: Warp's contact buffer overflowed at {self.overflow_frames} frames (raise naconmax)"
+            )
+        return lines
+
+
+def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=None):
+    """Step scenario s in nworld worlds on MuJoCo Warp (module docstring); returns a WarpRun."""
+    wp, mjw, ew = _warp()
+    mode = mode or s.mode
+    if s.kinematic:
+        raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
+    if isinstance(nworld, bool) or not isinstance(nworld, int) or nworld < 1:
+        raise ValueError(f"nworld must be a positive integer, got {nworld!r}")
+    simulate.check_steps(s, steps)
+    model, data = simulate.build(s)
+    control = simulate.controller(model, data, s)
+    mujoco.mj_forward(model, data)
+    mirror = mujoco.MjData(model)
+    every = simulate.record_every(s)
+    chunks, counts, overflow = [], [], 0
+
+    def on_chunk(chunk):
+        f = chunk.frames
+        chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
+
+    with wp.ScopedDevice(device):
+        m = mjw.put_model(model)
+        naconmax = nworld * max(64, CONTACTS_PER_GEOM * model.ngeom)
+        d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
+        att = ew.attach(m) if mode != "builtin" else None
+        held = model.nu == 0  # no actuators: nothing to send per step
+        mjw.step(m, d)  # compiles (minutes on a first CPU run), before the loop's timer
+        d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
+        if att:
+            att.reset_counters()
+        loop = FrameLoop(model, recorder=recorder, title=s.name, on_chunk=on_chunk)
+
+        def step(k):
+            nonlocal overflow
+            if not held:
+                ctrl = np.asarray(control(k * s.timestep), np.float32)
+                d.ctrl.assign(np.broadcast_to(ctrl, (nworld, ctrl.size)))
+            mjw.step(m, d)
+            if k % every == 0:
+                n = int(d.nacon.numpy()[0])
+                overflow += n > naconmax
+                w = d.contact.worldid.numpy()[: min(n, naconmax)]
+                counts.append(np.bincount(w, minlength=nworld))
+                mirror.qpos[:] = d.qpos.numpy()[0]
+                mirror.time = (k + 1) * s.timestep
+                mujoco.mj_forward(model, mirror)
+
+        t0 = time.perf_counter()
+        loop.run(mirror, steps, step, every=every, progress=progress)
+        wp.synchronize()
+        seconds = time.perf_counter() - t0
+        counters = att.counters if att else {}
+        if att:
+            att.detach()
+    frames = simulate.FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
+    return WarpRun(s, mode, steps, nworld, device, seconds, np.array(counts), frames, counters, int(overflow))

@@ -279,6 +279,9 @@ def measure(size):
         wp, _, _ = _warp()
     except ImportError as exc:
         return dict(missing=str(exc))
+    from .. import warp_run
+
+    warp_run.quiet()  # the suite's own process: Warp's per-module load lines off
     device = "cuda" if wp.get_cuda_device_count() > 0 else "cpu"
     say(f"warp: accuracy against the exact narrow phase on {device} ...")
     acc = accuracy(size, device)

@@ -94,6 +94,7 @@ def compiled(pile, tmp_path_factory):
     return cache, report, stderr
 
 
+@pytest.mark.slow  # a compile from scratch
 def test_a_process_without_cache_compiles_once_with_a_notice(pile, compiled):
     cache, report, stderr = compiled
     assert report["origin"] == {"filter": "compiled", "narrowphase": "compiled"}
@@ -297,6 +298,7 @@ def test_prebuild_usage(monkeypatch, capsys):
         prebuild.build("unused")
 
 
+@pytest.mark.slow  # the benchmark suite's start-up section
 def test_bench_section_reports_each_origin():
     from ellipsim.app.bench import startup
 

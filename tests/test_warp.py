@@ -22,6 +22,10 @@ from ellipsim.warp import kernels
 
 SPHERE, ELLIPSOID = 2, 4
 
+#: Tests that run mjw.forward or mjw.step: on a machine where Warp has not compiled them yet, minutes of
+#: compiling (pytest.ini's slow marker; they stay in the README's test run).
+SLOW = pytest.mark.slow
+
 
 @pytest.fixture(autouse=True)
 def cpu():
@@ -175,6 +179,7 @@ def _ellipsim_pairs(mjm, att):
     return {(int(a), int(b)) for a, b in att.pairs}
 
 
+@SLOW
 def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
     mjm = _pile()
     m, d = _warp(mjm)
@@ -206,6 +211,7 @@ def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
     assert _contacts(d) == plain  # detached: plain Warp again
 
 
+@SLOW
 def test_a_model_without_ellipsoid_pairs_steps_bit_identically_and_two_models_are_independent():
     # ellipsoid x plane is Warp's own analytic pair; box and capsule do not collide with the ellipsoid
     mjm = mujoco.MjModel.from_xml_string(
@@ -315,6 +321,7 @@ def test_sleeping_incremental_pass_adds_only_the_pairs_the_first_pass_skipped():
     assert sorted(both) == sorted(reference)  # nothing twice, nothing missed
 
 
+@SLOW
 def test_sap_broad_phase_gives_the_nxn_contacts():
     mjm = _pile()
     out = []
@@ -416,6 +423,7 @@ def test_box_pairs_keep_warps_own_epa_settings_beside_an_attachment():
 # -- the command line -----------------------------------------------------------------------------
 
 
+@SLOW
 def test_run_engine_warp_steps_every_world_and_reports_them(tmp_path, capsys):
     from ellipsim.app import cli
 
@@ -429,6 +437,7 @@ def test_run_engine_warp_steps_every_world_and_reports_them(tmp_path, capsys):
     assert "ellipsim on Warp:" in out and "0 contacts over naconmax" in out
 
 
+@SLOW
 def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
     from ellipsim.app import cli
 

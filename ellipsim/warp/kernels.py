@@ -319,167 +319,6 @@ def contact_kernel(enable_sleep, incremental, per_thread):
     from mujoco_warp._src.math import make_frame
     from mujoco_warp._src.types import ContactType, SleepState, vec5
 
-    @wp.func
-    def one_pair(
-        # the attachment's pair table
-        pair_geom: wp.array[wp.vec2i],
-        pair_id: wp.array[wp.vec2i],
-        # Model:
-        geom_type: wp.array[int],
-        geom_bodyid: wp.array[int],
-        geom_size: wp.array2d[wp.vec3],
-        geom_rbound: wp.array2d[float],
-        geom_condim: wp.array[int],
-        geom_priority: wp.array[int],
-        geom_solmix: wp.array2d[float],
-        geom_solref: wp.array2d[wp.vec2],
-        geom_solimp: wp.array2d[vec5],
-        geom_friction: wp.array2d[wp.vec3],
-        geom_margin: wp.array2d[float],
-        geom_gap: wp.array2d[float],
-        geom_adhesion: wp.array2d[float],
-        pair_dim: wp.array[int],
-        pair_solref: wp.array2d[wp.vec2],
-        pair_solreffriction: wp.array2d[wp.vec2],
-        pair_solimp: wp.array2d[vec5],
-        pair_margin: wp.array2d[float],
-        pair_gap: wp.array2d[float],
-        pair_adhesion: wp.array2d[float],
-        pair_friction: wp.array2d[vec5],
-        # Data in:
-        geom_xpos_in: wp.array2d[wp.vec3],
-        geom_xmat_in: wp.array2d[wp.mat33],
-        body_awake_in: wp.array2d[int],
-        body_awake_prev_in: wp.array2d[int],
-        naconmax_in: int,
-        # Data out:
-        contact_dist_out: wp.array[float],
-        contact_pos_out: wp.array[wp.vec3],
-        contact_frame_out: wp.array[wp.mat33],
-        contact_includemargin_out: wp.array[float],
-        contact_friction_out: wp.array[vec5],
-        contact_solref_out: wp.array[wp.vec2],
-        contact_solreffriction_out: wp.array[wp.vec2],
-        contact_solimp_out: wp.array[vec5],
-        contact_dim_out: wp.array[int],
-        contact_geom_out: wp.array[wp.vec2i],
-        contact_efc_address_out: wp.array2d[int],
-        contact_worldid_out: wp.array[int],
-        contact_type_out: wp.array[int],
-        contact_geomcollisionid_out: wp.array[int],
-        contact_adhesion_out: wp.array[float],
-        nacon_out: wp.array[int],
-        # the attachment's counters
-        counters_out: wp.array[int],
-        worldid: int,
-        k: int,
-    ):
-        """One candidate pair of one world: its contact, if any (write_contact's semantics)."""
-        geoms = pair_geom[k]
-        g1 = geoms[0]
-        g2 = geoms[1]
-        pairid = pair_id[k]
-        if wp.static(enable_sleep):  # as _nxn_broadphase: pairs of sleeping bodies are skipped
-            s1 = body_awake_in[worldid, geom_bodyid[g1]]
-            s2 = body_awake_in[worldid, geom_bodyid[g2]]
-            if s1 == SleepState.ASLEEP and s2 == SleepState.ASLEEP:
-                return
-            if (s1 == SleepState.ASLEEP and s2 == SleepState.STATIC) or (
-                s2 == SleepState.ASLEEP and s1 == SleepState.STATIC
-            ):
-                return
-            if wp.static(incremental):  # only the pairs the first pass skipped
-                w1 = body_awake_prev_in[worldid, geom_bodyid[g1]]
-                w2 = body_awake_prev_in[worldid, geom_bodyid[g2]]
-                skipped = (
-                    (w1 == SleepState.ASLEEP and w2 == SleepState.ASLEEP)
-                    or (w1 == SleepState.ASLEEP and w2 == SleepState.STATIC)
-                    or (w2 == SleepState.ASLEEP and w1 == SleepState.STATIC)
-                )
-                if not skipped:
-                    return
-        margin, gap = contact_margin_gap(geom_margin, geom_gap, pair_margin, pair_gap, geoms, pairid[0], worldid)
-        # bounding spheres (float32 rbound, a float64 sum): apart beyond margin + gap, no contact possible
-        p1 = _widen3(geom_xpos_in[worldid, g1])
-        p2 = _widen3(geom_xpos_in[worldid, g2])
-        reach = (
-            F64(geom_rbound[worldid % geom_rbound.shape[0], g1])
-            + F64(geom_rbound[worldid % geom_rbound.shape[0], g2])
-            + F64(margin)
-            + F64(gap)
-        )
-        dd = p2 - p1
-        if wp.dot(dd, dd) > reach * reach and reach >= F64(0.0):
-            return
-        wp.atomic_add(counters_out, C_PAIRS, 1)
-        sid = worldid % geom_size.shape[0]
-        # sigma's rounding (<= 34 u S, ellipsoid_pair.sigma_lower_bound) is far below this allowance
-        cutoff = F64(margin) + F64(gap) + F64(1e-12) * reach
-        status, dist, normal, pos, deep = ellipsoid_pair(
-            p1,
-            _widen33(geom_xmat_in[worldid, g1]),
-            _radii(geom_type[g1], geom_size[sid, g1]),
-            p2,
-            _widen33(geom_xmat_in[worldid, g2]),
-            _radii(geom_type[g2], geom_size[sid, g2]),
-            cutoff,
-        )
-        if status == APART:
-            return  # proven beyond margin + gap: Warp would make no contact either
-        if status != GLOBAL:
-            wp.atomic_add(counters_out, C_UNPROVEN, 1)
-        if deep != 0:
-            wp.atomic_add(counters_out, C_DEEP, 1)
-        if not (dist < F64(margin) + F64(gap)):
-            return
-        condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
-            geom_condim,
-            geom_priority,
-            geom_solmix,
-            geom_solref,
-            geom_solimp,
-            geom_friction,
-            geom_adhesion,
-            pair_dim,
-            pair_solref,
-            pair_solreffriction,
-            pair_solimp,
-            pair_adhesion,
-            pair_friction,
-            geoms,
-            pairid[0],
-            worldid,
-        )
-        # write_contact's semantics (collision_core.py), the slot kept to count an overflow: the pair
-        # table holds no collision-sensor pair and no excluded one (attachment.py), so a detected contact
-        # is a constraint contact, active when dist < margin or adhesive within the gap
-        dist32 = wp.float32(dist)
-        if (adhesion != 0.0) and (dist32 >= margin):
-            condim = 1
-        cid = wp.atomic_add(nacon_out, 0, 1)
-        wp.atomic_add(counters_out, C_CONTACTS, 1)
-        if cid >= naconmax_in:
-            wp.atomic_add(counters_out, C_OVERFLOW, 1)
-            return
-        contact_dist_out[cid] = dist32
-        contact_pos_out[cid] = wp.vec3(wp.float32(pos[0]), wp.float32(pos[1]), wp.float32(pos[2]))
-        contact_frame_out[cid] = make_frame(
-            wp.vec3(wp.float32(normal[0]), wp.float32(normal[1]), wp.float32(normal[2]))
-        )
-        contact_geom_out[cid] = geoms
-        contact_worldid_out[cid] = worldid
-        contact_includemargin_out[cid] = margin
-        contact_dim_out[cid] = condim
-        contact_friction_out[cid] = friction
-        contact_solref_out[cid] = solref
-        contact_solreffriction_out[cid] = solreffriction
-        contact_solimp_out[cid] = solimp
-        contact_adhesion_out[cid] = adhesion
-        contact_type_out[cid] = int(ContactType.CONSTRAINT)
-        contact_geomcollisionid_out[cid] = 0
-        for i in range(contact_efc_address_out.shape[1]):
-            contact_efc_address_out[cid, i] = -1
-
     @wp.kernel(module="unique", enable_backward=False)
     def ellipsim_contacts(
         # the attachment's pair table
@@ -536,56 +375,112 @@ def contact_kernel(enable_sleep, incremental, per_thread):
         worldid, t = wp.tid()
         for j in range(wp.static(per_thread)):  # PAIRS_PER_THREAD
             k = t * wp.static(per_thread) + j
-            if k < pair_geom.shape[0]:
-                one_pair(
-                    pair_geom,
-                    pair_id,
-                    geom_type,
-                    geom_bodyid,
-                    geom_size,
-                    geom_rbound,
-                    geom_condim,
-                    geom_priority,
-                    geom_solmix,
-                    geom_solref,
-                    geom_solimp,
-                    geom_friction,
-                    geom_margin,
-                    geom_gap,
-                    geom_adhesion,
-                    pair_dim,
-                    pair_solref,
-                    pair_solreffriction,
-                    pair_solimp,
-                    pair_margin,
-                    pair_gap,
-                    pair_adhesion,
-                    pair_friction,
-                    geom_xpos_in,
-                    geom_xmat_in,
-                    body_awake_in,
-                    body_awake_prev_in,
-                    naconmax_in,
-                    contact_dist_out,
-                    contact_pos_out,
-                    contact_frame_out,
-                    contact_includemargin_out,
-                    contact_friction_out,
-                    contact_solref_out,
-                    contact_solreffriction_out,
-                    contact_solimp_out,
-                    contact_dim_out,
-                    contact_geom_out,
-                    contact_efc_address_out,
-                    contact_worldid_out,
-                    contact_type_out,
-                    contact_geomcollisionid_out,
-                    contact_adhesion_out,
-                    nacon_out,
-                    counters_out,
-                    worldid,
-                    k,
-                )
+            if k >= pair_geom.shape[0]:
+                break
+            geoms = pair_geom[k]
+            g1 = geoms[0]
+            g2 = geoms[1]
+            pairid = pair_id[k]
+            if wp.static(enable_sleep):  # as _nxn_broadphase: pairs of sleeping bodies are skipped
+                s1 = body_awake_in[worldid, geom_bodyid[g1]]
+                s2 = body_awake_in[worldid, geom_bodyid[g2]]
+                if s1 == SleepState.ASLEEP and s2 == SleepState.ASLEEP:
+                    continue
+                if (s1 == SleepState.ASLEEP and s2 == SleepState.STATIC) or (
+                    s2 == SleepState.ASLEEP and s1 == SleepState.STATIC
+                ):
+                    continue
+                if wp.static(incremental):  # only the pairs the first pass skipped
+                    w1 = body_awake_prev_in[worldid, geom_bodyid[g1]]
+                    w2 = body_awake_prev_in[worldid, geom_bodyid[g2]]
+                    skipped = (
+                        (w1 == SleepState.ASLEEP and w2 == SleepState.ASLEEP)
+                        or (w1 == SleepState.ASLEEP and w2 == SleepState.STATIC)
+                        or (w2 == SleepState.ASLEEP and w1 == SleepState.STATIC)
+                    )
+                    if not skipped:
+                        continue
+            margin, gap = contact_margin_gap(geom_margin, geom_gap, pair_margin, pair_gap, geoms, pairid[0], worldid)
+            # bounding spheres (float32 rbound, a float64 sum): apart beyond margin + gap, no contact possible
+            p1 = _widen3(geom_xpos_in[worldid, g1])
+            p2 = _widen3(geom_xpos_in[worldid, g2])
+            reach = (
+                F64(geom_rbound[worldid % geom_rbound.shape[0], g1])
+                + F64(geom_rbound[worldid % geom_rbound.shape[0], g2])
+                + F64(margin)
+                + F64(gap)
+            )
+            dd = p2 - p1
+            if wp.dot(dd, dd) > reach * reach and reach >= F64(0.0):
+                continue
+            wp.atomic_add(counters_out, C_PAIRS, 1)
+            sid = worldid % geom_size.shape[0]
+            # sigma's rounding (<= 34 u S, ellipsoid_pair.sigma_lower_bound) is far below this allowance
+            cutoff = F64(margin) + F64(gap) + F64(1e-12) * reach
+            status, dist, normal, pos, deep = ellipsoid_pair(
+                p1,
+                _widen33(geom_xmat_in[worldid, g1]),
+                _radii(geom_type[g1], geom_size[sid, g1]),
+                p2,
+                _widen33(geom_xmat_in[worldid, g2]),
+                _radii(geom_type[g2], geom_size[sid, g2]),
+                cutoff,
+            )
+            if status == APART:
+                continue  # proven beyond margin + gap: Warp would make no contact either
+            if status != GLOBAL:
+                wp.atomic_add(counters_out, C_UNPROVEN, 1)
+            if deep != 0:
+                wp.atomic_add(counters_out, C_DEEP, 1)
+            if not (dist < F64(margin) + F64(gap)):
+                continue
+            condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
+                geom_condim,
+                geom_priority,
+                geom_solmix,
+                geom_solref,
+                geom_solimp,
+                geom_friction,
+                geom_adhesion,
+                pair_dim,
+                pair_solref,
+                pair_solreffriction,
+                pair_solimp,
+                pair_adhesion,
+                pair_friction,
+                geoms,
+                pairid[0],
+                worldid,
+            )
+            # write_contact's semantics (collision_core.py), the slot kept to count an overflow: the pair
+            # table holds no collision-sensor pair and no excluded one (attachment.py), so a detected contact
+            # is a constraint contact, active when dist < margin or adhesive within the gap
+            dist32 = wp.float32(dist)
+            if (adhesion != 0.0) and (dist32 >= margin):
+                condim = 1
+            cid = wp.atomic_add(nacon_out, 0, 1)
+            wp.atomic_add(counters_out, C_CONTACTS, 1)
+            if cid >= naconmax_in:
+                wp.atomic_add(counters_out, C_OVERFLOW, 1)
+                continue
+            contact_dist_out[cid] = dist32
+            contact_pos_out[cid] = wp.vec3(wp.float32(pos[0]), wp.float32(pos[1]), wp.float32(pos[2]))
+            contact_frame_out[cid] = make_frame(
+                wp.vec3(wp.float32(normal[0]), wp.float32(normal[1]), wp.float32(normal[2]))
+            )
+            contact_geom_out[cid] = geoms
+            contact_worldid_out[cid] = worldid
+            contact_includemargin_out[cid] = margin
+            contact_dim_out[cid] = condim
+            contact_friction_out[cid] = friction
+            contact_solref_out[cid] = solref
+            contact_solreffriction_out[cid] = solreffriction
+            contact_solimp_out[cid] = solimp
+            contact_adhesion_out[cid] = adhesion
+            contact_type_out[cid] = int(ContactType.CONSTRAINT)
+            contact_geomcollisionid_out[cid] = 0
+            for i in range(contact_efc_address_out.shape[1]):
+                contact_efc_address_out[cid, i] = -1
 
     _KERNELS[key] = ellipsim_contacts
     return ellipsim_contacts

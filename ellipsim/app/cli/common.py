@@ -279,6 +279,19 @@ def header(s):
         print(f"  from its {start}, actuators: {sc['ctrl']}")
 
 
+def engine_options(p, what):
+    """--engine mujoco|warp, --worlds N, --device cpu|cuda; `what`: what --engine warp does."""
+    p.add_argument("--engine", choices=("mujoco", "warp"), default="mujoco", help=f"MuJoCo C (default) or {what}")
+    p.add_argument("--worlds", type=positive_int, help="--engine warp: worlds stepped at once (default 1)")
+    p.add_argument("--device", choices=("cpu", "cuda"), help="--engine warp: Warp's device (default cpu)")
+
+
+def check_engine(args):
+    """UserError for --worlds or --device without --engine warp."""
+    if args.engine != "warp" and (args.worlds is not None or args.device is not None):
+        raise UserError("--worlds and --device are for --engine warp")
+
+
 def model_options(p):
     p.add_argument(
         "--key", metavar="NAME|INDEX", help="an MJCF model's keyframe to start from (default: its default pose)"

@@ -7,7 +7,9 @@ from .common import (
     bar,
     between,
     between_option,
+    check_engine,
     check_output,
+    engine_options,
     header,
     install_hint,
     load_scenario,
@@ -26,8 +28,7 @@ def compare(args):
     from .. import simulate
     from ..comparison import Comparison
 
-    if args.engine != "warp" and (args.worlds is not None or args.device is not None):
-        raise UserError("--worlds and --device are for --engine warp")
+    check_engine(args)
     if args.engine == "warp" and (args.plot or args.between_frames):
         raise UserError("--plot and --between-frames are for --engine mujoco (not yet for --engine warp)")
     s = load_scenario(args)
@@ -138,12 +139,5 @@ def add_parser(sub):
         "through each other within one step), on the interpolated motion",
     )
     model_options(p)
-    p.add_argument(
-        "--engine",
-        choices=("mujoco", "warp"),
-        default="mujoco",
-        help="check MuJoCo C's contacts (default) or MuJoCo Warp's (the warp extra), every world",
-    )
-    p.add_argument("--worlds", type=positive_int, help="--engine warp: worlds stepped at once (default 1)")
-    p.add_argument("--device", choices=("cpu", "cuda"), help="--engine warp: Warp's device (default cpu)")
+    engine_options(p, "MuJoCo Warp's contacts (the warp extra), every world")
     p.set_defaults(run=compare)

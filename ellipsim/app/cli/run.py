@@ -2,12 +2,13 @@
 
 import time
 
-from ..errors import UserError
 from .common import (
     bar,
     between,
     between_option,
+    check_engine,
     check_output,
+    engine_options,
     header,
     load_scenario,
     model_options,
@@ -22,8 +23,7 @@ def run(args):
     """Simulate a scenario or model, print a summary, optionally save a rerun recording."""
     from .. import simulate
 
-    if args.engine != "warp" and (args.worlds is not None or args.device is not None):
-        raise UserError("--worlds and --device are for --engine warp")
+    check_engine(args)
     s = load_scenario(args)
     if args.engine == "warp":
         return _run_warp(args, s)
@@ -107,12 +107,5 @@ def add_parser(sub):
         "between, on the interpolated motion",
     )
     model_options(p)
-    p.add_argument(
-        "--engine",
-        choices=("mujoco", "warp"),
-        default="mujoco",
-        help="MuJoCo C (default) or MuJoCo Warp (the warp extra), ellipsim attached unless --mode builtin",
-    )
-    p.add_argument("--worlds", type=positive_int, help="--engine warp: worlds stepped at once (default 1)")
-    p.add_argument("--device", choices=("cpu", "cuda"), help="--engine warp: Warp's device (default cpu)")
+    engine_options(p, "MuJoCo Warp (the warp extra), ellipsim attached unless --mode builtin")
     p.set_defaults(run=run)

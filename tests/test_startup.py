@@ -86,6 +86,10 @@ def run(pile_path, cache, *modes, prebuilt=None):
     return json.loads(proc.stdout), proc.stderr
 
 
+#: The tests on `compiled`: its callbacks compile from scratch (slow: ~16 s here).
+FROM_SCRATCH = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def compiled(pile, tmp_path_factory):
     """A cache dir filled by a process that found neither cache nor prebuilt objects: (dir, report, stderr)."""
@@ -94,7 +98,7 @@ def compiled(pile, tmp_path_factory):
     return cache, report, stderr
 
 
-@pytest.mark.slow  # a compile from scratch
+@FROM_SCRATCH
 def test_a_process_without_cache_compiles_once_with_a_notice(pile, compiled):
     cache, report, stderr = compiled
     assert report["origin"] == {"filter": "compiled", "narrowphase": "compiled"}
@@ -108,6 +112,7 @@ def test_a_process_without_cache_compiles_once_with_a_notice(pile, compiled):
         assert report[mode]["digest"] == pile[1][mode]
 
 
+@FROM_SCRATCH
 def test_next_process_loads_the_cache_without_numba(pile, compiled):
     cache, _, _ = compiled
     before = {p.name: p.stat().st_mtime_ns for p in cache.iterdir()}
@@ -122,6 +127,7 @@ def test_next_process_loads_the_cache_without_numba(pile, compiled):
     assert {p.name: p.stat().st_mtime_ns for p in cache.iterdir()} == before  # read, not rewritten
 
 
+@FROM_SCRATCH
 def test_only_the_modes_callback_is_loaded(pile, compiled):
     report, stderr = run(pile[0], compiled[0], "filter", prebuilt=compiled[0] / "none")
     assert report["origin"] == {"filter": "cache"} and stderr == ""
@@ -137,6 +143,7 @@ def _damage(blob, damage):
     return b""
 
 
+@FROM_SCRATCH
 @pytest.mark.parametrize("damage", ["object byte", "empty"])
 def test_a_damaged_cache_file_is_compiled_again_with_the_notice(pile, compiled, tmp_path, damage):
     cache = tmp_path / "cache"

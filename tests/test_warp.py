@@ -477,3 +477,18 @@ def test_device_cuda_is_refused_where_warp_finds_none():
     else:
         with pytest.raises(UserError, match="--device cuda: Warp finds no CUDA device"):
             warp_run.check_device("cuda")
+
+
+def test_worlds_of_a_seeded_figure_scene_start_from_other_layouts():
+    from ellipsim.app import scenario, simulate, warp_run
+
+    s = scenario.load("pile")  # twelve figures dropped by a seed
+    model, data = simulate.build(s)
+    qpos, seeds = warp_run.world_states(s, model, data, 3)
+    assert seeds == 3 and qpos.shape == (3, model.nq)
+    np.testing.assert_array_equal(qpos[0], data.qpos)
+    assert not np.array_equal(qpos[1], qpos[0]) and not np.array_equal(qpos[2], qpos[1])
+    crowd = scenario.load("crowd")  # planted roots: the layout is in the model, not in qpos
+    model, data = simulate.build(crowd)
+    qpos, seeds = warp_run.world_states(crowd, model, data, 3)
+    assert seeds == 1 and all(np.array_equal(q, data.qpos) for q in qpos)

@@ -1,7 +1,8 @@
 """`ellipsim run ... --engine warp`: a scenario in N worlds on MuJoCo Warp, ellipsim attached (ellipsim.warp).
 
-Every world starts from the scenario's initial state; a scenario's controls at the step's time go to
-every world.  World 0 is mirrored into a MuJoCo C MjData at each recorded frame (qpos copied back,
+A scenario of figures dropped or laid out by a seed (free roots) starts world w from the layout of seed
++ (w mod SEEDS): the same model, other initial poses; any other scenario starts every world from its one
+initial state.  A scenario's controls at the step's time go to every world.  World 0 is mirrored into a MuJoCo C MjData at each recorded frame (qpos copied back,
 mj_forward), which is what the frame counts and `--record` see: ellipsim's verdicts on world 0's pose,
 beside MuJoCo C's contacts on it.  The Warp contacts per world are counted at the same frames (one
 read-back per frame, not per step).
@@ -16,6 +17,9 @@ import numpy as np
 from . import simulate
 from .scenario import ScenarioError
 from .stepping import FrameLoop
+
+#: Distinct layout seeds at most (each one a model build on the host).
+SEEDS = 64
 
 #: Contact slots per world given to Warp (d.naconmax = worlds x this, at least 64 per world).
 CONTACTS_PER_GEOM = 4
@@ -50,6 +54,23 @@ def check_device(device):
     return device
 
 
+def world_states(s, model, data, nworld):
+    """(qpos per world (nworld, nq), distinct seeds used): the layouts of seeds s.seed + (w mod SEEDS) for
+    a figures scene with free roots (module docstring), else data.qpos in every world (1 seed)."""
+    sc = s.scene
+    qpos = np.tile(data.qpos, (nworld, 1))
+    if sc["kind"] != "figures" or sc["fixed_roots"] or nworld == 1:
+        return qpos, 1
+    distinct = min(nworld, SEEDS)
+    for k in range(1, distinct):
+        other = dataclasses.replace(s, scene={**sc, "seed": sc["seed"] + k})
+        m2, d2 = simulate.build(other)
+        if m2.nq != model.nq or not np.array_equal(m2.geom_size, model.geom_size):
+            raise ScenarioError(f"{s.path}: seed {sc['seed'] + k} builds another model; cannot share one on Warp")
+        qpos[k::distinct] = d2.qpos
+    return qpos, distinct
+
+
 @dataclasses.dataclass
 class WarpRun:
     """What `run` returns: stepping wall time, steps, worlds, per-frame Warp contacts per world (F, N),
@@ -65,12 +86,14 @@ class WarpRun:
     frames: simulate.FrameCounts
     counters: dict
     overflow_frames: int
+    seeds: int = 1
 
     def summary(self):
         rate = self.steps / max(self.seconds, 1e-9)
         c = self.contacts
         who = "ellipsim attached" if self.mode != "builtin" else "plain Warp"
         lines = [
+            f"  worlds: {self.seeds} layout seeds" if self.seeds > 1 else "  worlds: one initial state, copied",
             f"  stepping on Warp ({self.device}, {who}): {self.seconds:.2f} s for {self.steps} steps x {self.nworld} worlds, "
             f"{rate:,.0f} steps/s per world, {rate * self.nworld:,.0f} world-steps/s in total",
             f"  Warp contacts per world at {len(c)} frames: mean {c.mean():.1f} over all worlds, per world "
@@ -119,11 +142,13 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
     with wp.ScopedDevice(device):
         m = mjw.put_model(model)
         naconmax = nworld * max(64, CONTACTS_PER_GEOM * model.ngeom)
+        qpos, seeds = world_states(s, model, data, nworld)
         d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
         att = ew.attach(m) if mode != "builtin" else None
         held = model.nu == 0  # no actuators: nothing to send per step
         mjw.step(m, d)  # compiles (minutes on a first CPU run), before the loop's timer
         d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
+        d.qpos.assign(qpos.astype(np.float32))
         if att:
             att.reset_counters()
         loop = FrameLoop(model, recorder=recorder, title=s.name, on_chunk=on_chunk)
@@ -151,4 +176,4 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
         if att:
             att.detach()
     frames = simulate.FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
-    return WarpRun(s, mode, steps, nworld, device, seconds, np.array(counts), frames, counters, int(overflow))
+    return WarpRun(s, mode, steps, nworld, device, seconds, np.array(counts), frames, counters, int(overflow), seeds)

@@ -6,7 +6,8 @@ the platform's baseline CPU into the package's kernels/ folder (core/kernel_cach
 A child process with NUMBA_CPU_NAME=generic (SSE2 on x86-64, as the shipped callbacks) and the
 kernel cache writing into the emptied kernels/ folder runs WORKLOAD: the README's commands on short
 settings and every public function on one pair and on a batch large enough for the thread pool.
-Whatever they compile is what a fresh install loads instead of compiling; a kernel a later change
+Run from a checkout, the test suite's fast part follows (_test_kernels).  Whatever they compile is what a
+fresh install loads instead of compiling; a kernel a later change
 adds and the workload misses compiles on first use, announced (tests/test_startup.py checks that
 the README's commands compile nothing on a fresh install).
 """
@@ -131,6 +132,22 @@ def _workload():
         _commands(pathlib.Path(tmp))
 
 
+def _test_kernels(env, out):
+    """From a checkout: the kernels that the test suite's `-m "not slow"` part compiles beyond the
+    workload (internal kernels the tests call with their own signatures, ~1 min of compiling on a fresh
+    machine), into `out` as well.  Its verdicts are not looked at here (tests that check the shipped
+    folder itself fail while it is being written; CI runs the suite); kernels defined in test files
+    (keyed by their folder, other/) are dropped."""
+    tests = pathlib.Path(__file__).resolve().parents[2] / "tests"
+    if not tests.is_dir():
+        return
+    print("prebuild: the test suite's own kernels (pytest -m 'not slow', its verdicts ignored) ...", flush=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        cmd = [sys.executable, "-m", "pytest", "-q", "-m", "not slow", "-p", "no:cacheprovider", str(tests)]
+        subprocess.call(cmd, env=dict(env, TMPDIR=scratch), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    shutil.rmtree(out / "other", ignore_errors=True)
+
+
 def main(argv):
     if argv:
         print("usage: python -m ellipsim.app.prebuild", file=sys.stderr)
@@ -155,8 +172,9 @@ def main(argv):
             **{kernel_cache.BUILD_ENV: str(out)},
         )
         status = subprocess.call([sys.executable, "-m", "ellipsim.app.prebuild"], env=env)
-    if status:
-        return status
+        if status:
+            return status
+        _test_kernels(env, out)
     # out/mujoco: the callbacks' own kernels, which a compile of the callbacks loads (a platform
     # with these kernels but other sources than the prebuilt callbacks')
     size = kernel_cache.compress_shipped(out)

@@ -187,6 +187,7 @@ def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
     plain = _contacts(d)
     att = ew.attach(m)
     assert att.npairs > 0 and "attached" in repr(att)
+    assert att._counters.dtype == wp.int64  # totals over thousands of worlds and steps: int32 would wrap
     mjw.forward(m, d)
     got = _contacts(d)
     taken = _ellipsim_pairs(mjm, att)
@@ -458,6 +459,8 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
     [
         (["run", "handshake", "--worlds", "2"], "--worlds and --device are for --engine warp"),
         (["compare", "pile", "--engine", "warp", "--plot", "x.png"], "--plot and --between-frames are for"),
+        (["run", "pile", "--engine", "warp", "--mode", "filter"], "--mode filter is MuJoCo C's"),
+        (["run", "replay", "--engine", "warp", "--between-frames"], "--between-frames is for --engine mujoco"),
     ],
 )
 def test_engine_warp_mistakes_are_one_line_errors(argv, shown, capsys):

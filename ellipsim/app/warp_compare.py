@@ -1,16 +1,20 @@
 """`ellipsim compare ... --engine warp`: plain MuJoCo Warp's own contacts, every world, against the exact test.
 
-The scenario runs in N worlds on plain Warp (nothing attached).  At each compared step, every candidate
+The scenario runs in N worlds on plain Warp (nothing attached), from per-world layouts as `run --engine
+warp` starts them (warp_run.world_states).  At each compared step, every candidate
 sphere x ellipsoid and ellipsoid x ellipsoid pair of every world (the model's collision rules, as
 ellipsim.warp takes them) whose bounding spheres come within margin + gap gets ellipsim's CPU narrow
 phase on Warp's float32 poses widened to float64 (proven global maxima, or counted unproven); a pair the
 exact test puts within margin + gap that Warp left without a contact is missed, a Warp contact the exact
 test does not make is extra; on pairs both have, the distance error (over the pair's smallest
-semi-axis) and the normal's angle.
+semi-axis) and the normal's angle.  A pair is matched to Warp's contact whichever way round Warp names
+its geoms (SAP orders equal types by its sort); pairs Warp skips for sleeping bodies are not asked for;
+a step where Warp's candidate or contact buffer overflowed is counted (its misses are the buffer's).
 """
 
 import dataclasses
 
+import mujoco
 import numpy as np
 
 from ..core.distance.ellipsoid_pair import signed_distance
@@ -32,6 +36,7 @@ class WarpComparison:
     dist_err: np.ndarray  # per common contact, over r_min
     angle: np.ndarray  # per common contact, degrees
     unproven: int
+    overflow_steps: int = 0
 
     def summary(self, show):
         e = self.dist_err
@@ -47,6 +52,8 @@ class WarpComparison:
             )
             + (f"; {self.unproven} exact maxima unproven" if self.unproven else ""),
         ]
+        if self.overflow_steps:
+            lines.append(f"  warning: Warp's candidate or contact buffer overflowed at {self.overflow_steps} steps")
         for kind, rows in (("missed", self.missed), ("extra", self.extra)):
             for row in rows[:show]:
                 lines.append(
@@ -73,6 +80,7 @@ class WarpComparison:
             dist_err_max=float(e.max()) if e.size else None,
             normal_err_max_deg=float(self.angle.max()) if e.size else None,
             unproven=self.unproven,
+            overflow_steps=self.overflow_steps,
         )
 
 
@@ -84,8 +92,6 @@ def _dists(kind, row):
 
 def compare(s, *, steps, nworld, device="cpu", progress=None):
     """Step scenario s in nworld worlds on plain MuJoCo Warp and check its contacts (module docstring)."""
-    import mujoco
-
     wp, mjw, ew = warp_run._warp()
     if s.kinematic:
         raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
@@ -97,28 +103,32 @@ def compare(s, *, steps, nworld, device="cpu", progress=None):
         m = mjw.put_model(model)
         naconmax = nworld * max(64, warp_run.CONTACTS_PER_GEOM * model.ngeom)
         d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
-        pairs = ew.candidate_pairs(m)
-    return _run(s, model, control, m, d, pairs, steps, nworld, naconmax, device, progress)
+        qpos, _ = warp_run.world_states(s, model, data, nworld)
+        d.qpos.assign(qpos.astype(np.float32))
+        pairs, pairid = ew.candidate_pairs(m, pair_ids=True)
+    return _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress)
 
 
-def _run(s, model, control, m, d, pairs, steps, nworld, naconmax, device, progress):
+def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress):
     wp, mjw, _ = warp_run._warp()
     g1, g2 = pairs[:, 0], pairs[:, 1]
     sphere = model.geom_type == 2
     radii = np.where(sphere[:, None], model.geom_size[:, :1], model.geom_size).astype(np.float32)
     rbound = radii.max(1)
-    reach = (
-        rbound[g1]
-        + rbound[g2]
-        + model.geom_margin[g1]
-        + model.geom_margin[g2]
-        + model.geom_gap[g1]
-        + model.geom_gap[g2]
-    )
-    limit = (model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]).astype(np.float32)
+    # margin + gap as Warp takes them (collision_core.contact_margin_gap): an explicit pair's own, else the sums
+    explicit = pairid[:, 0]
+    own = np.maximum(explicit, 0)
+    sums = model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]
+    pair_sums = model.pair_margin[own] + model.pair_gap[own] if model.npair else np.zeros(len(pairs))
+    limit = np.where(explicit >= 0, pair_sums, sums).astype(np.float32)
+    reach = rbound[g1] + rbound[g2] + limit
+    sleep = bool(model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP)
+    asleep, static = int(mujoco.mjtSleepState.mjS_ASLEEP), int(mujoco.mjtSleepState.mjS_STATIC)
+    b1, b2 = model.geom_bodyid[g1], model.geom_bodyid[g2]
+    overflow = 0
     missed, extra, errs, angles = [], [], [], []
     checked = exact_n = unproven = 0
-    index = {(int(a), int(b)): k for k, (a, b) in enumerate(pairs)}
+    index = {(min(int(a), int(b)), max(int(a), int(b))): k for k, (a, b) in enumerate(pairs)}
     with wp.ScopedDevice(device):
         for k in range(steps):
             if model.nu:
@@ -132,11 +142,19 @@ def _run(s, model, control, m, d, pairs, steps, nworld, naconmax, device, progre
             )
             warp = {}
             for i in range(n):
-                key = index.get((int(cg[i, 0]), int(cg[i, 1])))
+                key = index.get((int(cg[i].min()), int(cg[i].max())))
                 if key is not None:
-                    warp[(int(cw[i]), key)] = (float(cd[i]), cf[i, 0])
+                    flip = int(cg[i, 0]) != int(pairs[key, 0])  # named the other way round: normal reversed
+                    warp[(int(cw[i]), key)] = (float(cd[i]), -cf[i, 0] if flip else cf[i, 0])
+            overflow += int(d.nacon.numpy()[0]) > naconmax or int(d.ncollision.numpy()[0]) > naconmax
+            awake = d.body_awake.numpy() if sleep else None
             for w in range(nworld):
-                near = np.nonzero(np.linalg.norm(xpos[w, g2] - xpos[w, g1], axis=1) <= reach)[0]
+                ok = np.linalg.norm(xpos[w, g2] - xpos[w, g1], axis=1) <= reach
+                if sleep:  # the pairs Warp's broad phase skips (_nxn_broadphase)
+                    s1, s2 = awake[w, b1], awake[w, b2]
+                    skip = (s1 == asleep) & ((s2 == asleep) | (s2 == static)) | (s2 == asleep) & (s1 == static)
+                    ok &= ~skip
+                near = np.nonzero(ok)[0]
                 keys = set(near.tolist()) | {p for (ww, p) in warp if ww == w}
                 sel = np.array(sorted(keys), dtype=int)
                 if sel.size == 0:
@@ -164,5 +182,16 @@ def _run(s, model, control, m, d, pairs, steps, nworld, naconmax, device, progre
             if progress:
                 progress(k + 1, steps)
     return WarpComparison(
-        s.name, nworld, steps, len(pairs), checked, exact_n, missed, extra, np.array(errs), np.array(angles), unproven
+        s.name,
+        nworld,
+        steps,
+        len(pairs),
+        checked,
+        exact_n,
+        missed,
+        extra,
+        np.array(errs),
+        np.array(angles),
+        unproven,
+        overflow,
     )

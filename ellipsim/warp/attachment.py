@@ -23,9 +23,16 @@ Warp: a sensor reads Warp's own collision record).  Capsule, box and
 cylinder x ellipsoid stay with Warp's GJK/EPA for now (their ports of core/pairs are not written).
 
 Graph capture: the hook launches one kernel on arrays made at attach (pair table, counters); it makes
-no array, reads nothing back to the host and takes no branch on device data, so it is capturable on
-CUDA.  On CPU Warp does not capture; tests/test_warp.py checks that a call makes no new array and
-keeps every array the attachment launches with, and the bench measures it on CUDA where one is present.
+no array, reads nothing back to the host and takes no branch on device data, which is what capture on
+CUDA needs.  On CPU Warp does not capture, and no capture has been run yet (no GPU here):
+tests/test_warp.py checks that a call makes no array and reads nothing back.
+
+Geom order: a pair's geoms as Warp's NXN broad phase orders them (lower type first, then index); under
+SAP, Warp orders two geoms of one type by its sort, so its contact for such a pair may name them the
+other way round, with the opposite normal: the same contact.
+
+Surface velocity: collision() fills contact.surfacevel before the hook, for its own contacts; the hook
+runs Warp's _contact_surfacevel again over all of them, ellipsim's included.
 """
 
 import sys
@@ -67,9 +74,12 @@ def _selection(geom_type, pairs, pairid):
     return take, ordered.astype(np.int32).reshape(-1, 2)
 
 
-def candidate_pairs(m):
-    """The pairs attach(m) would take from the mujoco_warp Model m, as Attachment.pairs, without attaching."""
-    return _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), m.nxn_pairid_filtered.numpy())[1]
+def candidate_pairs(m, *, pair_ids=False):
+    """The pairs attach(m) would take from the mujoco_warp Model m, as Attachment.pairs, without attaching;
+    pair_ids: also their pair ids (k, 2): entry 0 the explicit <pair>'s index (its margin, gap) or -1."""
+    pairid = m.nxn_pairid_filtered.numpy()
+    take, ordered = _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), pairid)
+    return (ordered, pairid[take].reshape(-1, 2)) if pair_ids else ordered
 
 
 def _counts_without(m, lo, hi):
@@ -81,15 +91,14 @@ def _counts_without(m, lo, hi):
     from mujoco_warp._src.collision_driver import MJ_COLLISION_TABLE
 
     ntypes = len(mjw_types.GeomType)
+    table = dict(MJ_COLLISION_TABLE)
+    if m.opt.disableflags & mjw_types.DisableBit.NATIVECCD:  # as collision_driver._narrowphase
+        table[(mjw_types.GeomType.BOX, mjw_types.GeomType.BOX)] = mjw_types.CollisionType.PRIMITIVE
     before = list(m.geom_pair_type_count)
     after = list(before)
     for a, b in zip(lo, hi):
         after[_trid(int(a), int(b), ntypes)] -= 1
-    convex = [
-        _trid(int(a), int(b), ntypes)
-        for (a, b), kind in MJ_COLLISION_TABLE.items()
-        if kind == mjw_types.CollisionType.CONVEX
-    ]
+    convex = [_trid(int(a), int(b), ntypes) for (a, b), kind in table.items() if kind == mjw_types.CollisionType.CONVEX]
     boxbox = _trid(int(mjw_types.GeomType.BOX), int(mjw_types.GeomType.BOX), ntypes)
     nccd = lambda c: sum(c[i] for i in convex)  # noqa: E731
     box_only_before = before[boxbox] > 0 and before[boxbox] == nccd(before)
@@ -122,7 +131,7 @@ class Attachment:
         self.npairs = len(self.pairs)
         self._pair_geom = wp.array(self.pairs.reshape(-1, 2), dtype=wp.vec2i, device=device)
         self._pair_id = wp.array(pairid[take].reshape(-1, 2), dtype=wp.vec2i, device=device)
-        self._counters = wp.zeros(kernels.NCOUNTERS, dtype=int, device=device)
+        self._counters = wp.zeros(kernels.NCOUNTERS, dtype=wp.int64, device=device)  # (int32 wraps at 4096 worlds)
         # this model's tables without the taken pairs
         keep = ~take
         ngeom = len(geom_type)
@@ -220,6 +229,26 @@ class Attachment:
             ],
             device=m.geom_type.device,
         )
+        if m.flg_surfacevel:  # collision() ran this before the hook, over its own contacts: again, over ours too
+            from mujoco_warp._src.collision_driver import _contact_surfacevel
+
+            wp.launch(
+                _contact_surfacevel,
+                dim=d.naconmax,
+                inputs=[
+                    m.geom_surfacevel,
+                    d.geom_xpos,
+                    d.geom_xmat,
+                    c.pos,
+                    c.frame,
+                    c.geom,
+                    c.worldid,
+                    d.naconmax,
+                    d.nacon,
+                ],
+                outputs=[c.surfacevel],
+                device=m.geom_type.device,
+            )
 
     # the user's side -----------------------------------------------------------------------------
 

@@ -274,7 +274,7 @@ def ellipsoid_pair(
         for k in range(12):
             axis = _axis(k % 6)
             if k >= 6:
-                axis = U * axis  # B's axes, in A's frame
+                axis = _unit(U * axis)  # B's axes, in A's frame (U is float32-orthonormal only: normalised)
             m, v, r2 = _newton(axis, e, a2, M, scale, MAX_ITER, cutoff)
             v = _sigma(m, e, a2, M)
             if r2 == APART:
@@ -370,7 +370,7 @@ def contact_kernel(enable_sleep, incremental, per_thread):
         contact_adhesion_out: wp.array[float],
         nacon_out: wp.array[int],
         # the attachment's counters
-        counters_out: wp.array[int],
+        counters_out: wp.array[wp.int64],
     ):
         worldid, t = wp.tid()
         for j in range(wp.static(per_thread)):  # PAIRS_PER_THREAD
@@ -411,12 +411,13 @@ def contact_kernel(enable_sleep, incremental, per_thread):
                 + F64(gap)
             )
             dd = p2 - p1
-            if wp.dot(dd, dd) > reach * reach and reach >= F64(0.0):
+            if not (wp.dot(dd, dd) <= reach * reach):  # (as Warp's sphere filter: a non-finite pose too)
                 continue
-            wp.atomic_add(counters_out, C_PAIRS, 1)
+            wp.atomic_add(counters_out, C_PAIRS, wp.int64(1))
             sid = worldid % geom_size.shape[0]
-            # sigma's rounding (<= 34 u S, ellipsoid_pair.sigma_lower_bound) is far below this allowance
-            cutoff = F64(margin) + F64(gap) + F64(1e-12) * reach
+            # an allowance far above sigma's rounding through M (~u max r_B^2 / h_B, sphere_newton.sigma): past it
+            # the pair is proven beyond margin + gap; below it, the distance is computed and Warp's test decides
+            cutoff = F64(margin) + F64(gap) + F64(1e-9) * reach
             status, dist, normal, pos, deep = ellipsoid_pair(
                 p1,
                 _widen33(geom_xmat_in[worldid, g1]),
@@ -429,10 +430,11 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             if status == APART:
                 continue  # proven beyond margin + gap: Warp would make no contact either
             if status != GLOBAL:
-                wp.atomic_add(counters_out, C_UNPROVEN, 1)
+                wp.atomic_add(counters_out, C_UNPROVEN, wp.int64(1))
             if deep != 0:
-                wp.atomic_add(counters_out, C_DEEP, 1)
-            if not (dist < F64(margin) + F64(gap)):
+                wp.atomic_add(counters_out, C_DEEP, wp.int64(1))
+            dist32 = wp.float32(dist)
+            if not (dist32 < margin + gap):  # write_contact's test, in float32 as Warp makes it
                 continue
             condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
                 geom_condim,
@@ -455,13 +457,12 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             # write_contact's semantics (collision_core.py), the slot kept to count an overflow: the pair
             # table holds no collision-sensor pair and no excluded one (attachment.py), so a detected contact
             # is a constraint contact, active when dist < margin or adhesive within the gap
-            dist32 = wp.float32(dist)
             if (adhesion != 0.0) and (dist32 >= margin):
                 condim = 1
             cid = wp.atomic_add(nacon_out, 0, 1)
-            wp.atomic_add(counters_out, C_CONTACTS, 1)
+            wp.atomic_add(counters_out, C_CONTACTS, wp.int64(1))
             if cid >= naconmax_in:
-                wp.atomic_add(counters_out, C_OVERFLOW, 1)
+                wp.atomic_add(counters_out, C_OVERFLOW, wp.int64(1))
                 continue
             contact_dist_out[cid] = dist32
             contact_pos_out[cid] = wp.vec3(wp.float32(pos[0]), wp.float32(pos[1]), wp.float32(pos[2]))

@@ -2,6 +2,7 @@
 
 import time
 
+from ..errors import UserError
 from .common import (
     bar,
     between,
@@ -24,6 +25,10 @@ def run(args):
     from .. import simulate
 
     check_engine(args)
+    if args.engine == "warp" and args.mode == "filter":
+        raise UserError("--mode filter is MuJoCo C's; on Warp, --mode narrowphase (ellipsim attached) or builtin")
+    if args.engine == "warp" and args.between_frames:
+        raise UserError("--between-frames is for --engine mujoco (not yet for --engine warp)")
     s = load_scenario(args)
     if args.engine == "warp":
         return _run_warp(args, s)

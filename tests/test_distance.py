@@ -346,7 +346,9 @@ def parallel_spheroids(draw):
     return Ellipsoids([[0.0, 0.0, 0.0]], [Ra], [ra]), Ellipsoids([c], [Rb], [rb])
 
 
-@settings(max_examples=150, deadline=None)
+# 50 examples: the search for odd cases; the bulk (300 seeded pairs, all GLOBAL, 20 of them against the
+# reference) is the seeded test below
+@settings(max_examples=50, deadline=None)
 @given(parallel_spheroids())
 def test_parallel_spheroids_are_proven(pair):
     """Issue 18: spheroids with equal or shared-axis rotations (every grid, line and keyframe start)
@@ -396,7 +398,9 @@ def tilted_spheroids(draw):
     return a, Ellipsoids(b.centers, [turn @ b.rotations[0]], b.radii)
 
 
-@settings(max_examples=120, deadline=None)
+# 40 examples: the search for odd cases; the bulk (240 seeded pairs, all GLOBAL, 60 of them against the
+# reference) is the seeded test below
+@settings(max_examples=40, deadline=None)
 @given(tilted_spheroids())
 def test_nearly_parallel_spheroids_are_proven(pair):
     """Issue 18: spheroids whose axes are nearly parallel (a keyframe a hair off, a joint at 1e-6 rad)

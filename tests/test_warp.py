@@ -22,8 +22,8 @@ from ellipsim.warp import kernels
 
 SPHERE, ELLIPSOID = 2, 4
 
-#: Tests that run mjw.forward or mjw.step: on a machine where Warp has not compiled them yet, minutes of
-#: compiling (pytest.ini's slow marker; they stay in the README's test run).
+#: Tests that run mjw.collision, mjw.forward or mjw.step: on a machine where Warp has not compiled them
+#: yet, 20 s to minutes of compiling (pyproject's slow marker; they stay in the README's test run).
 SLOW = pytest.mark.slow
 
 
@@ -252,6 +252,7 @@ def test_a_model_without_ellipsoid_pairs_steps_bit_identically_and_two_models_ar
     np.testing.assert_array_equal(d3.qpos.numpy(), d4.qpos.numpy())  # m3 ran plain Warp
 
 
+@SLOW
 def test_detach_restores_the_tables_and_the_previous_hook_and_errors_are_clear():
     mjm = _pile(n=4)
     m, _ = _warp(mjm)
@@ -278,6 +279,7 @@ def test_detach_restores_the_tables_and_the_previous_hook_and_errors_are_clear()
             att._hook(m, d)  # not called by mujoco_warp's collision()
 
 
+@SLOW
 def test_overflow_is_counted_and_nothing_is_written_past_naconmax():
     mjm = _pile()
     m, d = _warp(mjm, nworld=2, naconmax=512)
@@ -298,6 +300,7 @@ def test_overflow_is_counted_and_nothing_is_written_past_naconmax():
             assert d2.contact.dist.shape[0] == small
 
 
+@SLOW
 def test_sleeping_incremental_pass_adds_only_the_pairs_the_first_pass_skipped():
     mjm = _pile(n=8, sleep=True)
     m, d = _warp(mjm, nworld=2)
@@ -335,6 +338,7 @@ def test_sap_broad_phase_gives_the_nxn_contacts():
     assert out[0] == out[1] and len(out[0]) > 0
 
 
+@SLOW
 def test_the_hook_allocates_nothing_and_reads_nothing_back(monkeypatch):
     """What graph capture on CUDA needs, checked on CPU: launch makes no array and calls no .numpy()."""
     mjm = _pile(n=6)
@@ -362,6 +366,7 @@ def test_import_ellipsim_loads_no_warp_and_a_missing_extra_names_it():
     assert "pip install 'ellipsim[warp]'" in out.stdout and len(out.stdout.strip().splitlines()) == 1
 
 
+@SLOW
 def test_an_explicit_pair_is_taken_with_its_own_margin():
     mjm = mujoco.MjModel.from_xml_string(
         """<mujoco><worldbody>
@@ -394,6 +399,7 @@ def _epa_iterations(m):
     return 16 if box == sum(m.geom_pair_type_count[i] for i in convex) else m.opt.ccd_iterations
 
 
+@SLOW
 def test_box_pairs_keep_warps_own_epa_settings_beside_an_attachment():
     """Warp runs box x box EPA for 16 iterations when they are all its convex pairs (collision_convex.py):
     taking the ellipsoid pairs away must not switch that on."""

@@ -5,7 +5,8 @@ called at the end of collision_driver.collision with all of d writable.  An atta
 
 * takes its pairs away from the built-in narrow phase by editing this model's own pair tables
   (nxn_geom_pair_filtered / nxn_pairid_filtered for the NXN broad phase, entry 0 of nxn_pairid set to
-  -2 for the SAP ones, geom_pair_type_count so no kernel is built for a type left without pairs); no
+  -2 for the SAP ones, geom_pair_type_count so no kernel is built for a type left without pairs, where
+  that changes nothing else: _counts_without); no
   module global of mujoco_warp is touched, so other models run plain Warp bit for bit;
 * in the hook, launches one kernel (kernels.py) over all worlds and its pairs that appends their
   contacts to d.contact with write_contact's semantics (after the built-in ones, so the contact
@@ -22,7 +23,8 @@ explicit <pair>s (their margin, gap and material), except pairs with a collision
 Warp: a sensor reads Warp's own collision record).  Capsule, box and
 cylinder x ellipsoid stay with Warp's GJK/EPA for now (their ports of core/pairs are not written).
 
-Graph capture: the hook launches one kernel on arrays made at attach (pair table, counters); it makes
+Graph capture: the hook launches one kernel (two on a model with surface velocities) on arrays made at
+attach (pair table, counters) and the model's and data's own; it makes
 no array, reads nothing back to the host and takes no branch on device data, which is what capture on
 CUDA needs.  On CPU Warp does not capture, and no capture has been run yet (no GPU here):
 tests/test_warp.py checks that a call makes no array and reads nothing back.

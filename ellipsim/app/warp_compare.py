@@ -96,15 +96,8 @@ def compare(s, *, steps, nworld, device="cpu", progress=None):
     if s.kinematic:
         raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
     simulate.check_steps(s, steps)
-    model, data = simulate.build(s)
-    control = simulate.controller(model, data, s)
-    mujoco.mj_forward(model, data)
+    model, _, control, m, d, naconmax, _ = warp_run.setup(s, nworld, device)
     with wp.ScopedDevice(device):
-        m = mjw.put_model(model)
-        naconmax = nworld * max(64, warp_run.CONTACTS_PER_GEOM * model.ngeom)
-        d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
-        qpos, _ = warp_run.world_states(s, model, data, nworld)
-        d.qpos.assign(qpos.astype(np.float32))
         pairs, pairid = ew.candidate_pairs(m, pair_ids=True)
     return _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress)
 
@@ -128,24 +121,30 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
     overflow = 0
     missed, extra, errs, angles = [], [], [], []
     checked = exact_n = unproven = 0
-    index = {(min(int(a), int(b)), max(int(a), int(b))): k for k, (a, b) in enumerate(pairs)}
+    ngeom = model.ngeom
+    keys = np.minimum(g1, g2).astype(np.int64) * ngeom + np.maximum(g1, g2)  # a pair whichever way round
+    order = np.argsort(keys)
+    rmin = np.minimum(radii[g1].min(1), radii[g2].min(1))
+    wide = lambda x: x.astype(np.float64)  # noqa: E731
     with wp.ScopedDevice(device):
         for k in range(steps):
-            if model.nu:
-                ctrl = np.asarray(control(k * s.timestep), np.float32)
-                d.ctrl.assign(np.broadcast_to(ctrl, (nworld, ctrl.size)))
+            warp_run.send_controls(d, model, control, k * s.timestep)
             mjw.step(m, d)
             xpos, xmat = d.geom_xpos.numpy(), d.geom_xmat.numpy()
             n = min(int(d.nacon.numpy()[0]), naconmax)
             cw, cg, cd, cf = (
                 a.numpy()[:n] for a in (d.contact.worldid, d.contact.geom, d.contact.dist, d.contact.frame)
             )
-            warp = {}
-            for i in range(n):
-                key = index.get((int(cg[i].min()), int(cg[i].max())))
-                if key is not None:
-                    flip = int(cg[i, 0]) != int(pairs[key, 0])  # named the other way round: normal reversed
-                    warp[(int(cw[i]), key)] = (float(cd[i]), -cf[i, 0] if flip else cf[i, 0])
+            # Warp's contacts on the candidate pairs, per (world, pair): distance and normal (from pairs[:, 0])
+            ckey = np.minimum(cg[:, 0], cg[:, 1]).astype(np.int64) * ngeom + np.maximum(cg[:, 0], cg[:, 1])
+            at = np.minimum(np.searchsorted(keys, ckey, sorter=order), len(keys) - 1) if len(keys) else ckey * 0
+            hit = (keys[order[at]] == ckey) if len(keys) else np.zeros(n, bool)
+            pk, cw = order[at[hit]], cw[hit]
+            flip = cg[hit, 0] != g1[pk]  # named the other way round: normal reversed
+            wdist = np.full((nworld, len(pairs)), np.nan)
+            wnormal = np.zeros((nworld, len(pairs), 3))
+            wdist[cw, pk] = cd[hit]
+            wnormal[cw, pk] = np.where(flip[:, None], -cf[hit, 0], cf[hit, 0])
             overflow += int(d.nacon.numpy()[0]) > naconmax or int(d.ncollision.numpy()[0]) > naconmax
             awake = d.body_awake.numpy() if sleep else None
             for w in range(nworld):
@@ -154,31 +153,29 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
                     s1, s2 = awake[w, b1], awake[w, b2]
                     skip = (s1 == asleep) & ((s2 == asleep) | (s2 == static)) | (s2 == asleep) & (s1 == static)
                     ok &= ~skip
-                near = np.nonzero(ok)[0]
-                keys = set(near.tolist()) | {p for (ww, p) in warp if ww == w}
-                sel = np.array(sorted(keys), dtype=int)
+                sel = np.flatnonzero(ok | ~np.isnan(wdist[w]))
                 if sel.size == 0:
                     continue
-                wide = lambda x: x.astype(np.float64)  # noqa: E731
                 dist, normal, _, status = signed_distance(
                     Ellipsoids(wide(xpos[w, g1[sel]]), wide(xmat[w, g1[sel]]), wide(radii[g1[sel]])),
                     Ellipsoids(wide(xpos[w, g2[sel]]), wide(xmat[w, g2[sel]]), wide(radii[g2[sel]])),
                 )
                 checked += sel.size
                 unproven += int(np.count_nonzero(status))
-                for j, p in enumerate(sel):
-                    want = dist[j] < limit[p]
-                    exact_n += bool(want)
-                    got = warp.get((w, int(p)))
-                    if want and got is None:
-                        missed.append((k, w, int(g1[p]), int(g2[p]), float(dist[j])))
-                    elif got is not None and not want:
-                        extra.append((k, w, int(g1[p]), int(g2[p]), got[0], float(dist[j])))
-                    elif got is not None:
-                        rmin = min(radii[g1[p]].min(), radii[g2[p]].min())
-                        errs.append(abs(got[0] - dist[j]) / rmin)
-                        a, b = np.asarray(got[1], float), normal[j]
-                        angles.append(np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b)))
+                want = dist < limit[sel]
+                got = ~np.isnan(wdist[w, sel])
+                exact_n += int(want.sum())
+                for j in np.flatnonzero(want & ~got):
+                    p = sel[j]
+                    missed.append((k, w, int(g1[p]), int(g2[p]), float(dist[j])))
+                for j in np.flatnonzero(got & ~want):
+                    p = sel[j]
+                    extra.append((k, w, int(g1[p]), int(g2[p]), float(wdist[w, p]), float(dist[j])))
+                both = np.flatnonzero(got & want)
+                p = sel[both]
+                errs.append(np.abs(wdist[w, p] - dist[both]) / rmin[p])
+                na, nb = wnormal[w, p], normal[both]
+                angles.append(np.degrees(np.arctan2(np.linalg.norm(np.cross(na, nb), axis=1), (na * nb).sum(1))))
             if progress:
                 progress(k + 1, steps)
     return WarpComparison(
@@ -190,8 +187,8 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
         exact_n,
         missed,
         extra,
-        np.array(errs),
-        np.array(angles),
+        np.concatenate(errs) if errs else np.zeros(0),
+        np.concatenate(angles) if angles else np.zeros(0),
         unproven,
         overflow,
     )

@@ -71,6 +71,36 @@ def world_states(s, model, data, nworld):
     return qpos, distinct
 
 
+def setup(s, nworld, device):
+    """(model, data, control, m, d, naconmax, seeds): scenario s built (simulate.build) and put on Warp
+    in nworld worlds from world_states; d.naconmax = nworld x max(64, CONTACTS_PER_GEOM ngeom)."""
+    wp, mjw, _ = _warp()
+    model, data = simulate.build(s)
+    control = simulate.controller(model, data, s)
+    mujoco.mj_forward(model, data)
+    qpos, seeds = world_states(s, model, data, nworld)
+    naconmax = nworld * max(64, CONTACTS_PER_GEOM * model.ngeom)
+    with wp.ScopedDevice(device):
+        m = mjw.put_model(model)
+        d = put_worlds(model, data, qpos, naconmax)
+    return model, data, control, m, d, naconmax, seeds
+
+
+def put_worlds(model, data, qpos, naconmax):
+    """A mujoco_warp Data of data's state in len(qpos) worlds, world w at qpos[w] (the current device)."""
+    _, mjw, _ = _warp()
+    d = mjw.put_data(model, data, nworld=len(qpos), naconmax=naconmax)
+    d.qpos.assign(np.asarray(qpos, np.float32))
+    return d
+
+
+def send_controls(d, model, control, t):
+    """The scenario's controls at time t to every world (nothing for a model without actuators)."""
+    if model.nu:
+        ctrl = np.asarray(control(t), np.float32)
+        d.ctrl.assign(np.broadcast_to(ctrl, (d.nworld, ctrl.size)))
+
+
 @dataclasses.dataclass
 class WarpRun:
     """What `run` returns: stepping wall time, steps, worlds, per-frame Warp contacts per world (F, N),
@@ -114,7 +144,7 @@ class WarpRun:
             )
         if self.overflow_frames:
             lines.append(
-                f"  warning: Warp's contact buffer overflowed at {self.overflow_frames} frames (raise naconmax)"
+                f"  warning: Warp's candidate or contact buffer overflowed at {self.overflow_frames} frames (contacts lost there)"
             )
         return lines
 
@@ -128,10 +158,6 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
     if isinstance(nworld, bool) or not isinstance(nworld, int) or nworld < 1:
         raise ValueError(f"nworld must be a positive integer, got {nworld!r}")
     simulate.check_steps(s, steps)
-    model, data = simulate.build(s)
-    control = simulate.controller(model, data, s)
-    mujoco.mj_forward(model, data)
-    mirror = mujoco.MjData(model)
     every = simulate.record_every(s)
     chunks, counts, overflow = [], [], 0
 
@@ -139,16 +165,13 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
         f = chunk.frames
         chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
 
+    model, data, control, m, d, naconmax, seeds = setup(s, nworld, device)
+    mirror = mujoco.MjData(model)
+    start = d.qpos.numpy()
     with wp.ScopedDevice(device):
-        m = mjw.put_model(model)
-        naconmax = nworld * max(64, CONTACTS_PER_GEOM * model.ngeom)
-        qpos, seeds = world_states(s, model, data, nworld)
-        d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
         att = ew.attach(m) if mode != "builtin" else None
-        held = model.nu == 0  # no actuators: nothing to send per step
         mjw.step(m, d)  # compiles (minutes on a first CPU run), before the loop's timer
-        d = mjw.put_data(model, data, nworld=nworld, naconmax=naconmax)
-        d.qpos.assign(qpos.astype(np.float32))
+        d = put_worlds(model, data, start, naconmax)  # the initial state again
         if att:
             att.reset_counters()
         loop = FrameLoop(model, recorder=recorder, title=s.name, on_chunk=on_chunk)
@@ -157,9 +180,7 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
 
         def step(k):
             nonlocal overflow, frame_seconds
-            if not held:
-                ctrl = np.asarray(control(k * s.timestep), np.float32)
-                d.ctrl.assign(np.broadcast_to(ctrl, (nworld, ctrl.size)))
+            send_controls(d, model, control, k * s.timestep)
             mjw.step(m, d)
             if k % every == 0:
                 wp.synchronize()

@@ -16,11 +16,12 @@ from scipy.spatial.transform import Rotation as Rot
 import ellipsim
 import ellipsim.warp as ew
 from ellipsim.core.ellipsoids import orthonormality_defect
+from ellipsim.core.pairs import box, capsule
 from ellipsim.core.samples import generic_pairs
 from ellipsim.core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
 from ellipsim.warp import kernels
 
-SPHERE, ELLIPSOID = 2, 4
+SPHERE, CAPSULE, ELLIPSOID, BOX = 2, 3, 4, 6
 
 #: Tests that run mjw.collision, mjw.forward or mjw.step: on a machine where Warp has not compiled them
 #: yet, 20 s to minutes of compiling (pyproject's slow marker; they stay in the README's test run).
@@ -109,6 +110,36 @@ def test_spheres_against_ellipsoids():
     )
 
 
+def _cpu_pair(kind, ce, Re, ra, ck, Rk, rk):
+    """core/pairs/capsule.py or box.py on float32 poses widened to float64, per pair: (dist, normal, pos,
+    status)."""
+    kernel = capsule.capsule_ellipsoid if kind == "capsule" else box.box_ellipsoid
+    w = lambda x, i: tuple(float(v) for v in np.asarray(x[i], np.float32).ravel())  # noqa: E731
+    out = [kernel((w(ce, i), w(Re, i), w(ra, i)), (w(ck, i), w(Rk, i), w(rk, i))) for i in range(len(ce))]
+    return tuple(np.array([o[k] for o in out]) for k in (1, 2, 3, 0))
+
+
+@pytest.mark.parametrize("offset", [0.0, 100.0])
+@pytest.mark.parametrize("kind", ["capsule", "box"])
+def test_capsules_and_boxes_are_the_cpu_kernels_on_the_same_float32_poses(kind, offset):
+    """test_capsule's and test_box's categories (separated, touching at 0 and +-1e-9, shallow, deep, and
+    each type's own: parallel axes, capsule inside, ellipsoid around the segment; a flush face, a box
+    inside, a floor box), near the origin and 100 m away: the CPU's proven maximum (certified or
+    enumerated), to the rounding of a few operations, every status GLOBAL."""
+    make_poses = __import__(f"test_{kind}").make_poses
+    distances = kernels.capsule_distances if kind == "capsule" else kernels.box_distances
+    P, cat, _ = make_poses(seed=5, per=25)
+    ce, Re, ra, ck, Rk, rk = _f32(P["cE"] + offset, P["RE"], P["rE"], P["cK"] + offset, P["RK"], P["sK"])
+    dw, nw, pw, sw = distances(ce, Re, ra, ck, Rk, rk)
+    dc, nc, pc, _ = _cpu_pair(kind, ce, Re, ra, ck, Rk, rk)
+    size = np.maximum(ra.max(1), rk.max(1)).astype(float) + np.abs(ck - ce).sum(1)
+    assert np.all(sw == kernels.GLOBAL)
+    np.testing.assert_array_less(np.abs(dw - dc), 1e-13 * size)
+    np.testing.assert_array_less(np.linalg.norm(nw - nc, axis=1), 1e-7)
+    np.testing.assert_array_less(np.linalg.norm(pw - pc, axis=1), 1e-7 * size)
+    assert (dw < 0).sum() > 40 and (dw > 0).sum() > 20  # deep, shallow and apart pairs all present
+
+
 def test_pair_distances_checks_its_shapes():
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
         kernels.pair_distances(
@@ -131,14 +162,18 @@ PILE = """
 
 def _pile(n=8, seed=0, sleep=False, extra=""):
     """n free bodies, each an ellipsoid (some a sphere, one with a margin), in a heap that overlaps,
-    and a box and a capsule that stay with Warp."""
+    a box and a capsule among them, and a box and a capsule apart that stay with Warp (x box, x plane)."""
     rng = np.random.default_rng(seed)
     bodies = []
     for i in range(n):
-        x, y, z = rng.uniform(-0.15, 0.15), rng.uniform(-0.15, 0.15), 0.12 + 0.09 * i
+        x, y, z = rng.uniform(-0.12, 0.12), rng.uniform(-0.12, 0.12), 0.12 + 0.08 * i
         euler = " ".join(f"{v:.3f}" for v in rng.uniform(-90, 90, 3))
         if i % 4 == 3:
             geom = f'<geom type="sphere" size="{rng.uniform(0.04, 0.08):.3f}"/>'
+        elif i == 1:
+            geom = f'<geom type="box" size="{rng.uniform(0.03, 0.08):.3f} {rng.uniform(0.03, 0.08):.3f} .04"/>'
+        elif i % 4 == 1:
+            geom = f'<geom type="capsule" size="{rng.uniform(0.02, 0.05):.3f} {rng.uniform(0.03, 0.1):.3f}"/>'
         else:
             size = " ".join(f"{v:.3f}" for v in rng.uniform(0.03, 0.14, 3))
             margin = ' margin="0.01"' if i == 2 else ""
@@ -199,12 +234,31 @@ def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
     expected = []
     for w in range(d.nworld):
         for g1, g2 in att.pairs:
-            dist, nrm, pos, st = _cpu(xpos[w, g1], xmat[w, g1], radii(g1), xpos[w, g2], xmat[w, g2], radii(g2))
+            one = lambda a, g: a[w, g][None]  # noqa: E731
+            if mjm.geom_type[g1] == CAPSULE:  # (g1 the capsule: the CPU kernel takes the ellipsoid first)
+                dist, *_ = _cpu_pair(
+                    "capsule",
+                    one(xpos, g2),
+                    one(xmat, g2),
+                    size[g2][None],
+                    one(xpos, g1),
+                    one(xmat, g1),
+                    size[g1][None],
+                )
+            elif mjm.geom_type[g2] == BOX:
+                dist, *_ = _cpu_pair(
+                    "box", one(xpos, g1), one(xmat, g1), size[g1][None], one(xpos, g2), one(xmat, g2), size[g2][None]
+                )
+            else:
+                dist, nrm, pos, st = _cpu(xpos[w, g1], xmat[w, g1], radii(g1), xpos[w, g2], xmat[w, g2], radii(g2))
             margin = mjm.geom_margin[g1] + mjm.geom_margin[g2] + mjm.geom_gap[g1] + mjm.geom_gap[g2]
             if dist[0] < margin:
                 expected.append((w, int(g1), int(g2), float(np.float32(dist[0]))))
     mine = [c[:4] for c in got if (c[1], c[2]) in taken]
     assert len(expected) >= 3 * d.nworld  # the heap overlaps
+    assert {int(mjm.geom_type[g]) for g in att.pairs.ravel()} == {SPHERE, CAPSULE, ELLIPSOID, BOX}
+    kinds = {(int(mjm.geom_type[e[1]]), int(mjm.geom_type[e[2]])) for e in expected}
+    assert (CAPSULE, ELLIPSOID) in kinds and (ELLIPSOID, BOX) in kinds  # a capsule and a box in contact
     assert sorted(mine) == sorted(expected)
     assert att.counters["contacts"] == len(expected) and att.counters["overflow"] == 0
     att.detach()

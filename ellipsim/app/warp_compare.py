@@ -3,7 +3,7 @@
 The scenario runs in N worlds on plain Warp (nothing attached), from per-world layouts as `run --engine
 warp` starts them (warp_run.world_states).  At each compared step, every candidate
 sphere x ellipsoid and ellipsoid x ellipsoid pair of every world (the model's collision rules, as
-ellipsim.warp takes them) whose bounding spheres come within margin + gap gets ellipsim's CPU narrow
+ellipsim.warp takes them; capsule pairs are not checked here, as `compare` on MuJoCo C checks none) whose bounding spheres come within margin + gap gets ellipsim's CPU narrow
 phase on Warp's float32 poses widened to float64 (proven global maxima, or counted unproven); a pair the
 exact test puts within margin + gap that Warp left without a contact is missed, a Warp contact the exact
 test does not make is extra; on pairs both have, the distance error (over the pair's smallest
@@ -99,6 +99,8 @@ def compare(s, *, steps, nworld, device="cpu", progress=None):
     model, _, control, m, d, naconmax, _ = warp_run.setup(s, nworld, device)
     with wp.ScopedDevice(device):
         pairs, pairid = ew.candidate_pairs(m, pair_ids=True)
+    ellipsoids = np.all(np.isin(model.geom_type[pairs], (2, 4)), axis=1)  # as `compare` on MuJoCo C
+    pairs, pairid = pairs[ellipsoids], pairid[ellipsoids]
     return _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress)
 
 

@@ -1,4 +1,6 @@
-"""The ellipsoid narrow phase as Warp functions and one kernel over all worlds and pairs.
+"""The ellipsoid narrow phase as Warp functions and one kernel over all worlds and pairs (capsule x
+ellipsoid and ellipsoid x box pairs go to capsule.py's and box.py's ports of core/pairs; the rest of
+this docstring is about the ellipsoid and sphere pairs).
 
 A float64 port of core/distance/sphere_newton.py and the shallow-contact proof of
 core/distance/ellipsoid_pair.py (the thesis' support-function formulation: the signed distance is the
@@ -26,15 +28,20 @@ launch per call, counters by atomics into arrays allocated once at attach.
 import numpy as np
 import warp as wp
 
+from .box import box_ellipsoid
+from .capsule import capsule_ellipsoid
+
 F64 = wp.float64
 
 #: Newton's limits, as core/tolerances.py (NEWTON_MAX_ITER, NEWTON_STEP_TOL; the first run FIRST_RUN_ITER).
 MAX_ITER = 40
 FIRST_RUN_ITER = 10
 STEP_TOL = 1e-5
+STEP_TOL2 = STEP_TOL * STEP_TOL  # (a module constant: Warp would square the literal in float32)
 
 #: MuJoCo's mjtGeom codes of the types the kernel reads.
-SPHERE, ELLIPSOID = 2, 4
+SPHERE, CAPSULE, ELLIPSOID, BOX = 2, 3, 4, 6
+TYPE_NAMES = ("SPHERE", "CAPSULE", "ELLIPSOID", "BOX")
 
 #: Per pair: the maximum proven global, or not (the best of the 13 runs), or proven at least the cutoff
 #: (APART: dist is then sigma at some n, a lower bound, not the distance).
@@ -176,7 +183,7 @@ def _newton(
                 step2 = F64(0.25) * step2
                 m = n + t1 * x1 + t2 * x2
         n = m * (F64(1.0) / wp.sqrt(F64(1.0) + step2))
-        if step2 <= F64(STEP_TOL * STEP_TOL) and shift == F64(0.0):
+        if step2 <= F64(STEP_TOL2) and shift == F64(0.0):
             return n, value, CONVERGED
     return n, value, NOT_CONVERGED
 
@@ -418,15 +425,33 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             # an allowance far above sigma's rounding through M (~u max r_B^2 / h_B, sphere_newton.sigma): past it
             # the pair is proven beyond margin + gap; below it, the distance is computed and Warp's test decides
             cutoff = F64(margin) + F64(gap) + F64(1e-9) * reach
-            status, dist, normal, pos, deep = ellipsoid_pair(
-                p1,
-                _widen33(geom_xmat_in[worldid, g1]),
-                _radii(geom_type[g1], geom_size[sid, g1]),
-                p2,
-                _widen33(geom_xmat_in[worldid, g2]),
-                _radii(geom_type[g2], geom_size[sid, g2]),
-                cutoff,
-            )
+            R1 = _widen33(geom_xmat_in[worldid, g1])
+            R2 = _widen33(geom_xmat_in[worldid, g2])
+            status = 0
+            dist = F64(0.0)
+            normal = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+            pos = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+            deep = 0
+            if geom_type[g1] == CAPSULE:  # g1 the capsule, g2 the ellipsoid: the normal from g1 flipped
+                size1 = geom_size[sid, g1]
+                status, dist, normal, pos, deep = capsule_ellipsoid(
+                    p2, R2, _widen3(geom_size[sid, g2]), p1, R1, F64(size1[0]), F64(size1[1]), cutoff
+                )
+                normal = -normal
+            elif geom_type[g2] == BOX:  # g1 the ellipsoid, g2 the box
+                status, dist, normal, pos, deep = box_ellipsoid(
+                    p1, R1, _widen3(geom_size[sid, g1]), p2, R2, _widen3(geom_size[sid, g2]), cutoff
+                )
+            else:
+                status, dist, normal, pos, deep = ellipsoid_pair(
+                    p1,
+                    R1,
+                    _radii(geom_type[g1], geom_size[sid, g1]),
+                    p2,
+                    R2,
+                    _radii(geom_type[g2], geom_size[sid, g2]),
+                    cutoff,
+                )
             if status == APART:
                 continue  # proven beyond margin + gap: Warp would make no contact either
             if status != GLOBAL:
@@ -514,7 +539,65 @@ def pair_distances(ca, Ra, ra, cb, Rb, rb, device="cpu"):
     """The kernel's signed distance of float32 ellipsoid poses (n, 3), (n, 3, 3), (n, 3) each, in float64
     before the float32 rounding the contact kernel applies: (dist, normal, pos, status) as numpy arrays.
     For tests and the bench (one launch over the n pairs); the MuJoCo Warp path is attach()."""
-    arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in (ca, Ra, ra, cb, Rb, rb)]
+    return _distances(_pair_distances, (ca, Ra, ra, cb, Rb, rb), device)
+
+
+@wp.kernel(enable_backward=False)
+def _capsule_distances(
+    ce: wp.array[wp.vec3],
+    Re: wp.array[wp.mat33],
+    ra: wp.array[wp.vec3],
+    ck: wp.array[wp.vec3],
+    Rk: wp.array[wp.mat33],
+    rk: wp.array[wp.vec3],
+    dist: wp.array[wp.float64],
+    normal: wp.array[wp.vec3d],
+    pos: wp.array[wp.vec3d],
+    status: wp.array[int],
+):
+    i = wp.tid()
+    size = rk[i]
+    st, v, nrm, p, _enumerated = capsule_ellipsoid(
+        _widen3(ce[i]),
+        _widen33(Re[i]),
+        _widen3(ra[i]),
+        _widen3(ck[i]),
+        _widen33(Rk[i]),
+        F64(size[0]),
+        F64(size[1]),
+        F64(1e300),
+    )
+    dist[i] = v
+    normal[i] = nrm
+    pos[i] = p
+    status[i] = st
+
+
+@wp.kernel(enable_backward=False)
+def _box_distances(
+    ce: wp.array[wp.vec3],
+    Re: wp.array[wp.mat33],
+    ra: wp.array[wp.vec3],
+    ck: wp.array[wp.vec3],
+    Rk: wp.array[wp.mat33],
+    rk: wp.array[wp.vec3],
+    dist: wp.array[wp.float64],
+    normal: wp.array[wp.vec3d],
+    pos: wp.array[wp.vec3d],
+    status: wp.array[int],
+):
+    i = wp.tid()
+    st, v, nrm, p, _enumerated = box_ellipsoid(
+        _widen3(ce[i]), _widen33(Re[i]), _widen3(ra[i]), _widen3(ck[i]), _widen33(Rk[i]), _widen3(rk[i]), F64(1e300)
+    )
+    dist[i] = v
+    normal[i] = nrm
+    pos[i] = p
+    status[i] = st
+
+
+def _distances(kernel, arrays, device):
+    arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in arrays]
     n = len(arrays[0])
     for x, shape in zip(arrays, ((3,), (3, 3), (3,)) * 2):
         if x.shape != (n, *shape):
@@ -525,5 +608,17 @@ def pair_distances(ca, Ra, ra, cb, Rb, rb, device="cpu"):
     normal = wp.empty(n, dtype=wp.vec3d, device=device)
     pos = wp.empty(n, dtype=wp.vec3d, device=device)
     status = wp.empty(n, dtype=int, device=device)
-    wp.launch(_pair_distances, dim=n, inputs=inputs, outputs=[dist, normal, pos, status], device=device)
+    wp.launch(kernel, dim=n, inputs=inputs, outputs=[dist, normal, pos, status], device=device)
     return dist.numpy(), normal.numpy(), pos.numpy(), status.numpy()
+
+
+def capsule_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
+    """As pair_distances for ellipsoids (ce, Re, ra) and capsules (ck, Rk, rk: MuJoCo's geom_size,
+    (radius, half-length, unused)); the normal from the ellipsoid to the capsule."""
+    return _distances(_capsule_distances, (ce, Re, ra, ck, Rk, rk), device)
+
+
+def box_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
+    """As pair_distances for ellipsoids (ce, Re, ra) and boxes (ck, Rk, rk: half-sizes); the normal from
+    the ellipsoid to the box."""
+    return _distances(_box_distances, (ce, Re, ra, ck, Rk, rk), device)

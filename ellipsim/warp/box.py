@@ -1,0 +1,372 @@
+"""Box x ellipsoid as a Warp function: a float64 port of core/pairs/box.py (its docstring has the method),
+with the same proofs.
+
+sigma(n) = n.e - h_E(n) - sum_j r_j |n.v_j| in E's principal frame, smooth on 26 pieces (8 vertex
+octants, 12 edge quarter circles, 6 face normals), each solved globally by Eberly's secular equation
+(point_ellipsoid.py; Schneider & Eberly 10.5.2).  An active-set local solve from the best face normal,
+certified by the rolling-radius and weak-duality bounds, else a complete enumeration of the critical
+points of the 26 pieces: both are proofs (status GLOBAL); a result that is not finite is UNPROVEN.
+
+Reading of a pose: as kernels.py (the float32 rotations widened, used as given); the box's axes in E's
+frame are the rows of R_K^T R_E.
+"""
+
+import warp as wp
+
+from ..core.tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
+from .point_ellipsoid import (
+    circle_max_bound,
+    foot2,
+    foot3,
+    pole_normal,
+    project_ellipse,
+    sd_upper,
+    sd_upper2,
+    secular_roots,
+    support,
+    unit,
+)
+
+F64 = wp.float64
+
+SLACK = PAIR_SIGMA_SLACK_ULPS * U
+GLOBAL, UNPROVEN, APART = 0, 1, 2  # kernels' pair statuses
+#: An axis of the local solve's state with n.v_j = 0 imposed (else the sign +1 / -1 of n.v_j).
+ACTIVE = 0
+MAX_SWITCHES = 8  # box.MAX_SWITCHES
+
+
+@wp.func
+def sigma_box(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, n: wp.vec3d) -> wp.float64:
+    """sigma at the unit n (E's frame); V's rows the box's axes."""
+    h = wp.sqrt(a2[0] * n[0] * n[0] + a2[1] * n[1] * n[1] + a2[2] * n[2] * n[2])
+    return (
+        n[0] * e[0] + n[1] * e[1] + n[2] * e[2] - h
+        - r[0] * wp.abs(wp.dot(n, V[0])) - r[1] * wp.abs(wp.dot(n, V[1])) - r[2] * wp.abs(wp.dot(n, V[2]))
+    )  # fmt: skip
+
+
+@wp.func
+def _plane_normal(m0: wp.float64, m1: wp.float64, c: wp.float64, s: wp.float64, w1: wp.vec3d, w2: wp.vec3d):
+    """point_ellipsoid.from_plane: the unit vector with coordinates (m0, m1) along the projected axes."""
+    k1 = c * m0 - s * m1
+    k2 = s * m0 + c * m1
+    return unit(wp.vec3d(k1 * w1[0] + k2 * w2[0], k1 * w1[1] + k2 * w2[1], k1 * w1[2] + k2 * w2[2]))
+
+
+@wp.func
+def _solve_state(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, st: wp.vec3i) -> wp.vec3d:
+    """The maximiser of the smooth piece of the state st (box._solve_state)."""
+    q0 = e[0]
+    q1 = e[1]
+    q2 = e[2]
+    nact = 0
+    for j in range(3):
+        if st[j] == ACTIVE:
+            nact = nact + 1
+        else:
+            sj = F64(st[j])
+            q0 = q0 - sj * r[j] * V[j][0]
+            q1 = q1 - sj * r[j] * V[j][1]
+            q2 = q2 - sj * r[j] * V[j][2]
+    q = wp.vec3d(q0, q1, q2)
+    if nact == 0:
+        _t, n = foot3(a2, q)
+        return n
+    if nact == 1:
+        i = 2
+        if st[0] == ACTIVE:
+            i = 0
+        elif st[1] == ACTIVE:
+            i = 1
+        n, _ub = circle_max_bound(a2, q, V[(i + 1) % 3], V[(i + 2) % 3])
+        return n
+    i = 2
+    if st[0] != ACTIVE:
+        i = 0
+    elif st[1] != ACTIVE:
+        i = 1
+    return V[i] * F64(st[i])
+
+
+@wp.func
+def _kkt(stj: int, y: wp.vec3d, n: wp.vec3d, v: wp.vec3d, rj: wp.float64):
+    """(new state of axis j, changed) (box._kkt)."""
+    if stj == ACTIVE:
+        yj = wp.dot(y, v)
+        if wp.abs(yj) > rj:
+            if yj > F64(0.0):
+                return 1, True
+            return -1, True
+        return stj, False
+    if wp.dot(n, v) * F64(stj) < F64(0.0):
+        return ACTIVE, True
+    return stj, False
+
+
+@wp.func
+def _local_max(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d) -> wp.vec3d:
+    """The active-set iteration from the best face normal (box.local_max)."""
+    best = F64(-1e300)
+    st = wp.vec3i(ACTIVE, ACTIVE, 1)
+    for i in range(3):
+        for half in range(2):
+            sg = 1
+            if half == 1:
+                sg = -1
+            val = sigma_box(a2, e, V, r, V[i] * F64(sg))
+            if val > best:
+                best = val
+                st = wp.vec3i(ACTIVE, ACTIVE, ACTIVE)
+                st[i] = sg
+    n = _solve_state(a2, e, V, r, st)
+    for _ in range(MAX_SWITCHES):
+        value = sigma_box(a2, e, V, r, n)
+        _h, s = support(a2, n)
+        y = wp.vec3d(e[0] - s[0] - value * n[0], e[1] - s[1] - value * n[1], e[2] - s[2] - value * n[2])
+        n0, c0 = _kkt(st[0], y, n, V[0], r[0])
+        n1, c1 = _kkt(st[1], y, n, V[1], r[1])
+        n2, c2 = _kkt(st[2], y, n, V[2], r[2])
+        if not (c0 or c1 or c2) or (n0 == ACTIVE and n1 == ACTIVE and n2 == ACTIVE):
+            return n
+        st = wp.vec3i(n0, n1, n2)
+        n = _solve_state(a2, e, V, r, st)
+    return n
+
+
+@wp.func
+def _sd_point_box(w: wp.vec3d, V: wp.mat33d, r: wp.vec3d) -> wp.float64:
+    """Signed distance of the point w to the box (exact formula)."""
+    d0 = wp.abs(wp.dot(w, V[0])) - r[0]
+    d1 = wp.abs(wp.dot(w, V[1])) - r[1]
+    d2 = wp.abs(wp.dot(w, V[2])) - r[2]
+    if d0 <= F64(0.0) and d1 <= F64(0.0) and d2 <= F64(0.0):
+        return wp.max(d0, wp.max(d1, d2))
+    o0 = wp.max(d0, F64(0.0))
+    o1 = wp.max(d1, F64(0.0))
+    o2 = wp.max(d2, F64(0.0))
+    return wp.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+
+
+@wp.func
+def _copysign(x: wp.float64, y: wp.float64) -> wp.float64:
+    """|x| with the sign of y (math.copysign; -0.0 counts as negative, as there)."""
+    if y < F64(0.0) or (y == F64(0.0) and F64(1.0) / y < F64(0.0)):
+        return -wp.abs(x)
+    return wp.abs(x)
+
+
+@wp.func
+def _upper_bound2(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, n: wp.vec3d, value: wp.float64) -> wp.float64:
+    """ub2 (box.upper_bound2): the witness clamped into the box; a face contact's largest inner ball."""
+    _h, s = support(a2, n)
+    y = wp.vec3d(e[0] - s[0] - value * n[0], e[1] - s[1] - value * n[1], e[2] - s[2] - value * n[2])
+    c0 = wp.min(wp.max(wp.dot(y, V[0]), -r[0]), r[0])
+    c1 = wp.min(wp.max(wp.dot(y, V[1]), -r[1]), r[1])
+    c2 = wp.min(wp.max(wp.dot(y, V[2]), -r[2]), r[2])
+    m0 = wp.abs(wp.dot(n, V[0]))
+    m1 = wp.abs(wp.dot(n, V[1]))
+    m2 = wp.abs(wp.dot(n, V[2]))
+    t = F64(0.0)
+    if m1 + m2 < F64(1e-12):
+        t = wp.min(r[0], wp.min(r[1] - wp.abs(c1), r[2] - wp.abs(c2)))
+        c0 = _copysign(r[0] - t, wp.dot(n, V[0]))
+    elif m0 + m2 < F64(1e-12):
+        t = wp.min(r[1], wp.min(r[0] - wp.abs(c0), r[2] - wp.abs(c2)))
+        c1 = _copysign(r[1] - t, wp.dot(n, V[1]))
+    elif m0 + m1 < F64(1e-12):
+        t = wp.min(r[2], wp.min(r[0] - wp.abs(c0), r[1] - wp.abs(c1)))
+        c2 = _copysign(r[2] - t, wp.dot(n, V[2]))
+    q = wp.vec3d(
+        e[0] - c0 * V[0][0] - c1 * V[1][0] - c2 * V[2][0],
+        e[1] - c0 * V[0][1] - c1 * V[1][1] - c2 * V[2][1],
+        e[2] - c0 * V[0][2] - c1 * V[1][2] - c2 * V[2][2],
+    )
+    tt, _m = foot3(a2, q)
+    return sd_upper(a2, q, tt) - t
+
+
+@wp.func
+def _upper_bound(
+    a2: wp.vec3d,
+    e: wp.vec3d,
+    V: wp.mat33d,
+    r: wp.vec3d,
+    rho: wp.float64,
+    n: wp.vec3d,
+    value: wp.float64,
+    tol: wp.float64,
+) -> wp.float64:
+    """ub1 when it is within tol of value, else the smaller of ub1 and ub2 (box.upper_bound)."""
+    _h, s = support(a2, n)
+    w = wp.vec3d(e[0] - s[0] + rho * n[0], e[1] - s[1] + rho * n[1], e[2] - s[2] + rho * n[2])
+    ub = _sd_point_box(w, V, r) - rho
+    if ub - value <= tol:
+        return ub
+    return wp.min(ub, _upper_bound2(a2, e, V, r, n, value))
+
+
+@wp.func
+def _better(v: wp.float64, m: wp.vec3d, best: wp.float64, bn: wp.vec3d):
+    if v > best:
+        return v, m
+    return best, bn
+
+
+@wp.func
+def _enumerate_max(
+    a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, best0: wp.float64, bn0: wp.vec3d, tol: wp.float64
+):
+    """Branch and bound over the 26 smooth pieces from the incumbent (box.enumerate_max)."""
+    best = best0
+    bn = bn0
+    for i in range(3):
+        for half in range(2):
+            sg = F64(1.0)
+            if half == 1:
+                sg = F64(-1.0)
+            m = V[i] * sg
+            best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
+    for i in range(3):
+        j = (i + 1) % 3
+        k = (i + 2) % 3
+        w1 = V[j]
+        w2 = V[k]
+        lam, mu, c, s = project_ellipse(a2, w1, w2)
+        b3 = wp.vec3d(lam, mu, F64(2.0) * wp.max(lam, mu))
+        for corner in range(4):
+            sj = F64(1.0)
+            sk = F64(1.0)
+            if corner >= 2:
+                sj = F64(-1.0)
+            if corner % 2 == 1:
+                sk = F64(-1.0)
+            q = wp.vec3d(
+                e[0] - sj * r[j] * w1[0] - sk * r[k] * w2[0],
+                e[1] - sj * r[j] * w1[1] - sk * r[k] * w2[1],
+                e[2] - sj * r[j] * w1[2] - sk * r[k] * w2[2],
+            )
+            p1 = wp.dot(q, w1)
+            p2 = wp.dot(q, w2)
+            p = wp.vec3d(c * p1 + s * p2, -s * p1 + c * p2, F64(0.0))
+            t, m0, m1 = foot2(lam, mu, p[0], p[1])
+            n = _plane_normal(m0, m1, c, s, w1, w2)
+            if wp.dot(n, w1) * sj >= F64(0.0) and wp.dot(n, w2) * sk >= F64(0.0):
+                best, bn = _better(sigma_box(a2, e, V, r, n), n, best, bn)
+                continue
+            if sd_upper2(lam, mu, p[0], p[1], t) <= best + tol:
+                continue
+            ok1, r1, oka, ra, okb, rb = secular_roots(b3, p)
+            for kk in range(3):
+                ok = ok1
+                tk = r1
+                if kk == 1:
+                    ok = oka
+                    tk = ra
+                elif kk == 2:
+                    ok = okb
+                    tk = rb
+                if ok:
+                    mm = unit(wp.vec3d(p[0] / (tk + lam), p[1] / (tk + mu), F64(0.0)))
+                    m = _plane_normal(mm[0], mm[1], c, s, w1, w2)
+                    best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
+            for ii in range(2):
+                for half in range(2):
+                    sign = F64(1.0)
+                    if half == 1:
+                        sign = F64(-1.0)
+                    okp, mm = pole_normal(b3, p, ii, sign)
+                    if okp:
+                        m = _plane_normal(mm[0], mm[1], c, s, w1, w2)
+                        best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
+    for vertex in range(8):
+        s0 = F64(1.0)
+        s1 = F64(1.0)
+        s2 = F64(1.0)
+        if vertex >= 4:
+            s0 = F64(-1.0)
+        if (vertex // 2) % 2 == 1:
+            s1 = F64(-1.0)
+        if vertex % 2 == 1:
+            s2 = F64(-1.0)
+        q = wp.vec3d(
+            e[0] - s0 * r[0] * V[0][0] - s1 * r[1] * V[1][0] - s2 * r[2] * V[2][0],
+            e[1] - s0 * r[0] * V[0][1] - s1 * r[1] * V[1][1] - s2 * r[2] * V[2][1],
+            e[2] - s0 * r[0] * V[0][2] - s1 * r[1] * V[1][2] - s2 * r[2] * V[2][2],
+        )
+        t, n = foot3(a2, q)
+        if wp.dot(n, V[0]) * s0 >= F64(0.0) and wp.dot(n, V[1]) * s1 >= F64(0.0) and wp.dot(n, V[2]) * s2 >= F64(0.0):
+            best, bn = _better(sigma_box(a2, e, V, r, n), n, best, bn)
+            continue
+        if sd_upper(a2, q, t) <= best + tol:
+            continue
+        ok1, r1, oka, ra, okb, rb = secular_roots(a2, q)
+        for kk in range(3):
+            ok = ok1
+            tk = r1
+            if kk == 1:
+                ok = oka
+                tk = ra
+            elif kk == 2:
+                ok = okb
+                tk = rb
+            if ok:
+                m = unit(wp.vec3d(q[0] / (tk + a2[0]), q[1] / (tk + a2[1]), q[2] / (tk + a2[2])))
+                best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
+        for ii in range(3):
+            for half in range(2):
+                sign = F64(1.0)
+                if half == 1:
+                    sign = F64(-1.0)
+                okp, m = pole_normal(a2, q, ii, sign)
+                if okp:
+                    best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
+    return best, bn
+
+
+@wp.func
+def centre_line_bound(e: wp.vec3d, a2: wp.vec3d, V: wp.mat33d, ra: wp.vec3d, r: wp.vec3d) -> wp.float64:
+    """A lower bound on the signed distance: sigma along the centre line less its rounding allowance
+    (box.centre_line_bound); -1e300 for concentric bodies."""
+    ee = wp.dot(e, e)
+    if not (ee > F64(0.0)):
+        return F64(-1e300)
+    s = F64(1.0) / wp.sqrt(ee)
+    scale = wp.sqrt(ee) + wp.max(wp.max(ra[0], wp.max(ra[1], ra[2])), wp.max(r[0], wp.max(r[1], r[2])))
+    v = sigma_box(a2, e, V, r, wp.vec3d(e[0] * s, e[1] * s, e[2] * s))
+    return v - F64(SLACK) * scale
+
+
+@wp.func
+def box_ellipsoid(
+    ce: wp.vec3d, Re: wp.mat33d, ra: wp.vec3d, ck: wp.vec3d, Rk: wp.mat33d, r: wp.vec3d, cutoff: wp.float64
+):
+    """(status, dist, normal from the ellipsoid to the box, pos, enumerated) for the ellipsoid (ce, Re, ra)
+    and the box (centre ck, rotation Rk, half-sizes r), world coordinates, float64 (box.box_ellipsoid);
+    status APART when a direction proves the pair at least cutoff apart (as capsule.capsule_ellipsoid)."""
+    ReT = wp.transpose(Re)
+    e = ReT * (ck - ce)
+    V = wp.transpose(Rk) * Re
+    a2 = wp.cw_mul(ra, ra)
+    low = centre_line_bound(e, a2, V, ra, r)
+    if low >= cutoff:
+        return APART, low, Re * unit(e), ce, 0
+    n = _local_max(a2, e, V, r)
+    value = sigma_box(a2, e, V, r, n)
+    if value >= cutoff:
+        return APART, value, Re * n, ce, 0
+    rho = wp.min(ra[0], wp.min(ra[1], ra[2]))
+    rho = rho * rho / wp.max(ra[0], wp.max(ra[1], ra[2]))
+    tol = F64(PAIR_CERT_REL) * wp.min(wp.min(ra[0], wp.min(ra[1], ra[2])), wp.min(r[0], wp.min(r[1], r[2])))
+    ub = _upper_bound(a2, e, V, r, rho, n, value, tol)
+    enumerated = 0
+    if ub - value > tol:
+        value, n = _enumerate_max(a2, e, V, r, value, n, tol)
+        enumerated = 1
+    status = GLOBAL
+    if not (wp.abs(value) < F64(1e300)):
+        status = UNPROVEN
+    _h, s = support(a2, n)
+    half = F64(0.5) * value
+    p = Re * wp.vec3d(s[0] + half * n[0], s[1] + half * n[1], s[2] + half * n[2])
+    return status, value, Re * n, ce + p, enumerated

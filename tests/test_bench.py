@@ -61,6 +61,11 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         long_seconds=0.05,
     )
     monkeypatch.setitem(bench.SIZES, "quick", small)
+    from ellipsim.app.bench import on_warp
+
+    monkeypatch.setitem(
+        on_warp.WARP_SIZES, "quick", dict(warp_pairs=12, warp_cost_worlds=200, warp_worlds=2, warp_settle=20)
+    )
     assert main(["bench", "--quick", "--out", str(tmp_path)]) == 0
     report = (tmp_path / "report.md").read_text()
     for section in (
@@ -69,6 +74,9 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         "3. Scaling",
         "4. The thesis's Table 1",
         "5. Inside MuJoCo",
+        "9. ellipsim on MuJoCo Warp",
+        "| capsule x ellipsoid | 100 m away | deep (-0.3) | ellipsim on Warp |",
+        "| ellipsoid x box |",
     ):
         assert section in report
     for png in ("pareto.png", "stress.png", "scaling.png", "table1.png", "mujoco.png"):

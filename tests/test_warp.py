@@ -16,12 +16,12 @@ from scipy.spatial.transform import Rotation as Rot
 import ellipsim
 import ellipsim.warp as ew
 from ellipsim.core.ellipsoids import orthonormality_defect
-from ellipsim.core.pairs import box, capsule
+from ellipsim.core.pairs import box, capsule, cylinder
 from ellipsim.core.samples import generic_pairs
 from ellipsim.core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
 from ellipsim.warp import kernels
 
-SPHERE, CAPSULE, ELLIPSOID, BOX = 2, 3, 4, 6
+SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 2, 3, 4, 5, 6
 
 #: Tests that run mjw.collision, mjw.forward or mjw.step: on a machine where Warp has not compiled them
 #: yet, 20 s to minutes of compiling (pyproject's slow marker; they stay in the README's test run).
@@ -111,23 +111,27 @@ def test_spheres_against_ellipsoids():
 
 
 def _cpu_pair(kind, ce, Re, ra, ck, Rk, rk):
-    """core/pairs/capsule.py or box.py on float32 poses widened to float64, per pair: (dist, normal, pos,
-    status)."""
-    kernel = capsule.capsule_ellipsoid if kind == "capsule" else box.box_ellipsoid
+    """core/pairs/capsule.py, box.py or cylinder.py on float32 poses widened to float64, per pair: (dist,
+    normal, pos, status)."""
+    kernel = {"capsule": capsule.capsule_ellipsoid, "box": box.box_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid}[
+        kind
+    ]
     w = lambda x, i: tuple(float(v) for v in np.asarray(x[i], np.float32).ravel())  # noqa: E731
     out = [kernel((w(ce, i), w(Re, i), w(ra, i)), (w(ck, i), w(Rk, i), w(rk, i))) for i in range(len(ce))]
     return tuple(np.array([o[k] for o in out]) for k in (1, 2, 3, 0))
 
 
 @pytest.mark.parametrize("offset", [0.0, 100.0])
-@pytest.mark.parametrize("kind", ["capsule", "box"])
-def test_capsules_and_boxes_are_the_cpu_kernels_on_the_same_float32_poses(kind, offset):
-    """test_capsule's and test_box's categories (separated, touching at 0 and +-1e-9, shallow, deep, and
-    each type's own: parallel axes, capsule inside, ellipsoid around the segment; a flush face, a box
-    inside, a floor box), near the origin and 100 m away: the CPU's proven maximum (certified or
-    enumerated), to the rounding of a few operations, every status GLOBAL."""
+@pytest.mark.parametrize("kind", ["capsule", "box", "cylinder"])
+def test_capsules_boxes_and_cylinders_are_the_cpu_kernels_on_the_same_float32_poses(kind, offset):
+    """test_capsule's, test_box's and test_cylinder's categories (separated, touching at 0 and +-1e-9,
+    shallow, deep, and each type's own: parallel axes, capsule inside, ellipsoid around the segment; a
+    flush face, a box inside, a floor box; a flush cap or side, a cylinder inside), near the origin and
+    100 m away, on float32 rotations (orthonormal only to ~1e-7: the box read as the parallelepiped of its
+    axes, the cylinder's axis normalised): the CPU's proven maximum (certified or enumerated), to the
+    rounding of a few operations, every status GLOBAL."""
     make_poses = __import__(f"test_{kind}").make_poses
-    distances = kernels.capsule_distances if kind == "capsule" else kernels.box_distances
+    distances = getattr(kernels, f"{kind}_distances")
     P, cat, _ = make_poses(seed=5, per=25)
     ce, Re, ra, ck, Rk, rk = _f32(P["cE"] + offset, P["RE"], P["rE"], P["cK"] + offset, P["RK"], P["sK"])
     dw, nw, pw, sw = distances(ce, Re, ra, ck, Rk, rk)
@@ -162,16 +166,19 @@ PILE = """
 
 def _pile(n=8, seed=0, sleep=False, extra=""):
     """n free bodies, each an ellipsoid (some a sphere, one with a margin), in a heap that overlaps,
-    a box and a capsule among them, and a box and a capsule apart that stay with Warp (x box, x plane)."""
+    a box, a capsule and a cylinder among them, and a box and a capsule apart that stay with Warp (x box,
+    x plane)."""
     rng = np.random.default_rng(seed)
     bodies = []
     for i in range(n):
-        x, y, z = rng.uniform(-0.12, 0.12), rng.uniform(-0.12, 0.12), 0.12 + 0.08 * i
+        x, y, z = rng.uniform(-0.08, 0.08), rng.uniform(-0.08, 0.08), 0.12 + 0.06 * i
         euler = " ".join(f"{v:.3f}" for v in rng.uniform(-90, 90, 3))
         if i % 4 == 3:
             geom = f'<geom type="sphere" size="{rng.uniform(0.04, 0.08):.3f}"/>'
         elif i == 1:
             geom = f'<geom type="box" size="{rng.uniform(0.03, 0.08):.3f} {rng.uniform(0.03, 0.08):.3f} .04"/>'
+        elif i == 4:
+            geom = f'<geom type="cylinder" size="{rng.uniform(0.03, 0.07):.3f} {rng.uniform(0.02, 0.06):.3f}"/>'
         elif i % 4 == 1:
             geom = f'<geom type="capsule" size="{rng.uniform(0.02, 0.05):.3f} {rng.uniform(0.03, 0.1):.3f}"/>'
         else:
@@ -245,9 +252,10 @@ def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
                     one(xmat, g1),
                     size[g1][None],
                 )
-            elif mjm.geom_type[g2] == BOX:
+            elif mjm.geom_type[g2] in (BOX, CYLINDER):
+                kind = "box" if mjm.geom_type[g2] == BOX else "cylinder"
                 dist, *_ = _cpu_pair(
-                    "box", one(xpos, g1), one(xmat, g1), size[g1][None], one(xpos, g2), one(xmat, g2), size[g2][None]
+                    kind, one(xpos, g1), one(xmat, g1), size[g1][None], one(xpos, g2), one(xmat, g2), size[g2][None]
                 )
             else:
                 dist, nrm, pos, st = _cpu(xpos[w, g1], xmat[w, g1], radii(g1), xpos[w, g2], xmat[w, g2], radii(g2))
@@ -256,9 +264,9 @@ def test_attach_takes_the_ellipsoid_pairs_and_appends_the_cpu_contacts():
                 expected.append((w, int(g1), int(g2), float(np.float32(dist[0]))))
     mine = [c[:4] for c in got if (c[1], c[2]) in taken]
     assert len(expected) >= 3 * d.nworld  # the heap overlaps
-    assert {int(mjm.geom_type[g]) for g in att.pairs.ravel()} == {SPHERE, CAPSULE, ELLIPSOID, BOX}
+    assert {int(mjm.geom_type[g]) for g in att.pairs.ravel()} == {SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX}
     kinds = {(int(mjm.geom_type[e[1]]), int(mjm.geom_type[e[2]])) for e in expected}
-    assert (CAPSULE, ELLIPSOID) in kinds and (ELLIPSOID, BOX) in kinds  # a capsule and a box in contact
+    assert {(CAPSULE, ELLIPSOID), (ELLIPSOID, BOX), (ELLIPSOID, CYLINDER)} <= kinds  # each type in contact
     assert sorted(mine) == sorted(expected)
     assert att.counters["contacts"] == len(expected) and att.counters["overflow"] == 0
     att.detach()

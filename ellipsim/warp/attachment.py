@@ -18,10 +18,10 @@ incremental pass, which must only add the pairs the first pass skipped); the hoo
 pass it is in, so it reads collision()'s own awake_prev argument from its caller's frame (checked:
 a hook called from anywhere else raises).
 
-Pairs taken: ellipsoid x ellipsoid, sphere x ellipsoid, capsule x ellipsoid and ellipsoid x box, from
-the model's collision rules and its explicit <pair>s (their margin, gap and material), except pairs with
-a collision sensor (they stay with Warp: a sensor reads Warp's own collision record).  Ellipsoid x
-cylinder stays with Warp's GJK/EPA for now (core/pairs/cylinder.py's rim branch and bound is not ported).
+Pairs taken: ellipsoid x ellipsoid, sphere x ellipsoid, capsule x ellipsoid, ellipsoid x cylinder and
+ellipsoid x box (every pair type of ellipsim.mujoco's narrow phase), from the model's collision rules
+and its explicit <pair>s (their margin, gap and material), except pairs with a collision sensor (they
+stay with Warp: a sensor reads Warp's own collision record).
 
 Graph capture: the hook launches one kernel (two on a model with surface velocities) on arrays made at
 attach (pair table, counters) and the model's and data's own; it makes
@@ -45,10 +45,18 @@ from mujoco_warp._src import types as mjw_types
 
 from . import kernels
 
-SPHERE, CAPSULE, ELLIPSOID, BOX = kernels.SPHERE, kernels.CAPSULE, kernels.ELLIPSOID, kernels.BOX
-assert (SPHERE, CAPSULE, ELLIPSOID, BOX) == tuple(int(getattr(mjw_types.GeomType, t)) for t in kernels.TYPE_NAMES)
+SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (getattr(kernels, t) for t in kernels.TYPE_NAMES)
+assert (SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX) == tuple(
+    int(getattr(mjw_types.GeomType, t)) for t in kernels.TYPE_NAMES
+)
 #: (type1, type2) with type1 <= type2, as MuJoCo Warp orders a pair's geoms.
-PAIR_TYPES = ((SPHERE, ELLIPSOID), (CAPSULE, ELLIPSOID), (ELLIPSOID, ELLIPSOID), (ELLIPSOID, BOX))
+PAIR_TYPES = (
+    (SPHERE, ELLIPSOID),
+    (CAPSULE, ELLIPSOID),
+    (ELLIPSOID, ELLIPSOID),
+    (ELLIPSOID, CYLINDER),
+    (ELLIPSOID, BOX),
+)
 COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep")
 
 
@@ -258,9 +266,10 @@ class Attachment:
     def counters(self):
         """Totals since attach (or reset_counters) over all worlds and calls: pairs (evaluated by the
         narrow phase, past the bounding spheres), contacts (appended, overflow included), unproven
-        (maxima not proven global: the best of 13 Newton runs is used), overflow (contacts not written
-        because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof, capsule
-        and box pairs whose certificates did not close and whose critical points were all evaluated).  Reading
+        (maxima not proven global: for ellipsoid pairs the best of 13 Newton runs is used, for cylinder
+        pairs the best the rim's branch and bound reached in its budget), overflow (contacts not written
+        because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof; capsule,
+        box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved).  Reading
         synchronises with the device."""
         values = self._counters.numpy()
         return dict(zip(COUNTER_NAMES, (int(v) for v in values)))
@@ -292,7 +301,7 @@ class Attachment:
 
 
 def attach(m):
-    """Give ellipsim's contacts to the sphere, capsule, ellipsoid and box x ellipsoid pairs of the
-    mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
+    """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder and box x ellipsoid pairs of
+    the mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
     Attachment (a context manager; .detach(), .counters)."""
     return Attachment(m)

@@ -8,7 +8,13 @@ certified by the rolling-radius and weak-duality bounds, else a complete enumera
 points of the 26 pieces: both are proofs (status GLOBAL); a result that is not finite is UNPROVEN.
 
 Reading of a pose: as kernels.py (the float32 rotations widened, used as given); the box's axes in E's
-frame are the rows of R_K^T R_E.
+frame are the rows of R_K^T R_E, orthonormal only to ~1e-7 (float32), and the box is the parallelepiped
+they span, the body sigma's support function describes.  Where box.py relies on orthonormal axes (a face's
+normal taken as its axis, an edge's plane spanned by the other two, the point-box distance formula, a
+face's inner ball), this port computes for the
+parallelepiped (_face_normal, _edge_plane, _sd_point_box, _upper_bound2): on orthonormal axes the same numbers; on the
+float32 ones the true maximum where box.py's stays up to ~1e-7 of the box's size below it, and the
+certificates close (the bench's shallow pairs: 82 % went to the enumeration before).
 """
 
 import warp as wp
@@ -55,6 +61,27 @@ def _plane_normal(m0: wp.float64, m1: wp.float64, c: wp.float64, s: wp.float64, 
 
 
 @wp.func
+def _face_normal(V: wp.mat33d, i: int) -> wp.vec3d:
+    """The outward unit normal of the box's face +v_i: v_j x v_k, turned to v_i's side.  box.py takes v_i
+    itself, the same where the axes are orthonormal; on Warp's float32 rotations (orthonormal to ~1e-7)
+    v_i misses the face point by that angle, and sigma by ~1e-7 of the box's size."""
+    m = unit(wp.cross(V[(i + 1) % 3], V[(i + 2) % 3]))
+    if wp.dot(m, V[i]) < F64(0.0):
+        return -m
+    return m
+
+
+@wp.func
+def _edge_plane(V: wp.mat33d, i: int):
+    """An orthonormal basis (b1, b2) of the plane n.v_i = 0 (an edge along v_i: its smooth piece), b1 along
+    v_j's part in it (j = i + 1): box.py takes (v_j, v_k), the same where the axes are orthonormal."""
+    u = unit(V[i])
+    vj = V[(i + 1) % 3]
+    b1 = unit(vj - u * wp.dot(vj, u))
+    return b1, wp.cross(u, b1)
+
+
+@wp.func
 def _solve_state(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, st: wp.vec3i) -> wp.vec3d:
     """The maximiser of the smooth piece of the state st (box._solve_state)."""
     q0 = e[0]
@@ -79,14 +106,15 @@ def _solve_state(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, st: wp.ve
             i = 0
         elif st[1] == ACTIVE:
             i = 1
-        n, _ub = circle_max_bound(a2, q, V[(i + 1) % 3], V[(i + 2) % 3])
+        b1, b2 = _edge_plane(V, i)
+        n, _ub = circle_max_bound(a2, q, b1, b2)
         return n
     i = 2
     if st[0] != ACTIVE:
         i = 0
     elif st[1] != ACTIVE:
         i = 1
-    return V[i] * F64(st[i])
+    return _face_normal(V, i) * F64(st[i])
 
 
 @wp.func
@@ -114,7 +142,7 @@ def _local_max(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d) -> wp.vec3d
             sg = 1
             if half == 1:
                 sg = -1
-            val = sigma_box(a2, e, V, r, V[i] * F64(sg))
+            val = sigma_box(a2, e, V, r, _face_normal(V, i) * F64(sg))
             if val > best:
                 best = val
                 st = wp.vec3i(ACTIVE, ACTIVE, ACTIVE)
@@ -136,16 +164,38 @@ def _local_max(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d) -> wp.vec3d
 
 @wp.func
 def _sd_point_box(w: wp.vec3d, V: wp.mat33d, r: wp.vec3d) -> wp.float64:
-    """Signed distance of the point w to the box (exact formula)."""
-    d0 = wp.abs(wp.dot(w, V[0])) - r[0]
-    d1 = wp.abs(wp.dot(w, V[1])) - r[1]
-    d2 = wp.abs(wp.dot(w, V[2])) - r[2]
+    """Signed distance of the point w to the box sigma reads, the parallelepiped {sum_j c_j v_j : |c_j| <= r_j}
+    of the given axes (box.sd_point_box's formula where they are orthonormal, off by ~1e-7 of the box's
+    size on Warp's float32 rotations): w's coordinates c in the axes (G^-1 V w by one correction step,
+    G = V V^T, error O(defect^2)); outside, |w - x| for the box's point x = sum_j clamp(c_j) v_j (a point
+    of the body: a bound whatever the rounding); inside, minus the distance to the nearest face plane,
+    (r_j - |c_j|) times the cosine of v_j with that face's normal (_face_cosines)."""
+    vw = V * w
+    c = vw * F64(2.0) - (V * wp.transpose(V)) * vw
+    d0 = wp.abs(c[0]) - r[0]
+    d1 = wp.abs(c[1]) - r[1]
+    d2 = wp.abs(c[2]) - r[2]
     if d0 <= F64(0.0) and d1 <= F64(0.0) and d2 <= F64(0.0):
-        return wp.max(d0, wp.max(d1, d2))
-    o0 = wp.max(d0, F64(0.0))
-    o1 = wp.max(d1, F64(0.0))
-    o2 = wp.max(d2, F64(0.0))
-    return wp.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+        f = _face_cosines(V)
+        return wp.max(d0 * f[0], wp.max(d1 * f[1], d2 * f[2]))
+    x = (
+        V[0] * wp.min(wp.max(c[0], -r[0]), r[0])
+        + V[1] * wp.min(wp.max(c[1], -r[1]), r[1])
+        + V[2] * wp.min(wp.max(c[2], -r[2]), r[2])
+    )
+    z = w - x
+    return wp.sqrt(wp.dot(z, z))
+
+
+@wp.func
+def _face_cosines(V: wp.mat33d) -> wp.vec3d:
+    """|v_j . face normal j| per axis (1 for orthonormal axes): the distance between face planes j is
+    2 r_j times it."""
+    return wp.vec3d(
+        wp.abs(wp.dot(V[0], _face_normal(V, 0))),
+        wp.abs(wp.dot(V[1], _face_normal(V, 1))),
+        wp.abs(wp.dot(V[2], _face_normal(V, 2))),
+    )
 
 
 @wp.func
@@ -182,8 +232,11 @@ def _upper_bound2(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, n: wp.ve
         e[1] - c0 * V[0][1] - c1 * V[1][1] - c2 * V[2][1],
         e[2] - c0 * V[0][2] - c1 * V[1][2] - c2 * V[2][2],
     )
+    # the ball of radius t about the axis point c fits an orthonormal box; in the parallelepiped of Warp's
+    # float32 axes, the one of radius t min_j |v_j . face normal j| does (its distance to each face plane)
+    f = _face_cosines(V)
     tt, _m = foot3(a2, q)
-    return sd_upper(a2, q, tt) - t
+    return sd_upper(a2, q, tt) - t * wp.min(f[0], wp.min(f[1], f[2]))
 
 
 @wp.func
@@ -225,14 +278,15 @@ def _enumerate_max(
             sg = F64(1.0)
             if half == 1:
                 sg = F64(-1.0)
-            m = V[i] * sg
+            m = _face_normal(V, i) * sg
             best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
     for i in range(3):
         j = (i + 1) % 3
         k = (i + 2) % 3
         w1 = V[j]
         w2 = V[k]
-        lam, mu, c, s = project_ellipse(a2, w1, w2)
+        b1, b2 = _edge_plane(V, i)
+        lam, mu, c, s = project_ellipse(a2, b1, b2)
         b3 = wp.vec3d(lam, mu, F64(2.0) * wp.max(lam, mu))
         for corner in range(4):
             sj = F64(1.0)
@@ -246,11 +300,11 @@ def _enumerate_max(
                 e[1] - sj * r[j] * w1[1] - sk * r[k] * w2[1],
                 e[2] - sj * r[j] * w1[2] - sk * r[k] * w2[2],
             )
-            p1 = wp.dot(q, w1)
-            p2 = wp.dot(q, w2)
+            p1 = wp.dot(q, b1)
+            p2 = wp.dot(q, b2)
             p = wp.vec3d(c * p1 + s * p2, -s * p1 + c * p2, F64(0.0))
             t, m0, m1 = foot2(lam, mu, p[0], p[1])
-            n = _plane_normal(m0, m1, c, s, w1, w2)
+            n = _plane_normal(m0, m1, c, s, b1, b2)
             if wp.dot(n, w1) * sj >= F64(0.0) and wp.dot(n, w2) * sk >= F64(0.0):
                 best, bn = _better(sigma_box(a2, e, V, r, n), n, best, bn)
                 continue
@@ -268,7 +322,7 @@ def _enumerate_max(
                     tk = rb
                 if ok:
                     mm = unit(wp.vec3d(p[0] / (tk + lam), p[1] / (tk + mu), F64(0.0)))
-                    m = _plane_normal(mm[0], mm[1], c, s, w1, w2)
+                    m = _plane_normal(mm[0], mm[1], c, s, b1, b2)
                     best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
             for ii in range(2):
                 for half in range(2):
@@ -277,7 +331,7 @@ def _enumerate_max(
                         sign = F64(-1.0)
                     okp, mm = pole_normal(b3, p, ii, sign)
                     if okp:
-                        m = _plane_normal(mm[0], mm[1], c, s, w1, w2)
+                        m = _plane_normal(mm[0], mm[1], c, s, b1, b2)
                         best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
     for vertex in range(8):
         s0 = F64(1.0)

@@ -1,6 +1,6 @@
 """The ellipsoid narrow phase as Warp functions and one kernel over all worlds and pairs (capsule x
-ellipsoid and ellipsoid x box pairs go to capsule.py's and box.py's ports of core/pairs; the rest of
-this docstring is about the ellipsoid and sphere pairs).
+ellipsoid, ellipsoid x box and ellipsoid x cylinder pairs go to capsule.py's, box.py's and cylinder.py's
+ports of core/pairs; the rest of this docstring is about the ellipsoid and sphere pairs).
 
 A float64 port of core/distance/sphere_newton.py and the shallow-contact proof of
 core/distance/ellipsoid_pair.py (the thesis' support-function formulation: the signed distance is the
@@ -30,6 +30,7 @@ import warp as wp
 
 from .box import box_ellipsoid
 from .capsule import capsule_ellipsoid
+from .cylinder import cylinder_ellipsoid
 
 F64 = wp.float64
 
@@ -40,8 +41,8 @@ STEP_TOL = 1e-5
 STEP_TOL2 = STEP_TOL * STEP_TOL  # (a module constant: Warp would square the literal in float32)
 
 #: MuJoCo's mjtGeom codes of the types the kernel reads.
-SPHERE, CAPSULE, ELLIPSOID, BOX = 2, 3, 4, 6
-TYPE_NAMES = ("SPHERE", "CAPSULE", "ELLIPSOID", "BOX")
+SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 2, 3, 4, 5, 6
+TYPE_NAMES = ("SPHERE", "CAPSULE", "ELLIPSOID", "CYLINDER", "BOX")
 
 #: Per pair: the maximum proven global, or not (the best of the 13 runs), or proven at least the cutoff
 #: (APART: dist is then sigma at some n, a lower bound, not the distance).
@@ -442,6 +443,11 @@ def contact_kernel(enable_sleep, incremental, per_thread):
                 status, dist, normal, pos, deep = box_ellipsoid(
                     p1, R1, _widen3(geom_size[sid, g1]), p2, R2, _widen3(geom_size[sid, g2]), cutoff
                 )
+            elif geom_type[g2] == CYLINDER:  # g1 the ellipsoid, g2 the cylinder
+                size2 = geom_size[sid, g2]
+                status, dist, normal, pos, deep = cylinder_ellipsoid(
+                    p1, R1, _widen3(geom_size[sid, g1]), p2, R2, F64(size2[0]), F64(size2[1]), cutoff
+                )
             else:
                 status, dist, normal, pos, deep = ellipsoid_pair(
                     p1,
@@ -596,6 +602,37 @@ def _box_distances(
     status[i] = st
 
 
+@wp.kernel(enable_backward=False)
+def _cylinder_distances(
+    ce: wp.array[wp.vec3],
+    Re: wp.array[wp.mat33],
+    ra: wp.array[wp.vec3],
+    ck: wp.array[wp.vec3],
+    Rk: wp.array[wp.mat33],
+    rk: wp.array[wp.vec3],
+    dist: wp.array[wp.float64],
+    normal: wp.array[wp.vec3d],
+    pos: wp.array[wp.vec3d],
+    status: wp.array[int],
+):
+    i = wp.tid()
+    size = rk[i]
+    st, v, nrm, p, _enumerated = cylinder_ellipsoid(
+        _widen3(ce[i]),
+        _widen33(Re[i]),
+        _widen3(ra[i]),
+        _widen3(ck[i]),
+        _widen33(Rk[i]),
+        F64(size[0]),
+        F64(size[1]),
+        F64(1e300),
+    )
+    dist[i] = v
+    normal[i] = nrm
+    pos[i] = p
+    status[i] = st
+
+
 def _distances(kernel, arrays, device):
     arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in arrays]
     n = len(arrays[0])
@@ -622,3 +659,9 @@ def box_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
     """As pair_distances for ellipsoids (ce, Re, ra) and boxes (ck, Rk, rk: half-sizes); the normal from
     the ellipsoid to the box."""
     return _distances(_box_distances, (ce, Re, ra, ck, Rk, rk), device)
+
+
+def cylinder_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
+    """As pair_distances for ellipsoids (ce, Re, ra) and cylinders (ck, Rk, rk: MuJoCo's geom_size,
+    (radius, half-length, unused)); the normal from the ellipsoid to the cylinder."""
+    return _distances(_cylinder_distances, (ce, Re, ra, ck, Rk, rk), device)

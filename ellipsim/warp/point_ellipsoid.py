@@ -329,7 +329,11 @@ def project_ellipse(a2: wp.vec3d, w1: wp.vec3d, w2: wp.vec3d):
     half = F64(0.5) * (m11 - m22)
     rad = wp.sqrt(half * half + m12 * m12)
     lam = F64(0.5) * (m11 + m22) + rad
-    mu = (m11 * m22 - m12 * m12) / lam
+    # det / lam with det by Cauchy-Binet, a sum of positive terms (point_ellipsoid.project_ellipse)
+    x0 = w1[1] * w2[2] - w1[2] * w2[1]
+    x1 = w1[2] * w2[0] - w1[0] * w2[2]
+    x2 = w1[0] * w2[1] - w1[1] * w2[0]
+    mu = (a2[1] * a2[2] * x0 * x0 + a2[0] * a2[2] * x1 * x1 + a2[0] * a2[1] * x2 * x2) / lam
     c = F64(1.0)
     s = F64(0.0)
     if rad > F64(0.0):

@@ -2,14 +2,16 @@
 (CPU here unless CUDA is present: the table says which).
 
 1. Accuracy: one pair per world (two free geoms, each world its own poses and sizes set directly in
-   the model's per-world arrays), in categories by distance from touching (deep, shallow, within
-   1e-6, inside the margin, beyond it), near the origin and 100 m away; every world's contact from
-   plain Warp at its default and at tight settings (ccd_tolerance 1e-10, 1000 iterations) and from
-   an attached model, against the exact answer: ellipsim's CPU narrow phase on the same float32
-   poses widened to float64 (proven global maxima).
+   the model's per-world arrays), ellipsoid, sphere, capsule, cylinder and box against an ellipsoid, in
+   categories by distance from touching (deep, shallow, within 1e-6, inside the margin, beyond it),
+   near the origin and 100 m away; every world's contact from plain Warp at its default and at tight
+   settings (ccd_tolerance 1e-10, 1000 iterations) and from an attached model, against the exact
+   answer: ellipsim's CPU narrow phase on the same float32 poses widened to float64 (proven global
+   maxima: signed_distance, core/pairs/capsule.py, cylinder.py, box.py).
 2. Cost per pair, the CPU proxy for a GPU: mjw.collision over N worlds of one pair each, minus the same
    call on a model whose pair is excluded (broad phase and launches with nothing to do), over N;
-   plain (Warp's GJK/EPA kernel) and attached (ellipsim's kernel), in interleaved rounds.
+   plain (Warp's GJK/EPA kernel) and attached (ellipsim's kernel), in interleaved rounds, for the
+   ellipsoid, capsule, cylinder and box pairs.
 3. Collision stage and mjw.step per world-step on settled scenes (the 16-figure heap, the pile),
    attached vs plain, interleaved.
 """
@@ -22,6 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from ...core.distance.ellipsoid_pair import signed_distance
 from ...core.ellipsoids import Ellipsoids
+from ...core.pairs import box, capsule, cylinder
 from .. import scenes
 from .common import SIZES, interleaved, say, settled
 
@@ -40,7 +43,17 @@ CATEGORIES = {
     "beyond the margin (+1.5 m)": 1.5,
 }
 MARGIN = 0.02  # of the smallest semi-axis, in the two inside/beyond-margin categories
-PAIR_KINDS = ("ellipsoid", "sphere")  # geom 0's type; geom 1 is an ellipsoid
+PAIR_KINDS = ("ellipsoid", "sphere", "capsule", "cylinder", "box")  # geom 0's type; geom 1 is an ellipsoid
+COST_KINDS = ("ellipsoid", "capsule", "cylinder", "box")  # (sphere x ellipsoid is the ellipsoid pair's kernel)
+PAIR_NAMES = {
+    "ellipsoid": "ellipsoid x ellipsoid",
+    "sphere": "sphere x ellipsoid",
+    "capsule": "capsule x ellipsoid",
+    "cylinder": "ellipsoid x cylinder",
+    "box": "ellipsoid x box",
+}
+#: core/pairs' kernel of each kind that is not an ellipsoid pair (the ellipsoid is their first body).
+PAIR_KERNELS = {"capsule": capsule.capsule_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid, "box": box.box_ellipsoid}
 
 _TWO = """<mujoco><worldbody>
 <body><freejoint/><geom type="{t}" size=".1 .1 .1"/></body>
@@ -59,7 +72,8 @@ def _warp():
 
 def make_pairs(rng, n, kind, category, offset):
     """n float32 poses (ca, Ra, ra, cb, Rb, rb) and per-pair margins, B moved along the exact normal to
-    the category's distance; aspect ratios 1:1:1 to 10:1:1 and 10:10:1."""
+    the category's distance; aspect ratios 1:1:1 to 10:1:1 and 10:10:1 (a capsule's (radius, half-length)
+    (and a cylinder's), and a box's half-sizes drawn from the same shapes)."""
     aspect = rng.choice([0, 1, 2], n)
     base = rng.uniform(0.02, 0.1, (n, 1))
     shape = np.where(
@@ -71,6 +85,8 @@ def make_pairs(rng, n, kind, category, offset):
     ra = base * shape
     if kind == "sphere":
         ra = np.repeat(ra[:, :1], 3, 1) / 3
+    elif kind in ("capsule", "cylinder"):
+        ra = np.stack([ra.min(1), ra.max(1), np.zeros(n)], 1)
     rb = rng.uniform(0.02, 0.1, (n, 1)) * np.where(
         (rng.random(n) < 0.5)[:, None],
         rng.uniform(1, 2, (n, 3)),
@@ -83,21 +99,38 @@ def make_pairs(rng, n, kind, category, offset):
     ca = offset + rng.uniform(-0.5, 0.5, (n, 3))
     cb = ca + rng.normal(size=(n, 3)) * 0.1
     f32 = lambda x: np.asarray(x, np.float32)  # noqa: E731
-    rmin = np.minimum(ra.min(1), rb.min(1))
+    rmin = np.minimum(_smallest(kind, ra), rb.min(1))
     target = CATEGORIES[category]
     margin = np.where(target >= 0.5, MARGIN * rmin, 0.0)
     goal = np.where(target >= 0.5, target * margin, target * rmin)
     for _ in range(3):  # float32 rounding of the moved centre: re-aim on the rounded poses
-        d, nrm, _, _ = _exact(f32(ca), f32(Ra), f32(ra), f32(cb), f32(Rb), f32(rb))
+        d, nrm, _, _ = _exact(kind, f32(ca), f32(Ra), f32(ra), f32(cb), f32(Rb), f32(rb))
         cb = f32(cb) + nrm * (goal - d)[:, None]
     if target == 1e-6:  # either side of touching
         cb = cb + nrm * (rng.choice([-1.0, 1.0], n) * 1e-6 * rmin)[:, None]
     return [f32(x) for x in (ca, Ra, ra, cb, Rb, rb)], f32(margin)
 
 
-def _exact(ca, Ra, ra, cb, Rb, rb):
+def _smallest(kind, size):
+    """The smallest half-size of geom 0 (a capsule's radius; a cylinder's radius or half-length)."""
+    if kind == "capsule":
+        return size[:, 0]
+    return size[:, :2].min(1) if kind == "cylinder" else size.min(1)
+
+
+def _exact(kind, ca, Ra, ra, cb, Rb, rb):
+    """(dist, normal from geom 0 to geom 1, pos, status) by ellipsim's CPU narrow phase on the float32 poses
+    widened to float64: signed_distance, or core/pairs' capsule / cylinder / box kernel (per pair; a
+    cylinder's status 1 where its kernel says UNPROVEN)."""
     w = lambda x: np.asarray(x, np.float32).astype(np.float64)  # noqa: E731
-    return signed_distance(Ellipsoids(w(ca), w(Ra), w(ra)), Ellipsoids(w(cb), w(Rb), w(rb)))
+    if kind in ("ellipsoid", "sphere"):
+        return signed_distance(Ellipsoids(w(ca), w(Ra), w(ra)), Ellipsoids(w(cb), w(Rb), w(rb)))
+    kernel = PAIR_KERNELS[kind]
+    t = lambda x, i: tuple(float(v) for v in w(x[i]).ravel())  # noqa: E731
+    out = [kernel((t(cb, i), t(Rb, i), t(rb, i)), (t(ca, i), t(Ra, i), t(ra, i))) for i in range(len(ca))]
+    st, dist, normal, pos = (np.array([o[k] for o in out]) for k in (0, 1, 2, 3))
+    unproven = ~np.isfinite(dist) | ((st == cylinder.UNPROVEN) if kind == "cylinder" else False)
+    return dist, -normal, pos, unproven.astype(int)  # (its normal is from the ellipsoid, geom 1)
 
 
 def pair_worlds(kind, poses, margin, *, exclude=False, tight=False, device="cpu"):
@@ -114,9 +147,20 @@ def pair_worlds(kind, poses, margin, *, exclude=False, tight=False, device="cpu"
         d = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=n, naconmax=4 * n)
         radii = np.stack([ra, rb], 1)  # a sphere's (r, r, r): Warp and ellipsim read its first entry
         m.geom_size = wp.array(radii.astype(np.float32), dtype=wp.vec3)
-        m.geom_rbound = wp.array(radii.max(2).astype(np.float32), dtype=float)
+        half = radii.copy()  # the local bounding box's half-extents and the bounding sphere (as put_model)
+        if kind in ("capsule", "cylinder"):
+            L = ra[:, 1] + (ra[:, 0] if kind == "capsule" else 0.0)
+            half[:, 0] = np.stack([ra[:, 0], ra[:, 0], L], 1)
+        rbound = radii.max(2)
+        bound = {
+            "capsule": ra[:, 0] + ra[:, 1],
+            "cylinder": np.hypot(ra[:, 0], ra[:, 1]),
+            "box": np.linalg.norm(ra, axis=1),
+        }
+        rbound[:, 0] = bound.get(kind, rbound[:, 0])
+        m.geom_rbound = wp.array(rbound.astype(np.float32), dtype=float)
         aabb = np.zeros((n, 2, 2, 3), np.float32)
-        aabb[:, :, 1] = radii
+        aabb[:, :, 1] = half
         m.geom_aabb = wp.array(aabb, dtype=wp.vec3)
         m.geom_margin = wp.array(np.stack([margin / 2, margin / 2], 1).astype(np.float32), dtype=float)
         d.geom_xpos.assign(np.stack([ca, cb], 1))
@@ -125,14 +169,17 @@ def pair_worlds(kind, poses, margin, *, exclude=False, tight=False, device="cpu"
 
 
 def world_contacts(d, n):
-    """(dist, normal, pos) per world (nan where none; the deepest where Warp made several)."""
+    """(dist, normal from geom 0 to geom 1, pos) per world (nan where none; the deepest where Warp made
+    several).  Warp names a pair's geoms lower type first: an ellipsoid before a box, so that normal is
+    turned round."""
     k = min(int(d.nacon.numpy()[0]), d.naconmax)
     dist = np.full(n, np.nan)
     normal, pos = np.full((n, 3), np.nan), np.full((n, 3), np.nan)
     w = d.contact.worldid.numpy()[:k]
     dd, ff, pp = d.contact.dist.numpy()[:k], d.contact.frame.numpy()[:k], d.contact.pos.numpy()[:k]
+    sign = np.where(d.contact.geom.numpy()[:k, 0] == 0, 1.0, -1.0)
     for i in np.argsort(-dd):  # deepest last, so it wins
-        dist[w[i]], normal[w[i]], pos[w[i]] = dd[i], ff[i, 0], pp[i]
+        dist[w[i]], normal[w[i]], pos[w[i]] = dd[i], sign[i] * ff[i, 0], pp[i]
     return dist, normal, pos
 
 
@@ -145,8 +192,8 @@ def accuracy(size, device):
         for offset in (0.0, 100.0):
             for category in CATEGORIES:
                 poses, margin = make_pairs(rng, n, kind, category, offset)
-                dc, nc, _, _ = _exact(*poses)
-                rmin = np.minimum(poses[2].min(1), poses[5].min(1)).astype(float)
+                dc, nc, _, _ = _exact(kind, *poses)
+                rmin = np.minimum(_smallest(kind, poses[2]), poses[5].min(1)).astype(float)
                 want = dc < margin
                 for method in ("Warp GJK/EPA, default", "Warp GJK/EPA, tight", "ellipsim on Warp"):
                     m, d = pair_worlds(kind, poses, margin, tight="tight" in method, device=device)
@@ -180,15 +227,15 @@ def accuracy(size, device):
     return rows
 
 
-def cost_per_pair(size, device):
+def cost_per_pair(size, device, kind):
     """Seconds per pair of mjw.collision, plain and attached, less the empty model's (module docstring)."""
     wp, mjw, ew = _warp()
     rng = np.random.default_rng(5)
     n = size["warp_cost_worlds"]
-    poses, margin = make_pairs(rng, n, "ellipsoid", "shallow (-1e-3)", 0.0)
-    plain = pair_worlds("ellipsoid", poses, margin, device=device)
-    attached = pair_worlds("ellipsoid", poses, margin, device=device)
-    empty = pair_worlds("ellipsoid", poses, margin, exclude=True, device=device)
+    poses, margin = make_pairs(rng, n, kind, "shallow (-1e-3)", 0.0)
+    plain = pair_worlds(kind, poses, margin, device=device)
+    attached = pair_worlds(kind, poses, margin, device=device)
+    empty = pair_worlds(kind, poses, margin, exclude=True, device=device)
     with wp.ScopedDevice(device):
         att = ew.attach(attached[0])
 
@@ -206,6 +253,7 @@ def cost_per_pair(size, device):
         att.detach()
     per = {k: (times[k] - times["empty"]) / n for k in ("plain", "attached")}
     return dict(
+        kind=kind,
         n=n,
         plain=float(np.median(per["plain"])),
         attached=float(np.median(per["attached"])),
@@ -286,7 +334,7 @@ def measure(size):
     say(f"warp: accuracy against the exact narrow phase on {device} ...")
     acc = accuracy(size, device)
     say("warp: cost per pair ...")
-    cost = cost_per_pair(size, device)
+    cost = [cost_per_pair(size, device, kind) for kind in COST_KINDS]
     rows = scenes_rows(size, device)
     return dict(device=device, accuracy=acc, cost=cost, scenes=rows)
 
@@ -310,7 +358,7 @@ def write(result, size, out, plt):
         "|---|---|---|---|---:|---:|---:|---:|---:|---:|",
     ]
     for a in r["accuracy"]:
-        pair = "sphere x ellipsoid" if a["kind"] == "sphere" else "ellipsoid x ellipsoid"
+        pair = PAIR_NAMES[a["kind"]]
         where = "origin" if a["offset"] == 0 else f"{a['offset']:.0f} m away"
         un = "-" if a["unproven"] is None else str(a["unproven"])
         L.append(
@@ -320,10 +368,18 @@ def write(result, size, out, plt):
     c = r["cost"]
     L += [
         "",
-        f"Cost per pair ({c['n']} worlds of one shallow ellipsoid pair, mjw.collision less the same call with the pair "
-        f"excluded, {c['empty'] * 1e9:.0f} ns per world; medians of interleaved rounds): Warp's GJK/EPA "
-        f"{c['plain'] * 1e9:.0f} ns, ellipsim's kernel {c['attached'] * 1e9:.0f} ns: **{c['ratio']:.2f}x** "
-        "(goal <= 0.5x).",
+        f"Cost per pair ({c[0]['n']} worlds of one shallow pair, mjw.collision less the same call with the pair "
+        "excluded; medians of interleaved rounds; goal <= 0.5x):",
+        "",
+        "| pair | empty call per world (ns) | Warp's GJK/EPA (ns per pair) | ellipsim's kernel (ns per pair) | ratio |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for k in c:
+        L.append(
+            f"| {PAIR_NAMES[k['kind']]} | {k['empty'] * 1e9:.0f} | {k['plain'] * 1e9:.0f} | {k['attached'] * 1e9:.0f} | "
+            f"**{k['ratio']:.2f}x** |"
+        )
+    L += [
         "",
         "| scene | worlds | ellipsim pairs per world | contacts (plain / attached) | collision per world-step, plain / "
         "attached (us) | ratio | mjw.step per world-step, plain / attached (us) | ratio | unproven / evaluated pairs |",
@@ -339,9 +395,10 @@ def write(result, size, out, plt):
         )
     L += [
         "",
-        "Ratios below 1 are ellipsim faster.  Unproven: pairs deeper than the rolling-radius proof whose maximum "
-        "the Warp kernel does not prove (the CPU's branch and bound is not ported: the best of 13 Newton runs, "
-        "counted in att.counters).",
+        "Ratios below 1 are ellipsim faster.  Unproven: ellipsoid pairs deeper than the rolling-radius proof whose "
+        "maximum the Warp kernel does not prove (the CPU's branch and bound is not ported: the best of 13 Newton "
+        "runs, counted in att.counters); capsule and box pairs are always proven (certified, else every critical "
+        "point evaluated), cylinder pairs unless the rim's branch and bound runs out of its budget (counted).",
         "",
     ]
     return L

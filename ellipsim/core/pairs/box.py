@@ -7,7 +7,9 @@ strata of the box's support function, each solved globally by Eberly's secular e
 hyperellipsoid", sec. 2-3; GTCG 10.5.2), certified by two convex-duality bounds or by enumerating
 every critical point.  Same contract and conventions as capsule.py.
 
-The box K = sum_j r_j [-1, 1] v_j centred at e (v_j its axes in E's principal frame), so
+The box K = sum_j r_j [-1, 1] v_j centred at e (v_j its axes in E's principal frame; orthonormal to
+rounding from MuJoCo C's float64 rotations, only to ~1e-7 from MuJoCo Warp's float32 ones: K is then the
+parallelepiped they span, and face_normal, edge_plane, sd_point_box and upper_bound2 compute for it), so
 h_K(n) = sum_j r_j |n.v_j| and sigma is smooth except on the three great circles n.v_j = 0.  Its
 strata: the 8 open octants (vertex contacts: sigma = f_q(n) = n.q - h_E(n), q = e minus the box
 vertex facing E), the 12 open quarter circles (edge contacts: the 2-D point-ellipse problem in the
@@ -39,7 +41,7 @@ import math
 from .._jit import jit, stage
 from ..distance.sphere_newton import rolling_radius, unit
 from ..tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from ..vec3 import column, norm2, rotate_t
+from ..vec3 import column, cross3, norm2, rotate_t
 from .point_ellipsoid import (
     circle_max_bound,
     contact_in_world,
@@ -104,6 +106,34 @@ def centre_line_bound(E, K):
 
 
 @stage
+def face_normal(V, i):
+    """The outward unit normal of the face +v_i: v_j x v_k turned to v_i's side (v_i itself for orthonormal
+    axes; for axes orthonormal only to ~1e-7, as float32 rotations give, v_i misses the face's point of
+    the sphere by that angle, and sigma by ~1e-7 of the box's size)."""
+    m = unit(cross3(V[(i + 1) % 3], V[(i + 2) % 3]))
+    if _dot(m, V[i]) < 0.0:
+        return (-m[0], -m[1], -m[2])
+    return m
+
+
+@stage
+def edge_plane(V, i):
+    """An orthonormal basis (b1, b2) of the plane n.v_i = 0 (the smooth piece of an edge along v_i), b1
+    along v_j's part in it (j = i + 1): (v_j, v_k) for orthonormal axes."""
+    u = unit(V[i])
+    vj = V[(i + 1) % 3]
+    d = _dot(vj, u)
+    b1 = unit((vj[0] - d * u[0], vj[1] - d * u[1], vj[2] - d * u[2]))
+    return b1, cross3(u, b1)
+
+
+@stage
+def face_cosines(V):
+    """|v_j . face normal j| per axis (1 for orthonormal axes): face planes j lie 2 r_j times it apart."""
+    return (abs(_dot(V[0], face_normal(V, 0))), abs(_dot(V[1], face_normal(V, 1))), abs(_dot(V[2], face_normal(V, 2))))
+
+
+@stage
 def _solve_state(a2, e, V, r, st):
     """The maximiser of the smooth piece of the state st (3-tuple of ACTIVE / +1 / -1)."""
     q0, q1, q2 = e
@@ -121,10 +151,11 @@ def _solve_state(a2, e, V, r, st):
         return n
     if nact == 1:
         i = 0 if st[0] == ACTIVE else (1 if st[1] == ACTIVE else 2)
-        n, _ = circle_max_bound(a2, q, V[(i + 1) % 3], V[(i + 2) % 3])
+        b1, b2 = edge_plane(V, i)
+        n, _ = circle_max_bound(a2, q, b1, b2)
         return n
     i = 0 if st[0] != ACTIVE else (1 if st[1] != ACTIVE else 2)
-    v = V[i]
+    v = face_normal(V, i)
     sg = float(st[i])
     return (sg * v[0], sg * v[1], sg * v[2])
 
@@ -149,7 +180,7 @@ def local_max(a2, e, V, r):
     best, st = -math.inf, (ACTIVE, ACTIVE, 1)
     for i in range(3):
         for sg in (1, -1):
-            v = V[i]
+            v = face_normal(V, i)
             val = sigma_box(a2, e, V, r, (sg * v[0], sg * v[1], sg * v[2]))
             if val > best:
                 best = val
@@ -171,14 +202,26 @@ def local_max(a2, e, V, r):
 
 @stage
 def sd_point_box(w, V, r):
-    """Signed distance of the point w to the box (exact formula)."""
-    d0 = abs(_dot(w, V[0])) - r[0]
-    d1 = abs(_dot(w, V[1])) - r[1]
-    d2 = abs(_dot(w, V[2])) - r[2]
+    """Signed distance of the point w to the box {sum_j c_j v_j : |c_j| <= r_j}, for axes orthonormal to
+    rounding or only to ~1e-7 (float32 rotations, where the formula |w.v_j| - r_j is off by that much of
+    the box's size): w's coordinates c = G^-1 V w by one correction step (G = V V^T, error O(defect^2));
+    outside, |w - x| for the box's point x = sum_j clamp(c_j) v_j (a point of the body: a bound whatever
+    the rounding); inside, minus the distance to the nearest face plane, (r_j - |c_j|) face_cosines_j."""
+    v0, v1, v2 = _dot(w, V[0]), _dot(w, V[1]), _dot(w, V[2])
+    g01, g02, g12 = _dot(V[0], V[1]), _dot(V[0], V[2]), _dot(V[1], V[2])
+    g00, g11, g22 = _dot(V[0], V[0]), _dot(V[1], V[1]), _dot(V[2], V[2])
+    c0 = 2.0 * v0 - (g00 * v0 + g01 * v1 + g02 * v2)
+    c1 = 2.0 * v1 - (g01 * v0 + g11 * v1 + g12 * v2)
+    c2 = 2.0 * v2 - (g02 * v0 + g12 * v1 + g22 * v2)
+    d0, d1, d2 = abs(c0) - r[0], abs(c1) - r[1], abs(c2) - r[2]
     if d0 <= 0.0 and d1 <= 0.0 and d2 <= 0.0:
-        return max(d0, d1, d2)
-    o0, o1, o2 = max(d0, 0.0), max(d1, 0.0), max(d2, 0.0)
-    return math.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+        f = face_cosines(V)
+        return max(d0 * f[0], d1 * f[1], d2 * f[2])
+    k0, k1, k2 = min(max(c0, -r[0]), r[0]), min(max(c1, -r[1]), r[1]), min(max(c2, -r[2]), r[2])
+    z0 = w[0] - (k0 * V[0][0] + k1 * V[1][0] + k2 * V[2][0])
+    z1 = w[1] - (k0 * V[0][1] + k1 * V[1][1] + k2 * V[2][1])
+    z2 = w[2] - (k0 * V[0][2] + k1 * V[1][2] + k2 * V[2][2])
+    return math.sqrt(z0 * z0 + z1 * z1 + z2 * z2)
 
 
 @stage
@@ -214,8 +257,11 @@ def upper_bound2(a2, e, V, r, n, value):
         e[1] - c0 * V[0][1] - c1 * V[1][1] - c2 * V[2][1],
         e[2] - c0 * V[0][2] - c1 * V[1][2] - c2 * V[2][2],
     )
+    # the ball of radius t about c fits an orthonormal box; the one of radius t min_j face_cosines_j fits the
+    # parallelepiped of axes orthonormal only to ~1e-7 (its distance to each face plane)
+    f = face_cosines(V)
     tt, _ = foot3(a2, q)
-    return sd_upper(a2, q, tt) - t
+    return sd_upper(a2, q, tt) - t * min(f[0], f[1], f[2])
 
 
 @stage
@@ -246,12 +292,13 @@ def enumerate_max(a2, e, V, r, best, bn, tol):
     2 max), q_3 = 0): its term vanishes and the kept roots are the 2-D ones.  Returns (value, n)."""
     for i in range(3):
         for sg in (1.0, -1.0):
-            v = V[i]
+            v = face_normal(V, i)
             best, bn = _consider(a2, e, V, r, (sg * v[0], sg * v[1], sg * v[2]), best, bn)
     for i in range(3):
         j, k = (i + 1) % 3, (i + 2) % 3
         w1, w2 = V[j], V[k]
-        lam, mu, c, s = project_ellipse(a2, w1, w2)
+        b1, b2 = edge_plane(V, i)
+        lam, mu, c, s = project_ellipse(a2, b1, b2)
         b3 = (lam, mu, 2.0 * max(lam, mu))
         for sj in (1.0, -1.0):
             for sk in (1.0, -1.0):
@@ -260,10 +307,10 @@ def enumerate_max(a2, e, V, r, best, bn, tol):
                     e[1] - sj * r[j] * w1[1] - sk * r[k] * w2[1],
                     e[2] - sj * r[j] * w1[2] - sk * r[k] * w2[2],
                 )
-                p1, p2 = _dot(q, w1), _dot(q, w2)
+                p1, p2 = _dot(q, b1), _dot(q, b2)
                 p = (c * p1 + s * p2, -s * p1 + c * p2, 0.0)
                 t, m0, m1 = foot2(lam, mu, p[0], p[1])
-                n = from_plane(m0, m1, c, s, w1, w2)
+                n = from_plane(m0, m1, c, s, b1, b2)
                 if _dot(n, w1) * sj >= 0.0 and _dot(n, w2) * sk >= 0.0:
                     best, bn = _consider(a2, e, V, r, n, best, bn)
                     continue
@@ -272,12 +319,12 @@ def enumerate_max(a2, e, V, r, best, bn, tol):
                 for t in secular_roots(b3, p):
                     if t == t:
                         m = unit((p[0] / (t + lam), p[1] / (t + mu), 0.0))
-                        best, bn = _consider(a2, e, V, r, from_plane(m[0], m[1], c, s, w1, w2), best, bn)
+                        best, bn = _consider(a2, e, V, r, from_plane(m[0], m[1], c, s, b1, b2), best, bn)
                 for ii in range(2):
                     for sign in (1.0, -1.0):
                         ok, m = pole_normal(b3, p, ii, sign)
                         if ok:
-                            best, bn = _consider(a2, e, V, r, from_plane(m[0], m[1], c, s, w1, w2), best, bn)
+                            best, bn = _consider(a2, e, V, r, from_plane(m[0], m[1], c, s, b1, b2), best, bn)
     for s0 in (1.0, -1.0):
         for s1 in (1.0, -1.0):
             for s2 in (1.0, -1.0):

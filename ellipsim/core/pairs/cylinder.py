@@ -67,10 +67,12 @@ def _dot(x, y):
 
 @stage
 def to_frame(E, K):
-    """(e, a2, u): K's centre in E's principal frame, E's squared semi-axes, K's axis (its local z)."""
+    """(e, a2, u): K's centre in E's principal frame, E's squared semi-axes, K's unit axis (its local z,
+    normalised: rotations orthonormal only to ~1e-7, as MuJoCo Warp's float32 ones, leave it that far
+    from unit, and every formula below takes it unit)."""
     (ce, Re, ra), (ck, Rk, _) = E, K
     e = rotate_t(Re, (ck[0] - ce[0], ck[1] - ce[1], ck[2] - ce[2]))
-    u = rotate_t(Re, column(Rk, 2))
+    u = unit(rotate_t(Re, column(Rk, 2)))
     return e, (ra[0] * ra[0], ra[1] * ra[1], ra[2] * ra[2]), u
 
 

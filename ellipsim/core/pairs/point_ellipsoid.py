@@ -259,7 +259,12 @@ def project_ellipse(a2, w1, w2):
     half = 0.5 * (m11 - m22)
     rad = math.sqrt(half * half + m12 * m12)
     lam = 0.5 * (m11 + m22) + rad
-    mu = (m11 * m22 - m12 * m12) / lam  # the smaller eigenvalue without cancellation
+    # the smaller eigenvalue as det / lam, det = m11 m22 - m12^2 by Cauchy-Binet: a sum of positive terms
+    # a_i a_j (w1 x w2)_k^2, where the difference cancels for a thin projection (aspect 100: 1e4 u)
+    x0 = w1[1] * w2[2] - w1[2] * w2[1]
+    x1 = w1[2] * w2[0] - w1[0] * w2[2]
+    x2 = w1[0] * w2[1] - w1[1] * w2[0]
+    mu = (a2[1] * a2[2] * x0 * x0 + a2[0] * a2[2] * x1 * x1 + a2[0] * a2[1] * x2 * x2) / lam
     if rad > 0.0:
         if half >= 0.0:
             c, s = half + rad, m12

@@ -22,8 +22,10 @@ import warp as wp
 from ..core.tolerances import PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
 from .point_ellipsoid import (
     circle_max_bound,
+    copysign,
     foot2,
     foot3,
+    from_plane,
     pole_normal,
     project_ellipse,
     sd_upper,
@@ -50,14 +52,6 @@ def sigma_box(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, n: wp.vec3d)
         n[0] * e[0] + n[1] * e[1] + n[2] * e[2] - h
         - r[0] * wp.abs(wp.dot(n, V[0])) - r[1] * wp.abs(wp.dot(n, V[1])) - r[2] * wp.abs(wp.dot(n, V[2]))
     )  # fmt: skip
-
-
-@wp.func
-def _plane_normal(m0: wp.float64, m1: wp.float64, c: wp.float64, s: wp.float64, w1: wp.vec3d, w2: wp.vec3d):
-    """point_ellipsoid.from_plane: the unit vector with coordinates (m0, m1) along the projected axes."""
-    k1 = c * m0 - s * m1
-    k2 = s * m0 + c * m1
-    return unit(wp.vec3d(k1 * w1[0] + k2 * w2[0], k1 * w1[1] + k2 * w2[1], k1 * w1[2] + k2 * w2[2]))
 
 
 @wp.func
@@ -199,14 +193,6 @@ def _face_cosines(V: wp.mat33d) -> wp.vec3d:
 
 
 @wp.func
-def _copysign(x: wp.float64, y: wp.float64) -> wp.float64:
-    """|x| with the sign of y (math.copysign; -0.0 counts as negative, as there)."""
-    if y < F64(0.0) or (y == F64(0.0) and F64(1.0) / y < F64(0.0)):
-        return -wp.abs(x)
-    return wp.abs(x)
-
-
-@wp.func
 def _upper_bound2(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, n: wp.vec3d, value: wp.float64) -> wp.float64:
     """ub2 (box.upper_bound2): the witness clamped into the box; a face contact's largest inner ball."""
     _h, s = support(a2, n)
@@ -220,13 +206,13 @@ def _upper_bound2(a2: wp.vec3d, e: wp.vec3d, V: wp.mat33d, r: wp.vec3d, n: wp.ve
     t = F64(0.0)
     if m1 + m2 < F64(1e-12):
         t = wp.min(r[0], wp.min(r[1] - wp.abs(c1), r[2] - wp.abs(c2)))
-        c0 = _copysign(r[0] - t, wp.dot(n, V[0]))
+        c0 = copysign(r[0] - t, wp.dot(n, V[0]))
     elif m0 + m2 < F64(1e-12):
         t = wp.min(r[1], wp.min(r[0] - wp.abs(c0), r[2] - wp.abs(c2)))
-        c1 = _copysign(r[1] - t, wp.dot(n, V[1]))
+        c1 = copysign(r[1] - t, wp.dot(n, V[1]))
     elif m0 + m1 < F64(1e-12):
         t = wp.min(r[2], wp.min(r[0] - wp.abs(c0), r[1] - wp.abs(c1)))
-        c2 = _copysign(r[2] - t, wp.dot(n, V[2]))
+        c2 = copysign(r[2] - t, wp.dot(n, V[2]))
     q = wp.vec3d(
         e[0] - c0 * V[0][0] - c1 * V[1][0] - c2 * V[2][0],
         e[1] - c0 * V[0][1] - c1 * V[1][1] - c2 * V[2][1],
@@ -304,7 +290,7 @@ def _enumerate_max(
             p2 = wp.dot(q, b2)
             p = wp.vec3d(c * p1 + s * p2, -s * p1 + c * p2, F64(0.0))
             t, m0, m1 = foot2(lam, mu, p[0], p[1])
-            n = _plane_normal(m0, m1, c, s, b1, b2)
+            n = from_plane(m0, m1, c, s, b1, b2)
             if wp.dot(n, w1) * sj >= F64(0.0) and wp.dot(n, w2) * sk >= F64(0.0):
                 best, bn = _better(sigma_box(a2, e, V, r, n), n, best, bn)
                 continue
@@ -322,7 +308,7 @@ def _enumerate_max(
                     tk = rb
                 if ok:
                     mm = unit(wp.vec3d(p[0] / (tk + lam), p[1] / (tk + mu), F64(0.0)))
-                    m = _plane_normal(mm[0], mm[1], c, s, b1, b2)
+                    m = from_plane(mm[0], mm[1], c, s, b1, b2)
                     best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
             for ii in range(2):
                 for half in range(2):
@@ -331,7 +317,7 @@ def _enumerate_max(
                         sign = F64(-1.0)
                     okp, mm = pole_normal(b3, p, ii, sign)
                     if okp:
-                        m = _plane_normal(mm[0], mm[1], c, s, b1, b2)
+                        m = from_plane(mm[0], mm[1], c, s, b1, b2)
                         best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
     for vertex in range(8):
         s0 = F64(1.0)

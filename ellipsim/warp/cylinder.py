@@ -47,8 +47,10 @@ from ..core.tolerances import (
 )
 from .point_ellipsoid import (
     circle_max_bound,
+    copysign,
     foot2,
     foot3,
+    from_plane,
     pole_normal,
     project_ellipse,
     sd_upper,
@@ -126,22 +128,6 @@ def _pymod(x: wp.float64, y: wp.float64) -> wp.float64:
     else:
         m = F64(0.0)
     return m
-
-
-@wp.func
-def _copysign(x: wp.float64, y: wp.float64) -> wp.float64:
-    """|x| with the sign of y (math.copysign; -0.0 counts as negative, as there)."""
-    if y < F64(0.0) or (y == F64(0.0) and F64(1.0) / y < F64(0.0)):
-        return -wp.abs(x)
-    return wp.abs(x)
-
-
-@wp.func
-def _plane_normal(m0: wp.float64, m1: wp.float64, c: wp.float64, s: wp.float64, w1: wp.vec3d, w2: wp.vec3d):
-    """point_ellipsoid.from_plane: the unit vector with coordinates (m0, m1) along the projected axes."""
-    k1 = c * m0 - s * m1
-    k2 = s * m0 + c * m1
-    return unit(wp.vec3d(k1 * w1[0] + k2 * w2[0], k1 * w1[1] + k2 * w2[1], k1 * w1[2] + k2 * w2[2]))
 
 
 @wp.func
@@ -424,7 +410,7 @@ def upper_bound2(
             f = wp.min(F64(1.0), r / rad)
         yr = wp.vec3d(yr[0] * f, yr[1] * f, yr[2] * f)
         t = wp.min(L, r - rad * f)
-        za = _copysign(L - t, nu)
+        za = copysign(L - t, nu)
     elif wp.abs(nu) < F64(1e-12):  # side
         t = wp.min(r, L - wp.abs(za))
         pr = r - t
@@ -434,7 +420,7 @@ def upper_bound2(
         if rad > F64(0.0):
             f = r / rad
         yr = wp.vec3d(yr[0] * f, yr[1] * f, yr[2] * f)
-        za = _copysign(L, ya)
+        za = copysign(L, ya)
     q = wp.vec3d(e[0] - za * u[0] - yr[0], e[1] - za * u[1] - yr[1], e[2] - za * u[2] - yr[2])
     tt, _m = foot3(a2, q)
     return sd_upper(a2, q, tt) - t
@@ -527,7 +513,7 @@ def _arc_max(
     q = wp.vec3d(c * p1 + s * p2, -s * p1 + c * p2, F64(0.0))
     t, m0, m1 = foot2(lam, mu, q[0], q[1])
     top = sd_upper2(lam, mu, q[0], q[1], t)
-    m = _plane_normal(m0, m1, c, s, v1, v2)
+    m = from_plane(m0, m1, c, s, v1, v2)
     if top <= floor or _on_arc(m, v1, v2, span):
         return top, m
     best = _f(a2, p, v1)
@@ -547,7 +533,7 @@ def _arc_max(
             tk = rb
         if ok:
             mm = unit(wp.vec3d(q[0] / (tk + lam), q[1] / (tk + mu), F64(0.0)))
-            m = _plane_normal(mm[0], mm[1], c, s, v1, v2)
+            m = from_plane(mm[0], mm[1], c, s, v1, v2)
             if _on_arc(m, v1, v2, span):
                 v = _f(a2, p, m) + slack
                 if v > best:
@@ -560,7 +546,7 @@ def _arc_max(
                 sign = F64(-1.0)
             okp, mm = pole_normal(b3, q, i, sign)
             if okp:
-                m = _plane_normal(mm[0], mm[1], c, s, v1, v2)
+                m = from_plane(mm[0], mm[1], c, s, v1, v2)
                 if _on_arc(m, v1, v2, span):
                     v = _f(a2, p, m) + slack
                     if v > best:

@@ -350,6 +350,23 @@ def project_ellipse(a2: wp.vec3d, w1: wp.vec3d, w2: wp.vec3d):
 
 
 @wp.func
+def from_plane(m0: wp.float64, m1: wp.float64, c: wp.float64, s: wp.float64, w1: wp.vec3d, w2: wp.vec3d):
+    """The unit vector with coordinates (m0, m1) along the projected ellipse's axes (c, s), (-s, c) of the
+    plane span(w1, w2) (point_ellipsoid.from_plane)."""
+    k1 = c * m0 - s * m1
+    k2 = s * m0 + c * m1
+    return unit(wp.vec3d(k1 * w1[0] + k2 * w2[0], k1 * w1[1] + k2 * w2[1], k1 * w1[2] + k2 * w2[2]))
+
+
+@wp.func
+def copysign(x: wp.float64, y: wp.float64) -> wp.float64:
+    """|x| with the sign of y (math.copysign; -0.0 counts as negative, as there)."""
+    if y < F64(0.0) or (y == F64(0.0) and F64(1.0) / y < F64(0.0)):
+        return -wp.abs(x)
+    return wp.abs(x)
+
+
+@wp.func
 def circle_max_bound(a2: wp.vec3d, q: wp.vec3d, w1: wp.vec3d, w2: wp.vec3d):
     """(n, ub): the unit n in span(w1, w2) maximising n.q - h(n), and an upper bound on that maximum
     (point_ellipsoid.circle_max_bound)."""
@@ -359,10 +376,7 @@ def circle_max_bound(a2: wp.vec3d, q: wp.vec3d, w1: wp.vec3d, w2: wp.vec3d):
     r0 = c * p1 + s * p2
     r1 = -s * p1 + c * p2
     t, n0, n1 = foot2(lam, mu, r0, r1)
-    k1 = c * n0 - s * n1
-    k2 = s * n0 + c * n1
-    n = unit(wp.vec3d(k1 * w1[0] + k2 * w2[0], k1 * w1[1] + k2 * w2[1], k1 * w1[2] + k2 * w2[2]))
-    return n, sd_upper2(lam, mu, r0, r1, t)
+    return from_plane(n0, n1, c, s, w1, w2), sd_upper2(lam, mu, r0, r1, t)
 
 
 # --- every critical point of f_q on the sphere (point_ellipsoid's enumeration) ---------------------

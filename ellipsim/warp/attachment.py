@@ -266,9 +266,9 @@ class Attachment:
     def counters(self):
         """Totals since attach (or reset_counters) over all worlds and calls: pairs (evaluated by the
         narrow phase, past the bounding spheres), contacts (appended, overflow included), unproven
-        (maxima not proven global: for ellipsoid pairs the best of 13 Newton runs is used, for cylinder
-        pairs the best the rim's branch and bound reached in its budget), overflow (contacts not written
-        because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof; capsule,
+        (maxima not proven global: a branch and bound out of its budget, ellipsoid pairs' or a cylinder
+        rim's; the best found is used), overflow (contacts not written
+        because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof, sent to the branch and bound; capsule,
         box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved).  Reading
         synchronises with the device."""
         values = self._counters.numpy()

@@ -15,11 +15,14 @@ and `ellipsim.signed_distance` compute the same maximum (tests/test_warp.py comp
 
 Proofs, as in ellipsoid_pair.pair_signed_distance: a converged Newton run is the global maximum when
 sigma > 0 (sigma is concave on the ball) or when the depth is below rho = rolling_radius(A) +
-rolling_radius(B).  Deeper pairs, and runs that do not converge, get the best of 13 Newton runs (the
-bisector and the six axis directions of each body) and the status UNPROVEN: the CPU's branch and bound
-(core/distance/branch_and_bound.py) is not ported, so they are counted (Attachment.counters), never
-reported as proven.  Any sigma(n) is a lower bound on the distance, so a pair left without a contact
-(dist >= margin + gap) is separated beyond margin + gap whatever the status.
+rolling_radius(B).  Deeper pairs, and runs that do not converge, go to the CPU's branch and bound over
+the sphere (branch_and_bound.py, a port of core/distance/branch_and_bound.py, bit-identical to it),
+seeded with the first run, with ellipsoid_pair._pair's tolerances.  Where it runs out of its budget
+(flat or non-isolated maxima, e.g. nearly concentric coaxial spheroids, which the CPU hands to
+core/distance/spheroids.py, not ported), the better of its incumbent and 13 Newton runs, status
+UNPROVEN, counted (Attachment.counters), never reported as proven.  Any sigma(n) is a lower bound on
+the distance, so a pair left without a contact (dist >= margin + gap) is separated beyond margin + gap
+whatever the status.
 
 No allocation, no host synchronisation: fixed-size locals only (Warp kernels cannot allocate), one
 launch per call, counters by atomics into arrays allocated once at attach.
@@ -28,9 +31,14 @@ launch per call, counters by atomics into arrays allocated once at attach.
 import numpy as np
 import warp as wp
 
+from ..core.tolerances import BB_FRAME_ULPS, BB_MAX_PATCHES, BB_TOL_REL, BB_TOL_ULPS, U
 from .box import box_ellipsoid
+from .branch_and_bound import GLOBAL as BB_GLOBAL
+from .branch_and_bound import SEPARATED_MAX as BB_SEPARATED_MAX
+from .branch_and_bound import global_max
 from .capsule import capsule_ellipsoid
 from .cylinder import cylinder_ellipsoid
+from .point_ellipsoid import _max3, _min3
 
 F64 = wp.float64
 
@@ -39,6 +47,9 @@ MAX_ITER = 40
 FIRST_RUN_ITER = 10
 STEP_TOL = 1e-5
 STEP_TOL2 = STEP_TOL * STEP_TOL  # (a module constant: Warp would square the literal in float32)
+FOUR_U = 4.0 * U
+BB_TOL_ULPS_U = BB_TOL_ULPS * U
+BB_FRAME_ULPS_U = BB_FRAME_ULPS * U
 
 #: MuJoCo's mjtGeom codes of the types the kernel reads.
 SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 2, 3, 4, 5, 6
@@ -208,6 +219,19 @@ def _rolling_radius(r: wp.vec3d) -> wp.float64:
 
 
 @wp.func
+def _rotation_defect(R: wp.mat33d) -> wp.float64:
+    """max_ij |(R^T R - I)_ij| (vec3.rotation_defect)."""
+    d = F64(0.0)
+    for i in range(3):
+        for j in range(i, 3):
+            v = R[0, i] * R[0, j] + R[1, i] * R[1, j] + R[2, i] * R[2, j]
+            if i == j:
+                v = v - F64(1.0)
+            d = wp.max(d, wp.abs(v))
+    return d
+
+
+@wp.func
 def _widen3(v: wp.vec3) -> wp.vec3d:
     return wp.vec3d(F64(v[0]), F64(v[1]), F64(v[2]))
 
@@ -275,29 +299,37 @@ def ellipsoid_pair(
     if run == APART:
         return APART, value, Ra * n, ca, deep
     if not (run == CONVERGED and value >= -rho):
-        # deep, or the first run stalled: the best of 13 runs, unproven
+        # deep, or the first run stalled: the CPU's branch and bound over the sphere, seeded with the first
+        # run (ellipsoid_pair._pair's tolerances, A's rotation defect included)
         deep = 1
-        best = _sigma(n, e, a2, M)
-        best_run = run
-        for k in range(12):
-            axis = _axis(k % 6)
-            if k >= 6:
-                axis = _unit(U * axis)  # B's axes, in A's frame (U is float32-orthonormal only: normalised)
-            m, v, r2 = _newton(axis, e, a2, M, scale, MAX_ITER, cutoff)
-            v = _sigma(m, e, a2, M)
-            if r2 == APART:
-                return APART, v, Ra * m, ca, deep
-            if v > best:
-                best = v
-                best_run = r2
-                n = m
-        value = best
-        # any converged local maximum above -rho is global (the rolling-radius argument holds for every
-        # local maximum: the global one is then above -rho too); otherwise the best is unproven
-        status = UNPROVEN
-        if best_run == CONVERGED and value >= -rho:
-            status = GLOBAL
-            deep = 0
+        rmin = wp.min(_min3(ra), _min3(rb))
+        S = wp.sqrt(wp.dot(e, e)) + _max3(ra) + _max3(rb)
+        delta = _rotation_defect(Ra) + F64(FOUR_U)
+        tol = wp.max(F64(BB_TOL_REL) * rmin, (F64(BB_TOL_ULPS_U) + F64(6.0) * delta) * S)
+        tol_bb = tol - (F64(BB_FRAME_ULPS_U) + F64(6.0) * delta) * S
+        bb, m, v, _count, _runs = global_max(n, value, run == CONVERGED, e, ra, U, rb, M, scale, tol_bb, BB_MAX_PATCHES)
+        if bb == BB_GLOBAL or bb == BB_SEPARATED_MAX:
+            n = m
+            value = v
+        else:
+            # out of budget (flat or non-isolated maxima: spheroids, whose 1-D and 2-D branch and bounds
+            # (core/distance/spheroids.py) are not ported): the better of its incumbent and 13 Newton runs
+            # (the bisector and the six axis directions of each body), unproven
+            status = UNPROVEN
+            best = _sigma(m, e, a2, M)
+            n = m
+            for k in range(12):
+                axis = _axis(k % 6)
+                if k >= 6:
+                    axis = _unit(U * axis)  # B's axes, in A's frame (U is float32-orthonormal only: normalised)
+                m2, v2, r2 = _newton(axis, e, a2, M, scale, MAX_ITER, cutoff)
+                v2 = _sigma(m2, e, a2, M)
+                if r2 == APART:
+                    return APART, v2, Ra * m2, ca, deep
+                if v2 > best:
+                    best = v2
+                    n = m2
+            value = best
     # the support points and their midpoint (ellipsoid_pair._contact_at), sigma recomputed at n
     x = wp.cw_mul(ra, n)
     w = wp.transpose(U) * n

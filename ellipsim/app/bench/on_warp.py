@@ -395,10 +395,10 @@ def write(result, size, out, plt):
         )
     L += [
         "",
-        "Ratios below 1 are ellipsim faster.  Unproven: ellipsoid pairs deeper than the rolling-radius proof whose "
-        "maximum the Warp kernel does not prove (the CPU's branch and bound is not ported: the best of 13 Newton "
-        "runs, counted in att.counters); capsule and box pairs are always proven (certified, else every critical "
-        "point evaluated), cylinder pairs unless the rim's branch and bound runs out of its budget (counted).",
+        "Ratios below 1 are ellipsim faster.  Unproven: pairs whose branch and bound ran out of its budget (ellipsoid "
+        "pairs deeper than the rolling-radius proof go to the CPU's branch and bound over the sphere, cylinder "
+        "rims to theirs; counted in att.counters); capsule and box pairs are always proven (certified, else every "
+        "critical point evaluated).",
         "",
     ]
     return L

@@ -31,7 +31,7 @@ launch per call, counters by atomics into arrays allocated once at attach.
 import numpy as np
 import warp as wp
 
-from ..core.tolerances import BB_FRAME_ULPS, BB_MAX_PATCHES, BB_TOL_REL, BB_TOL_ULPS, U
+from ..core.tolerances import BB_FRAME_ULPS, BB_MAX_PATCHES, BB_TOL_REL, BB_TOL_ULPS, FIRST_RUN_ITER, NEWTON_MAX_ITER, U
 from .box import box_ellipsoid
 from .branch_and_bound import GLOBAL as BB_GLOBAL
 from .branch_and_bound import SEPARATED_MAX as BB_SEPARATED_MAX
@@ -39,14 +39,12 @@ from .branch_and_bound import global_max
 from .capsule import capsule_ellipsoid
 from .cylinder import cylinder_ellipsoid
 from .point_ellipsoid import _max3, _min3
+from .sphere_newton import APART, CONVERGED, _unit, newton, sigma
 
 F64 = wp.float64
 
-#: Newton's limits, as core/tolerances.py (NEWTON_MAX_ITER, NEWTON_STEP_TOL; the first run FIRST_RUN_ITER).
-MAX_ITER = 40
-FIRST_RUN_ITER = 10
-STEP_TOL = 1e-5
-STEP_TOL2 = STEP_TOL * STEP_TOL  # (a module constant: Warp would square the literal in float32)
+#: Newton's limits (core/tolerances.py; the step tolerance is sphere_newton.py's).
+MAX_ITER = NEWTON_MAX_ITER
 FOUR_U = 4.0 * U
 BB_TOL_ULPS_U = BB_TOL_ULPS * U
 BB_FRAME_ULPS_U = BB_FRAME_ULPS * U
@@ -60,7 +58,8 @@ TYPE_NAMES = ("SPHERE", "CAPSULE", "ELLIPSOID", "CYLINDER", "BOX")
 GLOBAL, UNPROVEN = 0, 1
 
 #: How one Newton run ended (sphere_newton.py), or APART: stopped at a lower bound beyond the cutoff.
-CONVERGED, NOT_CONVERGED, APART = 0, 1, 2  # (APART is also the pair status above: 2)
+#: (sphere_newton's CONVERGED, NOT_CONVERGED, APART; APART is also the pair status above: 2)
+assert (CONVERGED, APART) == (0, GLOBAL + 2)
 
 #: Candidate pairs per thread of the contact kernel (launch: (nworld, ceil(npairs / per thread))), per
 #: device kind.  On Warp's CPU device each thread costs ~20-30 ns of its own, and most candidates are
@@ -71,133 +70,6 @@ PAIRS_PER_THREAD = {"cpu": 16, "cuda": 1}
 #: The counters' slots (Attachment.counters names them).
 C_PAIRS, C_CONTACTS, C_UNPROVEN, C_OVERFLOW, C_DEEP = 0, 1, 2, 3, 4
 NCOUNTERS = 5
-
-
-@wp.func
-def _sigma(n: wp.vec3d, e: wp.vec3d, a2: wp.vec3d, M: wp.mat33d) -> wp.float64:
-    """sigma(n) for any nonzero n, scaled to unit length (sphere_newton.sigma)."""
-    s = F64(1.0) / wp.sqrt(wp.dot(n, n))
-    u = n * s
-    ha = wp.sqrt(a2[0] * u[0] * u[0] + a2[1] * u[1] * u[1] + a2[2] * u[2] * u[2])
-    mu = M * u
-    hb = wp.sqrt(u[0] * mu[0] + u[1] * mu[1] + u[2] * mu[2])
-    return u[0] * e[0] + u[1] * e[1] + u[2] * e[2] - ha - hb
-
-
-@wp.func
-def _unit(v: wp.vec3d) -> wp.vec3d:
-    s = wp.dot(v, v)
-    if s == F64(0.0):
-        return wp.vec3d(F64(1.0), F64(0.0), F64(0.0))
-    return v * (F64(1.0) / wp.sqrt(s))
-
-
-@wp.func
-def _tangent1(n: wp.vec3d) -> wp.vec3d:
-    """The first unit vector completing the unit n to an orthonormal frame (sphere_newton.tangent_basis)."""
-    t = wp.vec3d(-n[2], F64(0.0), n[0])  # e_y x n
-    if wp.abs(n[0]) < F64(0.6):
-        t = wp.vec3d(F64(0.0), n[2], -n[1])  # e_x x n
-    return t * (F64(1.0) / wp.sqrt(wp.dot(t, t)))
-
-
-@wp.func
-def _newton(
-    n0: wp.vec3d, e: wp.vec3d, a2: wp.vec3d, M: wp.mat33d, scale: wp.float64, max_iter: int, cutoff: wp.float64
-):
-    """Maximise sigma on the unit sphere from the unit n0 (sphere_newton.newton without the abandon
-    test): (n*, sigma before the last step, CONVERGED, NOT_CONVERGED or APART: sigma at an iterate
-    reached cutoff, a lower bound on the distance, and the run stopped there)."""
-    n = n0
-    value = F64(0.0)
-    for _it in range(max_iter):
-        a = wp.cw_mul(a2, n)
-        b = M * n
-        ha = wp.sqrt(a[0] * n[0] + a[1] * n[1] + a[2] * n[2])
-        hb = wp.sqrt(b[0] * n[0] + b[1] * n[1] + b[2] * n[2])
-        inv = F64(1.0) / (ha * hb)
-        ia = hb * inv
-        ib = ha * inv
-        value = n[0] * e[0] + n[1] * e[1] + n[2] * e[2] - ha - hb
-        if value >= cutoff:
-            return n, value, APART
-        t1 = _tangent1(n)
-        t2 = wp.vec3d(n[1] * t1[2] - n[2] * t1[1], n[2] * t1[0] - n[0] * t1[2], n[0] * t1[1] - n[1] * t1[0])
-        at1 = wp.dot(a, t1)
-        at2 = wp.dot(a, t2)
-        bt1 = wp.dot(b, t1)
-        bt2 = wp.dot(b, t2)
-        g1 = wp.dot(e, t1) - at1 * ia - bt1 * ib
-        g2 = wp.dot(e, t2) - at2 * ia - bt2 * ib
-        gg = g1 * g1 + g2 * g2
-        m1 = M * t1
-        m2 = M * t2
-        ia3 = ia * ia * ia
-        ib3 = ib * ib * ib
-        d11 = a2[0] * t1[0] * t1[0] + a2[1] * t1[1] * t1[1] + a2[2] * t1[2] * t1[2]
-        d12 = a2[0] * t1[0] * t2[0] + a2[1] * t1[1] * t2[1] + a2[2] * t1[2] * t2[2]
-        d22 = a2[0] * t2[0] * t2[0] + a2[1] * t2[1] * t2[1] + a2[2] * t2[2] * t2[2]
-        q11 = wp.dot(t1, m1)
-        q12 = wp.dot(t2, m1)
-        q22 = wp.dot(t2, m2)
-        h11 = -(d11 * ia - at1 * at1 * ia3) - (q11 * ib - bt1 * bt1 * ib3) - value
-        h12 = -(d12 * ia - at1 * at2 * ia3) - (q12 * ib - bt1 * bt2 * ib3)
-        h22 = -(d22 * ia - at2 * at2 * ia3) - (q22 * ib - bt2 * bt2 * ib3) - value
-        det = h11 * h22 - h12 * h12
-        shift = F64(0.0)
-        if not (h11 < F64(-1e-12) * scale and det > F64(1e-24) * scale * scale):  # not negative definite
-            top = F64(0.5) * (h11 + h22) + wp.sqrt(F64(0.25) * (h11 - h22) * (h11 - h22) + h12 * h12)
-            if gg <= (F64(1e-14) * scale) * (F64(1e-14) * scale) and top <= F64(1e-10) * scale:
-                return n, value, CONVERGED  # a flat maximum: any n is optimal
-            if gg < F64(1e-4) * top * top:
-                # near a saddle or a minimum: 0.3 rad along the direction of positive curvature
-                v1 = top - h22
-                v2 = h12
-                if v1 * v1 + v2 * v2 < h12 * h12 + (top - h11) * (top - h11):
-                    v1 = h12
-                    v2 = top - h11
-                if not (v1 * v1 + v2 * v2 > F64(0.0)):
-                    v1 = F64(1.0)
-                    v2 = F64(0.0)
-                    if h11 < h22:
-                        v1 = F64(0.0)
-                        v2 = F64(1.0)
-                vs = F64(0.3) / wp.sqrt(v1 * v1 + v2 * v2)
-                v1 = v1 * vs
-                v2 = v2 * vs
-                p = n + t1 * v1 + t2 * v2
-                q = n - t1 * v1 - t2 * v2
-                if _sigma(p, e, a2, M) >= _sigma(q, e, a2, M):
-                    n = _unit(p)
-                else:
-                    n = _unit(q)
-                continue
-            shift = wp.max(top, F64(0.0)) + F64(1e-3) * scale + wp.sqrt(gg)
-            h11 = h11 - shift
-            h22 = h22 - shift
-            det = h11 * h22 - h12 * h12
-        idet = F64(1.0) / det
-        x1 = -(h22 * g1 - h12 * g2) * idet
-        x2 = -(h11 * g2 - h12 * g1) * idet
-        step2 = x1 * x1 + x2 * x2
-        if step2 > F64(0.25):
-            f = F64(0.5) / wp.sqrt(step2)
-            x1 = x1 * f
-            x2 = x2 * f
-            step2 = F64(0.25)
-        m = n + t1 * x1 + t2 * x2
-        if step2 > F64(1e-2):  # backtrack until sigma grows
-            for _k in range(10):
-                if _sigma(m, e, a2, M) >= value:
-                    break
-                x1 = F64(0.5) * x1
-                x2 = F64(0.5) * x2
-                step2 = F64(0.25) * step2
-                m = n + t1 * x1 + t2 * x2
-        n = m * (F64(1.0) / wp.sqrt(F64(1.0) + step2))
-        if step2 <= F64(STEP_TOL2) and shift == F64(0.0):
-            return n, value, CONVERGED
-    return n, value, NOT_CONVERGED
 
 
 @wp.func
@@ -293,7 +165,7 @@ def ellipsoid_pair(
     M = _sandwich(U, rb2)
     scale = wp.max(wp.max(ra[0], wp.max(ra[1], ra[2])), wp.max(rb[0], wp.max(rb[1], rb[2])))
     rho = _rolling_radius(ra) + _rolling_radius(rb)
-    n, value, run = _newton(_bisector_seed(e, a2, U, rb2), e, a2, M, scale, FIRST_RUN_ITER, cutoff)
+    n, value, run = newton(_bisector_seed(e, a2, U, rb2), e, a2, M, scale, FIRST_RUN_ITER, cutoff)
     status = GLOBAL
     deep = 0
     if run == APART:
@@ -316,14 +188,14 @@ def ellipsoid_pair(
             # (core/distance/spheroids.py) are not ported): the better of its incumbent and 13 Newton runs
             # (the bisector and the six axis directions of each body), unproven
             status = UNPROVEN
-            best = _sigma(m, e, a2, M)
+            best = sigma(m, e, a2, M)
             n = m
             for k in range(12):
                 axis = _axis(k % 6)
                 if k >= 6:
                     axis = _unit(U * axis)  # B's axes, in A's frame (U is float32-orthonormal only: normalised)
-                m2, v2, r2 = _newton(axis, e, a2, M, scale, MAX_ITER, cutoff)
-                v2 = _sigma(m2, e, a2, M)
+                m2, v2, r2 = newton(axis, e, a2, M, scale, MAX_ITER, cutoff)
+                v2 = sigma(m2, e, a2, M)
                 if r2 == APART:
                     return APART, v2, Ra * m2, ca, deep
                 if v2 > best:
@@ -550,8 +422,13 @@ def contact_kernel(enable_sleep, incremental, per_thread):
     return ellipsim_contacts
 
 
+#: The pair kinds of _distances' kernel (the second body is the ellipsoid's partner).
+KIND_ELLIPSOID, KIND_CAPSULE, KIND_BOX, KIND_CYLINDER = 0, 1, 2, 3
+
+
 @wp.kernel(enable_backward=False)
 def _pair_distances(
+    kind: int,
     ca: wp.array[wp.vec3],
     Ra: wp.array[wp.mat33],
     ra: wp.array[wp.vec3],
@@ -564,9 +441,24 @@ def _pair_distances(
     status: wp.array[int],
 ):
     i = wp.tid()
-    st, v, nrm, p, _deep = ellipsoid_pair(
-        _widen3(ca[i]), _widen33(Ra[i]), _widen3(ra[i]), _widen3(cb[i]), _widen33(Rb[i]), _widen3(rb[i]), F64(1e300)
-    )
+    A = _widen3(ca[i])
+    RA = _widen33(Ra[i])
+    B = _widen3(cb[i])
+    RB = _widen33(Rb[i])
+    size = rb[i]
+    st = 0
+    v = F64(0.0)
+    nrm = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+    p = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+    extra = 0
+    if kind == KIND_CAPSULE:
+        st, v, nrm, p, extra = capsule_ellipsoid(A, RA, _widen3(ra[i]), B, RB, F64(size[0]), F64(size[1]), F64(1e300))
+    elif kind == KIND_BOX:
+        st, v, nrm, p, extra = box_ellipsoid(A, RA, _widen3(ra[i]), B, RB, _widen3(size), F64(1e300))
+    elif kind == KIND_CYLINDER:
+        st, v, nrm, p, extra = cylinder_ellipsoid(A, RA, _widen3(ra[i]), B, RB, F64(size[0]), F64(size[1]), F64(1e300))
+    else:
+        st, v, nrm, p, extra = ellipsoid_pair(A, RA, _widen3(ra[i]), B, RB, _widen3(size), F64(1e300))
     dist[i] = v
     normal[i] = nrm
     pos[i] = p
@@ -577,95 +469,10 @@ def pair_distances(ca, Ra, ra, cb, Rb, rb, device="cpu"):
     """The kernel's signed distance of float32 ellipsoid poses (n, 3), (n, 3, 3), (n, 3) each, in float64
     before the float32 rounding the contact kernel applies: (dist, normal, pos, status) as numpy arrays.
     For tests and the bench (one launch over the n pairs); the MuJoCo Warp path is attach()."""
-    return _distances(_pair_distances, (ca, Ra, ra, cb, Rb, rb), device)
+    return _distances(KIND_ELLIPSOID, (ca, Ra, ra, cb, Rb, rb), device)
 
 
-@wp.kernel(enable_backward=False)
-def _capsule_distances(
-    ce: wp.array[wp.vec3],
-    Re: wp.array[wp.mat33],
-    ra: wp.array[wp.vec3],
-    ck: wp.array[wp.vec3],
-    Rk: wp.array[wp.mat33],
-    rk: wp.array[wp.vec3],
-    dist: wp.array[wp.float64],
-    normal: wp.array[wp.vec3d],
-    pos: wp.array[wp.vec3d],
-    status: wp.array[int],
-):
-    i = wp.tid()
-    size = rk[i]
-    st, v, nrm, p, _enumerated = capsule_ellipsoid(
-        _widen3(ce[i]),
-        _widen33(Re[i]),
-        _widen3(ra[i]),
-        _widen3(ck[i]),
-        _widen33(Rk[i]),
-        F64(size[0]),
-        F64(size[1]),
-        F64(1e300),
-    )
-    dist[i] = v
-    normal[i] = nrm
-    pos[i] = p
-    status[i] = st
-
-
-@wp.kernel(enable_backward=False)
-def _box_distances(
-    ce: wp.array[wp.vec3],
-    Re: wp.array[wp.mat33],
-    ra: wp.array[wp.vec3],
-    ck: wp.array[wp.vec3],
-    Rk: wp.array[wp.mat33],
-    rk: wp.array[wp.vec3],
-    dist: wp.array[wp.float64],
-    normal: wp.array[wp.vec3d],
-    pos: wp.array[wp.vec3d],
-    status: wp.array[int],
-):
-    i = wp.tid()
-    st, v, nrm, p, _enumerated = box_ellipsoid(
-        _widen3(ce[i]), _widen33(Re[i]), _widen3(ra[i]), _widen3(ck[i]), _widen33(Rk[i]), _widen3(rk[i]), F64(1e300)
-    )
-    dist[i] = v
-    normal[i] = nrm
-    pos[i] = p
-    status[i] = st
-
-
-@wp.kernel(enable_backward=False)
-def _cylinder_distances(
-    ce: wp.array[wp.vec3],
-    Re: wp.array[wp.mat33],
-    ra: wp.array[wp.vec3],
-    ck: wp.array[wp.vec3],
-    Rk: wp.array[wp.mat33],
-    rk: wp.array[wp.vec3],
-    dist: wp.array[wp.float64],
-    normal: wp.array[wp.vec3d],
-    pos: wp.array[wp.vec3d],
-    status: wp.array[int],
-):
-    i = wp.tid()
-    size = rk[i]
-    st, v, nrm, p, _enumerated = cylinder_ellipsoid(
-        _widen3(ce[i]),
-        _widen33(Re[i]),
-        _widen3(ra[i]),
-        _widen3(ck[i]),
-        _widen33(Rk[i]),
-        F64(size[0]),
-        F64(size[1]),
-        F64(1e300),
-    )
-    dist[i] = v
-    normal[i] = nrm
-    pos[i] = p
-    status[i] = st
-
-
-def _distances(kernel, arrays, device):
+def _distances(kind, arrays, device):
     arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in arrays]
     n = len(arrays[0])
     for x, shape in zip(arrays, ((3,), (3, 3), (3,)) * 2):
@@ -677,23 +484,23 @@ def _distances(kernel, arrays, device):
     normal = wp.empty(n, dtype=wp.vec3d, device=device)
     pos = wp.empty(n, dtype=wp.vec3d, device=device)
     status = wp.empty(n, dtype=int, device=device)
-    wp.launch(kernel, dim=n, inputs=inputs, outputs=[dist, normal, pos, status], device=device)
+    wp.launch(_pair_distances, dim=n, inputs=[kind, *inputs], outputs=[dist, normal, pos, status], device=device)
     return dist.numpy(), normal.numpy(), pos.numpy(), status.numpy()
 
 
 def capsule_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
     """As pair_distances for ellipsoids (ce, Re, ra) and capsules (ck, Rk, rk: MuJoCo's geom_size,
     (radius, half-length, unused)); the normal from the ellipsoid to the capsule."""
-    return _distances(_capsule_distances, (ce, Re, ra, ck, Rk, rk), device)
+    return _distances(KIND_CAPSULE, (ce, Re, ra, ck, Rk, rk), device)
 
 
 def box_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
     """As pair_distances for ellipsoids (ce, Re, ra) and boxes (ck, Rk, rk: half-sizes); the normal from
     the ellipsoid to the box."""
-    return _distances(_box_distances, (ce, Re, ra, ck, Rk, rk), device)
+    return _distances(KIND_BOX, (ce, Re, ra, ck, Rk, rk), device)
 
 
 def cylinder_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
     """As pair_distances for ellipsoids (ce, Re, ra) and cylinders (ck, Rk, rk: MuJoCo's geom_size,
     (radius, half-length, unused)); the normal from the ellipsoid to the cylinder."""
-    return _distances(_cylinder_distances, (ce, Re, ra, ck, Rk, rk), device)
+    return _distances(KIND_CYLINDER, (ce, Re, ra, ck, Rk, rk), device)

@@ -28,6 +28,7 @@ from .point_ellipsoid import (
     from_plane,
     pole_normal,
     project_ellipse,
+    root_normal,
     sd_upper,
     sd_upper2,
     secular_roots,
@@ -296,18 +297,10 @@ def _enumerate_max(
                 continue
             if sd_upper2(lam, mu, p[0], p[1], t) <= best + tol:
                 continue
-            ok1, r1, oka, ra, okb, rb = secular_roots(b3, p)
+            ok, roots = secular_roots(b3, p)
             for kk in range(3):
-                ok = ok1
-                tk = r1
-                if kk == 1:
-                    ok = oka
-                    tk = ra
-                elif kk == 2:
-                    ok = okb
-                    tk = rb
-                if ok:
-                    mm = unit(wp.vec3d(p[0] / (tk + lam), p[1] / (tk + mu), F64(0.0)))
+                if ok[kk] != 0:
+                    mm = unit(wp.vec3d(p[0] / (roots[kk] + lam), p[1] / (roots[kk] + mu), F64(0.0)))
                     m = from_plane(mm[0], mm[1], c, s, b1, b2)
                     best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
             for ii in range(2):
@@ -340,18 +333,10 @@ def _enumerate_max(
             continue
         if sd_upper(a2, q, t) <= best + tol:
             continue
-        ok1, r1, oka, ra, okb, rb = secular_roots(a2, q)
+        ok, roots = secular_roots(a2, q)
         for kk in range(3):
-            ok = ok1
-            tk = r1
-            if kk == 1:
-                ok = oka
-                tk = ra
-            elif kk == 2:
-                ok = okb
-                tk = rb
-            if ok:
-                m = unit(wp.vec3d(q[0] / (tk + a2[0]), q[1] / (tk + a2[1]), q[2] / (tk + a2[2])))
+            if ok[kk] != 0:
+                m = root_normal(a2, q, roots[kk])
                 best, bn = _better(sigma_box(a2, e, V, r, m), m, best, bn)
         for ii in range(3):
             for half in range(2):

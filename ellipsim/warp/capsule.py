@@ -19,6 +19,7 @@ from .point_ellipsoid import (
     circle_max_bound,
     foot3,
     pole_normal,
+    root_normal,
     sd_upper,
     secular_roots,
     support,
@@ -141,18 +142,10 @@ def _enumerate_max(
                 best = v
                 bn = n
             continue
-        ok1, r1, oka, ra, okb, rb = secular_roots(a2, q)
+        ok, roots = secular_roots(a2, q)
         for k in range(3):
-            ok = ok1
-            tk = r1
-            if k == 1:
-                ok = oka
-                tk = ra
-            elif k == 2:
-                ok = okb
-                tk = rb
-            if ok:
-                m = unit(wp.vec3d(q[0] / (tk + a2[0]), q[1] / (tk + a2[1]), q[2] / (tk + a2[2])))
+            if ok[k] != 0:
+                m = root_normal(a2, q, roots[k])
                 v = sigma_capsule(a2, e, u, L, r, m)
                 if v > best:
                     best = v

@@ -53,6 +53,7 @@ from .point_ellipsoid import (
     from_plane,
     pole_normal,
     project_ellipse,
+    root_normal,
     sd_upper,
     sd_upper2,
     secular_roots,
@@ -524,15 +525,10 @@ def _arc_max(
         best = v
         bm = end
     b3 = wp.vec3d(lam, mu, F64(2.0) * wp.max(lam, mu))
-    _ok1, _r1, oka, ra, okb, rb = secular_roots(b3, q)  # the largest root is foot2's, off the arc
-    for k in range(2):
-        ok = oka
-        tk = ra
-        if k == 1:
-            ok = okb
-            tk = rb
-        if ok:
-            mm = unit(wp.vec3d(q[0] / (tk + lam), q[1] / (tk + mu), F64(0.0)))
+    ok, roots = secular_roots(b3, q)  # the largest root (entry 0) is foot2's, off the arc
+    for k in range(1, 3):
+        if ok[k] != 0:
+            mm = unit(wp.vec3d(q[0] / (roots[k] + lam), q[1] / (roots[k] + mu), F64(0.0)))
             m = from_plane(mm[0], mm[1], c, s, v1, v2)
             if _on_arc(m, v1, v2, span):
                 v = _f(a2, p, m) + slack
@@ -583,15 +579,10 @@ def _lune_bound(
     if v2 > best:
         best = v2
         bm = m2
-    _ok1, _r1, oka, ra, okb, rb = secular_roots(a2, p)  # the largest root is foot3's, outside the lune
-    for k in range(2):
-        ok = oka
-        tk = ra
-        if k == 1:
-            ok = okb
-            tk = rb
-        if ok:
-            mk = unit(wp.vec3d(p[0] / (tk + a2[0]), p[1] / (tk + a2[1]), p[2] / (tk + a2[2])))
+    ok, roots = secular_roots(a2, p)  # the largest root (entry 0) is foot3's, outside the lune
+    for k in range(1, 3):
+        if ok[k] != 0:
+            mk = root_normal(a2, p, roots[k])
             if _dot(mk, su) >= F64(0.0) and _on_arc(mk, ca, cq, width):
                 vk = _f(a2, p, mk) + slack
                 if vk > best:

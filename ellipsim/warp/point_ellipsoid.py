@@ -453,8 +453,9 @@ def _split(
 
 @wp.func
 def secular_roots(a2: wp.vec3d, q: wp.vec3d):
-    """(ok1, r1, oka, ra, okb, rb): the roots of S(t) = 1 that can be local maxima of f_q on the sphere:
-    the largest and the two between the two largest poles (point_ellipsoid.secular_roots, largest=True)."""
+    """(ok, t): the roots of S(t) = 1 that can be local maxima of f_q on the sphere, the largest (entry 0)
+    and the two between the two largest poles (entries 1, 2), ok[k] = 1 where root k exists
+    (point_ellipsoid.secular_roots, largest=True; its nan is ok[k] = 0)."""
     i0 = 0
     i1 = 1
     i2 = 2
@@ -515,7 +516,13 @@ def secular_roots(a2: wp.vec3d, q: wp.vec3d):
                     t = pr - F64(0.5) * (pr - t)
                 okb = True
                 rb = _root(a2, c, t, m, pr, scale)
-    return ok1, r1, oka, ra, okb, rb
+    return wp.vec3i(int(ok1), int(oka), int(okb)), wp.vec3d(r1, ra, rb)
+
+
+@wp.func
+def root_normal(a2: wp.vec3d, q: wp.vec3d, t: wp.float64) -> wp.vec3d:
+    """E's unit normal at the foot point of the secular root t: q_i / (t + a2_i), normalised."""
+    return unit(wp.vec3d(q[0] / (t + a2[0]), q[1] / (t + a2[1]), q[2] / (t + a2[2])))
 
 
 @wp.func

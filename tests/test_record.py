@@ -4,6 +4,7 @@ rerun stores positions, sizes and quaternions as float32, so values are compared
 values rounded to float32, exactly.  Colours come back packed as 0xRRGGBBAA.
 """
 
+import colorsys
 import os
 import pathlib
 import subprocess
@@ -12,6 +13,7 @@ import sys
 import mujoco
 import numpy as np
 import pytest
+import rerun as rr
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
@@ -78,6 +80,7 @@ GEOMS = [  # (name, body, kind)
 ]  # fmt: skip
 ELLIPSOIDS = [2, 3, 7]
 F, SPLIT = 7, 4
+BOX_LO, BOX_HI = [-1.0, -0.5, 0.0], [2.0, 0.5, 1.5]  # the bodies' bounding box in frame 0 (it grows by the frame)
 STATE = [[0, 0, 0], [1, 0, 0], [1, 0, 0], [2, 2, 0], [2, 2, 0], [0, 0, 2], [0, 0, 2]]
 CONTACTS_PER_FRAME = [2, 0, 3, 1, 4, 0, 2]  # frames 1 and 5 have none
 TETRA = (
@@ -128,10 +131,13 @@ def make_frames(rng, first, last):
         contact_pos=rng.normal(size=(k, 3)),
         contact_normal=unit(rng.normal(size=(k, 3))),
         contact_ellipsoids=np.arange(k) % 2 == 0,
+        contact_geoms=rng.integers(0, len(GEOMS), (k, 2)),
+        contact_dist=rng.normal(scale=1e-3, size=k),
         builtin_counts=np.array([1, 0, 2, 0, 5, 1, 3][first:last]),
         ellipsim_counts=np.array([1, 0, 2, 1, 5, 0, 3][first:last]),
         touching_counts=np.array([0, 1, 1, 0, 0, 0, 0][first:last]),
         contact_counts=np.array(counts) + 1,
+        bounds=np.stack([np.array(BOX_LO) - 0.1 * frame[:, None], np.array(BOX_HI) + 0.05 * frame[:, None]], axis=1),
     )
 
 
@@ -208,7 +214,7 @@ def test_static_bodies_once_moving_bodies_per_frame(saved):
 
 def test_every_geom_kind_is_drawn_once_in_its_body_frame(saved):
     g, _, _, rec, _ = saved
-    colors = record.rgba8(g.geom_rgba)
+    colors = record.figure_colors(g)
     base = "/world/model/base"
     (half,) = rec.static(f"{base}/geoms/boxes", "Boxes3D:half_sizes")
     np.testing.assert_array_equal(np.array(half, dtype=np.float32), f32(g.geom_size[[1]]))
@@ -247,7 +253,7 @@ def test_every_geom_kind_is_drawn_once_in_its_body_frame(saved):
 
 def test_ellipsoid_colours_where_the_state_changes(saved):
     g, _, _, rec, _ = saved
-    colors = record.rgba8(g.geom_rgba)
+    colors = record.figure_colors(g)
 
     def palette(geom, s):
         return packed(colors[geom] if s == 0 else record.TOUCHING_COLOR if s == 1 else record.OVERLAPPING_COLOR)
@@ -271,6 +277,7 @@ def test_contacts_of_every_kind_per_frame(saved):
     assert [len(p) for p in positions] == CONTACTS_PER_FRAME
     _, _, colors = rec.temporal("/world/contacts", "Points3D:colors")
     _, _, vectors = rec.temporal("/world/contact_normals", "Arrows3D:vectors")
+    _, _, labels = rec.temporal("/world/contacts", "Points3D:labels")
     both = {True: packed(record.CONTACT_COLOR), False: packed(record.OTHER_CONTACT_COLOR)}
     for c in chunks:
         for f in c.frame:
@@ -278,10 +285,19 @@ def test_contacts_of_every_kind_per_frame(saved):
             np.testing.assert_array_equal(
                 np.array(positions[f], dtype=np.float32).reshape(-1, 3), f32(c.contact_pos[mine])
             )
-            expected = f32(record.NORMAL_LENGTH * c.contact_normal[mine])
+            expected = f32(record.NORMAL_LENGTH * record.scene_scale(saved[0]) * c.contact_normal[mine])
             np.testing.assert_array_equal(np.array(vectors[f], dtype=np.float32).reshape(-1, 3), expected)
             assert colors[f] == [both[bool(e)] for e in c.contact_ellipsoids[mine]]
+            names = [GEOMS[i][0] for i in range(len(GEOMS))]
+            assert labels[f] == [
+                f"{names[g1]} / {names[g2]}: dist {d:.3g} m"
+                for (g1, g2), d in zip(c.contact_geoms[mine], c.contact_dist[mine])
+            ]
     assert set(colors[0] + colors[2]) == set(both.values())
+    # sized to the scene: a contact's sphere a fifth of the typical geom, hidden labels (shown on hover)
+    (radius,) = rec.static("/world/contacts", "Points3D:radii")
+    assert radius == [pytest.approx(record.CONTACT_RADIUS * record.scene_scale(saved[0]), rel=1e-6)]
+    assert rec.static("/world/contacts", "Points3D:show_labels") == [[False]]
 
 
 def test_count_series_stay_distinguishable(saved):
@@ -303,10 +319,10 @@ def test_count_series_stay_distinguishable(saved):
     assert builtin_width >= 3 * ours_width  # the thin line runs inside the wide one where they agree
 
 
-def test_blueprint(saved):
-    rec = saved[3]
+def blueprint_of(rec):
+    """The views (kind: [origin]), container kinds and the 3D view's eye controls of a recording's one blueprint."""
     (store,) = rec.reader.blueprints()
-    views, kinds = {}, []
+    views, kinds, eye = {}, [], {}
     for c in rec.reader.stream(store=store).to_chunks():
         batch = c.to_record_batch()
         if "ViewBlueprint:class_identifier" in batch.schema.names:
@@ -315,12 +331,105 @@ def test_blueprint(saved):
             views.setdefault(kind[0], []).append(origin[0])
         if "ContainerBlueprint:container_kind" in batch.schema.names:
             kinds += batch.column("ContainerBlueprint:container_kind").to_pylist()
+        for name in ("position", "look_target", "eye_up"):
+            if f"EyeControls3D:{name}" in batch.schema.names:
+                eye[name] = np.array(batch.column(f"EyeControls3D:{name}").to_pylist()[0][0])
+    return views, kinds, eye
+
+
+def test_blueprint(saved):
+    views, kinds, eye = blueprint_of(saved[3])
     assert views["3D"] == ["world"] and sorted(views["TimeSeries"]) == ["counts/contacts", "counts/pairs"]
-    assert views["TextLog"] == ["events"]
-    assert set(views) == {"3D", "TimeSeries", "TextLog"}
+    assert views["TextDocument"] == ["legend"]
+    assert set(views) == {"3D", "TimeSeries", "TextDocument"}  # no contacts between frames: no empty log panel
     assert sorted(k[0] for k in kinds) == sorted(
         [rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value]
     )
+
+
+def test_the_camera_looks_into_the_bodies_bounding_box_over_the_run(saved):
+    _, chunks, _, rec, _ = saved
+    _, _, eye = blueprint_of(rec)
+    bounds = np.concatenate([c.bounds for c in chunks])
+    lo, hi = bounds[:, 0].min(axis=0), bounds[:, 1].max(axis=0)
+    np.testing.assert_allclose(eye["look_target"], (lo + hi) / 2, rtol=1e-6)  # the centre of the union
+    assert ((lo <= eye["look_target"]) & (eye["look_target"] <= hi)).all()
+    distance = np.linalg.norm(eye["position"] - eye["look_target"])
+    radius = np.linalg.norm(hi - lo) / 2
+    assert radius < distance < 3 * radius  # outside the box, close enough that it fills the view
+    assert eye["position"][2] > eye["look_target"][2] and list(eye["eye_up"]) == [0, 0, 1]  # from above, z up
+
+
+def test_the_legend_says_what_the_colours_mean(saved):
+    text = saved[3].static("/legend", "TextDocument:text")[-1]  # the last: logged again at close
+    for words in ("red", "amber", "green", "black", "one hue per figure", "not looked for"):
+        assert words in text[0]
+
+
+def test_figures_get_a_hue_each_clear_of_the_state_colours(saved):
+    g = saved[0]
+    colors = record.figure_colors(g).astype(float) / 255
+    hue = lambda c: colorsys.rgb_to_hls(*c[:3])[0] * 360  # noqa: E731
+    trees = {
+        1: 1,
+        2: 1,
+        3: 1,
+        4: 1,
+        5: 1,
+        6: 1,
+        7: 4,
+    }  # geom: tree (base 1 holds the moving arm; the free ball its own)
+    lo, hi = record.FIGURE_HUES
+    for geom in trees:
+        assert lo - 1e-6 <= hue(colors[geom]) <= hi + 1e-6
+    assert abs(hue(colors[2]) - hue(colors[5])) < 1e-6 and abs(hue(colors[2]) - hue(colors[7])) > 20  # one per tree
+    np.testing.assert_array_equal(record.figure_colors(g)[[0, 8]], record.rgba8(g.geom_rgba[[0, 8]]))  # the world's
+    for state in (record.TOUCHING_COLOR, record.OVERLAPPING_COLOR):
+        assert not lo <= hue(np.array(state) / 255) <= hi
+
+
+def test_labels_are_hidden_unless_asked_and_capsules_are_solid(tmp_path, saved):
+    g, chunks, _, rec, _ = saved
+    arm = "/world/model/base/arm/geoms"
+    assert rec.static(f"{arm}/ellipsoids", "Ellipsoids3D:show_labels") == [[False]]
+    assert rec.static(f"{arm}/capsules", "Capsules3D:show_labels") == [[False]]
+    solid = rr.components.FillMode.Solid.value
+    for entity, archetype in (
+        (f"{arm}/ellipsoids", "Ellipsoids3D"),
+        (f"{arm}/capsules", "Capsules3D"),
+        ("/world/model/base/arm/hand/geoms/cylinders", "Cylinders3D"),
+        ("/world/model/base/geoms/boxes", "Boxes3D"),
+    ):
+        assert rec.static(entity, f"{archetype}:fill_mode") == [[solid]], entity
+    with record.Recorder(tmp_path / "labels.rrd", labels=True, colors="mjcf") as recorder:
+        recorder.begin(g)
+        for c in chunks:
+            recorder.write(c)
+    labelled = Recording(tmp_path / "labels.rrd")
+    assert labelled.static(f"{arm}/ellipsoids", "Ellipsoids3D:show_labels") == [[True]]
+    assert labelled.static(f"{arm}/capsules", "Capsules3D:colors") == [[packed(record.rgba8(g.geom_rgba[4]))]]
+    with pytest.raises(ValueError, match="colors must be one of"):
+        record.Recorder(tmp_path / "x.rrd", colors="rainbow")
+
+
+def test_an_infinite_floor_is_sized_to_the_bodies(tmp_path, saved):
+    g, chunks, _, _, _ = saved
+    size = g.geom_size.copy()
+    size[0] = [0, 0, 1]  # the floor plane, infinite
+    pos, quat = g.geom_pos.copy(), g.geom_quat.copy()
+    pos[0], quat[0] = [0.5, 0, 0], [1, 0, 0, 0]
+    g = SceneGeometry(**{**g.__dict__, "geom_size": size, "geom_pos": pos, "geom_quat": quat})
+    with record.Recorder(tmp_path / "floor.rrd") as recorder:
+        recorder.begin(g)
+        for c in chunks:
+            recorder.write(c)
+    rows = Recording(tmp_path / "floor.rrd").static("/world/model/geoms/floor", "Mesh3D:vertex_positions")
+    vertices = np.array(rows[-1])  # the last static row: logged again at close
+    bounds = np.concatenate([c.bounds for c in chunks])
+    lo, hi = bounds[:, 0].min(axis=0), bounds[:, 1].max(axis=0)
+    reach = np.maximum(np.abs(lo[:2] - pos[0, :2]), np.abs(hi[:2] - pos[0, :2]))  # from the plane's centre
+    half = np.abs(vertices[:, :2]).max(axis=0)
+    assert (half > reach).all() and (half < 3 * reach).all()  # covers the bodies, not a field around them
 
 
 def test_contacts_between_frames_are_markers_until_the_next_frame(tmp_path):
@@ -355,6 +464,10 @@ def test_contacts_between_frames_are_markers_until_the_next_frame(tmp_path):
     ]
     assert [lab for *_, lab in rows] == [["e / f"], ["e / f", "a / b"], [], ["c / d"], []]
     np.testing.assert_array_equal(rows[1][2], f32(point[[2, 0]]))
+    views, _, _ = blueprint_of(rec)
+    assert views["TextLog"] == ["events"]  # with contacts between frames, their log gets a panel
+    text = rec.static("/legend", "TextDocument:text")[-1]
+    assert "one of the 3 contacts between frames" in text[0]
     _, times, texts = rec.temporal("/events/between_frames", "TextLog:text")
     assert sorted(zip(times, texts)) == [
         (ns(2.25 / 60), ["line e"]),
@@ -443,7 +556,7 @@ def test_bad_path_directory(tmp_path):
 def zoo_run(tmp_path_factory):
     path = tmp_path_factory.mktemp("zoo") / "zoo.rrd"
     s = scenario.load(str(ZOO))
-    with record.Recorder(path) as recorder:
+    with record.Recorder(path, colors="mjcf") as recorder:  # the model's own colours, to check them
         result = simulate.run(s, steps=200, recorder=recorder, keep=True)
     model = mujoco.MjModel.from_xml_path(str(ZOO))
     return s, result, model, Recording(path)

@@ -50,6 +50,13 @@ _SDF = int(mujoco.mjtGeom.mjGEOM_SDF)
 _MESH = int(mujoco.mjtGeom.mjGEOM_MESH)
 _HFIELD = int(mujoco.mjtGeom.mjGEOM_HFIELD)
 _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+_NO_CONTACTS = (
+    np.zeros((0, 3)),
+    np.zeros((0, 3)),
+    np.zeros(0, dtype=bool),
+    np.zeros((0, 2), dtype=np.int32),
+    np.zeros(0),
+)
 
 
 def names_of(model, kind, count, prefix):
@@ -174,6 +181,7 @@ class Chunk:
     depth : (P,) float64 penetration depth of overlapping pairs (metres, >= 0; nan for the others),
         or None when not asked for
     centers : (f, g, 3) the ellipsoids' centres, metres (a view of the buffer: copy to keep)
+    rotations : (f, g, 3, 3) their rotations (a view of the buffer)
     events : between.Events of the steps into and within these frames (pairs index the g ellipsoid
         geoms), or None when not asked for (or checked in the background: FrameBuffer.collect)
     """
@@ -184,6 +192,7 @@ class Chunk:
     depth: np.ndarray
     centers: np.ndarray
     events: object = None
+    rotations: np.ndarray = None
 
 
 class FrameBuffer:
@@ -221,6 +230,10 @@ class FrameBuffer:
         self.xquat = np.empty((self.capacity, n, 4))
         self.times = np.empty(self.capacity)
         self.builtin = np.empty(self.capacity, dtype=np.int64)
+        self.bounds = np.empty((self.capacity, 2, 3))
+        solid = (model.geom_type != _PLANE) & (model.geom_type != _HFIELD)
+        self._solid = np.flatnonzero(solid) if solid.any() else np.arange(model.ngeom)
+        self._rbound = model.geom_rbound[self._solid][:, None]
         self.ncon = np.empty(self.capacity, dtype=np.int64)
         self.contacts = []  # per frame: (pos (k, 3), normal (k, 3), both tested (k,))
         self.n = 0
@@ -238,6 +251,12 @@ class FrameBuffer:
         self.centers[k] = data.geom_xpos[self.ids]
         self.rotations[k] = data.geom_xmat[self.ids]
         self.times[k] = time
+        if len(self._solid):
+            at = data.geom_xpos[self._solid]
+            self.bounds[k, 0] = (at - self._rbound).min(axis=0)
+            self.bounds[k, 1] = (at + self._rbound).max(axis=0)
+        else:  # a model without geoms: its bodies
+            self.bounds[k, 0], self.bounds[k, 1] = data.xpos.min(axis=0), data.xpos.max(axis=0)
         ncon = data.ncon
         self.ncon[k] = ncon
         if ncon:
@@ -245,11 +264,11 @@ class FrameBuffer:
             both = self.tested[con.geom].all(axis=1)
             self.builtin[k] = np.count_nonzero(both)
             if self.record:
-                self.contacts.append((con.pos.copy(), con.frame[:, :3].copy(), both))
+                self.contacts.append((con.pos.copy(), con.frame[:, :3].copy(), both, con.geom.copy(), con.dist.copy()))
         else:
             self.builtin[k] = 0
             if self.record:
-                self.contacts.append((np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=bool)))
+                self.contacts.append(_NO_CONTACTS)
         if self.record:
             self.xpos[k] = data.xpos[self.posed]
             self.xquat[k] = data.xquat[self.posed]
@@ -305,10 +324,13 @@ class FrameBuffer:
             contact_pos = np.concatenate([c[0] for c in self.contacts]).reshape(-1, 3)
             contact_normal = np.concatenate([c[1] for c in self.contacts]).reshape(-1, 3)
             contact_ellipsoids = np.concatenate([c[2] for c in self.contacts]).astype(bool)
+            contact_geoms = np.concatenate([c[3] for c in self.contacts]).reshape(-1, 2).astype(np.int64)
+            contact_dist = np.concatenate([c[4] for c in self.contacts]).astype(np.float64)
         else:
             contact_frame = np.zeros(0, dtype=np.int64)
             contact_pos = contact_normal = np.zeros((0, 3))
             contact_ellipsoids = np.zeros(0, dtype=bool)
+            contact_geoms, contact_dist = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
         frames = Frames(
             frame=frame,
             times=self.times[:f].copy(),
@@ -319,10 +341,13 @@ class FrameBuffer:
             contact_pos=contact_pos,
             contact_normal=contact_normal,
             contact_ellipsoids=contact_ellipsoids,
+            contact_geoms=contact_geoms,
+            contact_dist=contact_dist,
             builtin_counts=self.builtin[:f].copy(),
             ellipsim_counts=overlapping.astype(np.int64),
             touching_counts=touching.astype(np.int64),
             contact_counts=self.ncon[:f].copy(),
+            bounds=self.bounds[:f].copy(),
         )
         out_pairs = pairs.copy()
         out_pairs[:, 0] += first
@@ -332,7 +357,7 @@ class FrameBuffer:
                 events = self._check(frame, frames.times, centers, rotations, out_pairs[relation != Relation.SEPARATED])
             else:
                 self._submit()
-        chunk = Chunk(frames, out_pairs, relation, depth, centers, events)
+        chunk = Chunk(frames, out_pairs, relation, depth, centers, events, rotations)
         self.n = self._sent = 0
         self.next_frame += f
         self.contacts = []

@@ -41,6 +41,7 @@ contact (MuJoCo's as a wide light line, ellipsim's as a thin dark line over it, 
 visible where they agree) and all contacts; below them a text log of the contacts between frames.
 """
 
+import colorsys
 import contextlib
 import os
 import pathlib
@@ -53,23 +54,43 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from ..core.rotations import quaternions_to_rotations
 from .errors import STOPS
 from .trajectory import GEOM_KINDS, Frames, SceneGeometry
 
-TOUCHING_COLOR = (255, 176, 0, 255)  # amber
-OVERLAPPING_COLOR = (220, 30, 30, 255)  # red
+TOUCHING_COLOR = (255, 176, 0, 210)  # amber
+OVERLAPPING_COLOR = (220, 30, 30, 210)  # red
 CONTACT_COLOR = (20, 200, 60, 255)  # green: contacts between two ellipsoid geoms
-OTHER_CONTACT_COLOR = (0, 190, 230, 255)  # cyan: every other contact (floor, boxes, meshes, ...)
-CONTACT_RADIUS = 0.008  # metres, contact point spheres
-NORMAL_LENGTH = 0.05  # metres, drawn length of a contact normal (the normals are unit)
-NORMAL_RADIUS = 0.002  # metres, arrow shaft radius
+OTHER_CONTACT_COLOR = (30, 30, 30, 255)  # black: every other contact (floor, boxes, ...)
 BETWEEN_COLOR = (230, 0, 200, 255)  # magenta: a contact between two frames
-BETWEEN_RADIUS = 0.015  # metres, its marker (larger than a contact point: it is rare and brief)
+#: Each kinematic tree with a moving body (a figure, a falling ellipsoid) gets a hue in this range of
+#: degrees (cyan to indigo: clear of the state colours amber and red, the contacts' green and black
+#: and the markers' magenta), trees spaced by the golden ratio so that trees next in number differ
+#: most; its lightness follows the luminance of the MJCF colour, so parts MJCF tells apart stay apart.
+#: The world's own geoms (floor, walls) keep their MJCF colours.
+FIGURE_HUES = (180.0, 255.0)
+FIGURE_SATURATION = 0.5
+FIGURE_LIGHTNESS = (0.42, 0.78)
+#: Figures are drawn a little translucent (alpha out of 255; the state colours too), so that
+#: MuJoCo's contact points and normals show where they sit inside the geoms.
+FIGURE_ALPHA = 170
+#: Marker sizes, as multiples of the scene's typical geom size (scene_scale: the median of the moving
+#: geoms' largest half extents), so that contacts show at any scale: a contact point's sphere stands
+#: out of the two surfaces it sits between, a normal reaches out of the geom it points into.
+CONTACT_RADIUS = 0.2
+NORMAL_LENGTH = 1.6
+NORMAL_RADIUS = 0.04
+BETWEEN_RADIUS = 0.35
 # Series styles: MuJoCo's line wide and light, ellipsim's thin and dark on top of it, so that where
 # the counts agree the thin line runs inside the wide one and both are seen.
 BUILTIN_SERIES = ("MuJoCo contacts (ellipsoid pairs)", (110, 160, 240, 255), 6.0)
 ELLIPSIM_SERIES = ("ellipsim overlapping pairs (exact)", (170, 20, 20, 255), 1.5)
 ALL_SERIES = ("MuJoCo contacts (all geoms)", (40, 40, 40, 255), 1.5)
+#: The 3D view's camera: looking at the centre of the bodies' bounding box over the run from this
+#: direction (front right, above), far enough that the box's circumscribed sphere fills the view.
+CAMERA_DIRECTION = (0.55, -1.0, 0.55)
+FLOOR_MARGIN = 3.0  # an infinite plane reaches this many scene scales (or tenths of the bodies' span) beyond them
+CAMERA_HALF_FOV = 0.5  # radians, a little under half of the viewer's vertical field of view
 
 MODEL_PATH = "world/model"
 CONTACTS_PATH = "world/contacts"
@@ -79,6 +100,9 @@ ELLIPSIM_PATH = "counts/pairs/ellipsim"
 ALL_PATH = "counts/contacts/all"
 BETWEEN_PATH = "world/between_frames"
 BETWEEN_LOG_PATH = "events/between_frames"
+LEGEND_PATH = "legend"
+
+COLOR_MODES = ("figure", "mjcf")
 
 RRD_MAGIC = b"RRF"  # first bytes of an .rrd file ("RRF2" in rerun 0.41)
 
@@ -92,20 +116,122 @@ _PRIMITIVES = {  # geom kinds drawn as a batch per body: entity name
 }
 
 
-def blueprint():
-    """The default layout: a 3D view of "world" beside the two contact-count plots."""
+def blueprint(camera=None, panels=None):
+    """The default layout: a 3D view of "world" beside a column of `panels`, (view, share) pairs
+    (default: run_panels()).  camera : the 3D view's rrb.EyeControls3D (record.camera), or None for
+    the viewer's own framing."""
+    panels = run_panels() if panels is None else panels
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="model"),
-            rrb.Vertical(
-                rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"),
-                rrb.TimeSeriesView(origin="counts/contacts", name="all MuJoCo contacts"),
-                rrb.TextLogView(origin="events", name="contacts between frames"),
-                row_shares=[2, 2, 1],
-            ),
+            rrb.Spatial3DView(origin="world", name="model", eye_controls=camera),
+            rrb.Vertical(*(view for view, _ in panels), row_shares=[share for _, share in panels]),
             column_shares=[3, 2],
         ),
+        collapse_panels=False,
     )
+
+
+def run_panels(between=False):
+    """The column beside a run's 3D view: the two contact-count plots, the legend, and the log of
+    contacts between frames when there are any (between)."""
+    panels = [
+        (rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"), 3),
+        (rrb.TimeSeriesView(origin="counts/contacts", name="all MuJoCo contacts"), 2),
+        (rrb.TextDocumentView(origin=LEGEND_PATH, name="what the colours mean"), 2),
+    ]
+    if between:
+        panels.append((rrb.TextLogView(origin="events", name="contacts between frames"), 2))
+    return panels
+
+
+def camera(lo, hi):
+    """The 3D view's camera on the box [lo, hi] (metres, world frame): looking at its centre from
+    CAMERA_DIRECTION, far enough that its circumscribed sphere fits the view; z up."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    center = (lo + hi) / 2
+    radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-3)
+    direction = np.asarray(CAMERA_DIRECTION, dtype=np.float64)
+    direction /= np.linalg.norm(direction)
+    position = center + radius / np.sin(CAMERA_HALF_FOV) * direction
+    return rrb.EyeControls3D(position=position, look_target=center, eye_up=(0.0, 0.0, 1.0))
+
+
+def legend(between=None, extra=()):
+    """The legend (markdown): what each colour of a recording means.  between : the number of
+    contacts between frames found, or None when they were not looked for; extra : more lines."""
+    lines = [
+        "**Geoms** (hover one for its name)",
+        "- blue to indigo: free; one hue per figure (kinematic tree), lighter or darker as the model colours its parts",
+        "- **red**: overlapping another geom (ellipsim's exact verdict, every candidate ellipsoid pair)",
+        "- **amber**: touching, tangent within the proof tolerance (rare in a moving scene)",
+        "- the world's own geoms (floor, walls) in the model's colours",
+        "",
+        "**MuJoCo's contacts**: a point and its normal (from the first geom into the second); hover one for the geoms "
+        "and MuJoCo's distance (negative: the penetration depth)",
+        "- **green**: between two ellipsoid or sphere geoms",
+        "- **black**: every other contact (floor, boxes, meshes, ...)",
+    ]
+    if between is None:
+        lines += ["", "Contacts between frames: not looked for (`--between-frames`)"]
+    elif between == 0:
+        lines += ["", "Contacts between frames: none (looked for on every step)"]
+    else:
+        lines += ["", f"**magenta** point: one of the {between} contacts between frames (listed in the log)"]
+    return "\n".join([*lines, *extra])
+
+
+def figure_colors(g):
+    """(G, 4) uint8: each geom's colour as drawn when free (FIGURE_HUES), from a SceneGeometry."""
+    colors = rgba8(g.geom_rgba)
+    parent = np.asarray(g.body_parent)
+    root = np.arange(len(parent))
+    for b in range(1, len(parent)):  # MuJoCo numbers a parent before its children
+        if parent[b] != 0:
+            root[b] = root[parent[b]]
+    root[0] = 0
+    trees = np.unique(root[np.asarray(g.moving, dtype=np.int64)])
+    trees = trees[trees != 0]
+    rgb = np.asarray(g.geom_rgba, dtype=np.float64)[:, :3]
+    luminance = rgb @ np.array([0.2126, 0.7152, 0.0722])
+    lo, hi = FIGURE_HUES
+    dark, light = FIGURE_LIGHTNESS
+    tree_of_geom = root[np.asarray(g.geom_body, dtype=np.int64)]
+    for k, tree in enumerate(trees):
+        hue = (lo + (k * 0.6180339887498949 % 1.0) * (hi - lo)) / 360.0
+        for i in np.flatnonzero(tree_of_geom == tree):
+            lightness = dark + (light - dark) * float(np.clip(luminance[i], 0.0, 1.0))
+            r, gr, bl = colorsys.hls_to_rgb(hue, lightness, FIGURE_SATURATION)
+            colors[i] = np.round(np.array([r * 255, gr * 255, bl * 255, FIGURE_ALPHA])).astype(np.uint8)
+    return colors
+
+
+def scene_scale(g):
+    """The typical size of a SceneGeometry's geoms, metres: the median largest half extent of the
+    geoms on moving bodies (of every geom but planes and height fields when none moves), 0.1 when
+    there is none; marker sizes are multiples of it."""
+    moving = set(int(b) for b in g.moving)
+    kind = np.asarray(g.geom_kind)
+    size = np.asarray(g.geom_size, dtype=np.float64)
+    extents = []
+    for i in range(len(kind)):
+        name = GEOM_KINDS[int(kind[i])]
+        if name in ("plane", "hfield"):
+            continue
+        if name == "sphere":
+            e = size[i, 0]
+        elif name in ("capsule", "cylinder"):
+            e = max(size[i, 0], size[i, 1] + (size[i, 0] if name == "capsule" else 0.0))
+        elif name == "mesh":
+            vertices = g.meshes.get(i, (np.zeros((1, 3)),))[0]
+            e = float(np.abs(vertices).max()) if len(vertices) else 0.0
+        else:
+            e = size[i].max()
+        extents.append((int(g.geom_body[i]) in moving, float(e)))
+    for want in (True, None):
+        chosen = [e for m, e in extents if (want is None or m == want) and e > 0 and np.isfinite(e)]
+        if chosen:
+            return float(np.median(chosen))
+    return 0.1
 
 
 def rgba8(rgba):
@@ -123,6 +249,8 @@ class Recorder:
     """Writes one recording while a run goes: `begin(geometry)`, `write(frames)` per chunk, `close()`.
 
     path : str or os.PathLike ending in ".rrd", in an existing directory; replaced only by `close`.
+    labels : draw every geom's name in the 3D view (default: names only on hover and selection).
+    colors : "figure" (default), a hue per kinematic tree (figure_colors); "mjcf", the model's colours.
     Used as a context manager, an exception (or Ctrl-C) inside the block removes the partial file
     and leaves `path` as it was; with keep_partial=True, Ctrl-C or SIGTERM (errors.STOPS) instead
     keeps the frames written so far, if any: the file is completed and moved to `path` as `close`
@@ -130,8 +258,13 @@ class Recorder:
     OSError a file that cannot be created.
     """
 
-    def __init__(self, path, *, app_id="ellipsim", keep_partial=False):
+    def __init__(self, path, *, app_id="ellipsim", keep_partial=False, labels=False, colors="figure"):
         self.path = _check_save_path(path)
+        if colors not in COLOR_MODES:
+            raise ValueError(f"colors must be one of {COLOR_MODES}, got {colors!r}")
+        if not isinstance(labels, bool):
+            raise ValueError(f"labels must be True or False, got {labels!r}")
+        self.labels, self.colors = labels, colors
         folder, base = os.path.split(os.path.abspath(self.path))
         self.partial = os.path.join(folder, f".{base}.{uuid.uuid4().hex[:12]}.part")
         self.app_id = app_id
@@ -140,6 +273,11 @@ class Recorder:
         self.frames_written = 0
         self.keep_partial = keep_partial
         self.kept = 0
+        self.events_written = 0
+        self.between_checked = False  # set by whoever looks for contacts between frames (the legend says)
+        self.panels = lambda recorder: run_panels(recorder.events_written > 0)  # the column beside the 3D view
+        self.legend_extra = []  # more legend lines (markdown)
+        self._lo = self._hi = None  # the bodies' bounding box over the frames written
 
     def __enter__(self):
         return self
@@ -164,10 +302,12 @@ class Recorder:
                 f"geometry must be an ellipsim.app.trajectory.SceneGeometry, got {type(geometry).__name__}"
             )
         self.geometry = geometry
+        self._colors = figure_colors(geometry) if self.colors == "figure" else rgba8(geometry.geom_rgba)
+        self.scale = scene_scale(geometry)
         rec = rr.RecordingStream(self.app_id, recording_id=self.recording_id)
         self.rec = rec  # before the file exists: an interruption from here on is cleaned up by abort
         try:
-            rec.save(self.partial, default_blueprint=blueprint())
+            rec.save(self.partial)  # the layout is sent at close, framed on what was recorded
         except RuntimeError as exc:  # rerun reports a file it cannot create as a RuntimeError
             self.abort()
             raise OSError(f"cannot create {self.partial!r}: {exc}") from None
@@ -177,8 +317,14 @@ class Recorder:
         self._paths = _body_paths(geometry)
         self._log_bodies()
         self._log_geoms()
-        rec.log(CONTACTS_PATH, rr.Points3D.from_fields(radii=CONTACT_RADIUS), static=True)
-        rec.log(NORMALS_PATH, rr.Arrows3D.from_fields(radii=NORMAL_RADIUS), static=True)
+        rec.log(
+            CONTACTS_PATH,
+            rr.Points3D.from_fields(radii=CONTACT_RADIUS * self.scale, show_labels=self.labels),
+            static=True,
+        )
+        rec.log(NORMALS_PATH, rr.Arrows3D.from_fields(radii=NORMAL_RADIUS * self.scale), static=True)
+        rec.log(BETWEEN_PATH, rr.Points3D.from_fields(show_labels=self.labels), static=True)
+        self._log_legend()
         for entity, (name, color, width) in (
             (BUILTIN_PATH, BUILTIN_SERIES),
             (ELLIPSIM_PATH, ELLIPSIM_SERIES),
@@ -210,6 +356,9 @@ class Recorder:
             )
         self._write_states(frames)
         self._write_contacts(frames, indexes)
+        lo, hi = frames.bounds[:, 0].min(axis=0), frames.bounds[:, 1].max(axis=0)
+        self._lo = lo if self._lo is None else np.minimum(self._lo, lo)
+        self._hi = hi if self._hi is None else np.maximum(self._hi, hi)
         for entity, counts in (
             (BUILTIN_PATH, frames.builtin_counts),
             (ELLIPSIM_PATH, frames.ellipsim_counts),
@@ -259,7 +408,7 @@ class Recorder:
             positions=point[shown],
             labels=[label[k] for k in shown],
             colors=np.broadcast_to(np.array(BETWEEN_COLOR, dtype=np.uint8), (len(shown), 4)),
-            radii=np.full(len(shown), BETWEEN_RADIUS, dtype=np.float32),
+            radii=np.full(len(shown), BETWEEN_RADIUS * self.scale, dtype=np.float32),
         )
         self.rec.send_columns(BETWEEN_PATH, indexes=_indexes(row_time, row_frame), columns=columns.partition(lengths))
         self.rec.send_columns(
@@ -267,11 +416,19 @@ class Recorder:
             indexes=_indexes(time, frame),
             columns=rr.TextLog.columns(text=[text[k] for k in order], level=["WARN"] * E),
         )
+        self.events_written += E
 
     def close(self):
         """Finish the file and move it to `path`; returns `path`."""
         if self.rec is None:
             raise ValueError("Recorder.close before begin")
+        try:
+            self._log_legend()
+            self._size_floors()
+            self.rec.send_blueprint(self.final_blueprint(), make_active=True, make_default=True)
+        except BaseException:
+            self.abort()
+            raise
         rec, self.rec = self.rec, None
         try:
             rec.flush()
@@ -282,6 +439,54 @@ class Recorder:
                 os.remove(self.partial)
             raise
         return self.path
+
+    def final_blueprint(self):
+        """The layout `close` sends: the camera on the bodies' bounding box over the frames written
+        (the viewer's own framing when none was), the column of self.panels(self)."""
+        view = camera(self._lo, self._hi) if self._lo is not None else None
+        return blueprint(view, self.panels(self))
+
+    def _size_floors(self):
+        """Log the world's infinite planes again, as squares that reach FLOOR_MARGIN beyond the
+        bodies' bounding box over the frames written (seen from the plane's centre)."""
+        if self._lo is None:
+            return
+        g = self.geometry
+        corners = np.array(
+            [
+                [x, y, z]
+                for x in (self._lo[0], self._hi[0])
+                for y in (self._lo[1], self._hi[1])
+                for z in (self._lo[2], self._hi[2])
+            ]
+        )
+        for entity, i in self._floors:
+            rotation = quaternions_to_rotations(g.geom_quat[i])
+            local = (corners - g.geom_pos[i]) @ rotation  # R^T (p - c), in the plane's frame
+            half = np.abs(local[:, :2]).max(axis=0) + FLOOR_MARGIN * max(
+                self.scale, float(np.ptp(local[:, :2], axis=0).max()) / 10
+            )
+            half = np.where(g.geom_size[i, :2] > 0, g.geom_size[i, :2], half)
+            sx, sy = (float(h) for h in half)
+            vertices = np.array([[-sx, -sy, 0.0], [sx, -sy, 0.0], [sx, sy, 0.0], [-sx, sy, 0.0]])
+            self.rec.log(
+                entity,
+                rr.Mesh3D(
+                    vertex_positions=vertices,
+                    triangle_indices=np.array([[0, 1, 2], [0, 2, 3]]),
+                    vertex_normals=np.tile([0.0, 0.0, 1.0], (4, 1)),
+                    albedo_factor=self._colors[i],
+                ),
+                static=True,
+            )
+
+    def _log_legend(self):
+        between = self.events_written if self.between_checked or self.events_written else None
+        self.rec.log(
+            LEGEND_PATH,
+            rr.TextDocument(legend(between, self.legend_extra), media_type=rr.MediaType.MARKDOWN),
+            static=True,
+        )
 
     def abort(self):
         """Stop writing and remove the partial file; `path` is left untouched."""
@@ -308,7 +513,8 @@ class Recorder:
         g, rec = self.geometry, self.rec
         ellipsoid_ids = np.asarray(g.ellipsoids)
         self._ellipsoid_groups = []  # (entity, indices into g.ellipsoids, free colours (n, 4) uint8)
-        colors = rgba8(g.geom_rgba)
+        self._floors = []  # (entity, geom) of the world's infinite planes
+        colors = self._colors
         for body in np.unique(g.geom_body):
             geoms = np.flatnonzero(g.geom_body == body)
             base = self._paths[body] + "/geoms"
@@ -329,6 +535,7 @@ class Recorder:
                             centers=pos,
                             quaternions=quat,
                             labels=labels,
+                            show_labels=self.labels,
                             fill_mode=rr.components.FillMode.Solid,
                         ),
                         static=True,
@@ -348,6 +555,8 @@ class Recorder:
                             quaternions=quat,
                             colors=colors[mine],
                             labels=labels,
+                            show_labels=self.labels,
+                            fill_mode=rr.components.FillMode.Solid,
                         ),
                         static=True,
                     )
@@ -361,6 +570,7 @@ class Recorder:
                             quaternions=quat,
                             colors=colors[mine],
                             labels=labels,
+                            show_labels=self.labels,
                             fill_mode=rr.components.FillMode.Solid,
                         ),
                         static=True,
@@ -374,6 +584,7 @@ class Recorder:
                             quaternions=quat,
                             colors=colors[mine],
                             labels=labels,
+                            show_labels=self.labels,
                             fill_mode=rr.components.FillMode.Solid,
                         ),
                         static=True,
@@ -383,6 +594,8 @@ class Recorder:
                     continue
                 vertices, triangles = g.meshes[int(i)]
                 entity = f"{base}/{rr.escape_entity_path_part(g.geom_names[i])}"
+                if g.geom_kind[i] == _KIND["plane"] and body == 0 and (g.geom_size[i, :2] <= 0).any():
+                    self._floors.append((entity, int(i)))  # infinite: sized to the bodies at close
                 rec.log(entity, rr.Transform3D(translation=g.geom_pos[i], quaternion=xyzw(g.geom_quat[i])), static=True)
                 rec.log(
                     entity,
@@ -428,10 +641,16 @@ class Recorder:
         normal = np.asarray(frames.contact_normal, dtype=np.float64).reshape(-1, 3)[order]
         colors = np.where(np.asarray(frames.contact_ellipsoids)[order][:, None], CONTACT_COLOR, OTHER_CONTACT_COLOR)
         colors = colors.astype(np.uint8).reshape(-1, 4)
+        names = self.geometry.geom_names
+        geoms = np.asarray(frames.contact_geoms, dtype=np.int64).reshape(-1, 2)[order]
+        dist = np.asarray(frames.contact_dist, dtype=np.float64)[order]
+        labels = [f"{names[g1]} / {names[g2]}: dist {d:.3g} m" for (g1, g2), d in zip(geoms.tolist(), dist.tolist())]
         self.rec.send_columns(
-            CONTACTS_PATH, indexes=indexes, columns=rr.Points3D.columns(positions=pos, colors=colors).partition(lengths)
+            CONTACTS_PATH,
+            indexes=indexes,
+            columns=rr.Points3D.columns(positions=pos, colors=colors, labels=labels).partition(lengths),
         )
-        arrows = rr.Arrows3D.columns(origins=pos, vectors=NORMAL_LENGTH * normal, colors=colors)
+        arrows = rr.Arrows3D.columns(origins=pos, vectors=NORMAL_LENGTH * self.scale * normal, colors=colors)
         self.rec.send_columns(NORMALS_PATH, indexes=indexes, columns=arrows.partition(lengths))
 
 

@@ -39,6 +39,7 @@ class FrameLoop:
         self.steps_done = 0
         if recorder is not None:
             recorder.begin(capture.geometry(model, title, self.names))
+            recorder.between_checked = between  # the legend says whether they were looked for
 
     def run(self, data, steps, step, *, every=1, progress=None):
         """step(k) for k = 0 .. steps - 1, a frame of `data` (at data.time) after every k % every == 0,

@@ -102,10 +102,14 @@ class Frames:
     contact_frame : (K,) int64 frame number of each of MuJoCo's contacts (every geom pair type)
     contact_pos, contact_normal : (K, 3) metres, (K, 3) unit (first row of MuJoCo's contact frame)
     contact_ellipsoids : (K,) bool, the contact is between two geoms ellipsim tests
+    contact_geoms : (K, 2) int64, the contact's two geoms; contact_dist : (K,) float64, MuJoCo's
+        distance (metres, negative: penetration)
     builtin_counts : (f,) int64, MuJoCo's contacts between two geoms ellipsim tests
     ellipsim_counts : (f,) int64, pairs ellipsim classifies overlapping
     touching_counts : (f,) int64, pairs ellipsim classifies touching
     contact_counts : (f,) int64, all of MuJoCo's contacts
+    bounds : (f, 2, 3) metres, the lower and upper corner of the bodies' bounding box in each frame
+        (every geom but planes and height fields, world frame; the recording's camera frames their union)
     """
 
     frame: np.ndarray
@@ -117,10 +121,13 @@ class Frames:
     contact_pos: np.ndarray
     contact_normal: np.ndarray
     contact_ellipsoids: np.ndarray
+    contact_geoms: np.ndarray
+    contact_dist: np.ndarray
     builtin_counts: np.ndarray
     ellipsim_counts: np.ndarray
     touching_counts: np.ndarray
     contact_counts: np.ndarray
+    bounds: np.ndarray
 
     def __len__(self):
         return len(self.frame)
@@ -138,10 +145,13 @@ class Frames:
                 "contact_pos": (K, 3),
                 "contact_normal": (K, 3),
                 "contact_ellipsoids": (K,),
+                "contact_geoms": (K, 2),
+                "contact_dist": (K,),
                 "builtin_counts": (f,),
                 "ellipsim_counts": (f,),
                 "touching_counts": (f,),
                 "contact_counts": (f,),
+                "bounds": (f, 2, 3),
             },
         )
         if f and np.any(np.diff(self.frame) != 1):
@@ -155,7 +165,7 @@ class Frames:
         bad = np.argwhere((state < 0) | (state > 2))
         if len(bad):
             raise ValueError(f"Frames.state[{bad[0][0]}, {bad[0][1]}] must be 0, 1 or 2, got {state[tuple(bad[0])]}")
-        for name in ("times", "body_pos", "body_quat", "contact_pos", "contact_normal"):
+        for name in ("times", "body_pos", "body_quat", "contact_pos", "contact_normal", "contact_dist", "bounds"):
             values = np.asarray(getattr(self, name), dtype=np.float64)
             bad = np.argwhere(~np.isfinite(values))
             if len(bad):

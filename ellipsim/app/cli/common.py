@@ -219,14 +219,30 @@ def write_json(path, report):
             os.remove(partial)
 
 
-def recorder_for(path):
+def record_options(p, help="save a rerun recording"):
+    """--record FILE.rrd and how it draws: --labels, --colors."""
+    p.add_argument("--record", metavar="FILE.rrd", help=help)
+    p.add_argument(
+        "--labels", action="store_true", help="with --record: draw every geom's name (default: on hover and selection)"
+    )
+    p.add_argument(
+        "--colors",
+        choices=("figure", "mjcf"),
+        default="figure",
+        help="with --record: a hue per figure (kinematic tree; default) or the model's own colours",
+    )
+
+
+def recorder_for(path, args=None):
     """A record.Recorder for --record that keeps its frames on Ctrl-C or SIGTERM (ValueError on a
-    bad path is a user mistake); the missing folders of `path` are made."""
+    bad path is a user mistake), drawn as args.labels and args.colors say; the missing folders of
+    `path` are made."""
     from .. import record
 
     made_parents(path, "--record")
+    labels, colors = (getattr(args, "labels", False), getattr(args, "colors", "figure")) if args else (False, "figure")
     try:
-        return record.Recorder(path, keep_partial=True)
+        return record.Recorder(path, keep_partial=True, labels=labels, colors=colors)
     except ValueError as exc:
         raise UserError(f"--record: {exc}") from None
 

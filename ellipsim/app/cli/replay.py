@@ -9,6 +9,7 @@ from .common import (
     check_output,
     non_negative_int,
     positive_real,
+    record_options,
     recorded,
     recorder_for,
     write_json,
@@ -31,7 +32,7 @@ def replay(args):
     print(
         f"{name}: {F} frames of qpos (nq = {model.nq}: {layout}) at {args.fps:g} fps ({F / args.fps:.2f} s) from {args.motion}"
     )
-    recorder = recorder_for(args.record) if args.record else None
+    recorder = recorder_for(args.record, args) if args.record else None
     result, size = recorded(
         recorder,
         rp.replay,
@@ -63,7 +64,7 @@ def add_parser(sub):
     p.add_argument("model", metavar="MODEL.xml", help="an MJCF model")
     p.add_argument("motion", metavar="MOTION", help="qpos per frame: a .npy array or a .csv file of shape (frames, nq)")
     p.add_argument("--fps", type=positive_real, default=30.0, help="frames per second of the motion (default 30)")
-    p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
+    record_options(p)
     p.add_argument("--json", metavar="FILE.json", help="write per-frame counts and every touching or overlapping pair")
     p.add_argument(
         "--show", type=non_negative_int, default=10, help="body pairs and contacts between frames to print (default 10)"

@@ -14,6 +14,7 @@ from .common import (
     load_scenario,
     model_options,
     positive_int,
+    record_options,
     recorded,
     recorder_for,
     steps_of,
@@ -39,7 +40,7 @@ def run(args):
     what = "kinematic replay" if s.kinematic else f"mode {mode}"
     header(s)
     print(f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}", flush=True)
-    recorder = recorder_for(args.record) if args.record else None
+    recorder = recorder_for(args.record, args) if args.record else None
     t0 = time.perf_counter()
     result, size = recorded(
         recorder, simulate.run, s, steps=steps, mode=mode, progress=bar(f"  {s.name}", steps), between=between(args)
@@ -74,7 +75,7 @@ def _run_warp(args, s):
         "Warp's kernels (minutes on CPU, then cached)",
         flush=True,
     )
-    recorder = recorder_for(args.record) if args.record else None
+    recorder = recorder_for(args.record, args) if args.record else None
     result, size = recorded(
         recorder,
         warp_run.run,
@@ -105,7 +106,7 @@ def add_parser(sub):
     p.add_argument(
         "--mode", choices=("builtin", "filter", "narrowphase"), help="collision detection (default: the scenario's)"
     )
-    p.add_argument("--record", metavar="FILE.rrd", help="save a rerun recording")
+    record_options(p)
     between_option(
         p,
         "a kinematic scenario: also find pairs separated at two consecutive frames that touch in "

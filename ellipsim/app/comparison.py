@@ -133,6 +133,11 @@ class Comparison:
                     "relation": d.relation,
                     "contact_scale": d.contact_scale,
                     "geom_distance": d.geom_distance,
+                    "signed_distance": _number(d.signed_distance),
+                    "mujoco_pos": _vector(d.mujoco_pos),
+                    "mujoco_normal": _vector(d.mujoco_normal),
+                    "ellipsim_pos": _vector(d.ellipsim_pos),
+                    "ellipsim_normal": _vector(d.ellipsim_normal),
                     "right": d.right,
                     "reason": d.reason,
                 }
@@ -141,3 +146,13 @@ class Comparison:
             ],
             "passed_through": self.passed_through,
         }
+
+
+def _number(x):
+    """A float for JSON: None for nan."""
+    return None if x != x else float(x)
+
+
+def _vector(v):
+    """A 3-vector for JSON: None when absent."""
+    return None if v is None else [_number(x) for x in v]

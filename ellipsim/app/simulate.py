@@ -18,6 +18,7 @@ from ..mujoco.attachment import attach
 from ..mujoco.validate import contacts_disabled, validate
 from . import capture, limits, mjcf, scenes
 from .control import Controller
+from .errors import STOPS
 from .scenario import MODES, Scenario, ScenarioError
 from .stepping import FrameLoop
 
@@ -303,9 +304,11 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
     )
 
 
-def validation(s, steps=None, progress=None, between=False):
+def validation(s, steps=None, progress=None, between=False, recorder=None):
     """mujoco.validate on the scenario: its model, its controls (or keyframed poses), `steps` steps;
-    between: also the ellipsoid pairs that pass through each other within one step."""
+    between: also the ellipsoid pairs that pass through each other within one step; recorder: an
+    optional record.Recorder, begun here and sent every step (compare_record.CompareRecording; its
+    closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent first)."""
     steps = s.steps if steps is None else steps
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -325,7 +328,24 @@ def validation(s, steps=None, progress=None, between=False):
             d.ctrl[:] = control(d.time)
 
         advance = True
+    observer = None
+    if recorder is not None:
+        from .compare_record import CompareRecording
+
+        observer = CompareRecording(recorder, model, s.name)
+        recorder.between_checked = bool(between)
     try:
-        return validate(model, data, steps, control=step, advance=advance, progress=progress, between=between), model
+        v = validate(
+            model, data, steps, control=step, advance=advance, progress=progress, between=between, observer=observer
+        )
     except mujoco.FatalError as exc:
         raise ScenarioError(f"{_label(s)} MuJoCo stopped: {mjcf.one_line(exc)}") from None
+    except STOPS:
+        if observer is not None and recorder.keep_partial:
+            observer.finish()  # the steps compared so far, for the recorder to keep
+        raise
+    if observer is not None:
+        observer.finish()
+        if v.passed_through is not None:
+            capture.record_events(recorder, v.passed_through, v.ellipsoid_ids, observer.names)
+    return v, model

@@ -47,6 +47,10 @@ class Disagreement:
     gap: float = 0.0  # the pair's gap (geoms.pair_gaps): contacts below margin + gap, excluded above margin
     signed_distance: float = float("nan")  # ellipsim's signed distance of the geoms (core.distance.ellipsoid_pair)
     explicit: bool = False  # the pair is a <contact><pair> element
+    mujoco_pos: tuple = None  # MuJoCo's contact on the pair with the smallest dist: its point (metres)
+    mujoco_normal: tuple = None  # and its unit normal, from geom1 to geom2 (None without a contact)
+    ellipsim_pos: tuple = (float("nan"),) * 3  # ellipsim's contact point (midpoint of the support points)
+    ellipsim_normal: tuple = (float("nan"),) * 3  # and its unit normal, from geom1 to geom2
 
 
 @dataclasses.dataclass
@@ -84,7 +88,7 @@ class Validation:
         return {name: int(self.counts[:, k].sum()) for k, name in enumerate(self.COLUMNS)}
 
 
-def validate(model, data, nstep, *, control=None, advance=True, progress=None, between=False):
+def validate(model, data, nstep, *, control=None, advance=True, progress=None, between=False, observer=None):
     """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
 
     At each step, before mj_step, mj_forward runs collision; every candidate ellipsoid pair (those
@@ -103,6 +107,8 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
     progress : optional callable(step, nstep), called after each step
     between : also find the ellipsoid pairs separated at two consecutive steps that touch in between
         (Validation.passed_through; mujoco.between, core.motion.time_of_impact on the interpolated motion)
+    observer : optional callable(model, data, step, disagreements), after each step's comparison and
+        before mj_step (MuJoCo's contacts of the step in data; disagreements, the step's new ones)
     """
     check_model_data(model, data)
     if not isinstance(nstep, (int, np.integer)) or nstep < 1:
@@ -137,6 +143,7 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
                 mj = dist < margin
                 counts[step] = np.bincount(np.where(mj, np.where(el, 0, 2), np.where(el, 3, 1)), minlength=4)
                 n_open[step] = int((~decided).sum())
+                found = len(disagreements)
                 for i in np.flatnonzero(mj != el):
                     g1, g2 = int(pairs[i, 0]), int(pairs[i, 1])
                     facts = (
@@ -150,6 +157,10 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
                         bool(explicit[i]),
                     )
                     disagreements.append(_explain(model, data, step, g1, g2, names, *facts))
+            else:
+                found = len(disagreements)
+            if observer is not None:
+                observer(model, data, step, disagreements[found:])
             if advance:
                 mujoco.mj_step(model, data)
             if progress is not None:
@@ -199,9 +210,21 @@ def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, gap, 
     a, b = enclosing(model, data, np.array([g1]), zero), enclosing(model, data, np.array([g2]), zero)
     scale = float(contact_scale(a, b)[0])
     rel = Relation(int(relation)).name.lower()
+    measured, normal, point, _ = signed_distance(a, b)
     if sd != sd:  # settled by classify alone: the signed distance is for the report
-        sd = signed_distance(a, b)[0][0]
+        sd = measured[0]
     sd = float(sd)
+    mujoco_pos = mujoco_normal = None
+    if data.ncon:
+        con = data.contact
+        on = np.flatnonzero(
+            ((con.geom[:, 0] == g1) & (con.geom[:, 1] == g2)) | ((con.geom[:, 0] == g2) & (con.geom[:, 1] == g1))
+        )
+        if len(on):
+            k = on[np.argmin(con.dist[on])]
+            mujoco_pos = tuple(float(x) for x in con.pos[k])
+            sign = 1.0 if con.geom[k, 0] == g1 else -1.0  # MuJoCo's normal points from its geom1 to its geom2
+            mujoco_normal = tuple(sign * float(x) for x in con.frame[k, :3])
     tol = float(proof_tolerance(a, b)[0])
     kind = "<pair>" if explicit else "dynamic pair"
     if not decided:
@@ -241,4 +264,8 @@ def _explain(model, data, step, g1, g2, names, mj, dist, relation, margin, gap, 
         float(gap),
         sd,
         explicit,
+        mujoco_pos,
+        mujoco_normal,
+        tuple(float(x) for x in point[0]),
+        tuple(float(x) for x in normal[0]),
     )

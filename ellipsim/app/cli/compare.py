@@ -17,6 +17,9 @@ from .common import (
     model_options,
     non_negative_int,
     positive_int,
+    record_options,
+    recorded,
+    recorder_for,
     steps_of,
     write_error,
     write_json,
@@ -29,8 +32,8 @@ def compare(args):
     from ..comparison import Comparison
 
     check_engine(args)
-    if args.engine == "warp" and (args.plot or args.between_frames):
-        raise UserError("--plot and --between-frames are for --engine mujoco (not yet for --engine warp)")
+    if args.engine == "warp" and (args.plot or args.between_frames or args.record):
+        raise UserError("--plot, --between-frames and --record are for --engine mujoco (not yet for --engine warp)")
     s = load_scenario(args)
     if args.engine == "warp":
         return _compare_warp(args, s)
@@ -39,10 +42,15 @@ def compare(args):
     if args.plot:
         check_output(args.plot, ".png", "--plot")
         _pyplot()
+    if args.record:
+        check_output(args.record, ".rrd", "--record")
     steps = steps_of(s, args, _check_validation)
     header(s)
     print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
-    v, model = simulate.validation(s, steps, progress=bar(f"  {s.name}", steps), between=between(args))
+    recorder = recorder_for(args.record, args) if args.record else None
+    (v, model), size = recorded(
+        recorder, simulate.validation, s, steps, progress=bar(f"  {s.name}", steps), between=between(args)
+    )
     result = Comparison.of(s.name, v, model)
     print("\n".join(result.summary(args.show)))
     if args.json:
@@ -51,6 +59,11 @@ def compare(args):
     if args.plot:
         _plot_compare(args.plot, s, result.builtin, result.ours, result.missed + result.extra, result.near)
         print(f"  plot: {args.plot}")
+    if recorder:
+        print(
+            f"  recording: {args.record} ({steps} steps, {size / 1e6:.1f} MB; the disagreements under world/disagreements "
+            f"and in the log); view it with: ellipsim view {args.record}"
+        )
     return 0
 
 
@@ -137,6 +150,9 @@ def add_parser(sub):
         p,
         "also find ellipsoid pairs separated at two consecutive steps that touch in between (passed "
         "through each other within one step), on the interpolated motion",
+    )
+    record_options(
+        p, "save a rerun recording: every step, MuJoCo's contacts, the exact verdicts and the disagreements marked"
     )
     model_options(p)
     engine_options(p, "MuJoCo Warp's contacts (the warp extra), every world")

@@ -1,0 +1,181 @@
+"""`compare --record`: MuJoCo's contacts against the exact verdicts, frame by frame, read back with
+rerun's own reader (test_record.Recording)."""
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from ellipsim.app import compare_record, record
+from ellipsim.app.cli import main
+from ellipsim.core.distance.ellipsoid_pair import signed_distance
+from ellipsim.core.ellipsoids import Ellipsoids
+from ellipsim.mujoco.validate import Disagreement
+from tests.test_record import Recording, blueprint_of, packed
+
+TWO = """<mujoco><option gravity="0 0 -9.81"/><worldbody>
+  <geom name="floor" type="plane" size="0 0 1"/>
+  <body name="left" pos="0 0 0.3" quat="1 0.2 0.1 0"><freejoint/><geom name="a" type="ellipsoid" size=".1 .2 .3"/></body>
+  <body name="right" pos="0.22 0.02 0.32"><freejoint/><geom name="b" type="ellipsoid" size=".15 .1 .2"/></body>
+</worldbody></mujoco>"""
+STEPS = 8
+
+
+def fake(step, kind):
+    """A disagreement between geoms a (1) and b (2) of kind missed / extra / near_tangent."""
+    return Disagreement(
+        step=step,
+        geom1=1,
+        geom2=2,
+        names=("a", "b"),
+        mujoco_contact=kind == "missed",
+        mujoco_dist=-1e-4 if kind == "missed" else float("nan"),
+        relation="separated" if kind == "missed" else "overlapping",
+        contact_scale=1.001,
+        geom_distance=1e-9 if kind == "near_tangent" else 0.01 * (1 if kind == "missed" else -1),
+        right="ellipsim",
+        reason=f"why {kind}",
+        signed_distance=0.5,
+        mujoco_pos=(0.1, 0.2, 0.3) if kind == "missed" else None,
+        mujoco_normal=(1.0, 0.0, 0.0) if kind == "missed" else None,
+        ellipsim_pos=(0.1 * step, 0.0, 0.3),
+        ellipsim_normal=(0.0, 1.0, 0.0),
+    )
+
+
+INJECTED = {2: ["missed", "extra"], 3: ["near_tangent"], 6: ["extra"]}
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """STEPS steps of two ellipsoids falling onto each other and the floor, with made-up disagreements
+    at steps 2, 3 and 6; MuJoCo's contacts of each step kept to check the differences against."""
+    model = mujoco.MjModel.from_xml_string(TWO)
+    data = mujoco.MjData(model)
+    path = tmp_path_factory.mktemp("compare") / "compare.rrd"
+    contacts = []
+    with record.Recorder(path) as recorder:
+        observer = compare_record.CompareRecording(recorder, model, "two")
+        for step in range(STEPS):
+            mujoco.mj_forward(model, data)
+            mine = [k for k in range(data.ncon) if set(data.contact.geom[k]) == {1, 2}]
+            contacts.append(
+                [
+                    (
+                        data.contact.dist[k],
+                        data.contact.frame[k, :3].copy(),
+                        data.geom_xpos.copy(),
+                        data.geom_xmat.copy(),
+                    )
+                    for k in mine
+                ]
+            )
+            observer(model, data, step, [fake(step, kind) for kind in INJECTED.get(step, [])])
+            mujoco.mj_step(model, data)
+        observer.finish()
+    return model, Recording(path), contacts
+
+
+def test_disagreements_are_marked_at_their_step_and_cleared_after(recorded):
+    _, rec, _ = recorded
+    frames, _, positions = rec.temporal("/world/disagreements", "Points3D:positions")
+    rows = dict(zip(frames, positions))
+    assert sorted(rows) == [2, 3, 4, 6, 7]  # 4 and 7: the markers of steps 3 and 6 taken off
+    assert [len(rows[f]) for f in (2, 3, 4, 6, 7)] == [2, 1, 0, 1, 0]
+    np.testing.assert_allclose(np.array(rows[6], dtype=np.float64), [[0.6, 0.0, 0.3]], rtol=1e-6)
+    _, _, colors = rec.temporal("/world/disagreements", "Points3D:colors")
+    by_kind = {k: packed(c) for k, c in compare_record.KIND_COLORS.items()}
+    assert dict(zip(frames, colors))[2] == [by_kind["missed"], by_kind["extra"]]
+    assert dict(zip(frames, colors))[3] == [by_kind["near_tangent"]]
+    _, _, labels = rec.temporal("/world/disagreements", "Points3D:labels")
+    assert dict(zip(frames, labels))[2] == ["missed: a / b", "extra: a / b"]
+    assert rec.static("/world/disagreements", "Points3D:show_labels") == [[True]]  # few: their labels shown
+    # both contacts: MuJoCo's where it made one (the missed pair), ellipsim's at every disagreement
+    frames, _, vectors = rec.temporal("/world/disagreements/mujoco", "Arrows3D:vectors")
+    length = record.NORMAL_LENGTH * record.scene_scale(_geometry(recorded[0]))
+    assert dict(zip(frames, vectors))[2] == [pytest.approx([length, 0, 0], rel=1e-6)]
+    assert dict(zip(frames, vectors))[3] == []
+    frames, _, vectors = rec.temporal("/world/disagreements/ellipsim", "Arrows3D:vectors")
+    assert [len(dict(zip(frames, vectors))[f]) for f in (2, 3, 4, 6, 7)] == [2, 1, 0, 1, 0]
+
+
+def _geometry(model):
+    from ellipsim.app import capture
+
+    return capture.geometry(model, "two")
+
+
+def test_every_disagreement_has_a_log_line_at_its_step(recorded):
+    _, rec, _ = recorded
+    frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
+    lines = [(f, t[0]) for f, t in zip(frames, texts)]
+    assert [f for f, _ in lines] == [2, 2, 3, 6]
+    first = lines[0][1]
+    assert first.startswith("step 2: missed: geoms a / b (bodies left / right)")
+    assert "MuJoCo dist -0.0001 m, normal (1.0000, 0.0000, 0.0000)" in first
+    assert "normal (0.0000, 1.0000, 0.0000)" in first and "why missed" in first
+    assert "MuJoCo no contact" in lines[1][1]
+    _, _, levels = rec.temporal("/events/disagreements", "TextLog:level")
+    assert [lv[0] for lv in levels] == ["WARN", "WARN", "INFO", "WARN"]
+
+
+def test_disagreement_counts_per_step(recorded):
+    _, rec, _ = recorded
+    for kind in ("missed", "extra", "near_tangent"):
+        frames, _, scalars = rec.temporal(f"/counts/disagreements/{kind}", "Scalars:scalars")
+        assert frames == list(range(STEPS))
+        expected = [float(INJECTED.get(step, []).count(kind)) for step in range(STEPS)]
+        assert [s[0] for s in scalars] == expected
+
+
+def test_distance_and_normal_differences_on_mujocos_contacts(recorded):
+    """Each step with a MuJoCo contact between the ellipsoids: the largest |dist - signed distance|
+    and normal angle against ellipsim on the same poses."""
+    model, rec, contacts = recorded
+    frames, _, dist = rec.temporal("/differences/distance", "Scalars:scalars")
+    _, _, angle = rec.temporal("/differences/normal_angle", "Scalars:scalars")
+    with_contacts = [step for step, cs in enumerate(contacts) if cs]
+    assert frames == with_contacts and with_contacts  # they touch
+    radii = model.geom_size[[1, 2]]
+    for f, got_dist, got_angle in zip(frames, dist, angle):
+        worst = [0.0, 0.0]
+        for mj_dist, normal, xpos, xmat in contacts[f]:
+            a = Ellipsoids(xpos[[1]], xmat[[1]].reshape(1, 3, 3), radii[[0]])
+            b = Ellipsoids(xpos[[2]], xmat[[2]].reshape(1, 3, 3), radii[[1]])
+            d, n = signed_distance(a, b)[:2]
+            worst[0] = max(worst[0], abs(mj_dist - d[0]))
+            worst[1] = max(worst[1], np.degrees(np.arccos(np.clip(n[0] @ normal, -1, 1))))
+        assert got_dist[0] == pytest.approx(worst[0], rel=1e-12, abs=1e-15)
+        assert got_angle[0] == pytest.approx(worst[1], rel=1e-9, abs=1e-9)
+
+
+def test_the_layout_shows_the_disagreements(recorded):
+    _, rec, _ = recorded
+    views, _, eye = blueprint_of(rec)
+    assert sorted(views["TimeSeries"]) == sorted(
+        ["counts/pairs", "counts/disagreements", "differences/distance", "differences/normal_angle"]
+    )
+    assert views["TextLog"] == ["events"] and views["TextDocument"] == ["legend"] and views["3D"] == ["world"]
+    text = rec.static("/legend", "TextDocument:text")[-1][0]
+    assert "magenta" in text and "missed" in text and "yellow" in text
+    assert eye["look_target"][2] > 0  # inside the bodies, above the floor
+
+
+def test_compare_record_on_the_command_line_logs_the_disagreements_the_json_lists(tmp_path, capsys):
+    out, report = tmp_path / "rec" / "compare.rrd", tmp_path / "compare.json"
+    assert main(["compare", "replay", "--steps", "40", "--record", str(out), "--json", str(report)]) == 0
+    assert f"recording: {out} (40 steps" in capsys.readouterr().out
+    rec = Recording(out)
+    assert rec.temporal("/counts/pairs/builtin", "Scalars:scalars")[0] == list(range(40))
+    listed = json.loads(report.read_text())["disagreements"]
+    frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
+    assert [(f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)] == [
+        (d["step"], d["kind"].replace("_", " ")) for d in listed
+    ]
+    assert {"/world/contacts", "/world/disagreements", "/counts/disagreements/missed"} <= rec.entities()
+
+
+def test_compare_record_is_for_the_mujoco_engine(capsys):
+    assert main(["compare", "replay", "--engine", "warp", "--record", "x.rrd"]) != 0
+    assert "--record are for --engine mujoco" in capsys.readouterr().err

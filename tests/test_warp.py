@@ -512,14 +512,27 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
 
     path = tmp_path / "heap.xml"
     mujoco.mj_saveLastXML(str(path), _pile(n=6))
-    report = tmp_path / "warp.json"
+    report, recording = tmp_path / "warp.json", tmp_path / "warp.rrd"
     argv = ["compare", str(path), "--engine", "warp", "--worlds", "2", "--steps", "6", "--json", str(report)]
-    assert cli.main(argv) == 0
+    assert cli.main([*argv, "--record", str(recording)]) == 0
     out = capsys.readouterr().out
     r = __import__("json").loads(report.read_text())
     assert r["engine"] == "warp" and r["worlds"] == 2 and r["steps"] == 6
     assert r["checked"] > 0 and r["exact_contacts"] > 0
     assert f"missed {len(r['missed'])}, extra {len(r['extra'])}" in out
+    # the recording: world 0, every step, Warp's contacts, and its disagreements where the JSON says
+    from tests.test_record import Recording
+
+    rec = Recording(recording)
+    frames, _, counts = rec.temporal("/counts/contacts/all", "Scalars:scalars")
+    assert frames == list(range(6)) and sum(c[0] for c in counts) > 0
+    _, _, positions = rec.temporal("/world/contacts", "Points3D:positions")
+    assert [len(p) for p in positions] == [c[0] for c in counts]  # Warp's contacts of world 0, drawn
+    world0 = sorted((d["step"], kind) for kind in ("missed", "extra") for d in r[kind] if d["world"] == 0)
+    frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
+    assert sorted((f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)) == world0
+    (name,) = rec.static("/counts/pairs/builtin", "SeriesLines:names")[-1]
+    assert name == "Warp contacts (ellipsoid pairs)"
 
 
 @pytest.mark.parametrize(

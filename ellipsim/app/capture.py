@@ -244,9 +244,11 @@ class FrameBuffer:
         self._futures = []  # the background checks, in order
         self._sent = 0  # frames of the buffer handed to them
 
-    def add(self, data, time):
+    def add(self, data, time, contacts=None):
         """Copy the current frame out of `data` (after mj_step, mj_forward or collision); True when
-        the buffer is full (flush it before the next add)."""
+        the buffer is full (flush it before the next add).  contacts : optional (geom (k, 2), dist (k,),
+        pos (k, 3), normal (k, 3)), another engine's contacts to take instead of data.contact (MuJoCo
+        Warp's of one world)."""
         k = self.n
         self.centers[k] = data.geom_xpos[self.ids]
         self.rotations[k] = data.geom_xmat[self.ids]
@@ -257,14 +259,18 @@ class FrameBuffer:
             self.bounds[k, 1] = (at + self._rbound).max(axis=0)
         else:  # a model without geoms: its bodies
             self.bounds[k, 0], self.bounds[k, 1] = data.xpos.min(axis=0), data.xpos.max(axis=0)
-        ncon = data.ncon
+        if contacts is not None:
+            geom, dist, pos, normal = (np.asarray(x) for x in contacts)
+        elif data.ncon:
+            con = data.contact
+            geom, dist, pos, normal = con.geom, con.dist, con.pos, con.frame[:, :3]
+        ncon = len(geom) if contacts is not None else data.ncon
         self.ncon[k] = ncon
         if ncon:
-            con = data.contact
-            both = self.tested[con.geom].all(axis=1)
+            both = self.tested[geom].all(axis=1)
             self.builtin[k] = np.count_nonzero(both)
             if self.record:
-                self.contacts.append((con.pos.copy(), con.frame[:, :3].copy(), both, con.geom.copy(), con.dist.copy()))
+                self.contacts.append((pos.copy(), normal.copy(), both, geom.copy(), dist.copy()))
         else:
             self.builtin[k] = 0
             if self.record:

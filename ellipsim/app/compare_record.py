@@ -7,9 +7,10 @@ the geoms' colours, capture.FrameBuffer); on top of what `run --record` writes (
 docstring):
 
     world/disagreements            Points3D at each disagreement's pair (ellipsim's contact point), at
-                                   its step only: magenta missed (MuJoCo's contact, ellipsim separated),
-                                   yellow extra (ellipsim's overlap, no MuJoCo contact), white within
-                                   NEAR_TANGENT of touching; labelled with the kind and the geoms, the
+                                   its step only: magenta, the engine's contact the exact test separates
+                                   (compare's missed), yellow, an exact contact the engine did not make
+                                   (extra), white within NEAR_TANGENT of touching; labelled with the kind
+                                   and the geoms, the
                                    label shown (they are few)
     world/disagreements/mujoco     MuJoCo's contact on the pair (its deepest): Points3D + Arrows3D, blue
     world/disagreements/ellipsim   ellipsim's: Points3D + Arrows3D, dark red
@@ -20,7 +21,8 @@ docstring):
                                    largest |MuJoCo's dist - ellipsim's signed distance| (metres)
     differences/normal_angle       the largest angle between their normals (degrees)
 
-The per-step differences are measured a chunk of frames at a time (one batched signed_distance);
+The Warp compare (warp_compare) records world 0 the same way, with Warp's contacts and its words
+for the kinds (kinds()).  The per-step differences are measured a chunk of frames at a time (one batched signed_distance);
 the disagreements, already explained by validate, are written as they come.
 """
 
@@ -41,19 +43,40 @@ COUNTS_PATH = "counts/disagreements"
 DISTANCE_PATH = "differences/distance"
 ANGLE_PATH = "differences/normal_angle"
 
-KIND_COLORS = {
-    "missed": (230, 0, 200, 255),  # magenta
-    "extra": (250, 230, 0, 255),  # yellow
-    "near_tangent": (250, 250, 250, 255),  # white
-}
+ENGINE_ONLY = (230, 0, 200, 255)  # magenta: the engine's contact, the exact test separates
+EXACT_ONLY = (250, 230, 0, 255)  # yellow: the exact test's contact, none from the engine
+NEAR = (250, 250, 250, 255)  # white: within NEAR_TANGENT of touching
 MUJOCO_COLOR = (110, 160, 240, 255)  # as MuJoCo's count series
 ELLIPSIM_COLOR = (170, 20, 20, 255)  # as ellipsim's
 MARKER_RADIUS = 0.45  # scene scales: a disagreement's marker, larger than a contact's
-SERIES = {
-    "missed": ("missed (MuJoCo contact, ellipsim separated)", KIND_COLORS["missed"]),
-    "extra": ("extra (ellipsim overlapping, no MuJoCo contact)", (200, 170, 0, 255)),
-    "near_tangent": (f"within {NEAR_TANGENT:g} m of touching", (120, 120, 120, 255)),
-}
+
+
+def kinds(engine):
+    """{kind: (colour, series name)} of an engine's compare, in its own words: `compare` on MuJoCo C
+    calls MuJoCo's contacts the exact test separates missed (comparison.split_disagreements), the
+    Warp compare calls them extra (warp_compare); the colour says the same thing for both."""
+    if engine == "Warp":
+        return {
+            "missed": (EXACT_ONLY, "missed (exact contact, none from Warp)"),
+            "extra": (ENGINE_ONLY, "extra (Warp contact, the exact test separates)"),
+        }
+    return {
+        "missed": (ENGINE_ONLY, "missed (MuJoCo contact, ellipsim separated)"),
+        "extra": (EXACT_ONLY, "extra (ellipsim overlapping, no MuJoCo contact)"),
+        "near_tangent": (NEAR, f"within {NEAR_TANGENT:g} m of touching"),
+    }
+
+
+def legend(engine):
+    """The legend's lines on the disagreements."""
+    return [
+        "",
+        "**Disagreements** (at their step; listed in the log, whose lines name the step):",
+        f"- **magenta** ball: {engine} made a contact the exact test separates",
+        f"- **yellow** ball: the exact test makes a contact {engine} did not",
+        *([f"- **white** ball: within {NEAR_TANGENT:g} m of touching (mj_geomDistance)"] if engine != "Warp" else []),
+        f"- at each: {engine}'s contact in **blue**, ellipsim's in **dark red**, point and normal",
+    ]
 
 
 def kind_of(d):
@@ -63,41 +86,34 @@ def kind_of(d):
     return "missed" if d.mujoco_contact else "extra"
 
 
-def panels(recorder):
+def panels(engine="MuJoCo"):
     """The column beside a compare recording's 3D view."""
     return [
         (rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"), 2),
         (rrb.TimeSeriesView(origin=COUNTS_PATH, name="disagreements per step"), 2),
-        (rrb.TimeSeriesView(origin=DISTANCE_PATH, name="|MuJoCo dist - ellipsim's| on MuJoCo's contacts, m"), 1),
-        (rrb.TimeSeriesView(origin=ANGLE_PATH, name="normal angle on MuJoCo's contacts, deg"), 1),
+        (rrb.TimeSeriesView(origin=DISTANCE_PATH, name=f"|{engine} dist - ellipsim's| on {engine}'s contacts, m"), 1),
+        (rrb.TimeSeriesView(origin=ANGLE_PATH, name=f"normal angle on {engine}'s contacts, deg"), 1),
         (rrb.TextLogView(origin="events", name="disagreements"), 2),
         (rrb.TextDocumentView(origin=record.LEGEND_PATH, name="what the colours mean"), 2),
     ]
-
-
-LEGEND = [
-    "",
-    "**Disagreements** (at their step; listed in the log, whose lines name the step):",
-    "- **magenta** ball: missed, MuJoCo made a contact the exact test separates",
-    "- **yellow** ball: extra, the exact test overlaps and MuJoCo made no contact",
-    f"- **white** ball: within {NEAR_TANGENT:g} m of touching (mj_geomDistance)",
-    "- at each: MuJoCo's contact in **blue**, ellipsim's in **dark red**, point and normal",
-]
 
 
 class CompareRecording:
     """Records `compare`'s steps: call it as validate's observer, then `finish()`.
 
     recorder : a record.Recorder, begun here with `model`'s geometry called `title`
+    engine : whose contacts are compared, as the log lines name it ("MuJoCo", or "Warp")
     """
 
-    def __init__(self, recorder, model, title):
+    def __init__(self, recorder, model, title, engine="MuJoCo"):
+        self.engine = engine
         self.recorder = recorder
         self.names = capture.ModelNames.of(model)
         self.buffer = capture.FrameBuffer(model, record=True)
         recorder.begin(capture.geometry(model, title, self.names))
-        recorder.panels = panels
-        recorder.legend_extra = LEGEND
+        recorder.panels = lambda _: panels(engine)
+        recorder.legend_extra = legend(engine)
+        self.kinds = kinds(engine)
         self.scale = recorder.scale
         rec = recorder.rec
         rec.log(
@@ -106,37 +122,47 @@ class CompareRecording:
         for path, color in ((MUJOCO_PATH, MUJOCO_COLOR), (ELLIPSIM_PATH, ELLIPSIM_COLOR)):
             rec.log(path, rr.Points3D.from_fields(radii=record.CONTACT_RADIUS * self.scale, colors=color), static=True)
             rec.log(path, rr.Arrows3D.from_fields(radii=record.NORMAL_RADIUS * self.scale, colors=color), static=True)
-        for kind, (name, color) in SERIES.items():
+        for kind, (color, name) in self.kinds.items():
             rec.log(f"{COUNTS_PATH}/{kind}", rr.SeriesLines(names=name, colors=color, widths=2.0), static=True)
+        name, color, width = record.BUILTIN_SERIES
+        rec.log(
+            record.BUILTIN_PATH,
+            rr.SeriesLines(names=f"{engine} contacts (ellipsoid pairs)", colors=color, widths=width),
+            static=True,
+        )
         rec.log(DISTANCE_PATH, rr.SeriesLines(names="largest distance difference, m", widths=1.5), static=True)
         rec.log(ANGLE_PATH, rr.SeriesLines(names="largest normal angle, deg", widths=1.5), static=True)
-        self.counts = []  # per step: (missed, extra, near_tangent)
+        self.counts = []  # per step: disagreements of each kind
         self.times = []  # per step: data.time
         self._shown = None  # the step whose markers are on screen (cleared at the next step)
         self.written = 0  # disagreements written
 
-    def __call__(self, model, data, step, disagreements):
-        """validate's observer: the step's frame, and its disagreements."""
+    def __call__(self, model, data, step, disagreements, kinds=None, contacts=None):
+        """validate's observer: the step's frame, and its disagreements (mujoco.validate.Disagreement).
+        kinds : their kinds (default: kind_of each); contacts : the engine's contacts, when not
+        data.contact (capture.FrameBuffer.add)."""
         if self._shown is not None and self._shown != step:
             self._clear(step, data.time)
         self.times.append(float(data.time))
-        counts = [0, 0, 0]
-        for d in disagreements:
-            counts[("missed", "extra", "near_tangent").index(kind_of(d))] += 1
+        kinds = [kind_of(d) for d in disagreements] if kinds is None else list(kinds)
+        order = list(self.kinds)
+        counts = [0] * len(order)
+        for kind in kinds:
+            counts[order.index(kind)] += 1
         self.counts.append(counts)
         if disagreements:
-            self._write_disagreements(step, data.time, disagreements)
-        if self.buffer.add(data, data.time):
+            self._write_disagreements(step, data.time, disagreements, kinds)
+        if self.buffer.add(data, data.time, contacts):
             self._flush()
 
     def finish(self):
         """Write the frames still held and the count series; the recorder's closing is the caller's."""
         self._flush()
         self.buffer.close()
-        counts = np.asarray(self.counts, dtype=np.float64).reshape(-1, 3)
+        counts = np.asarray(self.counts, dtype=np.float64).reshape(-1, len(self.kinds))
         if len(counts):
             indexes = record._indexes(np.asarray(self.times), np.arange(len(counts)))
-            for k, kind in enumerate(("missed", "extra", "near_tangent")):
+            for k, kind in enumerate(self.kinds):
                 self.recorder.rec.send_columns(
                     f"{COUNTS_PATH}/{kind}", indexes=indexes, columns=rr.Scalars.columns(scalars=counts[:, k])
                 )
@@ -177,14 +203,13 @@ class CompareRecording:
         rec.send_columns(DISTANCE_PATH, indexes=indexes, columns=rr.Scalars.columns(scalars=worst_dist))
         rec.send_columns(ANGLE_PATH, indexes=indexes, columns=rr.Scalars.columns(scalars=worst_angle))
 
-    def _write_disagreements(self, step, time, ds):
+    def _write_disagreements(self, step, time, ds, kinds):
         rec, names = self.recorder.rec, self.names
         rec.set_time("frame", sequence=step)
         rec.set_time("time", duration=np.timedelta64(int(round(time * 1e9)), "ns"))
-        kinds = [kind_of(d) for d in ds]
         points = np.array([d.ellipsim_pos for d in ds], dtype=np.float64)
         labels = [f"{kind.replace('_', ' ')}: {d.names[0]} / {d.names[1]}" for kind, d in zip(kinds, ds)]
-        rec.log(DISAGREEMENTS_PATH, rr.Points3D(points, colors=[KIND_COLORS[k] for k in kinds], labels=labels))
+        rec.log(DISAGREEMENTS_PATH, rr.Points3D(points, colors=[self.kinds[k][0] for k in kinds], labels=labels))
         length = record.NORMAL_LENGTH * self.scale
         ours = np.array([d.ellipsim_normal for d in ds], dtype=np.float64)
         rec.log(ELLIPSIM_PATH, rr.Points3D(points), rr.Arrows3D(origins=points, vectors=length * ours))
@@ -193,9 +218,8 @@ class CompareRecording:
         normals = np.array([d.mujoco_normal for d in theirs], dtype=np.float64).reshape(-1, 3)
         rec.log(MUJOCO_PATH, rr.Points3D(at), rr.Arrows3D(origins=at, vectors=length * normals))
         for kind, d in zip(kinds, ds):
-            rec.log(
-                LOG_PATH, rr.TextLog(line(step, kind, d, names), level="INFO" if kind == "near_tangent" else "WARN")
-            )
+            text = line(step, kind, d, names, self.engine)
+            rec.log(LOG_PATH, rr.TextLog(text, level="INFO" if kind == "near_tangent" else "WARN"))
         rec.reset_time()
         self._shown = step
         self.written += len(ds)
@@ -217,12 +241,12 @@ def _vector(v):
     return "none" if v is None else "(" + ", ".join(f"{x:.4f}" for x in v) + ")"
 
 
-def line(step, kind, d, names):
-    """The log line of one disagreement."""
+def line(step, kind, d, names, engine="MuJoCo"):
+    """The log line of one disagreement; engine : whose contact it is ("MuJoCo", "Warp")."""
     bodies = [names.bodies[names.geom_body[g]] for g in (d.geom1, d.geom2)]
-    mujoco = f"dist {d.mujoco_dist:.6g} m, normal {_vector(d.mujoco_normal)}" if d.mujoco_contact else "no contact"
+    theirs = f"dist {d.mujoco_dist:.6g} m, normal {_vector(d.mujoco_normal)}" if d.mujoco_contact else "no contact"
     return (
         f"step {step}: {kind.replace('_', ' ')}: geoms {d.names[0]} / {d.names[1]} (bodies {bodies[0]} / {bodies[1]}); "
-        f"MuJoCo {mujoco}; ellipsim {d.relation}, signed distance {d.signed_distance:.6g} m, normal "
+        f"{engine} {theirs}; ellipsim {d.relation}, signed distance {d.signed_distance:.6g} m, normal "
         f"{_vector(d.ellipsim_normal)}; right: {d.right} ({d.reason})"
     )

@@ -20,6 +20,7 @@ import numpy as np
 from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from . import simulate, warp_run
+from .errors import STOPS
 from .scenario import ScenarioError
 
 
@@ -90,8 +91,10 @@ def _dists(kind, row):
     return f"Warp distance {row[4]:.3g} m, exact {row[5]:.3g} m"
 
 
-def compare(s, *, steps, nworld, device="cpu", progress=None):
-    """Step scenario s in nworld worlds on plain MuJoCo Warp and check its contacts (module docstring)."""
+def compare(s, *, steps, nworld, device="cpu", progress=None, recorder=None):
+    """Step scenario s in nworld worlds on plain MuJoCo Warp and check its contacts (module docstring).
+    recorder : an optional record.Recorder for world 0 (compare_record.CompareRecording with Warp's
+    contacts and poses; its closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent)."""
     wp, mjw, ew = warp_run._warp()
     if s.kinematic:
         raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
@@ -101,10 +104,23 @@ def compare(s, *, steps, nworld, device="cpu", progress=None):
         pairs, pairid = ew.candidate_pairs(m, pair_ids=True)
     ellipsoids = np.all(np.isin(model.geom_type[pairs], (2, 4)), axis=1)  # as `compare` on MuJoCo C
     pairs, pairid = pairs[ellipsoids], pairid[ellipsoids]
-    return _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress)
+    observer = None
+    if recorder is not None:
+        from .compare_record import CompareRecording
+
+        observer = CompareRecording(recorder, model, s.name, engine="Warp")
+    try:
+        result = _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer)
+    except STOPS:
+        if observer is not None and recorder.keep_partial:
+            observer.finish()
+        raise
+    if observer is not None:
+        observer.finish()
+    return result
 
 
-def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress):
+def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer=None):
     wp, mjw, _ = warp_run._warp()
     g1, g2 = pairs[:, 0], pairs[:, 1]
     sphere = model.geom_type == 2
@@ -128,6 +144,7 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
     order = np.argsort(keys)
     rmin = np.minimum(radii[g1].min(1), radii[g2].min(1))
     wide = lambda x: x.astype(np.float64)  # noqa: E731
+    mirror = mujoco.MjData(model) if observer is not None else None
     with wp.ScopedDevice(device):
         for k in range(steps):
             warp_run.send_controls(d, model, control, k * s.timestep)
@@ -137,6 +154,10 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
             cw, cg, cd, cf = (
                 a.numpy()[:n] for a in (d.contact.worldid, d.contact.geom, d.contact.dist, d.contact.frame)
             )
+            first = (len(missed), len(extra))  # this step's, for the recording of world 0
+            if observer is not None:
+                zero = cw == 0
+                world0 = (cg[zero], cd[zero], d.contact.pos.numpy()[:n][zero], cf[zero, 0])
             # Warp's contacts on the candidate pairs, per (world, pair): distance and normal (from pairs[:, 0])
             ckey = np.minimum(cg[:, 0], cg[:, 1]).astype(np.int64) * ngeom + np.maximum(cg[:, 0], cg[:, 1])
             at = np.minimum(np.searchsorted(keys, ckey, sorter=order), len(keys) - 1) if len(keys) else ckey * 0
@@ -158,7 +179,7 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
                 sel = np.flatnonzero(ok | ~np.isnan(wdist[w]))
                 if sel.size == 0:
                     continue
-                dist, normal, _, status = signed_distance(
+                dist, normal, pos, status = signed_distance(
                     Ellipsoids(wide(xpos[w, g1[sel]]), wide(xmat[w, g1[sel]]), wide(radii[g1[sel]])),
                     Ellipsoids(wide(xpos[w, g2[sel]]), wide(xmat[w, g2[sel]]), wide(radii[g2[sel]])),
                 )
@@ -169,15 +190,29 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
                 exact_n += int(want.sum())
                 for j in np.flatnonzero(want & ~got):
                     p = sel[j]
-                    missed.append((k, w, int(g1[p]), int(g2[p]), float(dist[j])))
+                    missed.append((k, w, int(g1[p]), int(g2[p]), float(dist[j]), normal[j], pos[j], None))
                 for j in np.flatnonzero(got & ~want):
                     p = sel[j]
-                    extra.append((k, w, int(g1[p]), int(g2[p]), float(wdist[w, p]), float(dist[j])))
+                    extra.append(
+                        (
+                            k,
+                            w,
+                            int(g1[p]),
+                            int(g2[p]),
+                            float(wdist[w, p]),
+                            float(dist[j]),
+                            normal[j],
+                            pos[j],
+                            wnormal[w, p],
+                        )
+                    )
                 both = np.flatnonzero(got & want)
                 p = sel[both]
                 errs.append(np.abs(wdist[w, p] - dist[both]) / rmin[p])
                 na, nb = wnormal[w, p], normal[both]
                 angles.append(np.degrees(np.arctan2(np.linalg.norm(np.cross(na, nb), axis=1), (na * nb).sum(1))))
+            if observer is not None:
+                _observe(observer, model, mirror, d, k, (k + 1) * s.timestep, world0, missed, extra, first)
             if progress:
                 progress(k + 1, steps)
     return WarpComparison(
@@ -194,3 +229,59 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
         unproven,
         overflow,
     )
+
+
+def _observe(observer, model, mirror, d, step, time, contacts, missed, extra, first):
+    """Hand world 0's step to a compare_record.CompareRecording: its poses as Warp holds them (float32,
+    widened) in a MuJoCo C MjData, Warp's contacts, and its missed and extra pairs of the step (from
+    index `first` of each list) as mujoco.validate.Disagreement."""
+    from ..mujoco.validate import Disagreement
+
+    mirror.qpos[:] = d.qpos.numpy()[0]
+    mirror.time = time
+    mujoco.mj_kinematics(model, mirror)
+    mirror.xpos[:], mirror.xquat[:] = d.xpos.numpy()[0], d.xquat.numpy()[0]
+    mirror.geom_xpos[:], mirror.geom_xmat[:] = d.geom_xpos.numpy()[0], d.geom_xmat.numpy()[0].reshape(-1, 9)
+    names = observer.names.geoms
+    found, kinds = [], []
+    for kind, rows in (("missed", missed[first[0] :]), ("extra", extra[first[1] :])):
+        for row in rows:
+            if row[1] != 0:
+                continue
+            g1, g2 = row[2], row[3]
+            exact, normal, pos = (row[4], row[5], row[6]) if kind == "missed" else (row[5], row[6], row[7])
+            warp_normal = None if kind == "missed" else tuple(float(x) for x in row[8])
+            warp_pos = None
+            if kind == "extra":
+                geom, _, at, _ = contacts
+                on = np.flatnonzero(
+                    ((geom[:, 0] == g1) & (geom[:, 1] == g2)) | ((geom[:, 0] == g2) & (geom[:, 1] == g1))
+                )
+                warp_pos = tuple(float(x) for x in at[on[0]]) if len(on) else None
+            reason = (
+                f"exact distance {exact:.6g} m within margin + gap; Warp made no contact"
+                if kind == "missed"
+                else f"Warp's contact at dist {row[4]:.6g} m; the exact distance {exact:.6g} m is beyond margin + gap"
+            )
+            found.append(
+                Disagreement(
+                    step=step,
+                    geom1=g1,
+                    geom2=g2,
+                    names=(names[g1], names[g2]),
+                    mujoco_contact=kind == "extra",
+                    mujoco_dist=row[4] if kind == "extra" else float("nan"),
+                    relation="overlapping" if exact < 0 else "separated",
+                    contact_scale=float("nan"),
+                    geom_distance=float("nan"),
+                    right="ellipsim",
+                    reason=reason,
+                    signed_distance=exact,
+                    mujoco_pos=warp_pos,
+                    mujoco_normal=warp_normal,
+                    ellipsim_pos=tuple(float(x) for x in pos),
+                    ellipsim_normal=tuple(float(x) for x in normal),
+                )
+            )
+            kinds.append(kind)
+    observer(model, mirror, step, found, kinds, contacts)

@@ -32,8 +32,8 @@ def compare(args):
     from ..comparison import Comparison
 
     check_engine(args)
-    if args.engine == "warp" and (args.plot or args.between_frames or args.record):
-        raise UserError("--plot, --between-frames and --record are for --engine mujoco (not yet for --engine warp)")
+    if args.engine == "warp" and (args.plot or args.between_frames):
+        raise UserError("--plot and --between-frames are for --engine mujoco (not yet for --engine warp)")
     s = load_scenario(args)
     if args.engine == "warp":
         return _compare_warp(args, s)
@@ -73,6 +73,8 @@ def _compare_warp(args, s):
 
     if args.json:
         check_output(args.json, ".json", "--json")
+    if args.record:
+        check_output(args.record, ".rrd", "--record")
     warp_run.quiet()
     device = warp_run.check_device(args.device or "cpu")
     steps = steps_of(s, args, simulate.check_steps)
@@ -83,11 +85,19 @@ def _compare_warp(args, s):
         "run on a machine compiles Warp's kernels (minutes on CPU, then cached)",
         flush=True,
     )
-    result = warp_compare.compare(s, steps=steps, nworld=nworld, device=device, progress=bar(f"  {s.name}", steps))
+    recorder = recorder_for(args.record, args) if args.record else None
+    result, size = recorded(
+        recorder, warp_compare.compare, s, steps=steps, nworld=nworld, device=device, progress=bar(f"  {s.name}", steps)
+    )
     print("\n".join(result.summary(args.show)))
     if args.json:
         write_json(args.json, result.report())
         print(f"  report: {args.json}")
+    if recorder:
+        print(
+            f"  recording (world 0): {args.record} ({steps} steps, {size / 1e6:.1f} MB; the disagreements under "
+            f"world/disagreements and in the log); view it with: ellipsim view {args.record}"
+        )
     return 0
 
 

@@ -382,3 +382,24 @@ def test_bench_sections_are_the_suites_and_the_cli_starts_without_it(tmp_path, c
         subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
         == "False"
     )
+
+
+def test_record_flags_draw_labels_and_the_models_colours(tmp_path):
+    from ellipsim.app import record, scenario, simulate
+    from tests.test_record import Recording, packed
+
+    out = tmp_path / "hs.rrd"
+    assert main(["run", "handshake", "--steps", "20", "--record", str(out), "--labels", "--colors", "mjcf"]) == 0
+    rec = Recording(out)
+    entity = next(e for e in rec.entities() if e.endswith("/geoms/ellipsoids"))
+    assert rec.static(entity, "Ellipsoids3D:show_labels") == [[True]]
+    model, _ = simulate.build(scenario.load("handshake"))
+    (labels,) = rec.static(entity, "Ellipsoids3D:labels")
+    _, _, colors = rec.temporal(entity, "Ellipsoids3D:colors")
+    mjcf = [packed(record.rgba8(model.geom_rgba[model.geom(name).id])) for name in labels]
+    assert colors[0] == mjcf  # frame 0, every geom free: the model's own colours
+    default = tmp_path / "plain.rrd"
+    assert main(["run", "handshake", "--steps", "20", "--record", str(default)]) == 0
+    plain = Recording(default)
+    assert plain.static(entity, "Ellipsoids3D:show_labels") == [[False]]
+    assert plain.temporal(entity, "Ellipsoids3D:colors")[2][0] != mjcf  # a hue per figure instead

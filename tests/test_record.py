@@ -620,6 +620,21 @@ def test_a_real_model_keeps_its_colours_and_floor_contacts(zoo_run):
     )
 
 
+@pytest.mark.slow
+def test_a_real_run_is_framed_on_its_bodies_not_its_floor(zoo_run):
+    """The camera looks into the box of the ellipsoids over the run (MuJoCo's stat.center averages the
+    floor in), and the infinite floor is a square about the bodies, not 2 x stat.extent."""
+    _, result, model, rec = zoo_run
+    _, _, eye = blueprint_of(rec)
+    centers = result.kept.centers.reshape(-1, 3)
+    reach = model.geom_rbound.max()
+    lo, hi = centers.min(axis=0) - reach, centers.max(axis=0) + reach
+    assert ((lo <= eye["look_target"]) & (eye["look_target"] <= hi)).all(), (lo, hi, eye)
+    assert np.linalg.norm(eye["position"] - eye["look_target"]) < 4 * np.linalg.norm(hi - lo)
+    labels = rec.static("/world/model/torso/geoms/ellipsoids", "Ellipsoids3D:show_labels")
+    assert labels == [[False]]
+
+
 def test_geometry_of_a_model_reads_meshes_and_height_fields():
     model = mujoco.MjModel.from_xml_path(str(ZOO))
     g = capture.geometry(model, "zoo")

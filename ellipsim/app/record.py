@@ -71,6 +71,7 @@ BETWEEN_COLOR = (230, 0, 200, 255)  # magenta: a contact between two frames
 FIGURE_HUES = (180.0, 255.0)
 FIGURE_SATURATION = 0.5
 FIGURE_LIGHTNESS = (0.42, 0.78)
+FIGURE_SHADES = (0.0, -0.13, 0.09)  # added to the lightness of trees k = 0, 1, 2 (mod 3): neighbours differ more
 #: Figures are drawn a little translucent (alpha out of 255; the state colours too), so that
 #: MuJoCo's contact points and normals show where they sit inside the geoms.
 FIGURE_ALPHA = 170
@@ -87,7 +88,7 @@ BUILTIN_SERIES = ("MuJoCo contacts (ellipsoid pairs)", (110, 160, 240, 255), 6.0
 ELLIPSIM_SERIES = ("ellipsim overlapping pairs (exact)", (170, 20, 20, 255), 1.5)
 ALL_SERIES = ("MuJoCo contacts (all geoms)", (40, 40, 40, 255), 1.5)
 #: The 3D view's camera: looking at the centre of the bodies' bounding box over the run from this
-#: direction (front right, above), far enough that the box's circumscribed sphere fills the view.
+#: direction (front right, above), as close as keeps the whole box in view (camera()).
 CAMERA_DIRECTION = (0.55, -1.0, 0.55)
 FLOOR_MARGIN = 3.0  # an infinite plane reaches this many scene scales (or tenths of the bodies' span) beyond them
 CAMERA_HALF_FOV = 0.5  # radians, a little under half of the viewer's vertical field of view
@@ -146,14 +147,19 @@ def run_panels(between=False):
 
 def camera(lo, hi):
     """The 3D view's camera on the box [lo, hi] (metres, world frame): looking at its centre from
-    CAMERA_DIRECTION, far enough that its circumscribed sphere fits the view; z up."""
+    CAMERA_DIRECTION, as close as keeps every corner of the box within CAMERA_HALF_FOV of the view's
+    axis, across and up; z up."""
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
     center = (lo + hi) / 2
-    radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-3)
-    direction = np.asarray(CAMERA_DIRECTION, dtype=np.float64)
-    direction /= np.linalg.norm(direction)
-    position = center + radius / np.sin(CAMERA_HALF_FOV) * direction
-    return rrb.EyeControls3D(position=position, look_target=center, eye_up=(0.0, 0.0, 1.0))
+    back = np.asarray(CAMERA_DIRECTION, dtype=np.float64)
+    back /= np.linalg.norm(back)  # from the target to the eye
+    right = np.cross(-back, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, -back)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - center
+    across = np.maximum(np.abs(corners @ right), np.abs(corners @ up))
+    distance = max(float(np.max(corners @ back + across / np.tan(CAMERA_HALF_FOV))), 1e-3)
+    return rrb.EyeControls3D(position=center + distance * back, look_target=center, eye_up=(0.0, 0.0, 1.0))
 
 
 def legend(between=None, extra=()):
@@ -199,7 +205,8 @@ def figure_colors(g):
     for k, tree in enumerate(trees):
         hue = (lo + (k * 0.6180339887498949 % 1.0) * (hi - lo)) / 360.0
         for i in np.flatnonzero(tree_of_geom == tree):
-            lightness = dark + (light - dark) * float(np.clip(luminance[i], 0.0, 1.0))
+            lightness = dark + (light - dark) * float(np.clip(luminance[i], 0.0, 1.0)) + FIGURE_SHADES[k % 3]
+            lightness = float(np.clip(lightness, 0.3, 0.85))
             r, gr, bl = colorsys.hls_to_rgb(hue, lightness, FIGURE_SATURATION)
             colors[i] = np.round(np.array([r * 255, gr * 255, bl * 255, FIGURE_ALPHA])).astype(np.uint8)
     return colors

@@ -174,3 +174,9 @@ def test_compare_record_on_the_command_line_logs_the_disagreements_the_json_list
         (d["step"], d["kind"].replace("_", " ")) for d in listed
     ]
     assert {"/world/contacts", "/world/disagreements", "/counts/disagreements/missed"} <= rec.entities()
+    views, _, _ = blueprint_of(rec)
+    text = rec.static("/legend", "TextDocument:text")[-1][0]
+    if listed:  # a log panel only when there is something to list, else a line saying so
+        assert views["TextLog"] == ["events"] and "No disagreements" not in text
+    else:
+        assert "TextLog" not in views and "No disagreements in 40 steps." in text

@@ -34,6 +34,7 @@ from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from ..core.tolerances import NEAR_TANGENT
 from . import capture, record
+from .errors import STOPS
 
 DISAGREEMENTS_PATH = "world/disagreements"
 MUJOCO_PATH = "world/disagreements/mujoco"
@@ -86,14 +87,15 @@ def kind_of(d):
     return "missed" if d.mujoco_contact else "extra"
 
 
-def panels(engine="MuJoCo"):
-    """The column beside a compare recording's 3D view."""
+def panels(engine="MuJoCo", log=True):
+    """The column beside a compare recording's 3D view; log : with the log panel (there are
+    disagreements or contacts between steps to list)."""
     return [
         (rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"), 2),
         (rrb.TimeSeriesView(origin=COUNTS_PATH, name="disagreements per step"), 2),
         (rrb.TimeSeriesView(origin=DISTANCE_PATH, name=f"|{engine} dist - ellipsim's| on {engine}'s contacts, m"), 1),
         (rrb.TimeSeriesView(origin=ANGLE_PATH, name=f"normal angle on {engine}'s contacts, deg"), 1),
-        (rrb.TextLogView(origin="events", name="disagreements"), 2),
+        *([(rrb.TextLogView(origin="events", name="disagreements"), 2)] if log else []),
         (rrb.TextDocumentView(origin=record.LEGEND_PATH, name="what the colours mean"), 2),
     ]
 
@@ -111,7 +113,8 @@ class CompareRecording:
         self.names = capture.ModelNames.of(model)
         self.buffer = capture.FrameBuffer(model, record=True)
         recorder.begin(capture.geometry(model, title, self.names))
-        recorder.panels = lambda _: panels(engine)
+        recorder.panels = lambda r: panels(engine, self.written > 0 or r.events_written > 0)
+        recorder.engine = engine
         recorder.legend_extra = legend(engine)
         self.kinds = kinds(engine)
         self.scale = recorder.scale
@@ -155,10 +158,28 @@ class CompareRecording:
         if self.buffer.add(data, data.time, contacts):
             self._flush()
 
+    def run(self, call):
+        """call() (the stepping that calls this observer), then finish(); on Ctrl-C or SIGTERM the
+        steps so far are written first when the recorder keeps partial recordings."""
+        try:
+            result = call()
+        except STOPS:
+            if self.recorder.keep_partial:
+                self.finish()
+            raise
+        self.finish()
+        return result
+
     def finish(self):
         """Write the frames still held and the count series; the recorder's closing is the caller's."""
         self._flush()
         self.buffer.close()
+        if self.written == 0:
+            self.recorder.legend_extra = [
+                *self.recorder.legend_extra,
+                "",
+                f"No disagreements in {len(self.counts)} steps.",
+            ]
         counts = np.asarray(self.counts, dtype=np.float64).reshape(-1, len(self.kinds))
         if len(counts):
             indexes = record._indexes(np.asarray(self.times), np.arange(len(counts)))

@@ -16,15 +16,21 @@ What is written (B bodies, G geoms):
                                    never move relative to it, a column per frame for bodies with
                                    joints (or mocap)
       <body>/geoms/ellipsoids      Ellipsoids3D of the body's ellipsoid and sphere geoms, in the body
-                                   frame, static; colours per frame where they change: the MJCF
-                                   colour when free, amber touching, red overlapping (ellipsim's
-                                   exact verdict, the worst over its pairs)
-      <body>/geoms/capsules        Capsules3D, static, MJCF colours
-      <body>/geoms/cylinders       Cylinders3D, static, MJCF colours
-      <body>/geoms/boxes           Boxes3D, static, MJCF colours
+                                   frame, static, solid, names as labels shown only on hover (or
+                                   always: labels=True); colours per frame where they change: the
+                                   free colour (figure_colors: a hue per kinematic tree; or the MJCF
+                                   colour), amber touching, red overlapping (ellipsim's exact
+                                   verdict, the worst over its pairs)
+      <body>/geoms/capsules        Capsules3D, static, solid, free colours
+      <body>/geoms/cylinders       Cylinders3D, static, solid, free colours
+      <body>/geoms/boxes           Boxes3D, static, solid, free colours
       <body>/geoms/<geom>          a mesh, height field or plane geom: static Transform3D + Mesh3D
-    world/contacts                 Points3D of every MuJoCo contact (all pair types) per frame:
-                                   green between two ellipsoids, cyan otherwise (floor, boxes, ...)
+                                   (an infinite plane: logged again at close, a square just larger
+                                   than the bodies' bounding box over the run)
+    world/contacts                 Points3D of every MuJoCo contact (all pair types) per frame, sized
+                                   to the scene (scene_scale): green between two ellipsoids, black
+                                   otherwise (floor, boxes, ...); labelled with the geoms and
+                                   MuJoCo's distance, shown on hover
     world/contact_normals          Arrows3D, the contact normals, same colours
     world/between_frames           Points3D, magenta, labelled with the geoms: where two ellipsoids,
                                    separated at two consecutive frames, first touch in between (on
@@ -35,10 +41,13 @@ What is written (B bodies, G geoms):
     counts/pairs/builtin           Scalars per frame: MuJoCo's contacts between ellipsoid geoms
     counts/pairs/ellipsim          Scalars per frame: pairs ellipsim finds overlapping
     counts/contacts/all            Scalars per frame: all of MuJoCo's contacts
+    legend                         TextDocument (markdown): what each colour means
 
-The default blueprint puts a 3D view of "world" beside two time-series views: ellipsoid pairs in
-contact (MuJoCo's as a wide light line, ellipsim's as a thin dark line over it, so both stay
-visible where they agree) and all contacts; below them a text log of the contacts between frames.
+The blueprint, sent at close, puts a 3D view of "world", its camera on the bodies' bounding box over
+the run (camera), beside two time-series views: ellipsoid pairs in contact (MuJoCo's as a wide light
+line, ellipsim's as a thin dark line over it, so both stay visible where they agree) and all
+contacts; then the legend, and a text log of the contacts between frames when there are any.
+compare_record.py adds the disagreements of `compare --record`.
 """
 
 import colorsys
@@ -156,15 +165,16 @@ def camera(lo, hi):
     right = np.cross(-back, [0.0, 0.0, 1.0])
     right /= np.linalg.norm(right)
     up = np.cross(right, -back)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - center
+    corners = _corners(lo, hi) - center
     across = np.maximum(np.abs(corners @ right), np.abs(corners @ up))
     distance = max(float(np.max(corners @ back + across / np.tan(CAMERA_HALF_FOV))), 1e-3)
     return rrb.EyeControls3D(position=center + distance * back, look_target=center, eye_up=(0.0, 0.0, 1.0))
 
 
-def legend(between=None, extra=()):
+def legend(between=None, extra=(), engine="MuJoCo"):
     """The legend (markdown): what each colour of a recording means.  between : the number of
-    contacts between frames found, or None when they were not looked for; extra : more lines."""
+    contacts between frames found, or None when they were not looked for; extra : more lines;
+    engine : whose contacts are drawn."""
     lines = [
         "**Geoms** (hover one for its name)",
         "- blue to indigo: free; one hue per figure (kinematic tree), lighter or darker as the model colours its parts",
@@ -172,13 +182,13 @@ def legend(between=None, extra=()):
         "- **amber**: touching, tangent within the proof tolerance (rare in a moving scene)",
         "- the world's own geoms (floor, walls) in the model's colours",
         "",
-        "**MuJoCo's contacts**: a point and its normal (from the first geom into the second); hover one for the geoms "
-        "and MuJoCo's distance (negative: the penetration depth)",
+        f"**{engine}'s contacts**: a point and its normal (from the first geom into the second); hover one for the "
+        f"geoms and {engine}'s distance (negative: the penetration depth)",
         "- **green**: between two ellipsoid or sphere geoms",
         "- **black**: every other contact (floor, boxes, meshes, ...)",
     ]
     if between is None:
-        lines += ["", "Contacts between frames: not looked for (`--between-frames`)"]
+        lines += ["", "Contacts between frames: not looked for in this recording"]
     elif between == 0:
         lines += ["", "Contacts between frames: none (looked for on every step)"]
     else:
@@ -284,6 +294,7 @@ class Recorder:
         self.between_checked = False  # set by whoever looks for contacts between frames (the legend says)
         self.panels = lambda recorder: run_panels(recorder.events_written > 0)  # the column beside the 3D view
         self.legend_extra = []  # more legend lines (markdown)
+        self.engine = "MuJoCo"  # whose contacts are drawn (the legend says)
         self._lo = self._hi = None  # the bodies' bounding box over the frames written
 
     def __enter__(self):
@@ -458,15 +469,7 @@ class Recorder:
         bodies' bounding box over the frames written (seen from the plane's centre)."""
         if self._lo is None:
             return
-        g = self.geometry
-        corners = np.array(
-            [
-                [x, y, z]
-                for x in (self._lo[0], self._hi[0])
-                for y in (self._lo[1], self._hi[1])
-                for z in (self._lo[2], self._hi[2])
-            ]
-        )
+        g, corners = self.geometry, _corners(self._lo, self._hi)
         for entity, i in self._floors:
             rotation = quaternions_to_rotations(g.geom_quat[i])
             local = (corners - g.geom_pos[i]) @ rotation  # R^T (p - c), in the plane's frame
@@ -491,7 +494,7 @@ class Recorder:
         between = self.events_written if self.between_checked or self.events_written else None
         self.rec.log(
             LEGEND_PATH,
-            rr.TextDocument(legend(between, self.legend_extra), media_type=rr.MediaType.MARKDOWN),
+            rr.TextDocument(legend(between, self.legend_extra, self.engine), media_type=rr.MediaType.MARKDOWN),
             static=True,
         )
 
@@ -754,6 +757,13 @@ def _indexes(times, frames):
     # Whole nanoseconds, rounded: rerun's own float conversion truncates (1/60 s -> 16666666 ns).
     nanos = np.round(times * 1e9).astype(np.int64).astype("timedelta64[ns]")
     return [rr.TimeColumn("time", duration=nanos), rr.TimeColumn("frame", sequence=np.asarray(frames, dtype=np.int64))]
+
+
+def _corners(lo, hi):
+    """The 8 corners (8, 3) of the box [lo, hi]."""
+    return np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], dtype=np.float64
+    )
 
 
 def _axes_z(quat_wxyz):

@@ -18,7 +18,6 @@ from ..mujoco.attachment import attach
 from ..mujoco.validate import contacts_disabled, validate
 from . import capture, limits, mjcf, scenes
 from .control import Controller
-from .errors import STOPS
 from .scenario import MODES, Scenario, ScenarioError
 from .stepping import FrameLoop
 
@@ -334,18 +333,13 @@ def validation(s, steps=None, progress=None, between=False, recorder=None):
 
         observer = CompareRecording(recorder, model, s.name)
         recorder.between_checked = bool(between)
+    call = lambda: validate(  # noqa: E731
+        model, data, steps, control=step, advance=advance, progress=progress, between=between, observer=observer
+    )
     try:
-        v = validate(
-            model, data, steps, control=step, advance=advance, progress=progress, between=between, observer=observer
-        )
+        v = call() if observer is None else observer.run(call)
     except mujoco.FatalError as exc:
         raise ScenarioError(f"{_label(s)} MuJoCo stopped: {mjcf.one_line(exc)}") from None
-    except STOPS:
-        if observer is not None and recorder.keep_partial:
-            observer.finish()  # the steps compared so far, for the recorder to keep
-        raise
-    if observer is not None:
-        observer.finish()
-        if v.passed_through is not None:
-            capture.record_events(recorder, v.passed_through, v.ellipsoid_ids, observer.names)
+    if observer is not None and v.passed_through is not None:
+        capture.record_events(recorder, v.passed_through, v.ellipsoid_ids, observer.names)
     return v, model

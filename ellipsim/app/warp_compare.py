@@ -20,7 +20,6 @@ import numpy as np
 from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from . import simulate, warp_run
-from .errors import STOPS
 from .scenario import ScenarioError
 
 
@@ -104,20 +103,14 @@ def compare(s, *, steps, nworld, device="cpu", progress=None, recorder=None):
         pairs, pairid = ew.candidate_pairs(m, pair_ids=True)
     ellipsoids = np.all(np.isin(model.geom_type[pairs], (2, 4)), axis=1)  # as `compare` on MuJoCo C
     pairs, pairid = pairs[ellipsoids], pairid[ellipsoids]
-    observer = None
-    if recorder is not None:
-        from .compare_record import CompareRecording
+    if recorder is None:
+        return _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress)
+    from .compare_record import CompareRecording
 
-        observer = CompareRecording(recorder, model, s.name, engine="Warp")
-    try:
-        result = _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer)
-    except STOPS:
-        if observer is not None and recorder.keep_partial:
-            observer.finish()
-        raise
-    if observer is not None:
-        observer.finish()
-    return result
+    observer = CompareRecording(recorder, model, s.name, engine="Warp")
+    return observer.run(
+        lambda: _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer)
+    )
 
 
 def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer=None):

@@ -369,13 +369,14 @@ def _random_quats(rng, n):
     return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
-def pile_xml(n_ellipsoids, *, seed=0, bin_half_width=0.5, radii=(0.03, 0.12)):
+def pile_xml(n_ellipsoids, *, seed=0, bin_half_width=0.5, radii=(0.03, 0.12), thickness=None):
     """MJCF text of `n_ellipsoids` free ellipsoids above a square bin, to fall into a pile.
 
     The bin is the floor and four box walls around |x|, |y| <= bin_half_width (metres), 1.5 times
     as high as the pile they make at packing fraction 0.3, and at least 4 * radii[1].
     Semi-axes are uniform in radii = (smallest, largest) metres, orientations uniformly random
-    (drawn from `seed`).  The ellipsoids start in layers of a square grid of cubic cells of side
+    (drawn from `seed`); with thickness = (smallest, largest), the third semi-axis is drawn from it
+    instead: thin flat ellipsoids (leaves) for a thickness well below radii.  The ellipsoids start in layers of a square grid of cubic cells of side
     2 * radii[1] + 2 cm, one per cell, so no two start overlapping and none touches a wall.
     Bodies, joints and geoms are named "e{i}"; walls "wall_{+x,-x,+y,-y}".
     """
@@ -388,6 +389,15 @@ def pile_xml(n_ellipsoids, *, seed=0, bin_half_width=0.5, radii=(0.03, 0.12)):
         raise ValueError(f"radii must be a pair (smallest, largest) of semi-axes in metres, got {radii!r}") from None
     if not (math.isfinite(r_lo) and math.isfinite(r_hi) and 0 < r_lo <= r_hi):
         raise ValueError(f"radii must satisfy 0 < radii[0] <= radii[1] (finite), got {radii!r}")
+    if thickness is not None:
+        try:
+            t_lo, t_hi = (float(r) for r in thickness)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"thickness must be a pair (smallest, largest) of semi-axes in metres, got {thickness!r}"
+            ) from None
+        if not (math.isfinite(t_lo) and math.isfinite(t_hi) and 0 < t_lo <= t_hi <= r_hi):
+            raise ValueError(f"thickness must satisfy 0 < thickness[0] <= thickness[1] <= radii[1], got {thickness!r}")
     cell = 2 * r_hi + _BIN_GAP
     per_row = int((2 * half_width - _BIN_GAP) // cell)
     if per_row < 1:
@@ -398,6 +408,8 @@ def pile_xml(n_ellipsoids, *, seed=0, bin_half_width=0.5, radii=(0.03, 0.12)):
     rng = np.random.default_rng(seed)
     sizes = rng.uniform(r_lo, r_hi, (n, 3))
     quats = _random_quats(rng, n)
+    if thickness is not None:  # drawn after the rest: the pile without it is unchanged
+        sizes[:, 2] = rng.uniform(t_lo, t_hi, n)
     idx = np.arange(n)
     layer, slot = divmod(idx, per_row * per_row)
     row, col = divmod(slot, per_row)

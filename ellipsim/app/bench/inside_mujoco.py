@@ -11,6 +11,9 @@
    gradient-ascent starts.
 4b. Other pair types: ellipsoid x capsule, box, cylinder per call against MuJoCo's (pair_types.py).
 5. Long runs: plain and narrowphase from the same drop; kinetic energy, depth, bodies leaving.
+6. Where mj_step's time goes: MuJoCo's own timers (mjcb_time set) per mode and for the capsule twin,
+   and the cost of an ellipsim call inside mj_step (its narrow phase against a no-op function in the
+   same table slots, on the same states).
 """
 
 import contextlib
@@ -29,6 +32,7 @@ from ...core.exact.classify import classify
 from ...mujoco import nativecache, structs
 from ...mujoco.attachment import attach
 from ...mujoco.compare import compare_narrowphase
+from ...mujoco.context import PAIR_TYPES
 from ...mujoco.geoms import candidate_pairs
 from .. import scenes
 from . import pair_types
@@ -42,8 +46,15 @@ SCENES = {
     "16 figures in a heap": (lambda: scenes.scene_xml(16, layout="pile", seed=1), 1000),
     "64 figures in a heap": (lambda: scenes.scene_xml(64, layout="pile", seed=1), 1000),
 }
+SCENES["pile of 60 leaves"] = (lambda: scenes.pile_xml(60, seed=1, radii=(0.03, 0.08), thickness=(0.002, 0.006)), 1500)
 SCENES["MuJoCo's collision_convex/perf/mixed.xml"] = (
     lambda: resources.files(__package__).joinpath("mixed.xml").read_text(),
+    1000,
+)
+#: 300 two-leaf bodies (600 ellipsoids 25 x 10 x 1 mm) falling 3 m through air: they land at ~1000 steps,
+#: crossing each other up to 10 times their thickness deep, and settle by ~1250
+SCENES["MuJoCo's replicate/leaves.xml, landing"] = (
+    lambda: resources.files(__package__).joinpath("leaves.xml").read_text(),
     1000,
 )
 COMPARED = ("pile of 40 ellipsoids", "pile of 100 ellipsoids", "4 figures in a heap", "16 figures in a heap")
@@ -247,10 +258,143 @@ def long_run(xml, seconds):
     return rows
 
 
+#: MuJoCo's timers of the breakdown, in mj_step's order (the rest of a step: kinematics, inertia,
+#: velocity, actuation, integration)
+TIMERS = {
+    "step": mujoco.mjtTimer.mjTIMER_STEP,
+    "broad": mujoco.mjtTimer.mjTIMER_COL_BROAD,
+    "narrow": mujoco.mjtTimer.mjTIMER_COL_NARROW,
+    "constraint": mujoco.mjtTimer.mjTIMER_CONSTRAINT,
+}
+
+
+def _clock():
+    return time.perf_counter() * 1e6  # µs, as data.timer reads
+
+
+@contextlib.contextmanager
+def mujoco_timers():
+    """MuJoCo's timers running for the block (mjcb_time: a clock in µs; ~32 calls per step, ~0.2 µs
+    each, so the breakdown is timed apart from the speed-ups), the previous timer callback restored."""
+    previous = mujoco.get_mjcb_time()
+    mujoco.set_mjcb_time(_clock)
+    try:
+        yield
+    finally:
+        mujoco.set_mjcb_time(previous)
+
+
+def _reset_timers(data):
+    for k in range(int(mujoco.mjtTimer.mjNTIMER)):
+        data.timer[k].duration = 0.0
+        data.timer[k].number = 0
+
+
+def _timed_segment(model, data, state, steps, mode):
+    """{timer: µs per step} and contacts per step over `steps` mj_step calls from `state` (timers on)."""
+    mujoco.mj_setState(model, data, state, STEP_STATE)
+    contacts = 0
+    with attach(model, data, mode=mode) if mode != "builtin" else contextlib.nullcontext():
+        _reset_timers(data)
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+            contacts += data.ncon
+    out = {name: data.timer[int(k)].duration / steps for name, k in TIMERS.items()}
+    out["contacts"] = contacts / steps
+    return out
+
+
+def breakdown(runs, steps, rounds):
+    """{name: {timer: median µs per step, "contacts": per step}} of runs = {name: (model, data, state,
+    mode)}, every run once per round in rotated order (as common.interleaved)."""
+    names = list(runs)
+    got = {name: [] for name in names}
+    with mujoco_timers():
+        for r in range(rounds):
+            k = r % len(names)
+            for name in names[k:] + names[:k]:
+                got[name].append(_timed_segment(*runs[name][:3], steps, runs[name][3]))
+    return {name: {key: float(np.median([g[key] for g in rows])) for key in rows[0]} for name, rows in got.items()}
+
+
+_NOOP = {}
+
+
+def _noop_address():
+    """A compiled narrow-phase function that makes no contact (compiled once per process)."""
+    if not _NOOP:
+
+        @numba.cfunc(
+            numba.types.intc(*(numba.types.voidptr,) * 3, numba.types.intc, numba.types.intc, numba.types.float64)
+        )
+        def noop(m, d, con, g1, g2, margin):
+            return 0
+
+        _NOOP["fn"] = noop
+    return _NOOP["fn"].address
+
+
+@contextlib.contextmanager
+def _noop_installed():
+    """The no-op function in every collision-table slot ellipsim's narrow phase takes (context.PAIR_TYPES)."""
+    table, ntypes = structs.collision_table()
+    slots = [row.type1 * ntypes + row.type2 for row in PAIR_TYPES]
+    saved = [table[k] for k in slots]
+    address = _noop_address()
+    for k in slots:
+        table[k] = address
+    try:
+        yield
+    finally:
+        for k, v in zip(slots, saved, strict=True):
+            table[k] = v
+
+
+def in_situ(model, data, state, steps, rounds):
+    """ns per ellipsim call inside mj_step: the states of a narrowphase segment from `state`, then per
+    round each state in order set and mj_forward run twice, ellipsim attached and with the no-op in its
+    slots; (narrow phase with ellipsim - with the no-op) / ellipsim's calls, median of the rounds.
+    Returns (ns per call, calls per step, no-op narrow phase µs per step)."""
+    size = mujoco.mj_stateSize(model, STEP_STATE)
+    states = np.empty((steps, size))
+    mujoco.mj_setState(model, data, state, STEP_STATE)
+    with attach(model, data, mode="narrowphase"):
+        for i in range(steps):
+            mujoco.mj_step(model, data)
+            mujoco.mj_getState(model, data, states[i], STEP_STATE)
+    k = int(mujoco.mjtTimer.mjTIMER_COL_NARROW)
+
+    def narrow():
+        total = 0.0
+        for s in states:
+            mujoco.mj_setState(model, data, s, STEP_STATE)
+            data.timer[k].duration = 0.0
+            mujoco.mj_forward(model, data)
+            total += data.timer[k].duration
+        return total / steps
+
+    per_call, calls, noop = [], 0.0, []
+    with mujoco_timers():
+        for _ in range(rounds):
+            with attach(model, data, mode="narrowphase") as att:
+                ours = narrow()
+                calls = att.counters["calls"] / steps
+            with _noop_installed():
+                none = narrow()
+            noop.append(none)
+            per_call.append((ours - none) / max(calls, 1e-300) * 1e3)
+    return float(np.median(per_call)), calls, float(np.median(noop))
+
+
+def timer_rounds(size):
+    """Rounds of the timer breakdown and of in_situ (a quarter of the speed-ups' rounds, at least 3)."""
+    return max(3, size["step_rounds"] // 4)
+
+
 def capsule_twin(name, size):
     """A figure heap with ellipsoid limbs in narrowphase mode against its capsule twin (scenes.
     capsule_twin_xml) in plain MuJoCo, each settled from the same drop: (ellipsoid µs/step, capsule
-    µs/step, median per-round ratio ellipsoid / capsule)."""
+    µs/step, median per-round ratio ellipsoid / capsule, breakdown of both)."""
     xml = SCENES[name][0]()
     ell = settled(xml, SCENES[name][1])
     cap = settled(scenes.capsule_twin_xml(xml), SCENES[name][1])
@@ -262,12 +406,17 @@ def capsule_twin(name, size):
         fn()
     t = interleaved(fns, size["step_rounds"], self_timed=True)
     us = {k: float(np.median(v)) / size["steps"] * 1e6 for k, v in t.items()}
-    return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules")
+    timers = breakdown(
+        {"ellipsoids, narrowphase": (*ell, "narrowphase"), "capsule twin, plain MuJoCo": (*cap, "builtin")},
+        size["steps"],
+        timer_rounds(size),
+    )
+    return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules"), timers
 
 
 def measure(size):
     names = size["scenes"] or tuple(SCENES)
-    rows, compared, longs = {}, {}, {}
+    rows, compared, longs, timers, situ = {}, {}, {}, {}, {}
     for name in names:
         make, settle_steps = SCENES[name]
         say(f"inside MuJoCo: {name}: settle, mj_step in {size['step_rounds']} interleaved rounds ...")
@@ -276,6 +425,11 @@ def measure(size):
         mujoco.mj_forward(model, data)
         pp = per_pair(model, data)
         rows[name] = (model.ngeom, pp, *steps(model, data, state, size))
+        say(f"inside MuJoCo: {name}: MuJoCo's timers per mode, ellipsim's calls in situ ...")
+        timers[name] = breakdown(
+            {mode: (model, data, state, mode) for mode in STEP_MODES}, size["steps"], timer_rounds(size)
+        )
+        situ[name] = in_situ(model, data, state, size["steps"], timer_rounds(size))
         if name in COMPARED:
             say(f"inside MuJoCo: {name}: contacts against MuJoCo's ...")
             compared[name] = contacts(model, data, state, size["compare_steps"])
@@ -290,12 +444,12 @@ def measure(size):
         if name in names:
             say(f"inside MuJoCo: long runs of {name} ...")
             longs[name] = long_run(SCENES[name][0](), size["long_seconds"])
-    return rows, compared, deep, longs, twin, types
+    return rows, compared, deep, longs, twin, types, timers, situ
 
 
 def write(result, size, out, plt):
     """The section's markdown, and mujoco.png in `out`."""
-    rows, compared, deep, longs, twin, types = result
+    rows, compared, deep, longs, twin, types, timers, situ = result
     _plot(plt, out, rows)
     L = [
         "## 5. Inside MuJoCo",
@@ -317,6 +471,7 @@ def write(result, size, out, plt):
             f"| {f[0]:.2f} ({f[1]:.2f}-{f[2]:.2f}) | **{n[0]:.2f}** ({n[1]:.2f}-{n[2]:.2f}) "
             f"| {counters['filter']['seen']:.0f} | {counters['filter']['discarded']:.0f} | {counters['narrowphase']['fallbacks']:.2g} |"
         )
+    L += _write_timers(timers, situ, rows, twin, size)
     L += [
         "",
         "Cost per call: each function in a compiled loop over the ellipsoid-ellipsoid candidate pairs of the settled "
@@ -344,6 +499,9 @@ def write(result, size, out, plt):
         ),
         f"| {twin[0]}, narrowphase, within 1.05x of its capsule twin in plain MuJoCo | {twin[1]:.0f} / {twin[2]:.0f} "
         f"µs/step: {twin[3]:.2f}x | {'yes' if twin[3] <= 1.05 else 'no'} |",
+        f"| {twin[0]}, narrow phase inside mj_step within 1.2x of the capsule twin's (MuJoCo's timers) "
+        f"| {_twin_narrow(twin)[0]:.0f} / {_twin_narrow(twin)[1]:.0f} µs/step: {_twin_narrow(twin)[2]:.2f}x "
+        f"| {'yes' if _twin_narrow(twin)[2] <= 1.2 else 'no'} |",
         *(
             f"| {name} (box walls, or MuJoCo's mixed convex shapes) faster than builtin | narrowphase speed-up "
             f"{rows[name][3]['narrowphase'][0]:.2f} | {'yes' if rows[name][3]['narrowphase'][0] > 1 else 'no'} |"
@@ -396,6 +554,54 @@ def write(result, size, out, plt):
                     f"| {r['out']} | {r['badqacc']} | {r['fallbacks']} | {r['wall']:.1f} |"
                 )
         L.append("")
+    return L
+
+
+def _twin_narrow(twin):
+    """(ellipsoids' narrow µs/step, the capsule twin's, their ratio) from the twin's timers."""
+    t = twin[4]
+    ours, theirs = t["ellipsoids, narrowphase"]["narrow"], t["capsule twin, plain MuJoCo"]["narrow"]
+    return ours, theirs, ours / theirs
+
+
+def _write_timers(timers, situ, rows, twin, size):
+    """The timer breakdown and the in-situ cost per call (markdown lines)."""
+    rounds = timer_rounds(size)
+    L = [
+        "",
+        f"Where mj_step's time goes: MuJoCo's own timers (`mjcb_time` set to a µs clock), µs per step, median of "
+        f"{rounds} interleaved rounds of {size['steps']} steps from the settled state (timed apart from the speed-ups "
+        "above: the clock is called ~32 times a step).  Other: kinematics, inertia, making the constraints, velocity, "
+        "actuation, integration.",
+        "",
+        "| scene | mode | mj_step | broad phase | narrow phase | constraint solver | other | contacts/step |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    named = dict(timers)
+    named[f"{twin[0]}: capsule twin"] = twin[4]
+    for name, modes in named.items():
+        for mode, t in modes.items():
+            other = t["step"] - t["broad"] - t["narrow"] - t["constraint"]
+            L.append(
+                f"| {name} | {mode} | {t['step']:.0f} | {t['broad']:.0f} | {t['narrow']:.0f} | {t['constraint']:.0f} "
+                f"| {other:.0f} | {t['contacts']:.0f} |"
+            )
+    L += [
+        "",
+        "ellipsim's calls inside mj_step: the states of a narrowphase segment, each set and run through mj_forward with "
+        "ellipsim attached and with a no-op function (no contact) in the same collision-table slots; in-situ cost = "
+        "(narrow phase with ellipsim - with the no-op) / ellipsim's calls, median of "
+        f"{rounds} rounds.  The compiled loop's cost (table below, ellipsoid pairs only) weighted by its touching and "
+        "separated pairs, for comparison.",
+        "",
+        "| scene | ellipsim calls/step | in-situ ns/call | compiled loop ns/call | narrow phase with the no-op µs/step |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for name, (ns, calls, noop) in situ.items():
+        t, s = rows[name][1]["touching"], rows[name][1]["separated"]
+        npairs = t[3] + s[3]
+        loop = (np.nan_to_num(t[0]) * t[3] + np.nan_to_num(s[0]) * s[3]) / npairs if npairs else np.nan
+        L.append(f"| {name} | {calls:.0f} | {ns:.0f} | {loop:.0f} | {noop:.0f} |")
     return L
 
 

@@ -300,10 +300,11 @@ def test_any_seed_gives_the_cold_result_within_the_contract():
     pairs = _pairs(300, 11)
     checked = deep = 0
     for i, (A, B) in enumerate(pairs):
-        st, dist, normal, pos, work = pair_signed_distance(A, B)
+        st, dist, normal, pos, _ = pair_signed_distance(A, B)
         assert st == GLOBAL
         rmin = min(min(A[2]), min(B[2]))
-        deep += work > 10  # the branch and bound ran
+        ra, rb = np.array(A[2]), np.array(B[2])
+        deep += dist < -(ra.min() ** 2 / ra.max() + rb.min() ** 2 / rb.max())  # beyond the rolling radii
         n = np.array(normal)
         seeds = [
             n,

@@ -87,6 +87,11 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
     narrow = next(line for line in report.splitlines() if line.startswith("| narrow phase signed distance |"))
     assert narrow.split("|")[3].strip() == "1.00"
     assert "| one Newton run, 6 steps |" in report and "| 1 figure |" in report
+    assert (
+        "Where mj_step's time goes" in report
+        and "| 4 figures in a heap: capsule twin | capsule twin, plain MuJoCo |" in report
+    )
+    assert "| 1 figure | 0 | nan |" in report  # no ellipsim call: no cost per call
 
 
 @pytest.mark.slow
@@ -120,3 +125,64 @@ def test_speculative_section_judges_mujoco_by_the_proven_time_of_impact():
     assert on["missed"] < off["missed"] // 2
     text = "\n".join(speculative.write(r, None, None, None))
     assert "| MuJoCo, speculative on |" in text and "| ellipsim time_of_impact |" in text
+
+
+def _small_pile():
+    from ellipsim.app import scenes
+
+    return bench.settled(scenes.pile_xml(6, seed=3, bin_half_width=0.2), 150)
+
+
+def test_mujoco_timers_run_inside_and_restore_the_previous_clock():
+    import mujoco
+
+    from ellipsim.app.bench import inside_mujoco
+
+    def clock():
+        return 0.0
+
+    model, data, state = _small_pile()
+    previous = mujoco.get_mjcb_time()
+    mujoco.set_mjcb_time(clock)
+    try:
+        with inside_mujoco.mujoco_timers():
+            t = inside_mujoco.breakdown({m: (model, data, state, m) for m in ("builtin", "narrowphase")}, 5, 1)
+        assert mujoco.get_mjcb_time() is clock
+    finally:
+        mujoco.set_mjcb_time(previous)
+    for mode in ("builtin", "narrowphase"):
+        row = t[mode]
+        assert row["narrow"] > 0 and row["broad"] > 0 and row["contacts"] > 0
+        assert row["step"] >= row["broad"] + row["narrow"] + row["constraint"]
+
+
+def test_in_situ_noop_slots_are_restored_and_calls_counted():
+    import mujoco
+
+    from ellipsim.app.bench import inside_mujoco
+    from ellipsim.mujoco import structs
+    from ellipsim.mujoco.context import PAIR_TYPES
+
+    table, n = structs.collision_table()
+    before = [table[row.type1 * n + row.type2] for row in PAIR_TYPES]
+    with inside_mujoco._noop_installed():
+        assert all(table[row.type1 * n + row.type2] == inside_mujoco._noop_address() for row in PAIR_TYPES)
+    assert [table[row.type1 * n + row.type2] for row in PAIR_TYPES] == before
+    model, data, state = _small_pile()
+    ns, calls, noop = inside_mujoco.in_situ(model, data, state, 5, 1)
+    assert calls > 0 and np.isfinite(ns) and noop >= 0
+    assert mujoco.get_mjcb_time() is None or mujoco.get_mjcb_time() is not inside_mujoco._clock
+
+
+def test_pile_xml_thickness_draws_thin_third_semi_axes():
+    import mujoco
+
+    from ellipsim.app import scenes
+
+    model = mujoco.MjModel.from_xml_string(scenes.pile_xml(12, seed=1, radii=(0.03, 0.08), thickness=(0.002, 0.006)))
+    ell = model.geom_size[model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID]
+    assert len(ell) == 12
+    assert np.all((ell[:, 2] >= 0.002) & (ell[:, 2] <= 0.006)) and np.all(ell[:, :2] >= 0.03)
+    for bad in ((0.0, 0.01), (0.01, 0.002), (0.01, 0.2), 0.01):
+        with pytest.raises(ValueError, match="thickness"):
+            scenes.pile_xml(3, thickness=bad)

@@ -113,6 +113,15 @@ def sigma_stationary(d, Ma, Mb, n0, iterations=60):
     d = mp.matrix([mp.mpf(float(x)) for x in d])
     A = mp.matrix(np.asarray(Ma, dtype=float).tolist())
     B = mp.matrix(np.asarray(Mb, dtype=float).tolist())
+    n, ha, hb = stationary_direction(d, A, B, np.asarray(n0, dtype=float), iterations)
+    return (n.T * d)[0] - ha - hb
+
+
+def stationary_direction(d, A, B, n0, iterations=60):
+    """(n, h_a, h_b): sigma_stationary's stationary unit n for mpmath d (3,), A, B (3x3), and the two
+    support functions there."""
+    import mpmath as mp
+
     n = mp.matrix([mp.mpf(float(x)) for x in np.asarray(n0, dtype=float) / np.linalg.norm(n0)])
 
     def parts(n):
@@ -142,7 +151,22 @@ def sigma_stationary(d, Ma, Mb, n0, iterations=60):
             break
     n /= mp.norm(n)
     _, _, ha, hb = parts(n)
-    return (n.T * d)[0] - ha - hb
+    return n, ha, hb
+
+
+def contact_mp(ca, Ra, ra, cb, Rb, rb, n0):
+    """(sigma, normal, pos) of two ellipsoids at the stationary direction nearest n0, every input and
+    output in mpmath (centres (3,), rotations 3x3 with the axes as columns, semi-axes (3,)): the
+    signed distance's local value, its normal and the midpoint of the support points
+    c_A + Ma n / h_a and c_B - Mb n / h_b, straight from the definitions."""
+    import mpmath as mp
+
+    Ma = Ra * mp.diag([x**2 for x in ra]) * Ra.T
+    Mb = Rb * mp.diag([x**2 for x in rb]) * Rb.T
+    d = cb - ca
+    n, ha, hb = stationary_direction(d, Ma, Mb, n0)
+    pos = (ca + Ma * n / ha + cb - Mb * n / hb) / 2
+    return (n.T * d)[0] - ha - hb, n, pos
 
 
 # --- moving ellipsoids (time_of_impact) --------------------------------------------------------

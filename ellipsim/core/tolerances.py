@@ -269,3 +269,29 @@ CONTAIN_NEWTON_STEPS = 40
 #: polished to CONTAIN_RTOL_FINE and the certificates once more before rationals (~2 ms).
 CONTAIN_RTOL = 1e-9
 CONTAIN_RTOL_FINE = 1e-15
+
+# --- Derivatives of the signed distance (core/distance/derivatives.py) --------------------------------
+
+#: A maximum is flat (no isolated maximiser: the derivatives are not given) when the larger eigenvalue of
+#: sigma's Riemannian Hessian on the tangent plane is above -DERIV_FLAT_REL S (S = |c_B - c_A| + the two
+#: largest semi-axes, the scale of its entries).  The stationarity residual rounds to ~u S, which moves
+#: the maximiser by ~u S / |eigenvalue|: at this bound d n* / d theta keeps ~1e-8 relative accuracy
+#: (issue 24's bound), and circles of maxima (coaxial spheroids: an eigenvalue of ~u S) fall below it.
+DERIV_FLAT_REL = 1e-8
+#: Newton steps polishing the proven maximiser before differentiating (quadratic convergence: from the
+#: proof's ~sqrt(TOL) along a flat direction to rounding in 2-3), and the drop of sigma, in ulps of S,
+#: beyond which a step is refused (sigma is evaluated to ~11 u S: a genuine step never loses more).
+DERIV_POLISH_STEPS = 4
+DERIV_POLISH_SLACK_ULPS = 32.0
+
+# --- Derivatives of the first-contact time (core/motion/impact_derivatives.py) -------------------------
+
+#: Newton steps on dist(t) = 0 from toi (within TOI_TOL = 1e-9 of t*: quadratic convergence reaches
+#: rounding in two), and the step below which t* counts as converged (a few ulps of t in [0, 1]).
+TOI_DERIV_NEWTON_STEPS = 4
+TOI_DERIV_NEWTON_TOL = 1e-14
+#: A first contact is transversal when d dist / dt < -TOI_TRANSVERSAL_REL V at t* (V: the motion's speed
+#: scale, |c1 - c0| + |w| max r of both bodies): d t* / d theta divides by d dist / dt, whose rounding is
+#: ~u V, so below this the quotient keeps fewer than ~8 digits (issue 24's 1e-8) and the contact is
+#: reported GRAZING instead.
+TOI_TRANSVERSAL_REL = 1e-8

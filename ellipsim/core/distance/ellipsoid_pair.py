@@ -53,6 +53,7 @@ from ..tolerances import (
     U,
 )
 from ..vec3 import load, matvec, norm2, rotate_t, rotation_defect, scaled, unit_scale
+from . import derivatives as dv
 from .branch_and_bound import GLOBAL as BB_GLOBAL
 from .branch_and_bound import SEPARATED_MAX, climb, global_max, sigma_only
 from .branch_and_bound import UNPROVEN as BB_UNPROVEN
@@ -348,8 +349,9 @@ def _distances(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, lo, 
         _distance_into(Ca, Ra, ra, Cb, Rb, rb, max_iter, dist, normal, pos, status, i)
 
 
-def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
-    """Signed distance, contact normal and contact point for the pairs (a[i], b[i]).
+def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None, derivatives=False):
+    """Signed distance, contact normal and contact point for the pairs (a[i], b[i]), and optionally their
+    exact first derivatives.
 
     a, b : Ellipsoids (a batch of length 1 broadcasts)
     max_iter : Newton steps allowed per run (the default converges; smaller caps trade accuracy
@@ -360,12 +362,18 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
         from a to b, pos (n, 3) metres (midpoint of the support points, as MuJoCo reports contacts),
         status (n,) int8: GLOBAL (proven within the module's tolerance of the global maximum) or
         UNPROVEN (the proof's budget ran out; the best found)
+    derivatives : also return a fifth result, derivatives.DistanceDerivatives: d dist, d normal and
+        d pos with respect to each body's centre, rotation vector (R -> expm([omega]_x) R) and semi-axes
+        (18 columns, derivatives.PARAMETERS), and a DerivativeStatus per pair (NaN where not defined:
+        a flat or unproven maximum; see derivatives.py)
     """
     n = check_pair(a, b)
     if not (type(max_iter) is int and 1 <= max_iter <= 1_000_000) and (  # (the usual case in one test)
         isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or not 1 <= max_iter <= 1_000_000
     ):
         raise ValueError(f"max_iter must be an integer from 1 to 1000000, got {max_iter!r}")
+    if not isinstance(derivatives, (bool, np.bool_)):
+        raise ValueError(f"derivatives must be True or False, got {derivatives!r}")
     dist, normal, pos = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
@@ -374,4 +382,8 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None):
         _distances(*arrays, int(max_iter), dist, normal, pos, status, 0, n)
     else:
         threads.run(_distances, n, parallel, *arrays, int(max_iter), dist, normal, pos, status)
-    return dist, normal, pos, status
+    if not derivatives:
+        return dist, normal, pos, status
+    out = dv.DistanceDerivatives(np.empty((n, 18)), np.empty((n, 3, 18)), np.empty((n, 3, 18)), np.empty(n, np.int8))
+    threads.run(dv._derivatives, n, parallel, *arrays, normal, status, *out)
+    return dist, normal, pos, status, out

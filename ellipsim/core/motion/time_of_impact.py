@@ -84,6 +84,7 @@ from ..tolerances import (
     U,
 )
 from ..vec3 import cross3, cross3_mag, matvec, norm2, reciprocal
+from .impact_derivatives import impact_derivatives
 from .interpolation import (
     HALF_TURN_TOL,
     _rotation_vectors,
@@ -917,7 +918,7 @@ def _toi_small(Ca0, Ra0, ra0, Ca1, Ra1, ra1, Cb0, Rb0, rb0, Cb1, Rb1, rb1):
     return True, out, status
 
 
-def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
+def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False, derivatives=False):
     """First t in [0, 1] at which a(t) and b(t) are not separated; inf when separated for all t in [0, 1].
 
     a0, a1 : Ellipsoids, body A at t = 0 and t = 1 (equal length, equal semi-axes); likewise b0, b1.
@@ -932,10 +933,22 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False):
         at t = 0 are not separated; inf (NO_CONTACT) when no t in [0, 1] is in contact.  Contacts that
         begin and end between t = 0 and t = 1 (tunnelling) are found.  1e-9 is tolerances.TOI_TOL.
 
+    derivatives : also return (last) impact_derivatives.ImpactDerivatives: d t* / d (each body's centre and
+        rotation vector at t = 0 and t = 1) of the first contact t* (within 1e-9 of toi), where it is
+        transversal, and a status per pair saying why not elsewhere (impact_derivatives.py)
+
     The reversed motion is the same motion (w flips sign exactly): 1 - time_of_impact(a1, a0, b1, b0) is
     the end of the last contact.  For consecutive frames, index one validated batch per frame by the
     candidate pairs (`frame[k][ia]`, no re-validation) and concatenate the steps into one call.
     """
+    if not isinstance(derivatives, (bool, np.bool_)):
+        raise ValueError(f"derivatives must be True or False, got {derivatives!r}")
+    if derivatives:
+        toi, status = time_of_impact(a0, a1, b0, b1, parallel=parallel, return_status=True)
+        wa, wb = rotation_vectors(a0, a1, "a0", "a1"), rotation_vectors(b0, b1, "b0", "b1")
+        contact = (status == CONTACT) | (status == CONTACT_AT_FLOAT_POSE)
+        der = impact_derivatives(a0, a1, b0, b1, toi, contact, wa, wb)
+        return (toi, status, der) if return_status else (toi, der)
     if (  # a small batch in one compiled call (serial whatever `parallel` says: below 2 CHUNK_MIN_PAIRS)
         (parallel is None or parallel is False or parallel is True)
         and type(a0) is Ellipsoids

@@ -10,7 +10,8 @@ the compiled callbacks read per process; geom type codes and PAIR_TYPES, the pai
 handles), publish (filling the context, publishing it to LLVM's linker), callbacks (the cfuncs),
 nativecache (their machine code, cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
 (installing them for one data), geoms (ellipsoid geoms and candidate pairs), between (contacts that
-begin and end between two frames or steps), validate, compare.  The scene builders live in
+begin and end between two frames or steps), validate, compare, jacobian (d dist / d qpos of ellipsoid
+pairs).  The scene builders live in
 ellipsim.app.scenes: they import nothing of this glue.
 
 `attach` is imported with the package; the rest on first use (PEP 562), so that attaching from a
@@ -31,6 +32,8 @@ _LAZY = {
     "compare_narrowphase": "compare",
     "NarrowphaseComparison": "compare",
     "ContactDifference": "compare",
+    "distance_jacobian": "jacobian",
+    "DistanceJacobian": "jacobian",
 }
 
 __all__ = ["MODES", "Attachment", "attach", *_LAZY]

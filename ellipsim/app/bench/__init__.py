@@ -19,6 +19,8 @@ each:
    impacts, where the body ends after the step, cost
 9. warp: ellipsim on MuJoCo Warp (the warp extra) against Warp's GJK/EPA: accuracy per distance category,
    cost per pair, collision and mjw.step per world-step on the heap and the pile
+10. gradients: signed_distance and time_of_impact with their exact derivatives against without;
+   `ellipsim fix` on the replay dance (4 and 64 figures): frames/s, change, pairs freed, verification
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -27,7 +29,7 @@ import datetime
 import os
 import time
 
-from . import accuracy, inside_mujoco, motion, on_warp, scaling, speculative, startup, stress, table1
+from . import accuracy, gradients, inside_mujoco, motion, on_warp, scaling, speculative, startup, stress, table1
 from .common import SIZES, machine_description, plt
 
 SECTIONS = {
@@ -40,6 +42,7 @@ SECTIONS = {
     "motion": motion,
     "speculative": speculative,
     "warp": on_warp,
+    "gradients": gradients,
 }
 
 

@@ -31,13 +31,13 @@ import sys
 import ellipsim
 
 from ..errors import Terminated, UserError
-from . import bench, compare, demo, fit, replay, run, scenarios, sweep, view
+from . import bench, compare, demo, fit, fix, replay, run, scenarios, sweep, view
 from .common import Parser, Progress, end_lines, progress_bars, stop_notes
 
 __all__ = ["main", "parser", "script", "Progress", "UserError"]
 
 #: The subcommands, in the order --help lists them.
-COMMANDS = (run, compare, replay, fit, sweep, view, bench, scenarios, demo)
+COMMANDS = (run, compare, replay, fix, fit, sweep, view, bench, scenarios, demo)
 
 
 def parser():

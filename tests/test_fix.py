@@ -1,0 +1,180 @@
+"""`ellipsim fix` and fix.fix_motion: corrected motions proven apart, clean motions untouched, limits kept,
+pairs that cannot be freed reported, one-line errors.
+
+The checks are independent of fix.py's own loop: every frame's candidate pairs are found again (MuJoCo's
+rules, bounding spheres grown by the clearance) and their distances recomputed by the proven signed
+distance."""
+
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+import ellipsim as es
+from ellipsim.app import scenes
+from ellipsim.app.cli import main
+from ellipsim.app.cli.fix import side_by_side
+from ellipsim.app.fix import fix_motion
+from ellipsim.mujoco.geoms import ellipsoid_geoms, frame_pairs
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True)
+
+
+def _facing(spacing=0.5):
+    return mujoco.MjModel.from_xml_string(scenes.scene_xml(2, layout="facing", spacing=spacing))
+
+
+def _reaching_motion(model, frames=40, seed=0, amplitude=0.8):
+    """From the rest pose to a random pose of every hinge (the free roots stay): limbs cross."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, frames)[:, None]
+    hinge = np.zeros(model.nq, dtype=bool)
+    for j in np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE):
+        hinge[model.jnt_qposadr[j]] = True
+    target = model.qpos0 + hinge * rng.normal(size=model.nq) * amplitude
+    return model.qpos0[None] * (1 - t) + target[None] * t
+
+
+def closest(model, motion, clearance):
+    """(F,) the smallest proven distance over each frame's candidate pairs (grown by the clearance)."""
+    ids, radii, rules = ellipsoid_geoms(model)
+    data = mujoco.MjData(model)
+    out = np.full(len(motion), np.inf)
+    for f, q in enumerate(motion):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        pairs = ids[frame_pairs(data.geom_xpos[ids][None], radii + clearance, rules)[:, 1:]]
+        if not len(pairs):
+            continue
+        size = model.geom_size.copy()
+        sphere = model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE
+        size[sphere] = size[sphere, :1]
+        body = lambda g: es.Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(-1, 3, 3), size[g])
+        dist, _, _, status = es.signed_distance(body(pairs[:, 0]), body(pairs[:, 1]))
+        assert (status == es.DistanceStatus.GLOBAL).all()
+        out[f] = dist.min()
+    return out
+
+
+@pytest.mark.parametrize("metric", ["mass", "identity"])
+def test_fixed_motion_keeps_the_clearance_and_the_limits(metric):
+    model = _facing()
+    motion = _reaching_motion(model)
+    clearance = 0.005
+    before = closest(model, motion, clearance)
+    assert (before < 0).sum() >= 10  # the motion makes limbs intersect
+    result = fix_motion(model, motion, clearance=clearance, metric=metric, smooth=3)
+    after = closest(model, result.motion, clearance)
+    assert after.min() >= clearance, after.min()
+    assert result.unfreed == [] and (result.after_min >= clearance).all()
+    limited = np.flatnonzero(model.jnt_limited.astype(bool) & (model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE))
+    q = result.motion[:, model.jnt_qposadr[limited]]
+    assert (q >= model.jnt_range[limited, 0]).all() and (q <= model.jnt_range[limited, 1]).all()
+    for j in np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE):
+        quat = result.motion[:, model.jnt_qposadr[j] + 3 : model.jnt_qposadr[j] + 7]
+        np.testing.assert_allclose(np.linalg.norm(quat, axis=1), 1.0, atol=1e-12)
+    # frames with no pair closer than the clearance within `smooth` frames keep their qpos bit for bit
+    near = np.convolve(result.before_violations > 0, np.ones(7), mode="same") > 0
+    assert (result.motion[~near] == motion[~near]).all()
+    assert result.changed[result.before_violations > 0].all()
+    assert (result.change[result.changed] > 0).all() and (result.change[~result.changed] == 0).all()
+
+
+def test_a_clean_motion_comes_back_bit_for_bit(tmp_path):
+    model = _facing(spacing=2.0)
+    motion = _reaching_motion(model, frames=20, amplitude=0.05)
+    assert closest(model, motion, 0.0).min() > 0
+    result = fix_motion(model, motion)
+    assert result.motion.tobytes() == motion.tobytes() and not result.changed.any()
+    xml, npy, out = tmp_path / "m.xml", tmp_path / "m.npy", tmp_path / "fixed.npy"
+    xml.write_text(scenes.scene_xml(2, layout="facing", spacing=2.0))
+    np.save(npy, motion)
+    assert main(["fix", str(xml), str(npy), "--out", str(out)]) == 0
+    assert np.load(out).tobytes() == motion.tobytes()
+
+
+def test_a_pair_that_cannot_be_freed_is_reported(tmp_path, capsys):
+    """B slides on a joint limited to [0, 0.01] m inside A: no change within the limits frees them."""
+    xml = """<mujoco><worldbody>
+      <body name="a"><geom name="ga" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+      <body name="b" pos="0.2 0 0"><joint name="slide" type="slide" axis="1 0 0" range="0 0.01"/>
+        <geom name="gb" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    motion = np.zeros((5, 1))
+    result = fix_motion(model, motion, smooth=0)
+    assert len(result.unfreed) == 5
+    assert {(g1, g2) for _, g1, g2, _ in result.unfreed} == {(0, 1)}
+    assert all(d < 0 for *_, d in result.unfreed)
+    assert (result.motion[:, 0] == 0.01).all()  # pushed to the end of its range, no further
+    (tmp_path / "m.xml").write_text(xml)
+    np.save(tmp_path / "m.npy", motion)
+    assert main(["fix", str(tmp_path / "m.xml"), str(tmp_path / "m.npy"), "--smooth", "0"]) == 1
+    out = capsys.readouterr().out
+    assert "not freed: 5 pair-frames" in out and "frame 0: ga x gb" in out
+
+
+def test_the_recording_model_sets_the_fixed_copy_beside_the_original(tmp_path):
+    path = tmp_path / "m.xml"
+    path.write_text(scenes.scene_xml(2, layout="facing", spacing=0.5))
+    model = mujoco.MjModel.from_xml_path(str(path))
+    motion = _reaching_motion(model, frames=10)
+    both, joined = side_by_side(str(path), motion, motion)
+    assert both.nq == 2 * model.nq and joined.shape == (10, 2 * model.nq)
+    data = mujoco.MjData(both)
+    body_of = both.geom_bodyid
+    copy = np.array(
+        [(mujoco.mj_id2name(both, mujoco.mjtObj.mjOBJ_BODY, b) or "").startswith("fixed/") for b in body_of]
+    )
+    assert copy.sum() == model.ngeom - 1  # every geom but the world's floor
+    for q in joined:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(both, data)
+        y_original = data.geom_xpos[~copy & (body_of > 0), 1] + both.geom_rbound[~copy & (body_of > 0)]
+        y_copy = data.geom_xpos[copy, 1] - both.geom_rbound[copy]
+        assert y_copy.min() > y_original.max()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--clearance", "-1"], "argument --clearance: must be a number of metres >= 0, got '-1'"),
+        (["--clearance", "x"], "argument --clearance: must be a number of metres >= 0, got 'x'"),
+        (["--out", "fixed.csv"], "--out must name a .npy file, got 'fixed.csv'"),
+        (["--smooth", "-2"], "--smooth: expected a non-negative integer, got -2"),
+    ],
+)
+def test_bad_arguments_are_one_line(tmp_path, args, message):
+    path = tmp_path / "m.xml"
+    path.write_text(scenes.scene_xml(1))
+    model = mujoco.MjModel.from_xml_path(str(path))
+    np.save(tmp_path / "m.npy", np.repeat(model.qpos0[None], 3, 0))
+    proc = cli("fix", str(path), str(tmp_path / "m.npy"), *args)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert message in proc.stderr.strip().splitlines()[-1]
+
+
+def test_a_motion_of_the_wrong_shape_is_one_line(tmp_path):
+    path = tmp_path / "m.xml"
+    path.write_text(scenes.scene_xml(1))
+    np.save(tmp_path / "m.npy", np.zeros((3, 5)))
+    proc = cli("fix", str(path), str(tmp_path / "m.npy"))
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "m.npy" in proc.stderr
+
+
+def test_fix_motion_checks_its_arguments():
+    model = _facing()
+    motion = _reaching_motion(model, frames=3)
+    with pytest.raises(ValueError, match="clearance must be a finite number >= 0"):
+        fix_motion(model, motion, clearance=-0.1)
+    with pytest.raises(ValueError, match="metric must be one of"):
+        fix_motion(model, motion, metric="euclid")
+    with pytest.raises(ValueError, match="smooth must be an integer >= 0"):
+        fix_motion(model, motion, smooth=1.5)
+    with pytest.raises(ValueError, match=r"motion must have shape \(frames, 70\)"):
+        fix_motion(model, motion[:, :5])

@@ -123,7 +123,9 @@ def test_the_recording_model_sets_the_fixed_copy_beside_the_original(tmp_path):
     path.write_text(scenes.scene_xml(2, layout="facing", spacing=0.5))
     model = mujoco.MjModel.from_xml_path(str(path))
     motion = _reaching_motion(model, frames=10)
-    both, joined = side_by_side(str(path), motion, motion)
+    both, joined, offset = side_by_side(str(path), motion, motion)
+    axis = int(np.flatnonzero(offset)[0])
+    assert axis in (0, 1) and offset[axis] > 0
     assert both.nq == 2 * model.nq and joined.shape == (10, 2 * model.nq)
     data = mujoco.MjData(both)
     body_of = both.geom_bodyid
@@ -134,8 +136,8 @@ def test_the_recording_model_sets_the_fixed_copy_beside_the_original(tmp_path):
     for q in joined:
         data.qpos[:] = q
         mujoco.mj_kinematics(both, data)
-        y_original = data.geom_xpos[~copy & (body_of > 0), 1] + both.geom_rbound[~copy & (body_of > 0)]
-        y_copy = data.geom_xpos[copy, 1] - both.geom_rbound[copy]
+        y_original = data.geom_xpos[~copy & (body_of > 0), axis] + both.geom_rbound[~copy & (body_of > 0)]
+        y_copy = data.geom_xpos[copy, axis] - both.geom_rbound[copy]
         assert y_copy.min() > y_original.max()
 
 

@@ -43,9 +43,11 @@ def _public_functions():
             es.classify_pairs(es.Ellipsoids.concatenate([a, b]), np.arange(n), np.arange(n, 2 * n), parallel=parallel)
             es.contact_scale(a, b, parallel=parallel)
             es.signed_distance(a, b, parallel=parallel)
+            es.signed_distance(a, b, parallel=parallel, derivatives=True)
             es.contains(a, b, parallel=parallel)
             moved = es.Ellipsoids(b.centers + 0.1, b.rotations, b.radii)
             es.time_of_impact(a, a, b, moved, parallel=parallel, return_status=True)
+            es.time_of_impact(a, a, b, moved, parallel=parallel, derivatives=True)
     a, b = near_contact_pairs(200, seed=2)
     es.signed_distance(a, b)
     es.classify(a, b)
@@ -106,6 +108,7 @@ def _commands(tmp):
             "--json",
             str(tmp / "walk.json"),
         ],
+        ["fix", str(model), str(tmp / "walk.npy"), "--clearance", "0.005", "--out", str(tmp / "fixed.npy")],
         ["demo", "--pairs", "2000"],
         # the bench's own kernels (not the start-up section, which compiles in children of its own, nor the warp
         # section, whose kernels are Warp's)
@@ -121,7 +124,7 @@ def _commands(tmp):
     for argv in runs:
         with contextlib.redirect_stdout(io.StringIO()):
             status = cli.main(argv)
-        if status != 0:
+        if status != 0 and not (argv[0] == "fix" and status == 1):  # (fix: 1 when a pair is left; not an error here)
             raise RuntimeError(f"prebuild: `ellipsim {' '.join(argv)}` exited {status}")
 
 

@@ -31,8 +31,10 @@ def _clearance(text):
 
 
 def side_by_side(path, original, fixed):
-    """(model, motion): the MJCF at `path` twice, the second copy's bodies prefixed "fixed/" and set beside
-    the first (along y, clear of it over the whole motion), and the two motions as one qpos per frame."""
+    """(model, motion, offset (3,)): the MJCF at `path` twice, the second copy's bodies prefixed "fixed/" and set
+    beside the first (along x or y, whichever the motion's bodies span more, clear of it over the whole motion
+    with a gap: the recording's camera, framed on all bodies, then shows two groups apart), and the two motions
+    as one qpos per frame."""
     import mujoco
 
     from .. import mjcf
@@ -40,15 +42,17 @@ def side_by_side(path, original, fixed):
     model = mjcf.load_model(path)
     data = mujoco.MjData(model)
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    moving = model.body_rootid[model.geom_bodyid] != 0
     for f in np.unique(np.linspace(0, len(original) - 1, min(len(original), 200)).astype(int)):
         data.qpos[:] = original[f]
         mujoco.mj_kinematics(model, data)
-        moving = model.body_rootid[model.geom_bodyid] != 0
         if moving.any():
             x, r = data.geom_xpos[moving], model.geom_rbound[moving, None]
             lo, hi = np.minimum(lo, (x - r).min(axis=0)), np.maximum(hi, (x + r).max(axis=0))
-    width = float(hi[1] - lo[1]) if np.isfinite(hi[1]) else 1.0
-    offset = np.array([0.0, 1.25 * width + 0.2, 0.0])
+    extent = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    axis = int(np.argmax(extent[:2]))
+    offset = np.zeros(3)
+    offset[axis] = 1.25 * extent[axis] + 0.5
     parent, child = mujoco.MjSpec.from_file(path), mujoco.MjSpec.from_file(path)
     frame = parent.worldbody.add_frame(pos=offset)
     for body in list(child.worldbody.bodies):
@@ -58,7 +62,7 @@ def side_by_side(path, original, fixed):
     for j in np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE):  # a free joint's qpos is in the world
         a = model.jnt_qposadr[j]
         moved[:, a : a + 3] += offset
-    return both, np.concatenate([original, moved], axis=1)
+    return both, np.concatenate([original, moved], axis=1), offset
 
 
 def fix(args):
@@ -107,8 +111,13 @@ def fix(args):
         write_json(args.json, report)
         print(f"  report: {args.json}")
     if args.record:
-        both, motion2 = side_by_side(args.model, motion, result.motion)
+        both, motion2, offset = side_by_side(args.model, motion, result.motion)
         recorder = recorder_for(args.record, args)
+        axis = "xy"[int(np.flatnonzero(offset)[0])]
+        recorder.legend_extra.append(
+            f"**Original and fixed**: the original motion at the model's own place; the corrected one beside it, "
+            f"{offset.max():.2f} m along +{axis} (its bodies and geoms named `fixed/...`)."
+        )
         _, size = recorded(
             recorder, rp.replay, both, motion2, fps=args.fps, name=f"{name}: original | fixed", between=False
         )

@@ -77,44 +77,38 @@ def measure(size):
     rng = np.random.default_rng(2026)
     n, rounds = size["motion"] * 5, size["rounds"]
     a, b = generic_pairs(n, seed=5)
-    signed_distance(a[:4], b[:4], parallel=False, derivatives=True)
-    say("gradients: signed distance with and without derivatives ...")
-    fns = {
-        "distance": lambda: signed_distance(a, b, parallel=False),
-        "derivatives": lambda: signed_distance(a, b, parallel=False, derivatives=True),
-    }
-    t = interleaved({k: _cpu(f) for k, f in fns.items()}, rounds, self_timed=True)
-    *_, der = signed_distance(a, b, derivatives=True)
-    rows = [
-        dict(
-            what="signed_distance",
-            pairs=n,
-            base=float(np.median(t["distance"])) / n * 1e9,
-            with_=float(np.median(t["derivatives"])) / n * 1e9,
-            ratio=relative(t, "derivatives", "distance"),
-            defined=int((der.status <= 1).sum()),
-        )
-    ]
     m = max(200, size["motion"] // 2)
     a0, a1, b0, b1 = approaching(rng, m)
-    time_of_impact(a0[:4], a1[:4], b0[:4], b1[:4], derivatives=True)
-    say("gradients: time of impact with and without derivatives ...")
-    fns = {
-        "toi": lambda: time_of_impact(a0, a1, b0, b1, parallel=False),
-        "derivatives": lambda: time_of_impact(a0, a1, b0, b1, parallel=False, derivatives=True),
-    }
-    t = interleaved({k: _cpu(f) for k, f in fns.items()}, rounds, self_timed=True)
-    _, dt = time_of_impact(a0, a1, b0, b1, derivatives=True)
-    rows.append(
-        dict(
-            what="time_of_impact",
-            pairs=m,
-            base=float(np.median(t["toi"])) / m * 1e9,
-            with_=float(np.median(t["derivatives"])) / m * 1e9,
-            ratio=relative(t, "derivatives", "toi"),
-            defined=int((dt.status == 0).sum()),
+    rows = []
+    for what, pairs, base, deriv, defined in (
+        (
+            "signed_distance",
+            n,
+            lambda: signed_distance(a, b, parallel=False),
+            lambda: signed_distance(a, b, parallel=False, derivatives=True),
+            lambda out: int((out[-1].status <= 1).sum()),
+        ),
+        (
+            "time_of_impact",
+            m,
+            lambda: time_of_impact(a0, a1, b0, b1, parallel=False),
+            lambda: time_of_impact(a0, a1, b0, b1, parallel=False, derivatives=True),
+            lambda out: int((out[-1].status == 0).sum()),
+        ),
+    ):
+        say(f"gradients: {what} with and without derivatives ...")
+        out = deriv()  # (compiled and warm)
+        t = interleaved({"alone": _cpu(base), "derivatives": _cpu(deriv)}, rounds, self_timed=True)
+        rows.append(
+            dict(
+                what=what,
+                pairs=pairs,
+                base=float(np.median(t["alone"])) / pairs * 1e9,
+                with_=float(np.median(t["derivatives"])) / pairs * 1e9,
+                ratio=relative(t, "derivatives", "alone"),
+                defined=defined(out),
+            )
         )
-    )
     fixes = []
     for figures in (4, 64) if size["rounds"] > 5 else (4, 16):
         model, motion = dance(figures)

@@ -219,6 +219,12 @@ def write_json(path, report):
             os.remove(partial)
 
 
+def model_and_motion(p):
+    """The positional MODEL.xml and MOTION of the commands that take a motion (replay, fix)."""
+    p.add_argument("model", metavar="MODEL.xml", help="an MJCF model")
+    p.add_argument("motion", metavar="MOTION", help="qpos per frame: a .npy array or a .csv file of shape (frames, nq)")
+
+
 def record_options(p, help="save a rerun recording"):
     """--record FILE.rrd and how it draws: --labels, --colors."""
     p.add_argument("--record", metavar="FILE.rrd", help=help)

@@ -10,6 +10,7 @@ from .common import (
     bar,
     check_output,
     made_parents,
+    model_and_motion,
     non_negative_int,
     positive_real,
     record_options,
@@ -137,8 +138,7 @@ def add_parser(sub):
         help="correct a motion (qpos per frame) so that no two ellipsoid limbs come closer than a clearance",
         epilog="example: ellipsim fix figure.xml dance.npy --clearance 0.005 --out fixed.npy --record fixed.rrd",
     )
-    p.add_argument("model", metavar="MODEL.xml", help="an MJCF model")
-    p.add_argument("motion", metavar="MOTION", help="qpos per frame: a .npy array or a .csv file of shape (frames, nq)")
+    model_and_motion(p)
     p.add_argument(
         "--clearance", type=_clearance, default=0.0, help="least distance in metres between two limbs (default 0)"
     )

@@ -7,6 +7,7 @@ from .common import (
     between,
     between_option,
     check_output,
+    model_and_motion,
     non_negative_int,
     positive_real,
     record_options,
@@ -61,8 +62,7 @@ def add_parser(sub):
         help="play a motion (qpos per frame) on a model: which frames make limbs intersect",
         epilog="example: ellipsim replay fly.xml flight.npy --fps 60 --record flight.rrd --json flight.json",
     )
-    p.add_argument("model", metavar="MODEL.xml", help="an MJCF model")
-    p.add_argument("motion", metavar="MOTION", help="qpos per frame: a .npy array or a .csv file of shape (frames, nq)")
+    model_and_motion(p)
     p.add_argument("--fps", type=positive_real, default=30.0, help="frames per second of the motion (default 30)")
     record_options(p)
     p.add_argument("--json", metavar="FILE.json", help="write per-frame counts and every touching or overlapping pair")

@@ -50,7 +50,10 @@ SLACK_REL = 1e-4
 #: rounds of adding the limited joints' ranges that a step crosses as constraints of its QP
 LIMIT_ROUNDS = 4
 #: rounds of the between-frames repair (_repair_between), the margin kept in between doubling each round
+#: from 4 slack up to BETWEEN_MARGIN_MAX slack (5 % of the smallest semi-axis: with 20 uncapped rounds the
+#: margin reached metres and the corrections diverged on the dance, 8e3 instead of 102)
 BETWEEN_ROUNDS = 8
+BETWEEN_MARGIN_MAX = 512.0
 #: instants of the interpolated motion between two frames scanned for a pair's closest approach (the
 #: constraints sit at the closest and its neighbours; the margin covers what lies between grid points)
 BETWEEN_GRID = 21
@@ -371,7 +374,7 @@ def _repair_between(frames, out):
         left = [(int(f), int(g1), int(g2)) for f, (g1, g2) in zip(ev_frame, ev_pair)]
         if not left or k == BETWEEN_ROUNDS:
             break
-        margin = 4.0 * frames.slack * 2.0**k
+        margin = min(4.0 * frames.slack * 2.0**k, BETWEEN_MARGIN_MAX * frames.slack)
         for f in np.unique(ev_frame):
             _two_frames(frames, out, int(f), ev_pair[ev_frame == f], margin)
     return left

@@ -27,9 +27,13 @@ def _settled(xml, steps):
 
 
 def _distances(model, qpos, pairs):
+    """The proven signed distance of each pair at qpos: ellipsim's own distance for two ellipsoids (or a
+    sphere), distance_jacobian's (core.pairs) for a capsule, box or cylinder."""
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
+    if not np.isin(model.geom_type[pairs], [mujoco.mjtGeom.mjGEOM_ELLIPSOID, mujoco.mjtGeom.mjGEOM_SPHERE]).all():
+        return em.distance_jacobian(model, data, pairs).dist
 
     def body(g):
         size = model.geom_size[g].copy()
@@ -52,17 +56,60 @@ def _finite_differences(model, qpos, pairs):
     return out
 
 
+def _mixed_pile():
+    """A pile whose geoms are ellipsoids, capsules, boxes and cylinders in turn, in a bin of box walls."""
+    import itertools
+    import re
+
+    k = itertools.count()
+
+    def swap(m):
+        kind = ("ellipsoid", "capsule", "box", "ellipsoid", "cylinder")[next(k) % 5]
+        return (
+            m[0]
+            if kind == "ellipsoid"
+            else f'type="{kind}" size="{m[1]} {m[2]}' + (f' {m[2]}"' if kind == "box" else '"')
+        )
+
+    return re.sub(r'type="ellipsoid" size="(\S+) (\S+) \S+"', swap, scenes.pile_xml(20, seed=4, bin_half_width=0.25))
+
+
+def _mixed_pairs(model, data):
+    """Every pair of an ellipsoid with another geom of the model whose bounding spheres come within 2 cm."""
+    ell = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+    other = np.flatnonzero(model.geom_bodyid > 0)
+    out = []
+    for e in ell:
+        for g in other:
+            if g != e and model.geom_bodyid[g] != model.geom_bodyid[e]:
+                gap = (
+                    np.linalg.norm(data.geom_xpos[e] - data.geom_xpos[g]) - model.geom_rbound[e] - model.geom_rbound[g]
+                )
+                if gap < 0.02 and (g > e or model.geom_type[g] != mujoco.mjtGeom.mjGEOM_ELLIPSOID):
+                    out.append((e, g) if len(out) % 2 else (g, e))  # both orders
+    return np.array(out)
+
+
 @pytest.mark.parametrize(
     "xml, steps",
     [
         (scenes.scene_xml(3, layout="pile", seed=3, drop_height=0.3), 400),  # figures: hinges and a free root each
         (scenes.pile_xml(12, seed=2, bin_half_width=0.2), 300),  # free ellipsoids, shallow and deep contacts
+        (_mixed_pile(), 300),  # ellipsoids against capsules, boxes and cylinders (the witness-point gradient)
     ],
-    ids=["figures", "pile"],
+    ids=["figures", "pile", "capsules, boxes, cylinders"],
 )
 def test_against_finite_differences_of_qpos(xml, steps):
     model, data = _settled(xml, steps)
-    pairs = em.candidate_pairs(model, data)
+    mixed = (model.geom_type == mujoco.mjtGeom.mjGEOM_CAPSULE).any()
+    pairs = _mixed_pairs(model, data) if mixed else em.candidate_pairs(model, data)
+    if mixed:
+        kinds = set(model.geom_type[pairs].ravel().tolist())
+        assert {
+            int(mujoco.mjtGeom.mjGEOM_CAPSULE),
+            int(mujoco.mjtGeom.mjGEOM_BOX),
+            int(mujoco.mjtGeom.mjGEOM_CYLINDER),
+        } <= kinds
     assert len(pairs) >= 5
     qpos = data.qpos.copy()
     jac = em.distance_jacobian(model, data, pairs)

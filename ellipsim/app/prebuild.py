@@ -75,7 +75,13 @@ def _glue():
     for steps in (1, 200):  # the pile settled: deep and shallow contacts of every pair type
         data = mujoco.MjData(model)
         mujoco.mj_step(model, data, steps)
-        em.candidate_pairs(model, data)
+        pairs = em.candidate_pairs(model, data)
+        em.distance_jacobian(model, data, pairs)
+        e = int(np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID)[0])
+        other = np.isin(
+            model.geom_type, [mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX]
+        )
+        em.distance_jacobian(model, data, [(e, int(g)) for g in np.flatnonzero(other)])  # capsule, cylinder, box walls
         em.validate(model, data, 5, between=True)
         em.compare_narrowphase(model, data, 5)
 

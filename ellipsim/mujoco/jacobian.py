@@ -10,20 +10,32 @@ dofs: v is a displacement of qpos in the tangent space, qpos -> mj_integratePos(
 hinge and slide joints that is d / d qpos itself; for a ball or free joint's quaternion it is the
 derivative with respect to a rotation vector (world frame for free joints, the body frame for ball
 joints, as MuJoCo's qvel), which is what a step in qpos must follow to stay on the unit quaternions.
+
+Capsule, box and cylinder against an ellipsoid (core.pairs, the narrow phase's proven maxima): the
+distance's gradient alone, through the witness points p_E, p_K (pos -+ dist n / 2): d dist / d c_E = -n,
+d dist / d omega_E = -(p_E - c_E) x n, d dist / d c_K = n, d dist / d omega_K = (p_K - c_K) x n (Danskin's
+theorem: the derivative of a maximum over n at a unique maximiser; for two ellipsoids the same as
+derivatives.py's).  Unique when the pair is separated (the ellipsoid is strictly convex: one nearest-point
+pair), so SMOOTH there; touching or penetrating, BRANCH (the found maximiser's; a face or rim contact
+is usually still unique); a cylinder rim maximum not proven, UNPROVEN (NaN).
 """
 
+import math
 from typing import NamedTuple
 
 import mujoco
 import numpy as np
 
-from ..core.distance.derivatives import BRANCH, SMOOTH
+from ..core._jit import jit
+from ..core.distance.derivatives import BRANCH, SMOOTH, UNPROVEN
 from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from ..core.motion.impact_derivatives import endpoint_gradients
 from ..core.motion.interpolation import poses_at, rotation_vectors
+from ..core.pairs import box, capsule, cylinder
+from ..core.vec3 import load
 from .attachment import check_model_data
-from .context import ELLIPSOID, SPHERE
+from .context import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE
 
 
 class DistanceJacobian(NamedTuple):
@@ -42,7 +54,7 @@ class DistanceJacobian(NamedTuple):
     status: np.ndarray
 
 
-def _check_pairs(model, pairs):
+def _check_pairs(model, pairs, others=False):
     try:
         arr = np.asarray(pairs)
     except Exception as exc:  # ragged lists and the like
@@ -59,13 +71,20 @@ def _check_pairs(model, pairs):
     kind = model.geom_type[arr]
     ok = (kind == ELLIPSOID) | (kind == SPHERE)
     both = ok.all(axis=1) & (kind == ELLIPSOID).any(axis=1)
+    if others:
+        other = np.isin(kind, [CAPSULE, BOX, CYLINDER])
+        both |= ((kind == ELLIPSOID) & other[:, ::-1]).any(axis=1)
     if not both.all():
         i = int(np.flatnonzero(~both)[0])
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"#{g}" for g in arr[i]]
         types = [mujoco.mjtGeom(int(t)).name.removeprefix("mjGEOM_").lower() for t in kind[i]]
         raise ValueError(
             f"pairs[{i}] = ({arr[i, 0]}, {arr[i, 1]}) is {names[0]} ({types[0]}) x {names[1]} ({types[1]}):"
-            " distance_jacobian takes ellipsoid x ellipsoid and sphere x ellipsoid pairs"
+            + (
+                " distance_jacobian takes an ellipsoid against an ellipsoid, sphere, capsule, box or cylinder"
+                if others
+                else " it takes ellipsoid x ellipsoid and sphere x ellipsoid pairs"
+            )
         )
     same = np.flatnonzero(arr[:, 0] == arr[:, 1])
     if len(same):
@@ -81,17 +100,61 @@ def _bodies(model, data, geoms):
     return Ellipsoids(data.geom_xpos[geoms], data.geom_xmat[geoms].reshape(-1, 3, 3), size)
 
 
+@jit
+def _other_pairs(Ce, Re, re, Ck, Rk, sk, kind, dist, normal, pos, proven, lo, hi):
+    """core.pairs' proven signed distance of ellipsoid e[i] and geom k[i] (kind: 0 capsule, 1 box, 2 cylinder;
+    MuJoCo's geom_size), normal from e to k."""
+    for i in range(lo, hi):
+        E, K = load(Ce, Re, re, i), load(Ck, Rk, sk, i)
+        if kind[i] == 0:
+            st, d, n, p, _ = capsule.capsule_ellipsoid(E, K)
+            ok = True
+        elif kind[i] == 1:
+            st, d, n, p, _ = box.box_ellipsoid(E, K)
+            ok = True
+        else:
+            st, d, n, p, _ = cylinder.cylinder_ellipsoid(E, K)
+            ok = st != cylinder.UNPROVEN
+        dist[i], proven[i] = d, ok and math.isfinite(d)
+        for k in range(3):
+            normal[i, k], pos[i, k] = n[k], p[k]
+
+
+def _others(model, data, pairs):
+    """(dist, jacobian (k, nv), normal, pos, status) of capsule, box and cylinder pairs with an ellipsoid
+    (module docstring), normal from each pair's first geom to its second."""
+    k = len(pairs)
+    flip = model.geom_type[pairs[:, 0]] != ELLIPSOID  # the ellipsoid second: swap, then turn the normal round
+    e = np.where(flip, pairs[:, 1], pairs[:, 0])
+    g = np.where(flip, pairs[:, 0], pairs[:, 1])
+    kind = np.select([model.geom_type[g] == CAPSULE, model.geom_type[g] == BOX], [0, 1], 2).astype(np.int64)
+    dist, normal, pos, proven = np.empty(k), np.empty((k, 3)), np.empty((k, 3)), np.empty(k, dtype=np.bool_)
+    E = _bodies(model, data, e)
+    Rk = np.ascontiguousarray(data.geom_xmat[g].reshape(-1, 3, 3))
+    args = (E.centers, E.rotations, E.radii, np.ascontiguousarray(data.geom_xpos[g]), Rk, model.geom_size[g])
+    _other_pairs(*args, kind, dist, normal, pos, proven, 0, k)
+    pe, pk = pos - 0.5 * dist[:, None] * normal, pos + 0.5 * dist[:, None] * normal
+    ge = (-normal, -np.cross(pe - data.geom_xpos[e], normal))
+    gk = (normal, np.cross(pk - data.geom_xpos[g], normal))
+    jac = _chain(*ge, *gk, *_geom_jacobians(model, data, np.column_stack([e, g])))
+    status = np.where(proven, np.where(dist > 0.0, SMOOTH, BRANCH), UNPROVEN).astype(np.int8)
+    jac[~proven] = np.nan
+    normal[flip] *= -1.0
+    return dist, jac, normal, pos, status
+
+
 def distance_jacobian(model, data, pairs):
-    """d dist / d qpos of ellipsoid (and sphere x ellipsoid) geom pairs, through MuJoCo's geom Jacobians.
+    """d dist / d qpos of geom pairs with an ellipsoid, through MuJoCo's geom Jacobians.
 
     model, data : mujoco.MjModel and an MjData of it; data's kinematics are recomputed from its qpos
         (mj_kinematics, mj_comPos: what mj_forward computes first), nothing else of it is changed
-    pairs : (k, 2) geom ids, each pair an ellipsoid against an ellipsoid or a sphere
+    pairs : (k, 2) geom ids, each pair an ellipsoid against an ellipsoid, a sphere, a capsule, a box or a
+        cylinder (the last three: the distance's gradient through the witness points, module docstring)
     returns : DistanceJacobian; jacobian's columns are the model's nv dofs (module docstring: for
         hinge and slide joints d / d qpos, for quaternions the tangent-space derivative)
     """
     check_model_data(model, data)
-    pairs = _check_pairs(model, pairs)
+    pairs = _check_pairs(model, pairs, others=True)
     k, nv = len(pairs), model.nv
     if k == 0:
         return DistanceJacobian(
@@ -99,13 +162,27 @@ def distance_jacobian(model, data, pairs):
         )
     mujoco.mj_kinematics(model, data)
     mujoco.mj_comPos(model, data)
+    kinds = model.geom_type[pairs]
+    two = ((kinds == ELLIPSOID) | (kinds == SPHERE)).all(axis=1)
+    dist, jac = np.empty(k), np.empty((k, nv))
+    normal, pos, status = np.empty((k, 3)), np.empty((k, 3)), np.empty(k, dtype=np.int8)
+    if (~two).any():
+        i = np.flatnonzero(~two)
+        dist[i], jac[i], normal[i], pos[i], status[i] = _others(model, data, pairs[i])
+    if two.any():
+        i = np.flatnonzero(two)
+        dist[i], jac[i], normal[i], pos[i], status[i] = _ellipsoids(model, data, pairs[i])
+    return DistanceJacobian(dist, jac, normal, pos, status)
+
+
+def _ellipsoids(model, data, pairs):
     a, b = _bodies(model, data, pairs[:, 0]), _bodies(model, data, pairs[:, 1])
     dist, normal, pos, _, der = signed_distance(a, b, derivatives=True)
     jacp, jacr, index = _geom_jacobians(model, data, pairs)  # one C call per geom, not per pair
     jac = _chain(der.dist[:, 0:3], der.dist[:, 3:6], der.dist[:, 9:12], der.dist[:, 12:15], jacp, jacr, index)
     defined = (der.status == SMOOTH) | (der.status == BRANCH)
     jac[~defined] = np.nan
-    return DistanceJacobian(dist, jac, normal, pos, der.status)
+    return dist, jac, normal, pos, der.status
 
 
 def _geom_jacobians(model, data, pairs):

@@ -180,3 +180,22 @@ def test_fix_motion_checks_its_arguments():
         fix_motion(model, motion, smooth=1.5)
     with pytest.raises(ValueError, match=r"motion must have shape \(frames, 70\)"):
         fix_motion(model, motion[:, :5])
+
+
+def test_a_frame_the_solver_cannot_move_is_still_reported():
+    """The slide already at the end of its range: nothing changes, and the pair is listed, not called apart."""
+    xml = """<mujoco><worldbody>
+      <body name="a"><geom name="ga" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+      <body name="b" pos="0.2 0 0"><joint name="slide" type="slide" axis="1 0 0" range="0 0.01"/>
+        <geom name="gb" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    result = fix_motion(model, np.full((3, 1), 0.01), smooth=0)
+    assert len(result.unfreed) == 3 and (result.after_min < 0).all()
+
+
+@pytest.mark.parametrize("frames", [1, 2, 3])
+def test_motions_shorter_than_the_smoothing_window(frames):
+    model = _facing()
+    result = fix_motion(model, _reaching_motion(model, frames=frames, amplitude=0.8), smooth=4)
+    assert result.motion.shape == (frames, model.nq) and result.unfreed == []

@@ -393,6 +393,8 @@ def _spread(delta, smooth):
     w = _taper(smooth)
     best = np.zeros_like(delta)
     for k, wk in zip(range(-smooth, smooth + 1), w):
+        if abs(k) >= F:  # (a motion shorter than the window)
+            continue
         lo, hi = max(0, -k), min(F, F - k)
         cand = np.zeros_like(delta)
         cand[lo:hi] = wk * delta[lo + k : hi + k]
@@ -452,7 +454,7 @@ def fix_motion(model, motion, *, clearance=0.0, metric="mass", smooth=4, between
     between_left = _repair_between(frames, out) if between else []
     changed = np.any(out != motion, axis=1)
     unfreed = []
-    for f in np.flatnonzero(changed):  # the corrected frames checked again, proven
+    for f in np.flatnonzero(changed | (before_bad > 0)):  # corrected frames, and bad ones left as they were
         pairs, dist, status = frames.distances(out[f])
         bad = dist < frames.clearance
         unfreed += [(int(f), int(g1), int(g2), float(d)) for (g1, g2), d in zip(pairs[bad], dist[bad])]

@@ -24,6 +24,14 @@ def cli(*args):
     return subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True)
 
 
+#: B slides on a joint limited to [0, 0.01] m, A fixed: the two overlap whatever the slide does
+HELD = """<mujoco><worldbody>
+  <body name="a"><geom name="ga" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+  <body name="b" pos="0.2 0 0"><joint name="slide" type="slide" axis="1 0 0" range="0 0.01"/>
+    <geom name="gb" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+</worldbody></mujoco>"""
+
+
 def _facing(spacing=0.5):
     return mujoco.MjModel.from_xml_string(scenes.scene_xml(2, layout="facing", spacing=spacing))
 
@@ -99,11 +107,7 @@ def test_a_clean_motion_comes_back_bit_for_bit(tmp_path):
 
 def test_a_pair_that_cannot_be_freed_is_reported(tmp_path, capsys):
     """B slides on a joint limited to [0, 0.01] m inside A: no change within the limits frees them."""
-    xml = """<mujoco><worldbody>
-      <body name="a"><geom name="ga" type="ellipsoid" size="0.3 0.2 0.1"/></body>
-      <body name="b" pos="0.2 0 0"><joint name="slide" type="slide" axis="1 0 0" range="0 0.01"/>
-        <geom name="gb" type="ellipsoid" size="0.3 0.2 0.1"/></body>
-    </worldbody></mujoco>"""
+    xml = HELD
     model = mujoco.MjModel.from_xml_string(xml)
     motion = np.zeros((5, 1))
     result = fix_motion(model, motion, smooth=0)
@@ -184,11 +188,7 @@ def test_fix_motion_checks_its_arguments():
 
 def test_a_frame_the_solver_cannot_move_is_still_reported():
     """The slide already at the end of its range: nothing changes, and the pair is listed, not called apart."""
-    xml = """<mujoco><worldbody>
-      <body name="a"><geom name="ga" type="ellipsoid" size="0.3 0.2 0.1"/></body>
-      <body name="b" pos="0.2 0 0"><joint name="slide" type="slide" axis="1 0 0" range="0 0.01"/>
-        <geom name="gb" type="ellipsoid" size="0.3 0.2 0.1"/></body>
-    </worldbody></mujoco>"""
+    xml = HELD
     model = mujoco.MjModel.from_xml_string(xml)
     result = fix_motion(model, np.full((3, 1), 0.01), smooth=0)
     assert len(result.unfreed) == 3 and (result.after_min < 0).all()

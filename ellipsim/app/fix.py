@@ -258,40 +258,29 @@ class _Frames:
             b = np.r_[b, -hi[over], lo[under]]
         return d
 
-    def _needed(self, pairs, extra):
-        """(k,) the clearance each pair must keep: the clearance, plus `extra`'s for the pairs it names
-        (a dict {(g1, g2): metres}, g1 < g2)."""
-        need = np.full(len(pairs), self.clearance)
-        for k, (g1, g2) in enumerate(pairs):
-            if extra and (int(g1), int(g2)) in extra:
-                need[k] += extra[int(g1), int(g2)]
-        return need
-
-    def project(self, qpos, extra=None):
-        """(qpos moved until every candidate pair is at least the clearance (plus `extra`'s for the pairs it
-        names, see _needed) apart, or the iterations run out; the pairs still closer (k, 2), their distances)."""
+    def project(self, qpos):
+        """(qpos moved until every candidate pair is at least the clearance apart, or the iterations run out;
+        the pairs still closer (k, 2), their distances)."""
         q = qpos.copy()
         self.factor(q)  # the metric at the frame's own pose
         for _ in range(MAX_ITERATIONS):
             pairs, dist, _ = self.distances(q)
-            need = self._needed(pairs, extra)
-            if not (dist < need).any():
+            if not (dist < self.clearance).any():
                 return q, pairs[:0], dist[:0]
-            close = dist < need + self.slack
+            close = dist < self.clearance + self.slack
             active = pairs[close]  # the Jacobians of these only (mj_jacGeom: a dense row per geom)
             self.data.qpos[:] = q
             jac = distance_jacobian(self.model, self.data, active)
             usable = np.isfinite(jac.jacobian).all(axis=1) & np.any(jac.jacobian != 0.0, axis=1)
             if not usable.any():
                 break
-            target = need[close][usable] + self.slack
-            d = self._step(q, jac.jacobian[usable], target - jac.dist[usable])
+            d = self._step(q, jac.jacobian[usable], self.clearance + self.slack - jac.dist[usable])
             if not np.isfinite(d).all() or not d.any():
                 break
             mujoco.mj_integratePos(self.model, q, d, 1.0)
             q = self.clamp(q)
         pairs, dist, _ = self.distances(q)
-        bad = dist < self._needed(pairs, extra)
+        bad = dist < self.clearance
         return q, pairs[bad], dist[bad]
 
     def min_distance(self, qpos):

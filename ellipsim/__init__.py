@@ -3,7 +3,7 @@
 Three layers, each importing only the ones above it in this list:
 
     ellipsim.core     the geometry (numpy and numba only): classify, contact_scale, signed_distance,
-                      time_of_impact, contains
+                      shape_distance, time_of_impact, contains
     ellipsim.mujoco   the MuJoCo glue: attach to mj_step, validate and compare, scene builders
     ellipsim.app      scenarios, recording, the command line, sweeps, mesh fitting, the benchmark suite
 
@@ -26,6 +26,8 @@ _LAZY = {
     "signed_distance": "core.distance.ellipsoid_pair",
     "DistanceStatus": "core.distance.status",
     "DerivativeStatus": "core.distance.status",
+    "shape_distance": "core.pairs.shape_distance",
+    "ContactFeature": "core.distance.status",
     "time_of_impact": "core.motion.time_of_impact",
     "Impact": "core.motion.time_of_impact",
     "contains": "core.exact.containment",
@@ -43,6 +45,8 @@ __all__ = [
     "signed_distance",
     "DistanceStatus",
     "DerivativeStatus",
+    "shape_distance",
+    "ContactFeature",
     "time_of_impact",
     "Impact",
     "contains",

@@ -417,3 +417,155 @@ def dense_maximum(sigma, P, kinks, points=None):
                 full_n[near], full_v[near] = nc, vc
                 take(full_n, full_v)
     return value, normal
+
+
+# --- central differences in mpmath (test_derivatives.py, test_shape_derivatives.py) -------------
+
+
+def mp_body(E, i):
+    """Body i of a batch (centres, rotations, sizes arrays, as Ellipsoids) as mpmath (c, R, r)."""
+    import mpmath as mp
+
+    c = mp.matrix([mp.mpf(float(x)) for x in E.centers[i]])
+    R = mp.matrix([[mp.mpf(float(x)) for x in row] for row in E.rotations[i]])
+    r = [mp.mpf(float(x)) for x in E.radii[i]]
+    return c, R, r
+
+
+def perturbed(body, kind, axis, h):
+    """body with its centre (kind 0), rotation vector (1: R -> expm([h e_axis]x) R) or sizes (2) moved by h."""
+    import mpmath as mp
+
+    c, R, r = body
+    c, R, r = c.copy(), R.copy(), list(r)
+    if kind == 0:
+        c[axis] += h
+    elif kind == 1:
+        w = [mp.mpf(0)] * 3
+        w[axis] = h
+        K = mp.matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        R = mp.expm(K) * R
+    else:
+        r[axis] += h
+    return c, R, r
+
+
+def relative_errors(got, ref, floor=0.0):
+    """The largest error per 3-column block, relative to the block's largest reference entry (at least
+    `floor`: for blocks that are zero by symmetry, as a capsule side's normal against the radius)."""
+    got, ref = np.atleast_2d(got), np.atleast_2d(ref)
+    out = []
+    for s in range(0, got.shape[1], 3):
+        scale = max(np.abs(ref[:, s : s + 3]).max(), floor)
+        err = np.abs(got[:, s : s + 3] - ref[:, s : s + 3]).max()
+        out.append(err / scale if scale > 0 else err)
+    return np.array(out)
+
+
+# --- ellipsoid x capsule / box / cylinder on one feature (shape_distance's derivatives) ----------
+
+
+def shape_feature_mp(kind, feature, ck, Rk, sk, n0):
+    """(w, rho, P, G, bounds) of the feature of the capsule, box or cylinder K that carries a contact with
+    normal ~n0 (from the ellipsoid to K), in mpmath, from the support function h_K(n) = max_{x in K - c_K}
+    (-n).x: on the feature h_K(n) = n.w + rho |P n| with the rows of G orthogonal to n (the kinks it
+    lies on), and the bound of each row's multiplier.  K as MuJoCo: box half-sizes, (radius, half-length)."""
+    import mpmath as mp
+
+    V = [Rk[:, j] for j in range(3)]
+    n0 = mp.matrix([mp.mpf(float(x)) for x in n0])
+    zero = mp.matrix(3, 3)
+    if kind == "box":
+        on = {"face": 2, "edge": 1, "vertex": 0}[feature]
+        order = sorted(range(3), key=lambda j: abs((V[j].T * n0)[0]))
+        active, free = order[:on], order[on:]
+        w = sum((mp.sign((V[j].T * n0)[0]) * sk[j] * V[j] for j in free), mp.matrix(3, 1))
+        return w, mp.mpf(0), zero, [V[j] for j in active], [sk[j] for j in active]
+    r, L, u = sk[0], sk[1], V[2] / mp.norm(V[2])
+    s = mp.sign((u.T * n0)[0])
+    if feature == "side":
+        return mp.matrix(3, 1), r, mp.eye(3), [u], [L]
+    if feature == "end":
+        return s * L * u, r, mp.eye(3), [], []
+    if feature == "cap":
+        t1 = V[0] - (V[0].T * u)[0] * u
+        t1 /= mp.norm(t1)
+        t2 = mp.matrix([u[1] * t1[2] - u[2] * t1[1], u[2] * t1[0] - u[0] * t1[2], u[0] * t1[1] - u[1] * t1[0]])
+        return s * L * u, mp.mpf(0), zero, [t1, t2], [r]
+    return s * L * u, r, mp.eye(3) - u * u.T, [], []  # rim
+
+
+def shape_contact_mp(kind, feature, ce, Re, re, ck, Rk, sk, n0, dps=60):
+    """(sigma, normal, pos, mu, witness on K) of an ellipsoid and a capsule, box or cylinder at the stationary
+    point of sigma(n) = n.(c_K - c_E) - h_E(n) - h_K(n) on {|n| = 1, G n = 0} nearest n0 (shape_feature_mp),
+    by Newton on the Lagrange system grad sigma - lam n - G^T mu = 0 with a central-difference Jacobian in
+    `dps` digits (its error only slows Newton down: the root is the residual's).  pos: the midpoint of the
+    ellipsoid's support point c_E + M n / h_E and the witness on K, support point + sigma n."""
+    import mpmath as mp
+
+    with mp.workdps(dps):
+        w, rho, P, G, _ = shape_feature_mp(kind, feature, ck, Rk, sk, n0)
+        M = Re * mp.diag([x**2 for x in re]) * Re.T
+        d = ck - ce - w
+        k = len(G)
+
+        def parts(n):
+            hE = mp.sqrt((n.T * M * n)[0])
+            pn = mp.sqrt((n.T * P * n)[0]) if rho else mp.mpf(1)
+            grad = d - M * n / hE - (rho * P * n / pn if rho else mp.matrix(3, 1))
+            return hE, pn, grad
+
+        def F(x):
+            n, lam, mu = x[0:3], x[3], [x[4 + i] for i in range(k)]
+            _, _, grad = parts(n)
+            g = grad - lam * n - sum((mu[i] * G[i] for i in range(k)), mp.matrix(3, 1))
+            return mp.matrix([g[0], g[1], g[2], (n.T * n)[0] - 1] + [(G[i].T * n)[0] for i in range(k)])
+
+        n = mp.matrix([mp.mpf(float(x)) for x in n0])
+        n /= mp.norm(n)
+        _, _, grad = parts(n)
+        x = mp.matrix([n[0], n[1], n[2], (n.T * grad)[0]] + [(G[i].T * grad)[0] for i in range(k)])
+        eps = mp.mpf(10) ** (-dps // 3)
+        for _ in range(40):
+            f = F(x)
+            J = mp.matrix(4 + k, 4 + k)
+            for j in range(4 + k):
+                xp, xm = x.copy(), x.copy()
+                xp[j] += eps
+                xm[j] -= eps
+                col = (F(xp) - F(xm)) / (2 * eps)
+                for i in range(4 + k):
+                    J[i, j] = col[i]
+            step = mp.lu_solve(J, -f)
+            x += step
+            if mp.norm(step) < mp.mpf(10) ** (8 - dps):
+                break
+        n = x[0:3]
+        hE, pn, _ = parts(n)
+        sigma = (n.T * d)[0] - hE - rho * pn
+        pE = ce + M * n / hE
+        pK = pE + sigma * n
+        return sigma, n, (pE + pK) / 2, [x[4 + i] for i in range(k)], pK
+
+
+def sd_point_shape_mp(kind, ck, Rk, sk, p):
+    """The signed distance of the point p to the capsule, box or cylinder K, in mpmath, from its
+    definition (a box's coordinates along its axes, R^-1 (p - c): the axes are the float64 ones, orthonormal
+    to rounding only; a capsule's or cylinder's axis normalised, as the library does; inside: minus the
+    distance to the nearest face)."""
+    import mpmath as mp
+
+    if kind == "box":
+        y = mp.lu_solve(Rk, p - ck)
+        q = [abs(y[j]) - sk[j] for j in range(3)]
+        out = mp.sqrt(sum(max(x, 0) ** 2 for x in q))
+        return out if out > 0 else max(q)
+    r, L, u = sk[0], sk[1], Rk[:, 2] / mp.norm(Rk[:, 2])  # the unit axis, as the library
+    a = ((p - ck).T * u)[0]
+    radial = mp.norm(p - ck - a * u)
+    if kind == "capsule":
+        t = min(max(a, -L), L)
+        return mp.sqrt(radial**2 + (a - t) ** 2) - r
+    q = [radial - r, abs(a) - L]
+    out = mp.sqrt(sum(max(x, 0) ** 2 for x in q))
+    return out if out > 0 else max(q)

@@ -12,7 +12,7 @@ each body), relative to the block's largest reference entry.
 import mpmath as mp
 import numpy as np
 import pytest
-from reference import contact_mp
+from reference import contact_mp, mp_body, perturbed, relative_errors
 
 import ellipsim as es
 from ellipsim.core.distance import derivatives as dv
@@ -23,55 +23,22 @@ H_TOI = mp.mpf("1e-12")
 BOUND = 1e-8
 
 
-def _mp_body(E, i):
-    c = mp.matrix([mp.mpf(float(x)) for x in E.centers[i]])
-    R = mp.matrix([[mp.mpf(float(x)) for x in row] for row in E.rotations[i]])
-    r = [mp.mpf(float(x)) for x in E.radii[i]]
-    return c, R, r
-
-
-def _perturbed(body, kind, axis, h):
-    c, R, r = body
-    c, R, r = c.copy(), R.copy(), list(r)
-    if kind == 0:
-        c[axis] += h
-    elif kind == 1:
-        w = [mp.mpf(0)] * 3
-        w[axis] = h
-        K = mp.matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
-        R = mp.expm(K) * R
-    else:
-        r[axis] += h
-    return c, R, r
-
-
 def reference_derivatives(a, b, i, n0):
     """(d dist (18,), d normal (3, 18), d pos (3, 18)) of pair i by 40-digit central differences."""
     with mp.workdps(40):
-        A, B = _mp_body(a, i), _mp_body(b, i)
+        A, B = mp_body(a, i), mp_body(b, i)
         g, jn, jp = np.empty(18), np.empty((3, 18)), np.empty((3, 18))
         for j in range(18):
             body, kind, axis = j // 9, (j % 9) // 3, j % 3
             out = []
             for h in (H, -H):
-                Ap, Bp = (_perturbed(A, kind, axis, h), B) if body == 0 else (A, _perturbed(B, kind, axis, h))
+                Ap, Bp = (perturbed(A, kind, axis, h), B) if body == 0 else (A, perturbed(B, kind, axis, h))
                 out.append(contact_mp(*Ap, *Bp, n0))
             (sp, np_, pp), (sm, nm, pm) = out
             g[j] = float((sp - sm) / (2 * H))
             jn[:, j] = [float((np_[k] - nm[k]) / (2 * H)) for k in range(3)]
             jp[:, j] = [float((pp[k] - pm[k]) / (2 * H)) for k in range(3)]
     return g, jn, jp
-
-
-def _relative_errors(got, ref):
-    """The largest error per 3-column block, relative to the block's largest reference entry."""
-    got, ref = np.atleast_2d(got), np.atleast_2d(ref)
-    out = []
-    for s in range(0, got.shape[1], 3):
-        scale = np.abs(ref[:, s : s + 3]).max()
-        err = np.abs(got[:, s : s + 3] - ref[:, s : s + 3]).max()
-        out.append(err / scale if scale > 0 else err)
-    return np.array(out)
 
 
 def _pairs(category, n, seed):
@@ -119,7 +86,7 @@ def test_against_mpmath_central_differences(category, status):
     for i in keep[:6]:
         g, jn, jp = reference_derivatives(a, b, i, normal[i])
         for got, ref, name in ((der.dist[i], g, "dist"), (der.normal[i], jn, "normal"), (der.pos[i], jp, "pos")):
-            err = _relative_errors(got, ref)
+            err = relative_errors(got, ref)
             assert err.max() <= BOUND, (category, i, name, err)
         checked += 1
     assert checked == 6
@@ -272,7 +239,7 @@ def test_time_of_impact_derivatives_against_mpmath():
         Pa, Pb = poses_at(a0[i : i + 1], a1[i : i + 1], toi[i]), poses_at(b0[i : i + 1], b1[i : i + 1], toi[i])
         n0 = es.signed_distance(Pa, Pb)[1][0]
         with mp.workdps(30):  # h = 1e-12: truncation ~1e-24, rounding ~1e-18
-            bodies = [_mp_body(E, i) for E in (a0, a1, b0, b1)]
+            bodies = [mp_body(E, i) for E in (a0, a1, b0, b1)]
             ref = np.empty(24)
             for j in range(24):
                 block, axis = j // 3, j % 3  # blocks: a0 c, a0 w, a1 c, a1 w, b0 c, b0 w, b1 c, b1 w
@@ -280,10 +247,10 @@ def test_time_of_impact_derivatives_against_mpmath():
                 roots = []
                 for h in (H_TOI, -H_TOI):
                     bs = list(bodies)
-                    bs[which] = _perturbed(bs[which], kind, axis, h)
+                    bs[which] = perturbed(bs[which], kind, axis, h)
                     roots.append(_first_contact_mp(*bs, toi[i], n0))
                 ref[j] = float((roots[0] - roots[1]) / (2 * H_TOI))
-        err = _relative_errors(der.toi[i], ref)
+        err = relative_errors(der.toi[i], ref)
         assert err.max() <= BOUND, (i, err)
 
 

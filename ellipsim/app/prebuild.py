@@ -48,6 +48,8 @@ def _public_functions():
             moved = es.Ellipsoids(b.centers + 0.1, b.rotations, b.radii)
             es.time_of_impact(a, a, b, moved, parallel=parallel, return_status=True)
             es.time_of_impact(a, a, b, moved, parallel=parallel, derivatives=True)
+            for kind in ("capsule", "box", "cylinder"):
+                es.shape_distance(a, kind, b.centers, b.rotations, b.radii, parallel=parallel, derivatives=True)
     a, b = near_contact_pairs(200, seed=2)
     es.signed_distance(a, b)
     es.classify(a, b)

@@ -295,3 +295,15 @@ TOI_DERIV_NEWTON_TOL = 1e-14
 #: ~u V, so below this the quotient keeps fewer than ~8 digits (issue 24's 1e-8) and the contact is
 #: reported GRAZING instead.
 TOI_TRANSVERSAL_REL = 1e-8
+
+# --- Derivatives of ellipsoid x capsule / box / cylinder distances (core/pairs/derivatives.py) ----------
+
+#: The maximiser n* lies on a kink of the other body's support function (n*.v = 0 for a box axis or a
+#: capsule / cylinder axis v; |P n*| = 0 at a cylinder cap) when the cosine is at most this: the narrow
+#: phase puts edge, face, side and cap maximisers there to rounding (~1e-16), and a vertex or end contact
+#: within 1e-10 rad of a kink is, to the derivatives, one on it (then ONE_SIDED by the multiplier test).
+DERIV_KINK_COS = 1e-10
+#: A multiplier of an active kink within DERIV_KINK_REL S of its bound (the contact point within that of
+#: the edge of its face, side or cap): the contact sits where two features meet, and the derivatives of
+#: the held feature are one-sided (ONE_SIDED).
+DERIV_KINK_REL = 1e-10

@@ -11,29 +11,23 @@ hinge and slide joints that is d / d qpos itself; for a ball or free joint's qua
 derivative with respect to a rotation vector (world frame for free joints, the body frame for ball
 joints, as MuJoCo's qvel), which is what a step in qpos must follow to stay on the unit quaternions.
 
-Capsule, box and cylinder against an ellipsoid (core.pairs, the narrow phase's proven maxima): the
-distance's gradient alone, through the witness points p_E, p_K (pos -+ dist n / 2): d dist / d c_E = -n,
-d dist / d omega_E = -(p_E - c_E) x n, d dist / d c_K = n, d dist / d omega_K = (p_K - c_K) x n (Danskin's
-theorem: the derivative of a maximum over n at a unique maximiser; for two ellipsoids the same as
-derivatives.py's).  Unique when the pair is separated (the ellipsoid is strictly convex: one nearest-point
-pair), so SMOOTH there; touching or penetrating, BRANCH (the found maximiser's; a face or rim contact
-is usually still unique); a cylinder rim maximum not proven, UNPROVEN (NaN).
+Capsule, box and cylinder against an ellipsoid: core.pairs.shape_distance's derivatives (the narrow
+phase's proven maxima, differentiated on the feature that carries the contact: core/pairs/derivatives.py),
+with its statuses: SMOOTH, BRANCH, ONE_SIDED (defined), FLAT, UNPROVEN (NaN).
 """
 
-import math
 from typing import NamedTuple
 
 import mujoco
 import numpy as np
 
-from ..core._jit import jit
-from ..core.distance.derivatives import BRANCH, SMOOTH, UNPROVEN
+from ..core.distance.derivatives import BRANCH, SMOOTH
 from ..core.distance.ellipsoid_pair import signed_distance
 from ..core.ellipsoids import Ellipsoids
 from ..core.motion.impact_derivatives import endpoint_gradients
 from ..core.motion.interpolation import poses_at, rotation_vectors
-from ..core.pairs import box, capsule, cylinder
-from ..core.vec3 import load
+from ..core.pairs.derivatives import ONE_SIDED
+from ..core.pairs.shape_distance import shape_distance
 from .attachment import check_model_data
 from .context import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE
 
@@ -100,26 +94,6 @@ def _bodies(model, data, geoms):
     return Ellipsoids(data.geom_xpos[geoms], data.geom_xmat[geoms].reshape(-1, 3, 3), size)
 
 
-@jit
-def _other_pairs(Ce, Re, re, Ck, Rk, sk, kind, dist, normal, pos, proven, lo, hi):
-    """core.pairs' proven signed distance of ellipsoid e[i] and geom k[i] (kind: 0 capsule, 1 box, 2 cylinder;
-    MuJoCo's geom_size), normal from e to k."""
-    for i in range(lo, hi):
-        E, K = load(Ce, Re, re, i), load(Ck, Rk, sk, i)
-        if kind[i] == 0:
-            st, d, n, p, _ = capsule.capsule_ellipsoid(E, K)
-            ok = True
-        elif kind[i] == 1:
-            st, d, n, p, _ = box.box_ellipsoid(E, K)
-            ok = True
-        else:
-            st, d, n, p, _ = cylinder.cylinder_ellipsoid(E, K)
-            ok = st != cylinder.UNPROVEN
-        dist[i], proven[i] = d, ok and math.isfinite(d)
-        for k in range(3):
-            normal[i, k], pos[i, k] = n[k], p[k]
-
-
 def _others(model, data, pairs):
     """(dist, jacobian (k, nv), normal, pos, status) of capsule, box and cylinder pairs with an ellipsoid
     (module docstring), normal from each pair's first geom to its second."""
@@ -127,20 +101,29 @@ def _others(model, data, pairs):
     flip = model.geom_type[pairs[:, 0]] != ELLIPSOID  # the ellipsoid second: swap, then turn the normal round
     e = np.where(flip, pairs[:, 1], pairs[:, 0])
     g = np.where(flip, pairs[:, 0], pairs[:, 1])
-    kind = np.select([model.geom_type[g] == CAPSULE, model.geom_type[g] == BOX], [0, 1], 2).astype(np.int64)
-    dist, normal, pos, proven = np.empty(k), np.empty((k, 3)), np.empty((k, 3)), np.empty(k, dtype=np.bool_)
+    dist, normal, pos = np.empty(k), np.empty((k, 3)), np.empty((k, 3))
+    grad, status = np.empty((k, 18)), np.empty(k, np.int8)
     E = _bodies(model, data, e)
-    Rk = np.ascontiguousarray(data.geom_xmat[g].reshape(-1, 3, 3))
-    args = (E.centers, E.rotations, E.radii, np.ascontiguousarray(data.geom_xpos[g]), Rk, model.geom_size[g])
-    _other_pairs(*args, kind, dist, normal, pos, proven, 0, k)
-    pe, pk = pos - 0.5 * dist[:, None] * normal, pos + 0.5 * dist[:, None] * normal
-    ge = (-normal, -np.cross(pe - data.geom_xpos[e], normal))
-    gk = (normal, np.cross(pk - data.geom_xpos[g], normal))
-    jac = _chain(*ge, *gk, *_geom_jacobians(model, data, np.column_stack([e, g])))
-    status = np.where(proven, np.where(dist > 0.0, SMOOTH, BRANCH), UNPROVEN).astype(np.int8)
-    jac[~proven] = np.nan
+    for code, kind in ((CAPSULE, "capsule"), (BOX, "box"), (CYLINDER, "cylinder")):
+        i = np.flatnonzero(model.geom_type[g] == code)
+        if len(i):
+            K = (data.geom_xpos[g[i]], data.geom_xmat[g[i]].reshape(-1, 3, 3), model.geom_size[g[i]])
+            dist[i], normal[i], pos[i], _, der = shape_distance(E[i], kind, *K, derivatives=True)
+            grad[i], status[i] = der.dist, der.status
+    jac = _chain(
+        grad[:, 0:3],
+        grad[:, 3:6],
+        grad[:, 9:12],
+        grad[:, 12:15],
+        *_geom_jacobians(model, data, np.column_stack([e, g])),
+    )
+    jac[~_defined(status)] = np.nan
     normal[flip] *= -1.0
     return dist, jac, normal, pos, status
+
+
+def _defined(status):
+    return (status == SMOOTH) | (status == BRANCH) | (status == ONE_SIDED)
 
 
 def distance_jacobian(model, data, pairs):
@@ -180,8 +163,7 @@ def _ellipsoids(model, data, pairs):
     dist, normal, pos, _, der = signed_distance(a, b, derivatives=True)
     jacp, jacr, index = _geom_jacobians(model, data, pairs)  # one C call per geom, not per pair
     jac = _chain(der.dist[:, 0:3], der.dist[:, 3:6], der.dist[:, 9:12], der.dist[:, 12:15], jacp, jacr, index)
-    defined = (der.status == SMOOTH) | (der.status == BRANCH)
-    jac[~defined] = np.nan
+    jac[~_defined(der.status)] = np.nan
     return dist, jac, normal, pos, der.status
 
 

@@ -1,7 +1,8 @@
 """Section 10: exact derivatives and `ellipsim fix`.
 
 Derivatives: signed_distance with derivatives=True (d dist, d normal, d pos with respect to both poses and
-semi-axes) against the distance alone on the same random pairs, and time_of_impact with the derivatives of
+semi-axes) against the distance alone on the same random pairs, shape_distance the same for an ellipsoid
+against a capsule, box or cylinder, and time_of_impact with the derivatives of
 its first contact against time_of_impact alone on approaching, turning pairs; single-threaded, this
 thread's CPU time, interleaved rounds, medians of per-round ratios.
 
@@ -19,6 +20,7 @@ import numpy as np
 from ...core.distance.ellipsoid_pair import signed_distance
 from ...core.ellipsoids import Ellipsoids
 from ...core.motion.time_of_impact import time_of_impact
+from ...core.pairs.shape_distance import shape_distance
 from ...core.samples import generic_pairs
 from .common import interleaved, relative, say
 
@@ -79,6 +81,22 @@ def measure(size):
     a, b = generic_pairs(n, seed=5)
     m = max(200, size["motion"] // 2)
     a0, a1, b0, b1 = approaching(rng, m)
+    shapes = {}
+    for kind in ("capsule", "box", "cylinder"):  # the random pairs' b as the other body: about half crossing
+        sizes = b.radii.copy()
+        if kind != "box":
+            sizes[:, 2] = 0.0
+        shapes[kind] = (kind, b.centers, b.rotations, sizes)
+    cases = [
+        (
+            f"shape_distance, {kind}",
+            n,
+            lambda k=k: shape_distance(a, *k, parallel=False),
+            lambda k=k: shape_distance(a, *k, parallel=False, derivatives=True),
+            lambda out: int(((out[-1].status <= 1) | (out[-1].status == 4)).sum()),
+        )
+        for kind, k in shapes.items()
+    ]
     rows = []
     for what, pairs, base, deriv, defined in (
         (
@@ -95,6 +113,7 @@ def measure(size):
             lambda: time_of_impact(a0, a1, b0, b1, parallel=False, derivatives=True),
             lambda out: int((out[-1].status == 0).sum()),
         ),
+        *cases,
     ):
         say(f"gradients: {what} with and without derivatives ...")
         out = deriv()  # (compiled and warm)
@@ -148,7 +167,10 @@ def write(result, size, out, plt):
         "without them, single-threaded, this thread's CPU time in interleaved rounds, ratio the median of "
         "per-round ratios.  signed_distance: random pairs (half overlapping); d dist, d normal and d pos with "
         "respect to both centres, rotations and semi-axes (18 columns).  time_of_impact: pairs approaching while "
-        "turning; d t* / d (both poses of both bodies) (24 columns), where the first contact is transversal.",
+        "turning; d t* / d (both poses of both bodies) (24 columns), where the first contact is transversal.  "
+        "shape_distance (core/pairs/derivatives.py): the same random pairs with the second ellipsoid's pose and "
+        "semi-axes as a capsule's, box's or cylinder's (MuJoCo's geom_size); derivatives defined: SMOOTH, BRANCH "
+        "or ONE_SIDED.",
         "",
         "| function | pairs | ns/pair alone | ns/pair with derivatives | ratio | derivatives defined |",
         "|---|---:|---:|---:|---:|---:|",

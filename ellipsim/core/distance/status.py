@@ -17,9 +17,23 @@ class DistanceStatus(IntEnum):
 
 
 class DerivativeStatus(IntEnum):
-    """signed_distance(..., derivatives=True)'s derivative status, per pair (int8 codes of derivatives.py)."""
+    """signed_distance(..., derivatives=True)'s derivative status, per pair (int8 codes of derivatives.py and,
+    for ONE_SIDED, of pairs/derivatives.py)."""
 
     SMOOTH = 0  #: unique, nondegenerate maximiser: the derivatives
     BRANCH = 1  #: a deep maximum's derivatives; a tie with another maximiser is not excluded
     FLAT = 2  #: a flat maximum (circle of maxima or nearly): NaN
     UNPROVEN = 3  #: the maximum is not proven: NaN
+    ONE_SIDED = 4  #: shape_distance: the contact where two features of the other body meet: the named one's
+
+
+class ContactFeature(IntEnum):
+    """shape_distance(..., derivatives=True)'s feature of the capsule, box or cylinder that carries the contact."""
+
+    FACE = 0  #: a box face
+    EDGE = 1  #: a box edge
+    VERTEX = 2  #: a box vertex
+    SIDE = 3  #: a capsule's or a cylinder's side
+    END = 4  #: a capsule's hemispherical end
+    CAP = 5  #: a cylinder's flat cap
+    RIM = 6  #: a cylinder's rim circle

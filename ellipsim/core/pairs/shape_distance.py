@@ -1,0 +1,113 @@
+"""Signed distance of ellipsoids and capsules, boxes or cylinders, batched, with optional exact derivatives.
+
+    dist, normal, pos, status = ellipsim.shape_distance(ellipsoids, "box", centers, rotations, sizes)
+    dist, normal, pos, status, der = ellipsim.shape_distance(..., derivatives=True)
+
+The narrow phase's proven maxima (capsule.py, box.py, cylinder.py: what ellipsim's MuJoCo glue runs for
+these pair types), with the derivatives of derivatives.py.  The other bodies take MuJoCo's conventions
+(geom_xpos, geom_xmat reshaped to 3x3, geom_size): a box's sizes are its half-sizes; a capsule's and a
+cylinder's are (radius, half-length, ignored), the axis the rotation's third column.
+"""
+
+import math
+
+import numpy as np
+
+from .. import threads
+from .._jit import jit
+from ..ellipsoids import Ellipsoids, _as_real_array, _is_single, check_choice, check_parallel, orthonormality_defect
+from ..tolerances import ORTHONORMAL_TOL
+from ..vec3 import load
+from . import box, capsule, cylinder
+from . import derivatives as dv
+
+KINDS = ("capsule", "box", "cylinder")
+
+
+@jit
+def _distances(Ce, Re, re, Ck, Rk, sk, kind, dist, normal, pos, status, lo, hi):
+    sa, sb = int(Ce.shape[0] > 1), int(Ck.shape[0] > 1)
+    for i in range(lo, hi):
+        E, K = load(Ce, Re, re, i * sa), load(Ck, Rk, sk, i * sb)
+        if kind == dv.CAPSULE:
+            st, d, n, p, _ = capsule.capsule_ellipsoid(E, K)
+            ok = True
+        elif kind == dv.BOX:
+            st, d, n, p, _ = box.box_ellipsoid(E, K)
+            ok = True
+        else:
+            st, d, n, p, _ = cylinder.cylinder_ellipsoid(E, K)
+            ok = st != cylinder.UNPROVEN
+        dist[i] = d
+        status[i] = 0 if ok and math.isfinite(d) else 1
+        for k in range(3):
+            normal[i, k], pos[i, k] = n[k], p[k]
+
+
+def _check_shapes(kind, centers, rotations, sizes):
+    check_choice("kind", kind, KINDS)
+    single = _is_single(centers)
+    c = _as_real_array("centers", centers, (3,), single)
+    rot = _as_real_array("rotations", rotations, (3, 3), single)
+    s = _as_real_array("sizes", sizes, (3,), single)
+    if not len(c) == len(rot) == len(s):
+        raise ValueError(
+            f"centers, rotations and sizes must have the same length, got {len(c)}, {len(rot)} and {len(s)}"
+        )
+    used = 3 if kind == "box" else 2
+    nonpos = s[:, :used] <= 0
+    if nonpos.any():
+        i, j = (int(k) for k in np.argwhere(nonpos)[0])
+        what = "a half-size" if kind == "box" else ("the radius" if j == 0 else "the half-length")
+        raise ValueError(f"sizes[{i}, {j}] ({what} of a {kind}) must be positive, got {s[i, j]}")
+    defect = orthonormality_defect(rot)
+    bad = np.flatnonzero(defect > ORTHONORMAL_TOL)
+    if len(bad):
+        i = int(bad[0])
+        raise ValueError(
+            f"rotations[{i}] must be orthonormal: max |R^T R - I| = {defect[i]:.3g} exceeds the tolerance "
+            f"{ORTHONORMAL_TOL:g}"
+        )
+    return c, rot, s
+
+
+def shape_distance(ellipsoids, kind, centers, rotations, sizes, *, parallel=None, derivatives=False):
+    """Signed distance, contact normal and contact point of each ellipsoid and capsule, box or cylinder.
+
+    ellipsoids : Ellipsoids (a batch of length 1 broadcasts)
+    kind : "capsule", "box" or "cylinder", the other bodies' type
+    centers (n, 3), rotations (n, 3, 3), sizes (n, 3) : the other bodies, as MuJoCo's geom_xpos, geom_xmat
+        and geom_size (module docstring); one body may be given unbatched, and a batch of 1 broadcasts
+    parallel : run on all cores; default: from PARALLEL_MIN_PAIRS pairs on
+    returns : dist (n,) metres (< 0: minus the penetration depth), normal (n, 3) unit, from the ellipsoid
+        to the other body, pos (n, 3) the midpoint of the witness points (MuJoCo's contact position),
+        status (n,) int8 DistanceStatus (GLOBAL: proven; UNPROVEN: a cylinder rim's branch and bound out
+        of budget, the best found)
+    derivatives : also return a fifth result, derivatives.ShapeDerivatives: d dist, d normal and d pos
+        with respect to the ellipsoid's centre, rotation vector and semi-axes and the other body's centre,
+        rotation vector and sizes (18 columns, derivatives.PARAMETERS), a DerivativeStatus and the
+        ContactFeature per pair (derivatives.py: ONE_SIDED where the contact sits where two features meet)
+    """
+    if not isinstance(ellipsoids, Ellipsoids):
+        raise ValueError(f"ellipsoids must be an ellipsim.Ellipsoids batch, got {type(ellipsoids).__name__}")
+    c, rot, s = _check_shapes(kind, centers, rotations, sizes)
+    if not isinstance(derivatives, (bool, np.bool_)):
+        raise ValueError(f"derivatives must be True or False, got {derivatives!r}")
+    ne, nk = len(ellipsoids.centers), len(c)
+    if ne != nk and ne != 1 and nk != 1:
+        raise ValueError(
+            f"ellipsoids and the {kind}s must have the same length or one of them length 1, got {ne} and {nk}"
+        )
+    n = 0 if ne == 0 or nk == 0 else max(ne, nk)
+    code = KINDS.index(kind)
+    arrays = (ellipsoids.centers, ellipsoids.rotations, ellipsoids.radii, c, rot, s, code)
+    dist, normal, pos, status = np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int8)
+    parallel = check_parallel(parallel, n)
+    threads.run(_distances, n, parallel, *arrays, dist, normal, pos, status)
+    if not derivatives:
+        return dist, normal, pos, status
+    out = dv.ShapeDerivatives(
+        np.empty((n, 18)), np.empty((n, 3, 18)), np.empty((n, 3, 18)), np.empty(n, np.int8), np.empty(n, np.int8)
+    )
+    threads.run(dv.shape_derivatives, n, parallel, *arrays, normal, status == 0, *out)
+    return dist, normal, pos, status, out

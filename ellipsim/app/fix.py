@@ -15,7 +15,12 @@ maximum), solved exactly through its dual (a nonnegative least-squares problem, 
 mj_integratePos (free and ball joints stay on the unit quaternions), limited hinges and slides clamped into
 their ranges.  Smooth across frames: the per-frame changes are spread to `smooth` frames on either side
 with a cos^2 taper (per dof, the largest tapered change of the neighbourhood), and every frame then
-projected again from there, so a correction ramps in and out instead of popping.  Two frames both kept
+projected again from there, so a correction ramps in and out instead of popping.  Consistent across
+frames: a frame of a run of bad frames starts from the previous frame's corrected pose (its change carried
+over), so a limb pushed out of another to one side stays on that side as the original motion goes deeper;
+each frame's own smallest change flips to the other side midway, and the limb then passes through between
+those two frames, which no local repair undoes (the replay dance: 192 contacts between frames before the
+repair and 19 after it without this, 166 and 0 with it).  Two frames both kept
 apart can still touch in between (interpolating two poses that each just clear a limb cuts the corner):
 contacts between frames (mujoco.between: time_of_impact on the interpolated motion) get both frames
 corrected together, with constraints on the poses in between.  Frames whose
@@ -49,10 +54,16 @@ MAX_ITERATIONS = 30
 SLACK_REL = 1e-4
 #: rounds of adding the limited joints' ranges that a step crosses as constraints of its QP
 LIMIT_ROUNDS = 4
+#: the largest change of any one dof per Gauss-Newton step (radians or metres): a trust region, since the
+#: constraints are linearised (a pair whose Jacobian row is small asks for a step far beyond where the
+#: linearisation holds, and overshoots)
+STEP_MAX = 0.25
 #: rounds of the between-frames repair (_repair_between), the margin kept in between doubling each round
 #: from 4 slack up to BETWEEN_MARGIN_MAX slack (5 % of the smallest semi-axis: with 20 uncapped rounds the
-#: margin reached metres and the corrections diverged on the dance, 8e3 instead of 102)
-BETWEEN_ROUNDS = 8
+#: margin reached metres and the corrections diverged on the dance, 8e3 instead of 102).  The rounds past
+#: the cap settle neighbouring frame pairs that push each other back (the 64-figure dance: 8, 2 and 0
+#: contacts left after 8, 12 and 16 rounds)
+BETWEEN_ROUNDS = 16
 BETWEEN_MARGIN_MAX = 512.0
 #: instants of the interpolated motion between two frames scanned for a pair's closest approach (the
 #: constraints sit at the closest and its neighbours; the margin covers what lies between grid points)
@@ -74,7 +85,8 @@ class FixResult:
     before_violations: np.ndarray  #: (F,) pairs closer than the clearance in the input
     unfreed: list  #: (frame, geom1, geom2, distance) of pairs still closer than the clearance
     unproven: int  #: pair distances whose maximum was not proven (counted as not freed)
-    between: list  #: (frame, geom1, geom2) of contacts between frames f and f + 1 the repair left
+    between: list  #: (frame, geom1, geom2) of contacts between frames f and f + 1 the repair left (with the
+    #: pairs whose geom turns by a half turn between them: no interpolated motion, so not checked)
     joint_names: list
     geom_names: list
     seconds: float = 0.0
@@ -182,12 +194,13 @@ class _Frames:
 
     def between(self, motion):
         """Contacts between consecutive frames of `motion` (mujoco.between.BetweenFrames: time_of_impact
-        on the interpolated motion): (frame (E,), geom pairs (E, 2) ids, g1 < g2, toi (E,) in (0, 1))."""
+        on the interpolated motion): (frame (E,), geom pairs (E, 2) ids, g1 < g2, half turn (E,) bool: a
+        geom of the pair turns by about pi between the frames, so there is no interpolated motion to check
+        or repair)."""
         ev = BetweenFrames(self.radii, self.rules).check(
             np.arange(len(motion)), np.arange(len(motion), dtype=float), *self.poses(motion)
         )
-        keep = ~ev.half_turn
-        return ev.frame[keep], np.sort(self.ids[ev.pair[keep]], axis=1), ev.toi[keep]
+        return ev.frame, np.sort(self.ids[ev.pair], axis=1), ev.half_turn
 
     def distances(self, qpos):
         """(candidate pairs (k, 2), their signed distances (k,), proven lower bounds where GLOBAL, the
@@ -243,11 +256,7 @@ class _Frames:
         d = np.zeros(m.nv)
         for _ in range(LIMIT_ROUNDS):
             Y = self.solve(rows)  # W^-1 rows'
-            G = rows @ Y.T
-            G += np.eye(len(G)) * (1e-12 * np.trace(G) / len(G) + 1e-300)
-            L = np.linalg.cholesky(G)
-            lam = lsq_linear(L.T, np.linalg.solve(L, b), bounds=(0.0, np.inf), method="bvls").x
-            d = Y.T @ lam
+            d = Y.T @ _dual(rows @ Y.T, b)
             over, under = d[dof] > hi + 1e-12, d[dof] < lo - 1e-12
             if not (over.any() or under.any()):
                 break
@@ -256,7 +265,7 @@ class _Frames:
             extra[np.arange(len(k)), k] = np.r_[-np.ones(int(over.sum())), np.ones(int(under.sum()))]
             rows = np.vstack([rows, extra])
             b = np.r_[b, -hi[over], lo[under]]
-        return d
+        return _capped(d)
 
     def project(self, qpos):
         """(qpos moved until every candidate pair is at least the clearance apart, or the iterations run out;
@@ -292,6 +301,28 @@ class _Frames:
         return float(dist.min()), int((dist < self.clearance).sum()), int((status != GLOBAL).sum())
 
 
+def _dual(G, b):
+    """The multipliers l >= 0 minimising 1/2 l'Gl - b'l (the QP's dual; G = J W^-1 J' >= 0): BVLS on the
+    Cholesky factor of G, regularised by 1e-12 of its mean diagonal (more, tenfold at a time, where
+    rounding leaves a rank-deficient G indefinite: two pairs with the same Jacobian row)."""
+    scale = np.trace(G) / len(G) + 1e-300
+    for k in range(6):
+        try:
+            L = np.linalg.cholesky(G + np.eye(len(G)) * scale * 10.0 ** (3 * k - 12))
+            break
+        except np.linalg.LinAlgError:
+            continue
+    else:
+        return np.zeros(len(G))
+    return lsq_linear(L.T, np.linalg.solve(L, b), bounds=(0.0, np.inf), method="bvls").x
+
+
+def _capped(d):
+    """d scaled down to at most STEP_MAX on every dof (the trust region)."""
+    big = np.abs(d).max() if len(d) else 0.0
+    return d * (STEP_MAX / big) if big > STEP_MAX else d
+
+
 def _two_frames(frames, out, f, pairs, margin):
     """Frames f and f + 1 corrected together (Gauss-Newton, as _Frames.project) until their pairs keep the
     clearance and `pairs` (k, 2) keep clearance + margin over the interpolated motion between them
@@ -311,7 +342,7 @@ def _two_frames(frames, out, f, pairs, margin):
             if close.any():
                 frames.data.qpos[:] = q
                 jac = distance_jacobian(m, frames.data, close_pairs[close])
-                ok = np.isfinite(jac.jacobian).all(axis=1)
+                ok = np.isfinite(jac.jacobian).all(axis=1) & np.any(jac.jacobian != 0.0, axis=1)
                 J, zero = jac.jacobian[ok], np.zeros((int(ok.sum()), nv))
                 blocks.append(np.hstack([J, zero] if which == 0 else [zero, J]))
                 needs.append(C + frames.slack - jac.dist[ok])
@@ -327,7 +358,12 @@ def _two_frames(frames, out, f, pairs, margin):
             )
         except ValueError:  # a half turn between the frames: no interpolated motion to correct
             return
-        close = (dist < C + margin) & np.isfinite(J0).all(axis=1)
+        close = (
+            (dist < C + margin)
+            & np.isfinite(J0).all(axis=1)
+            & np.isfinite(J1).all(axis=1)
+            & (np.any(J0 != 0.0, axis=1) | np.any(J1 != 0.0, axis=1))
+        )
         if close.any():
             blocks.append(np.hstack([J0[close], J1[close]]))
             needs.append(C + margin + frames.slack - dist[close])
@@ -340,11 +376,11 @@ def _two_frames(frames, out, f, pairs, margin):
         ya = frames.solve(np.ascontiguousarray(rows[:, :nv]))
         frames.factor(qb)
         yb = frames.solve(np.ascontiguousarray(rows[:, nv:]))
-        G = rows[:, :nv] @ ya.T + rows[:, nv:] @ yb.T
-        G += np.eye(len(G)) * (1e-12 * np.trace(G) / len(G) + 1e-300)
-        L = np.linalg.cholesky(G)
-        lam = lsq_linear(L.T, np.linalg.solve(L, b), bounds=(0.0, np.inf), method="bvls").x
+        lam = _dual(rows[:, :nv] @ ya.T + rows[:, nv:] @ yb.T, b)
         da, db = ya.T @ lam, yb.T @ lam
+        big = max(np.abs(da).max(), np.abs(db).max())
+        if big > STEP_MAX:  # the trust region, on both frames at once
+            da, db = da * (STEP_MAX / big), db * (STEP_MAX / big)
         if not (np.isfinite(da).all() and np.isfinite(db).all()) or not (da.any() or db.any()):
             return
         mujoco.mj_integratePos(m, qa, da, 1.0)
@@ -359,13 +395,13 @@ def _repair_between(frames, out):
     Returns the (frame, g1, g2) still touching between frames."""
     left = []
     for k in range(BETWEEN_ROUNDS + 1):
-        ev_frame, ev_pair, ev_toi = frames.between(out)
+        ev_frame, ev_pair, half = frames.between(out)
         left = [(int(f), int(g1), int(g2)) for f, (g1, g2) in zip(ev_frame, ev_pair)]
-        if not left or k == BETWEEN_ROUNDS:
+        if not (~half).any() or k == BETWEEN_ROUNDS:
             break
         margin = min(4.0 * frames.slack * 2.0**k, BETWEEN_MARGIN_MAX * frames.slack)
-        for f in np.unique(ev_frame):
-            _two_frames(frames, out, int(f), ev_pair[ev_frame == f], margin)
+        for f in np.unique(ev_frame[~half]):
+            _two_frames(frames, out, int(f), ev_pair[(ev_frame == f) & ~half], margin)
     return left
 
 
@@ -423,10 +459,14 @@ def fix_motion(model, motion, *, clearance=0.0, metric="mass", smooth=4, between
     before_min, before_bad, unproven = np.full(F, np.inf), np.zeros(F, dtype=np.int64), 0
     delta = np.zeros((F, nv))
     first = motion.copy()
-    for f in range(F):  # pass 1: each frame on its own
+    for f in range(F):  # pass 1: each frame, from the previous frame's correction (module docstring)
         before_min[f], before_bad[f], _ = frames.min_distance(motion[f])
         if before_bad[f]:
-            first[f], _, _ = frames.project(motion[f])
+            start = motion[f].copy()
+            if f and delta[f - 1].any():
+                mujoco.mj_integratePos(model, start, delta[f - 1], 1.0)
+                frames.clamp(start)
+            first[f], _, _ = frames.project(start)
             mujoco.mj_differentiatePos(model, delta[f], 1.0, motion[f], first[f])
         if progress:
             progress(f + 1, 2 * F)

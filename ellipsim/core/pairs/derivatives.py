@@ -237,6 +237,9 @@ def _pair(E, K, kind, normal, proven, grad, jn, jp, feature, i):
         n = _unit(_cross(g0, g1))
         if _dot(n, normal) < 0.0:
             n = (-n[0], -n[1], -n[2])
+    elif k == 1:  # an edge or side: onto its great circle (the narrow phase leaves n*.v at ~1e-11 there)
+        c = _dot(n, g0)
+        n = _unit((n[0] - c * g0[0], n[1] - c * g0[1], n[2] - c * g0[2]))
     S = math.sqrt(norm2(d)) + max(re[0], re[1], re[2]) + max(sk[0], sk[1], sk[2])
     dw = (d[0] - w[0], d[1] - w[1], d[2] - w[2])
     s, gs, h, g, z, J, H, t1, t2, R = _local(n, dw, Re, re, rho, pt, u, g0, k)

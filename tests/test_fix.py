@@ -5,6 +5,7 @@ The checks are independent of fix.py's own loop: every frame's candidate pairs a
 rules, bounding spheres grown by the clearance) and their distances recomputed by the proven signed
 distance."""
 
+import json
 import subprocess
 import sys
 
@@ -107,6 +108,9 @@ def test_limbs_reaching_through_each_other_stay_apart_between_frames(seed):
     check = rp.replay(model, result.motion, between=True)
     assert (check.overlapping == 0).all() and len(check.between_events()) == 0
     assert result.between == [] and result.unfreed == []
+    report = json.loads(json.dumps(result.report()))  # (the --json report of a motion that needed fixing)
+    assert report["frames_changed"] == int(result.changed.sum()) and report["touching_between_frames"] == []
+    assert isinstance(result.seconds, float) and result.seconds > 0
 
 
 def test_a_clean_motion_comes_back_bit_for_bit(tmp_path):

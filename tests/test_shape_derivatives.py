@@ -188,3 +188,17 @@ def test_codes_are_the_kernels():
     assert es.DerivativeStatus.ONE_SIDED == pdv.ONE_SIDED
     assert [f.value for f in es.ContactFeature] == [pdv.FACE, pdv.EDGE, pdv.VERTEX, pdv.SIDE, pdv.END, pdv.CAP, pdv.RIM]
     assert es.core.pairs.shape_distance.KINDS.index("box") == pdv.BOX
+
+
+@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+def test_the_third_size_of_a_capsule_or_cylinder_is_ignored(kind):
+    """MuJoCo leaves it 0; whatever a caller puts there changes no bit (it once scaled the flatness test)."""
+    E, c, R, s = _poses(kind, 500, seed=4)
+    big = s.copy()
+    big[:, 2] = 1e12
+    one, other = (
+        es.shape_distance(E, kind, c, R, s, derivatives=True),
+        es.shape_distance(E, kind, c, R, big, derivatives=True),
+    )
+    for x, y in zip(one[:4] + tuple(one[4]), other[:4] + tuple(other[4])):
+        np.testing.assert_array_equal(x, y)

@@ -54,6 +54,9 @@ CALLS = {
     "time_of_impact": lambda p: es.time_of_impact(
         A[:3000], A1[:3000], B[:3000], B1[:3000], parallel=p, return_status=True
     ),
+    "shape_distance with derivatives": lambda p: es.shape_distance(
+        A[:1000], "box", B.centers[:1000], B.rotations[:1000], B.radii[:1000], parallel=p, derivatives=True
+    ),
 }
 
 

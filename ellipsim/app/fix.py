@@ -85,8 +85,9 @@ class FixResult:
     before_violations: np.ndarray  #: (F,) pairs closer than the clearance in the input
     unfreed: list  #: (frame, geom1, geom2, distance) of pairs still closer than the clearance
     unproven: int  #: pair distances whose maximum was not proven (counted as not freed)
-    between: list  #: (frame, geom1, geom2) of contacts between frames f and f + 1 the repair left (with the
-    #: pairs whose geom turns by a half turn between them: no interpolated motion, so not checked)
+    between: list  #: (frame, geom1, geom2) of contacts between frames f and f + 1 the repair left
+    half_turns: list  #: (frame, geom1, geom2) of candidate pairs with a geom turning by about a half turn between
+    #: frames f and f + 1: no interpolated motion, so not checked between those frames (nor repaired)
     joint_names: list
     geom_names: list
     seconds: float = 0.0
@@ -112,6 +113,10 @@ class FixResult:
         if self.between:
             lines.append(f"  still touching between frames: {len(self.between)} pairs")
             for frame, g1, g2 in self.between[:show]:
+                lines.append(f"    frames {frame}-{frame + 1}: {self.geom_names[g1]} x {self.geom_names[g2]}")
+        if self.half_turns:
+            lines.append(f"  not checked between frames (a geom turns by a half turn): {len(self.half_turns)} pairs")
+            for frame, g1, g2 in self.half_turns[:show]:
                 lines.append(f"    frames {frame}-{frame + 1}: {self.geom_names[g1]} x {self.geom_names[g2]}")
         if self.unfreed:
             lines.append(f"  not freed: {len(self.unfreed)} pair-frames")
@@ -150,6 +155,9 @@ class FixResult:
             ],
             "touching_between_frames": [
                 {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]]} for f, g1, g2 in self.between
+            ],
+            "half_turns_between_frames": [
+                {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]]} for f, g1, g2 in self.half_turns
             ],
             "per_frame": frames,
             "seconds": self.seconds,
@@ -303,7 +311,7 @@ class _Frames:
 
 def _dual(G, b):
     """The multipliers l >= 0 minimising 1/2 l'Gl - b'l (the QP's dual; G = J W^-1 J' >= 0): BVLS on the
-    Cholesky factor of G, regularised by 1e-12 of its mean diagonal (more, tenfold at a time, where
+    Cholesky factor of G, regularised by 1e-12 of its mean diagonal (more, a thousandfold at a time, where
     rounding leaves a rank-deficient G indefinite: two pairs with the same Jacobian row)."""
     scale = np.trace(G) / len(G) + 1e-300
     for k in range(6):
@@ -392,17 +400,20 @@ def _repair_between(frames, out):
     """Pairs touching between two corrected frames (interpolating two poses that each just clear a limb cuts
     the corner, or the two frames were pushed to opposite sides): the two frames corrected together with
     constraints on the poses in between (_two_frames), the margin doubled each round (BETWEEN_ROUNDS).
-    Returns the (frame, g1, g2) still touching between frames."""
-    left = []
+    Returns the (frame, g1, g2) still touching between frames, and those with a half turn between frames
+    (not checked)."""
+    left, turns = [], []
     for k in range(BETWEEN_ROUNDS + 1):
         ev_frame, ev_pair, half = frames.between(out)
-        left = [(int(f), int(g1), int(g2)) for f, (g1, g2) in zip(ev_frame, ev_pair)]
-        if not (~half).any() or k == BETWEEN_ROUNDS:
+        events = [(int(f), int(g1), int(g2)) for f, (g1, g2) in zip(ev_frame, ev_pair)]
+        left = [e for e, h in zip(events, half) if not h]
+        turns = [e for e, h in zip(events, half) if h]
+        if not left or k == BETWEEN_ROUNDS:
             break
         margin = min(4.0 * frames.slack * 2.0**k, BETWEEN_MARGIN_MAX * frames.slack)
         for f in np.unique(ev_frame[~half]):
             _two_frames(frames, out, int(f), ev_pair[(ev_frame == f) & ~half], margin)
-    return left
+    return left, turns
 
 
 def _taper(smooth):
@@ -462,11 +473,15 @@ def fix_motion(model, motion, *, clearance=0.0, metric="mass", smooth=4, between
     for f in range(F):  # pass 1: each frame, from the previous frame's correction (module docstring)
         before_min[f], before_bad[f], _ = frames.min_distance(motion[f])
         if before_bad[f]:
-            start = motion[f].copy()
-            if f and delta[f - 1].any():
-                mujoco.mj_integratePos(model, start, delta[f - 1], 1.0)
-                frames.clamp(start)
-            first[f], _, _ = frames.project(start)
+            warm = bool(f and delta[f - 1].any())
+            q0 = motion[f].copy()
+            if warm:
+                mujoco.mj_integratePos(model, q0, delta[f - 1], 1.0)
+            first[f], left, _ = frames.project(frames.clamp(q0))
+            if warm and len(left):  # the carried change does not free the frame: its own smallest change, if better
+                own, left_own, _ = frames.project(motion[f])
+                if len(left_own) < len(left):
+                    first[f] = own
             mujoco.mj_differentiatePos(model, delta[f], 1.0, motion[f], first[f])
         if progress:
             progress(f + 1, 2 * F)
@@ -480,7 +495,7 @@ def fix_motion(model, motion, *, clearance=0.0, metric="mass", smooth=4, between
             out[f], _, _ = frames.project(frames.clamp(q))
         if progress:
             progress(F + f + 1, 2 * F)
-    between_left = _repair_between(frames, out) if between else []
+    between_left, half_turns = _repair_between(frames, out) if between else ([], [])
     changed = np.any(out != motion, axis=1)
     unfreed = []
     for f in np.flatnonzero(changed | (before_bad > 0)):  # corrected frames, and bad ones left as they were
@@ -513,6 +528,7 @@ def fix_motion(model, motion, *, clearance=0.0, metric="mass", smooth=4, between
         unfreed=unfreed,
         unproven=unproven,
         between=between_left,
+        half_turns=half_turns,
         joint_names=names(mujoco.mjtObj.mjOBJ_JOINT, model.njnt),
         geom_names=names(mujoco.mjtObj.mjOBJ_GEOM, model.ngeom),
         seconds=time.perf_counter() - start,

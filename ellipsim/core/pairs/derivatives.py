@@ -221,6 +221,8 @@ def _pair(E, K, kind, normal, proven, grad, jn, jp, feature, i):
     """The derivatives of pair i at its maximiser `normal` (world, unit) into grad[i], jn[i], jp[i], and its
     feature into feature[i]; returns the DerivativeStatus."""
     (ce, Re, re), (ck, Rk, sk) = E, K
+    if kind != BOX:  # (a capsule's or cylinder's third size is not theirs: it must not scale anything)
+        sk = (sk[0], sk[1], 0.0)
     sc = unit_scale(re, sk)  # a power of two (exact), as derivatives.py
     re, sk = scaled(re, sc), scaled(sk, sc)
     d = ((ck[0] - ce[0]) * sc, (ck[1] - ce[1]) * sc, (ck[2] - ce[2]) * sc)

@@ -57,6 +57,32 @@ def orthonormality_defect(rotations):
     return out
 
 
+def as_poses(centers, rotations, sizes, sizes_name):
+    """(centres (n, 3), rotations (n, 3, 3), sizes (n, 3)) as C-contiguous float64 arrays of one length (one
+    body may come unbatched); ValueError naming the argument otherwise."""
+    single = _is_single(centers)
+    c = _as_real_array("centers", centers, (3,), single)
+    rot = _as_real_array("rotations", rotations, (3, 3), single)
+    s = _as_real_array(sizes_name, sizes, (3,), single)
+    if not len(c) == len(rot) == len(s):
+        raise ValueError(
+            f"centers, rotations and {sizes_name} must have the same length, got {len(c)}, {len(rot)} and {len(s)}"
+        )
+    return c, rot, s
+
+
+def check_rotations(rot):
+    """ValueError naming the first of rotations (n, 3, 3) that is not orthonormal to ORTHONORMAL_TOL."""
+    defect = orthonormality_defect(rot)
+    bad = np.flatnonzero(defect > ORTHONORMAL_TOL)
+    if len(bad):
+        i = int(bad[0])
+        raise ValueError(
+            f"rotations[{i}] must be orthonormal: max |R^T R - I| = {defect[i]:.3g} "
+            f"exceeds the tolerance {ORTHONORMAL_TOL:g}; got {rot[i].tolist()}"
+        )
+
+
 class Ellipsoids:
     """An immutable batch of n ellipsoids.
 
@@ -71,26 +97,12 @@ class Ellipsoids:
     __slots__ = ("centers", "rotations", "radii")
 
     def __init__(self, centers, rotations, radii):
-        single = _is_single(centers)
-        c = _as_real_array("centers", centers, (3,), single)
-        rot = _as_real_array("rotations", rotations, (3, 3), single)
-        r = _as_real_array("radii", radii, (3,), single)
-        if not len(c) == len(rot) == len(r):
-            raise ValueError(
-                f"centers, rotations and radii must have the same length, got {len(c)}, {len(rot)} and {len(r)}"
-            )
+        c, rot, r = as_poses(centers, rotations, radii, "radii")
         nonpos = r <= 0
         if nonpos.any():
             i, j = (int(k) for k in np.argwhere(nonpos)[0])
             raise ValueError(f"radii[{i}, {j}] must be positive, got {r[i, j]}")
-        defect = orthonormality_defect(rot)
-        bad = np.flatnonzero(defect > ORTHONORMAL_TOL)
-        if len(bad):
-            i = int(bad[0])
-            raise ValueError(
-                f"rotations[{i}] must be orthonormal: max |R^T R - I| = {defect[i]:.3g} "
-                f"exceeds the tolerance {ORTHONORMAL_TOL:g}; got {rot[i].tolist()}"
-            )
+        check_rotations(rot)
         for arr in (c, rot, r):
             arr.flags.writeable = False
         object.__setattr__(self, "centers", c)

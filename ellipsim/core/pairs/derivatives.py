@@ -46,7 +46,18 @@ from typing import NamedTuple
 import numpy as np
 
 from .._jit import jit, stage
-from ..distance.derivatives import BRANCH, FLAT, SMOOTH, UNPROVEN, _cross, _dot, _hess, _support, _tangent
+from ..distance.derivatives import (
+    BRANCH,
+    FLAT,
+    SMOOTH,
+    UNPROVEN,
+    _cross,
+    _dot,
+    _hess,
+    _support,
+    _tangent,
+    _write_nan,
+)
 from ..tolerances import (
     DERIV_FLAT_REL,
     DERIV_KINK_COS,
@@ -205,15 +216,6 @@ def _reduced_solve(R, k, r1, r2):
     if k == 1:
         return -r1 / R[0], 0.0
     return 0.0, 0.0
-
-
-@stage
-def _write_nan(grad, jn, jp, i):
-    for j in range(18):
-        grad[i, j] = math.nan
-        for m in range(3):
-            jn[i, m, j] = math.nan
-            jp[i, m, j] = math.nan
 
 
 @stage

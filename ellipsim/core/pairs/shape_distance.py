@@ -15,8 +15,7 @@ import numpy as np
 
 from .. import threads
 from .._jit import jit
-from ..ellipsoids import Ellipsoids, _as_real_array, _is_single, check_choice, check_parallel, orthonormality_defect
-from ..tolerances import ORTHONORMAL_TOL
+from ..ellipsoids import Ellipsoids, as_poses, check_choice, check_parallel, check_rotations
 from ..vec3 import load
 from . import box, capsule, cylinder
 from . import derivatives as dv
@@ -46,28 +45,14 @@ def _distances(Ce, Re, re, Ck, Rk, sk, kind, dist, normal, pos, status, lo, hi):
 
 def _check_shapes(kind, centers, rotations, sizes):
     check_choice("kind", kind, KINDS)
-    single = _is_single(centers)
-    c = _as_real_array("centers", centers, (3,), single)
-    rot = _as_real_array("rotations", rotations, (3, 3), single)
-    s = _as_real_array("sizes", sizes, (3,), single)
-    if not len(c) == len(rot) == len(s):
-        raise ValueError(
-            f"centers, rotations and sizes must have the same length, got {len(c)}, {len(rot)} and {len(s)}"
-        )
+    c, rot, s = as_poses(centers, rotations, sizes, "sizes")
     used = 3 if kind == "box" else 2
     nonpos = s[:, :used] <= 0
     if nonpos.any():
         i, j = (int(k) for k in np.argwhere(nonpos)[0])
         what = "a half-size" if kind == "box" else ("the radius" if j == 0 else "the half-length")
         raise ValueError(f"sizes[{i}, {j}] ({what} of a {kind}) must be positive, got {s[i, j]}")
-    defect = orthonormality_defect(rot)
-    bad = np.flatnonzero(defect > ORTHONORMAL_TOL)
-    if len(bad):
-        i = int(bad[0])
-        raise ValueError(
-            f"rotations[{i}] must be orthonormal: max |R^T R - I| = {defect[i]:.3g} exceeds the tolerance "
-            f"{ORTHONORMAL_TOL:g}"
-        )
+    check_rotations(rot)
     return c, rot, s
 
 

@@ -385,10 +385,8 @@ def _two_frames(frames, out, f, pairs, margin):
         frames.factor(qb)
         yb = frames.solve(np.ascontiguousarray(rows[:, nv:]))
         lam = _dual(rows[:, :nv] @ ya.T + rows[:, nv:] @ yb.T, b)
-        da, db = ya.T @ lam, yb.T @ lam
-        big = max(np.abs(da).max(), np.abs(db).max())
-        if big > STEP_MAX:  # the trust region, on both frames at once
-            da, db = da * (STEP_MAX / big), db * (STEP_MAX / big)
+        step = _capped(np.r_[ya.T @ lam, yb.T @ lam])  # the trust region, on both frames at once
+        da, db = step[:nv], step[nv:]
         if not (np.isfinite(da).all() and np.isfinite(db).all()) or not (da.any() or db.any()):
             return
         mujoco.mj_integratePos(m, qa, da, 1.0)

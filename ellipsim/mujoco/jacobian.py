@@ -132,7 +132,7 @@ def distance_jacobian(model, data, pairs):
     model, data : mujoco.MjModel and an MjData of it; data's kinematics are recomputed from its qpos
         (mj_kinematics, mj_comPos: what mj_forward computes first), nothing else of it is changed
     pairs : (k, 2) geom ids, each pair an ellipsoid against an ellipsoid, a sphere, a capsule, a box or a
-        cylinder (the last three: the distance's gradient through the witness points, module docstring)
+        cylinder (the last three through core.pairs.shape_distance's derivatives, module docstring)
     returns : DistanceJacobian; jacobian's columns are the model's nv dofs (module docstring: for
         hinge and slide joints d / d qpos, for quaternions the tangent-space derivative)
     """
@@ -226,6 +226,6 @@ def interpolated_distance_jacobian(model, data0, data1, pairs, t):
     gb = endpoint_gradients(g[:, 9:12], g[:, 12:15], t, B1.rotations, wb, B.rotations)
     J0 = _chain(ga[0], ga[1], gb[0], gb[1], *_geom_jacobians(model, data0, pairs))
     J1 = _chain(ga[2], ga[3], gb[2], gb[3], *_geom_jacobians(model, data1, pairs))
-    defined = (der.status == SMOOTH) | (der.status == BRANCH)
+    defined = _defined(der.status)
     J0[~defined], J1[~defined] = np.nan, np.nan
     return dist, J0, J1, der.status

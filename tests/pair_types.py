@@ -7,6 +7,7 @@ import math
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation as Rot
 
 import ellipsim.mujoco as em
 from ellipsim.core.rotations import quaternions_to_rotations
@@ -158,3 +159,23 @@ def check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, 
     assert np.all(ub[certified] - dist[certified] <= 1e-12 * s_min[certified] + slack[certified])
     at_ours = ref_sigma(P, normals[:, None, :])[:, 0]  # our dist is sigma at our normal, independently
     np.testing.assert_allclose(at_ours, dist, rtol=0, atol=1e-14 * scale.max())
+
+
+def coaxial_poses(seed, m=200):
+    """A spheroid E (prolate or oblate, aspect 1.15-6, a random rotation) and a cylinder or capsule
+    (sizes as MuJoCo's geom_size) whose axis is E's, exactly or tilted by 1e-12 to 1e-2 rad, centred on
+    the axis or a hair off it, deep to touching: sigma is (nearly) constant along the rim or the side
+    circle facing E (limbs of one straight chain)."""
+    rng = np.random.default_rng(seed)
+    rE, cK, RK, sK = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3, 3)), np.zeros((m, 3))
+    RE = Rot.random(m, random_state=rng).as_matrix()
+    for i in range(m):
+        s, aspect = rng.uniform(0.05, 0.3), rng.uniform(1.15, 6.0)
+        rE[i] = (s, s, s * aspect) if i % 2 else (s * aspect, s * aspect, s)
+        tilt = [0.0, 1e-12, 1e-8, 1e-4, 1e-2][i % 5]
+        axis = rng.normal(size=3)
+        RK[i] = RE[i] @ Rot.from_rotvec(axis / np.linalg.norm(axis) * tilt).as_matrix()
+        sK[i, 0], sK[i, 1] = rng.uniform(0.02, 0.4), rng.uniform(0.01, 0.4)
+        off = rng.normal(size=3) * tilt if i % 3 == 0 else np.zeros(3)
+        cK[i] = RE[i] @ (np.array([0.0, 0.0, rng.uniform(0.0, 1.05) * (rE[i, 2] + sK[i, 1])]) + off)
+    return dict(cE=np.zeros((m, 3)), RE=RE, rE=rE, cK=cK, RK=RK, sK=sK)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from pair_types import (
     check_against_reference,
+    coaxial_poses,
     entry_installed_and_restored,
     error_status_answers_as_mujoco,
     far_poses,
@@ -18,7 +19,6 @@ from pair_types import (
     unattached_is_plain_mujoco,
 )
 from reference import dense_maximum
-from scipy.spatial.transform import Rotation as Rot
 
 from ellipsim.app import scenes
 from ellipsim.core.pairs import cylinder
@@ -112,25 +112,6 @@ def test_kernel_matches_the_reference_within_1e12_of_the_smaller_half_size(poses
     check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, proofs, cylinder.CERTIFIED)
     assert (dist[cat == 3] < 0).all() and (dist[cat == 6] < 0).all() and (dist[cat == 0] > 0).all()
     assert (status[cat == 3] == cylinder.ENUMERATED).any()  # the branch and bound is exercised
-
-
-def coaxial_poses(seed, m=200):
-    """A spheroid E (prolate or oblate, aspect 1.15-6, a random rotation) and a cylinder whose axis is
-    E's, exactly or tilted by 1e-12 to 1e-2 rad, centred on the axis or a hair off it, deep to touching:
-    sigma is (nearly) constant along the rim facing E (limbs of one straight chain)."""
-    rng = np.random.default_rng(seed)
-    rE, cK, RK, sK = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3, 3)), np.zeros((m, 3))
-    RE = Rot.random(m, random_state=rng).as_matrix()
-    for i in range(m):
-        s, aspect = rng.uniform(0.05, 0.3), rng.uniform(1.15, 6.0)
-        rE[i] = (s, s, s * aspect) if i % 2 else (s * aspect, s * aspect, s)
-        tilt = [0.0, 1e-12, 1e-8, 1e-4, 1e-2][i % 5]
-        axis = rng.normal(size=3)
-        RK[i] = RE[i] @ Rot.from_rotvec(axis / np.linalg.norm(axis) * tilt).as_matrix()
-        sK[i, 0], sK[i, 1] = rng.uniform(0.02, 0.4), rng.uniform(0.01, 0.4)
-        off = rng.normal(size=3) * tilt if i % 3 == 0 else np.zeros(3)
-        cK[i] = RE[i] @ (np.array([0.0, 0.0, rng.uniform(0.0, 1.05) * (rE[i, 2] + sK[i, 1])]) + off)
-    return dict(cE=np.zeros((m, 3)), RE=RE, rE=rE, cK=cK, RK=RK, sK=sK)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

@@ -48,8 +48,9 @@ def _bisect(f, lo, hi, iters=140):
 def secular_reference(a2, q):
     """Every real root of S(t) = 1 (ascending), the poles used and, between consecutive poles, the
     minimum of S: ([roots], [(pole_left, pole_right, S_min)]).  Poles: the distinct -a2_i with
-    q_i != 0 (equal a2_i merge)."""
-    with mp.workdps(DPS):
+    q_i != 0 (equal a2_i merge).  20 digits beyond DPS: two float semi-axes a few ulps apart put
+    their poles 1e-16 apart, and the bracket between them 1e-35 of that inside."""
+    with mp.workdps(DPS + 20):
         a2m = [mp.mpf(float(x)) for x in a2]
         cc = {}
         for ai, qi in zip(a2m, [mp.mpf(float(x)) for x in q]):
@@ -289,6 +290,23 @@ def test_foot3_root_hugging_the_pole(qk):
 def test_foot2_root_hugging_the_pole(qk):
     """The same in the plane: p = (0.5, q_k), semi-axes (1, 0.2)."""
     check_foot2((1.0, 0.04), (0.5, qk))
+
+
+@pytest.mark.parametrize(
+    "a2, q",
+    [
+        ((0.04, 0.04), (3e-12, -4e-12)),
+        ((0.04 * (1 + 1e-11), 0.04), (3e-12, -4e-12)),
+        ((0.04, 0.04 * (1 + 1e-12)), (1e-13, 2e-11)),
+        ((0.09, 0.09 * (1 - 2e-10)), (-2e-9, 1e-10)),
+        ((0.04, 0.04), (-5e-11, 0.0)),
+    ],
+)
+def test_foot2_near_a_circle_follows_the_point(a2, q):
+    """A (near-)circle with p a hair off its centre (a cylinder or capsule on a spheroid's axis: the
+    spheroid projected along the axis): the root hugs the pole.  The limit formula put the normal on
+    the first axis whatever p was, 2 |p| below the maximum (5.5e-11 m on a coaxial capsule)."""
+    check_foot2(a2, q)
 
 
 @settings(max_examples=60)

@@ -259,6 +259,56 @@ def _sign(x: wp.float64) -> wp.float64:
 
 
 @wp.func
+def _pole_normal2(b0: wp.float64, b1: wp.float64, p0: wp.float64, p1: wp.float64, bmin: wp.float64):
+    """foot2's normal at a root within POLE_RTOL bmin of the pole (point_ellipsoid._pole_normal2)."""
+    d0 = b0 - bmin
+    d1 = b1 - bmin
+    c0 = b0 * p0 * p0
+    c1 = b1 * p1 * p1
+    zero = F64(0.0)
+    at_pole = (c0 > zero and d0 == zero) or (c1 > zero and d1 == zero)
+    s0 = zero
+    if d0 > zero:
+        s0 += c0 / (d0 * d0)
+    if d1 > zero:
+        s0 += c1 / (d1 * d1)
+    n0 = zero
+    n1 = zero
+    if at_pole or s0 > F64(1.0):
+        delta = F64(POLE_RTOL) * bmin
+        for _ in range(SECULAR_MAX_ITER):
+            r0 = delta + d0
+            r1 = delta + d1
+            S = c0 / (r0 * r0) + c1 / (r1 * r1)
+            dS = F64(-2.0) * (c0 / (r0 * r0 * r0) + c1 / (r1 * r1 * r1))
+            step = (F64(1.0) / wp.sqrt(S) - F64(1.0)) / (F64(-0.5) * dS / (S * wp.sqrt(S)))
+            dn = delta - step
+            if not (dn > zero):
+                dn = F64(1e-3) * delta
+            if wp.abs(dn - delta) <= F64(FOUR_U) * delta:
+                delta = dn
+                break
+            delta = dn
+        n0 = p0 / (delta + d0)
+        n1 = p1 / (delta + d1)
+    else:
+        x0 = zero
+        x1 = zero
+        if d0 > zero:
+            x0 = b0 * p0 / d0
+        if d1 > zero:
+            x1 = b1 * p1 / d1
+        rest = wp.max(F64(1.0) - x0 * x0 / b0 - x1 * x1 / b1, zero)
+        if d0 == zero:
+            x0 = wp.sqrt(rest * b0)
+        else:
+            x1 = wp.sqrt(rest * b1)
+        n0 = x0 / b0
+        n1 = x1 / b1
+    return n0, n1
+
+
+@wp.func
 def foot2(b0: wp.float64, b1: wp.float64, p0: wp.float64, p1: wp.float64):
     """2-D point-ellipse (squared semi-axes b0, b1): (t, n0, n1) (point_ellipsoid.foot2)."""
     bmin = wp.min(b0, b1)
@@ -291,20 +341,7 @@ def foot2(b0: wp.float64, b1: wp.float64, p0: wp.float64, p1: wp.float64):
         n0 = p0 / (t + b0)
         n1 = p1 / (t + b1)
     else:
-        x0 = F64(0.0)
-        x1 = F64(0.0)
-        if b0 - bmin > F64(POLE_RTOL) * bmin:
-            x0 = b0 * p0 / (b0 - bmin)
-            r2 = wp.max(F64(1.0) - x0 * x0 / b0, F64(0.0))
-            x1 = wp.sqrt(r2 * b1) * _sign(p1)
-        elif b1 - bmin > F64(POLE_RTOL) * bmin:
-            x1 = b1 * p1 / (b1 - bmin)
-            r2 = wp.max(F64(1.0) - x1 * x1 / b1, F64(0.0))
-            x0 = wp.sqrt(r2 * b0) * _sign(p0)
-        else:  # a circle with p at its centre
-            x0 = wp.sqrt(b0)
-        n0 = x0 / b0
-        n1 = x1 / b1
+        n0, n1 = _pole_normal2(b0, b1, p0, p1, bmin)
         t = -bmin
     s = wp.sqrt(n0 * n0 + n1 * n1)
     return t, n0 / s, n1 / s

@@ -196,6 +196,44 @@ def _psi2(b0, b1, p0, p1, t):
 
 
 @stage
+def _pole_normal2(b0, b1, p0, p1, bmin):
+    """foot2's normal when the largest root lies within POLE_RTOL bmin of the pole -bmin, where t itself
+    cannot resolve it: the root in delta = t + bmin of S = c0 / (delta + d0)^2 + c1 / (delta + d1)^2 = 1
+    (c_i = b_i p_i^2, d_i = b_i - bmin exact by Sterbenz), by Newton on the concave increasing
+    S^(-1/2) - 1 (from the left, monotone), then n ~ p_i / (delta + d_i): on a (near-)circle it follows
+    p, where Eberly's limit formula would put it on an axis whatever p is (2 |p| below the maximum).
+    When S stays at most 1 as delta -> 0 (p zero on the pole's axis), Eberly's limit point (his q_k = 0
+    case, GTCG 10.5.2)."""
+    d0, d1 = b0 - bmin, b1 - bmin
+    c0, c1 = b0 * p0 * p0, b1 * p1 * p1
+    at_pole = (c0 > 0.0 and d0 == 0.0) or (c1 > 0.0 and d1 == 0.0)
+    s0 = (c0 / (d0 * d0) if d0 > 0.0 else 0.0) + (c1 / (d1 * d1) if d1 > 0.0 else 0.0)
+    if at_pole or s0 > 1.0:
+        delta = POLE_RTOL * bmin
+        for _ in range(SECULAR_MAX_ITER):
+            r0, r1 = delta + d0, delta + d1
+            S = c0 / (r0 * r0) + c1 / (r1 * r1)
+            dS = -2.0 * (c0 / (r0 * r0 * r0) + c1 / (r1 * r1 * r1))
+            step = (1.0 / math.sqrt(S) - 1.0) / (-0.5 * dS / (S * math.sqrt(S)))
+            dn = delta - step
+            if not dn > 0.0:
+                dn = 1e-3 * delta
+            if abs(dn - delta) <= 4.0 * U * delta:
+                delta = dn
+                break
+            delta = dn
+        return p0 / (delta + d0), p1 / (delta + d1)
+    x0 = b0 * p0 / d0 if d0 > 0.0 else 0.0
+    x1 = b1 * p1 / d1 if d1 > 0.0 else 0.0
+    rest = max(1.0 - x0 * x0 / b0 - x1 * x1 / b1, 0.0)
+    if d0 == 0.0:
+        x0 = math.sqrt(rest * b0)
+    else:
+        x1 = math.sqrt(rest * b1)
+    return x0 / b0, x1 / b1
+
+
+@stage
 def foot2(b0, b1, p0, p1):
     """2-D point-ellipse (squared semi-axes b0, b1): (t, n0, n1), the secular value and the outward
     unit normal at the boundary point nearest to p, by the same Newton as foot3."""
@@ -224,18 +262,7 @@ def foot2(b0, b1, p0, p1):
     if t == t:
         n0, n1 = p0 / (t + b0), p1 / (t + b1)
     else:
-        # limit at the pole: the coordinate of the larger axis from the formula, the other what is left
-        if b0 - bmin > POLE_RTOL * bmin:
-            x0 = b0 * p0 / (b0 - bmin)
-            r2 = max(1.0 - x0 * x0 / b0, 0.0)
-            x1 = math.sqrt(r2 * b1) * (1.0 if p1 >= 0.0 else -1.0)
-        elif b1 - bmin > POLE_RTOL * bmin:
-            x1 = b1 * p1 / (b1 - bmin)
-            r2 = max(1.0 - x1 * x1 / b1, 0.0)
-            x0 = math.sqrt(r2 * b0) * (1.0 if p0 >= 0.0 else -1.0)
-        else:  # a circle with p at its centre
-            x0, x1 = math.sqrt(b0), 0.0
-        n0, n1 = x0 / b0, x1 / b1
+        n0, n1 = _pole_normal2(b0, b1, p0, p1, bmin)
     s = math.sqrt(n0 * n0 + n1 * n1)
     return (t if t == t else -bmin), n0 / s, n1 / s
 

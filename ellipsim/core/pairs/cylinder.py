@@ -21,13 +21,21 @@ Certificates (global upper bounds on max sigma):
 * ub1 = sd(e - s_E(n) + rho n, K) - rho (rho the rolling radius of E; the exact point-cylinder sd);
 * ub2 = sd(e - c, E) - t for a ball(c, t) inside K at the witness (t > 0 for cap and side contacts);
 * ub3 (side contacts of a cylinder crossing E): the ball of radius delta + r around e lies in E + K
-  when the chords of E along u, lengthened by L, cover it (_sweep_bound).
+  when the chords of E along u, lengthened by L, cover it (_sweep_bound);
+* ub4 (side contacts): a capsule inside K with K's support at the contact normal bounds sigma above
+  everywhere; its maximum is proven by capsule.py (_capsule_bound).
 When none closes: caps and side are exact; a rim piece is bounded above by the maximum of f_{q - r c}
 over its closed hemisphere (h_K(m) >= m.(s L u + r c) for any unit c perpendicular to u), tried for c
 on lunes of azimuths about u: c at the incumbent's azimuth on the lune holding it, at the lune's
 middle elsewhere, the maximum of f_{q - r c} over the lune found from every critical point on its
 boundary arcs and inside it; lunes are bisected until each bound is within the tolerance of the
-incumbent (_rim_bb).  A rim whose branch and bound runs out of budget leaves the pair UNPROVEN.
+incumbent (_rim_bb).  That linear bound exceeds sigma by r |P n| (1 - cos) of the azimuth from c,
+which near the incumbent outgrows sigma's own fall once the crossing is deeper than E's radius of
+curvature along the rim: ~20 bisections for 1e-12.  So lunes near the incumbent are split at its
+polar band instead (_split_settles): the band by a second-order certificate, sigma = G(x) / |x| for
+the concave 1-homogeneous G on the gnomonic chart at the incumbent, Taylor with a proven third-
+derivative bound (_cert_model, _cert_region), the rest of the lune by f_{q - r c} over spherical
+polygons (_poly_bound).  A rim whose branch and bound runs out of budget leaves the pair UNPROVEN.
 
 Ported from the pair-type prototype (10 000 poses: never below a 20 000-direction reference by more
 than 1e-12 of the smaller shortest half-size), with the rim's branch and bound in place of its
@@ -41,6 +49,7 @@ from ..distance.sphere_newton import rolling_radius, tangent_basis, unit
 from ..distance.spheroids import BB_ERR_SIGMA_ULPS, ERR_C_ULPS, _axis_of, axis_bb
 from ..tolerances import BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, RIM_BB_LEVELS, RIM_BB_NODES, U
 from ..vec3 import column, cross3, norm2, rotate_t
+from . import capsule
 from .point_ellipsoid import (
     circle_max_bound,
     contact_in_world,
@@ -333,8 +342,28 @@ def _sweep_bound(a2, e, u, L, r, n):
     return math.inf
 
 
+@jit
+def _capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack):
+    """ub4 (side contacts, n.u = 0): the capsule of radius t = min(r, L - |y.u|) (y the witness) on the
+    segment [-(L - t), L - t] u, moved by (r - t) towards the witness, lies in K and has K's support at n,
+    so max sigma <= its maximum, proven by capsule.py (ub1, ub2, else its enumeration of every critical
+    point, each value plus slack).  Tight when that capsule's own maximum is at n: the witness on its
+    side, and the rim's curvature r - t not beyond sigma's along the side.  inf when t <= 0."""
+    ya = _dot(_witness(a2, e, n, value), u)
+    t = min(r, L - abs(ya))
+    if not t > 0.0:
+        return math.inf
+    ec = (e[0] - (r - t) * n[0], e[1] - (r - t) * n[1], e[2] - (r - t) * n[2])
+    lc = L - t
+    ub = capsule.upper_bound(a2, ec, u, lc, t, rho, n, value, tol)
+    if ub - value <= tol:
+        return ub
+    best, _ = capsule.enumerate_max(a2, ec, u, lc, t, value, n, tol)
+    return min(ub, best + slack)
+
+
 @stage
-def upper_bound(a2, e, u, L, r, rho, n, value, tol):
+def upper_bound(a2, e, u, L, r, rho, n, value, tol, slack):
     ub = upper_bound1(a2, e, u, L, r, rho, n)
     if ub - value <= tol:
         return ub
@@ -343,6 +372,8 @@ def upper_bound(a2, e, u, L, r, rho, n, value, tol):
         return ub
     if abs(_dot(n, u)) < 1e-12:
         ub = min(ub, _sweep_bound(a2, e, u, L, r, n))
+        if ub - value > tol:
+            ub = min(ub, _capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack))
     return ub
 
 
@@ -444,6 +475,243 @@ def _lune_bound(a2, p, su, ca, cq, width, slack, floor):
     return best, bm
 
 
+#: The split certificate (_split_settles) takes lunes whose far end is within this fraction of the
+#: incumbent's reach (_reach, along the rim) and the polar band of that half-width.
+SPLIT_REACH = 1.4
+#: |D^3 |z|[w, w, w]| <= 3 |a| b^2 / |z|^2 with a^2 + b^2 = |w|^2, at most 2 / sqrt(3) |w|^3 / |z|^2.
+D3_NORM = 1.1548
+
+
+@stage
+def _edge_normal(a, b, cen):
+    """a x b, pointing to the side of cen (zero when a = b: a repeated vertex)."""
+    k = cross3(a, b)
+    if _dot(k, cen) < 0.0:
+        return (-k[0], -k[1], -k[2])
+    return k
+
+
+@stage
+def _edge_max(a2, p, a, b, slack, floor):
+    """_arc_max over the great-circle arc from the unit a to the unit b (shorter than pi)."""
+    k = cross3(a, b)
+    sn = math.sqrt(norm2(k))
+    if sn == 0.0:
+        return -math.inf, a
+    cs = _dot(a, b)
+    w = unit((b[0] - cs * a[0], b[1] - cs * a[1], b[2] - cs * a[2]))
+    return _arc_max(a2, p, a, w, math.atan2(sn, cs), slack, floor)
+
+
+@jit
+def _poly_bound(a2, p, v0, v1, v2, v3, slack, floor):
+    """(bound, m): the maximum of f_p over the convex spherical quadrilateral v0 v1 v2 v3 (unit, in
+    cyclic order, within an open hemisphere; a repeated vertex makes it a triangle) and where it is
+    attained, as _lune_bound: its four great-circle edges (_arc_max) and every local maximum of f_p on
+    the sphere inside it; first, the global maximum of f_p when it lies inside or is below `floor`."""
+    cen = (v0[0] + v1[0] + v2[0] + v3[0], v0[1] + v1[1] + v2[1] + v3[1], v0[2] + v1[2] + v2[2] + v3[2])
+    k0, k1 = _edge_normal(v0, v1, cen), _edge_normal(v1, v2, cen)
+    k2, k3 = _edge_normal(v2, v3, cen), _edge_normal(v3, v0, cen)
+    t, m = foot3(a2, p)
+    top = sd_upper(a2, p, t)
+    if top <= floor or (_dot(m, k0) >= 0.0 and _dot(m, k1) >= 0.0 and _dot(m, k2) >= 0.0 and _dot(m, k3) >= 0.0):
+        return top, m
+    best, bm = _edge_max(a2, p, v0, v1, slack, floor)
+    v, m = _edge_max(a2, p, v1, v2, slack, floor)
+    if v > best:
+        best, bm = v, m
+    v, m = _edge_max(a2, p, v2, v3, slack, floor)
+    if v > best:
+        best, bm = v, m
+    v, m = _edge_max(a2, p, v3, v0, slack, floor)
+    if v > best:
+        best, bm = v, m
+    for t in secular_roots(a2, p, False):
+        if t == t:
+            m = unit((p[0] / (t + a2[0]), p[1] / (t + a2[1]), p[2] / (t + a2[2])))
+            if _dot(m, k0) >= 0.0 and _dot(m, k1) >= 0.0 and _dot(m, k2) >= 0.0 and _dot(m, k3) >= 0.0:
+                v = _f(a2, p, m) + slack
+                if v > best:
+                    best, bm = v, m
+    for i in range(3):
+        for sign in (1.0, -1.0):
+            ok, m = pole_normal(a2, p, i, sign)
+            if ok and _dot(m, k0) >= 0.0 and _dot(m, k1) >= 0.0 and _dot(m, k2) >= 0.0 and _dot(m, k3) >= 0.0:
+                v = _f(a2, p, m) + slack
+                if v > best:
+                    best, bm = v, m
+    return best, bm
+
+
+@stage
+def _cert_model(a2, q, su, r, n):
+    """The second-order model of the rim function at the unit n for _cert_region: G(x) = x.q - h_E(x) -
+    r |P x|, concave and 1-homogeneous, so sigma on the sphere is G(x) / |x| on the tangent plane x =
+    n + y (y = y1 t1 + y2 t2, the gnomonic chart: great circles are its lines).  Returns (ok, (t1, t2),
+    (g1, g2), (H11, H12, H22), G(n), h_E(n), |P n|, the largest |B y| of a unit y of the plane (B =
+    diag(sqrt(a2))), the errors of g and H): G's gradient and Hessian on the plane, from
+    grad h_E = A n / h, hess h_E = (A - A n n^T A / h^2) / h and hess |P x| = (P - P n n^T P / |P n|^2) / |P n|."""
+    an = (a2[0] * n[0], a2[1] * n[1], a2[2] * n[2])
+    h = math.sqrt(_dot(an, n))
+    ss = perp(n, su)
+    t1, t2 = tangent_basis(n)
+    nu = _dot(n, su)
+    if not ss > 0.0:
+        return False, (t1, t2), (0.0, 0.0), (0.0, 0.0, 0.0), 0.0, h, ss, 0.0, 0.0, 0.0, 0.0
+    pn = (n[0] - nu * su[0], n[1] - nu * su[1], n[2] - nu * su[2])
+    ih, iss = 1.0 / h, 1.0 / ss
+    grad = (
+        q[0] - an[0] * ih - r * pn[0] * iss,
+        q[1] - an[1] * ih - r * pn[1] * iss,
+        q[2] - an[2] * ih - r * pn[2] * iss,
+    )
+    at = (_dot(an, t1), _dot(an, t2))
+    ut = (_dot(su, t1), _dot(su, t2))
+    pt = (-nu * ut[0], -nu * ut[1])  # P n . t_i = n.t_i - (n.u)(u.t_i), n.t_i = 0
+    a11 = a2[0] * t1[0] * t1[0] + a2[1] * t1[1] * t1[1] + a2[2] * t1[2] * t1[2]
+    a12 = a2[0] * t1[0] * t2[0] + a2[1] * t1[1] * t2[1] + a2[2] * t1[2] * t2[2]
+    a22 = a2[0] * t2[0] * t2[0] + a2[1] * t2[1] * t2[1] + a2[2] * t2[2] * t2[2]
+    ih2, iss2 = ih * ih, iss * iss
+    h11 = -(a11 - at[0] * at[0] * ih2) * ih - r * ((1.0 - ut[0] * ut[0]) - pt[0] * pt[0] * iss2) * iss
+    h12 = -(a12 - at[0] * at[1] * ih2) * ih - r * (-ut[0] * ut[1] - pt[0] * pt[1] * iss2) * iss
+    h22 = -(a22 - at[1] * at[1] * ih2) * ih - r * ((1.0 - ut[1] * ut[1]) - pt[1] * pt[1] * iss2) * iss
+    bt = math.sqrt(0.5 * (a11 + a22) + math.sqrt(0.25 * (a11 - a22) ** 2 + a12 * a12))
+    amax = max(a2[0], a2[1], a2[2])
+    eg = 64.0 * U * (math.sqrt(norm2(q)) + math.sqrt(amax) + r)
+    eh = 256.0 * U * (amax * ih + r * iss)
+    value = _dot(n, q) - h - r * ss
+    g = (_dot(grad, t1), _dot(grad, t2))
+    return (
+        True,
+        (t1, t2),
+        g,
+        (h11, h12, h22),
+        value,
+        h,
+        ss,
+        bt,
+        eg,
+        eh,
+        _reach(g, (h11, h12, h22), value, h, ss, bt, r, _dot(su, t1), _dot(su, t2)),
+    )
+
+
+@stage
+def _reach(g, H, value, h, ss, bt, r, s1, s2):
+    """A chart radius within which _cert_region is likely to hold (a heuristic: the certificate itself
+    is checked there): where M rho / 3 is half the margin of the concavity -(H - min(value, 0) I) along
+    the rim (the chart direction perpendicular to u) and, across it, half of that margin or, for an
+    incumbent on the side circle whose gradient points off the rim (g.s < 0), what that slope allows."""
+    c = min(value, 0.0)
+    ns = math.sqrt(s1 * s1 + s2 * s2)
+    if not ns > 0.0:
+        return 0.0
+    s = (s1 / ns, s2 / ns)  # the chart direction towards the cap
+    a = (-s[1], s[0])  # along the rim
+    qaa = H[0] * a[0] * a[0] + 2.0 * H[1] * a[0] * a[1] + H[2] * a[1] * a[1] - c
+    qss = H[0] * s[0] * s[0] + 2.0 * H[1] * s[0] * s[1] + H[2] * s[1] * s[1] - c
+    if not qaa < 0.0:
+        return 0.0
+    mu = min(-qaa, -qss) if qss < 0.0 else -qaa
+    rho = 0.5 * min(h / bt, ss)
+    M = D3_NORM * (bt * bt * bt / ((h - bt * rho) ** 2) + r / ((ss - rho) ** 2))
+    rho = min(rho, 1.5 * mu / M)
+    if qss > 0.0:
+        rho = min(rho, max(-(g[0] * s[0] + g[1] * s[1]), 0.0) / qss)
+    return rho
+
+
+@stage
+def _chart(n, t, v):
+    """(ok, y): the gnomonic coordinates of the unit v about the unit n (t its tangent basis)."""
+    d = _dot(v, n)
+    if not d > 0.0:
+        return False, (0.0, 0.0)
+    return True, (_dot(v, t[0]) / d, _dot(v, t[1]) / d)
+
+
+@stage
+def _quad_edge(g, Q, y, z):
+    """max over the segment y z of Phi(w) = g.w + w^T Q w / 2 (Q = (Q11, Q12, Q22))."""
+    d = (z[0] - y[0], z[1] - y[1])
+    qy = (g[0] + Q[0] * y[0] + Q[1] * y[1], g[1] + Q[1] * y[0] + Q[2] * y[1])
+    dqd = Q[0] * d[0] * d[0] + 2.0 * Q[1] * d[0] * d[1] + Q[2] * d[1] * d[1]
+    s = qy[0] * d[0] + qy[1] * d[1]
+    phi = g[0] * y[0] + g[1] * y[1] + 0.5 * (Q[0] * y[0] * y[0] + 2.0 * Q[1] * y[0] * y[1] + Q[2] * y[1] * y[1])
+    best = max(phi, phi + s + 0.5 * dqd)
+    if dqd < 0.0:
+        tau = -s / dqd
+        if 0.0 < tau < 1.0:
+            best = max(best, phi + 0.5 * s * tau)
+    return best
+
+
+@stage
+def _cert_region(cm, n, r, v0, v1, v2, v3, room):
+    """Whether the rim function stays below V = G(n) + slack + room on the convex spherical
+    quadrilateral v0..v3, from the model cm of n (_cert_model; room > 0).  On the chart disc |y| <= rho
+    holding the quadrilateral's vertices, G(n + y) <= G(n) + g.y + y^T H y / 2 + M |y|^3 / 6 (Taylor; M
+    bounds G's third derivative along the plane: D3_NORM (b^3 / |B x|^2 + r / |P x|^2), |B x| >=
+    h_E(n) - b rho, |P x| >= |P n| - rho), and sigma = G(x) / |x| <= V when G(x) <= V + min(V, 0) |y|^2 / 2
+    (|x| = sqrt(1 + |y|^2) <= 1 + |y|^2 / 2).  So it suffices that the quadratic Phi(y) = g.y + y^T Q y / 2,
+    Q = H + (eh + M rho / 3 - min(V, 0)) I, stays below room - eg rho on the quadrilateral (its chart
+    image, convex): at its vertices, on its edges and at the stationary point of a definite Q inside."""
+    ok, t, g, H, value, h, ss, bt, eg, eh, _ = cm
+    ok0, y0 = _chart(n, t, v0)
+    ok1, y1 = _chart(n, t, v1)
+    ok2, y2 = _chart(n, t, v2)
+    ok3, y3 = _chart(n, t, v3)
+    if not (ok and ok0 and ok1 and ok2 and ok3):
+        return False
+    rho = math.sqrt(
+        max(
+            y0[0] * y0[0] + y0[1] * y0[1],
+            y1[0] * y1[0] + y1[1] * y1[1],
+            y2[0] * y2[0] + y2[1] * y2[1],
+            y3[0] * y3[0] + y3[1] * y3[1],
+        )
+    )
+    rho *= 1.0 + 1e-9  # the chart's own rounding
+    hl, sl = h - bt * rho, ss - rho
+    if not (hl > 0.0 and sl > 0.0):
+        return False
+    M = D3_NORM * (bt * bt * bt / (hl * hl) + r / (sl * sl))
+    V = value + room
+    shift = eh + M * rho / 3.0 - min(V, 0.0)
+    Q = (H[0] + shift, H[1], H[2] + shift)
+    d = room - eg * rho
+    if d <= 0.0:
+        return False
+    best = max(_quad_edge(g, Q, y0, y1), _quad_edge(g, Q, y1, y2), _quad_edge(g, Q, y2, y3), _quad_edge(g, Q, y3, y0))
+    det = Q[0] * Q[2] - Q[1] * Q[1]
+    if Q[0] < 0.0 and det > 0.0:  # negative definite: the stationary point y* = -Q^-1 g, Phi(y*) = g.y* / 2
+        ys = (-(Q[2] * g[0] - Q[1] * g[1]) / det, -(Q[0] * g[1] - Q[1] * g[0]) / det)
+        s0 = (y1[0] - y0[0]) * (ys[1] - y0[1]) - (y1[1] - y0[1]) * (ys[0] - y0[0])
+        s1 = (y2[0] - y1[0]) * (ys[1] - y1[1]) - (y2[1] - y1[1]) * (ys[0] - y1[0])
+        s2 = (y3[0] - y2[0]) * (ys[1] - y2[1]) - (y3[1] - y2[1]) * (ys[0] - y2[0])
+        s3 = (y0[0] - y3[0]) * (ys[1] - y3[1]) - (y0[1] - y3[1]) * (ys[0] - y3[0])
+        if (s0 >= 0.0 and s1 >= 0.0 and s2 >= 0.0 and s3 >= 0.0) or (
+            s0 <= 0.0 and s1 <= 0.0 and s2 <= 0.0 and s3 <= 0.0
+        ):
+            best = max(best, 0.5 * (g[0] * ys[0] + g[1] * ys[1]))
+    return best <= d
+
+
+@stage
+def _split_settles(a2, p, su, ca, cb, b, cm, n, theta, r, room, floor, slack):
+    """Whether the lune between the meridians of ca and cb holds no sigma above floor = best + tol: on
+    the incumbent n's polar band [theta - b, theta + b] (theta n's polar angle from su) by n's second-order model (_cert_region, room = floor - G(n) - slack), above
+    and below it by the maximum of f_p (p = q - r c, sigma <= f_p) over the two pieces (_poly_bound)."""
+    ta, tb = max(theta - b, 0.0), min(theta + b, 0.5 * math.pi)
+    va, vb = _turn(su, ca, ta), _turn(su, cb, ta)  # su itself at ta = 0
+    wa, wb = (ca, cb) if tb == 0.5 * math.pi else (_turn(su, ca, tb), _turn(su, cb, tb))
+    if not _cert_region(cm, n, r, va, wa, wb, vb, room):
+        return False
+    if ta > 0.0 and _poly_bound(a2, p, su, va, vb, su, slack, floor)[0] > floor:
+        return False
+    return not (tb < 0.5 * math.pi and _poly_bound(a2, p, wa, ca, cb, wb, slack, floor)[0] > floor)
+
+
 @jit
 def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
     """Branch and bound over the azimuth of the rim piece sg (the hemisphere sg n.u >= 0), where
@@ -465,6 +733,8 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
     has = perp(bn, u) > 0.0  # an azimuth: on this rim, on the side circle, or on the other rim
     if has:
         phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
+    cm = _cert_model(a2, q, su, r, bn)
+    theta = math.atan2(perp(bn, u), _dot(bn, su))
     start = phi - 0.5 * quarter
     nodes = 0
     for k in range(4):
@@ -484,8 +754,18 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
                 at = a + width if off - width < 2.0 * math.pi - off else a
             c = _turn(w1, w2, at)
             p = (q[0] - r * c[0], q[1] - r * c[1], q[2] - r * c[2])
-            bound, m = _lune_bound(a2, p, su, ca, cq, width, slack, best + tol)
             nodes += 1
+            room = best + tol - cm[4] - slack
+            reach = SPLIT_REACH * cm[10]
+            far = max(off, width - off) if off <= width else min(off, 2.0 * math.pi - off + width)
+            if reach > 0.0 and far * cm[6] <= reach and room > 0.0:
+                cb = _turn(w1, w2, a + width)
+                if _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
+                    bound, m = -math.inf, bn
+                else:
+                    bound, m = _lune_bound(a2, p, su, ca, cq, width, slack, best + tol)
+            else:
+                bound, m = _lune_bound(a2, p, su, ca, cq, width, slack, best + tol)
             if bound > best + tol:
                 v = sigma_cylinder(a2, e, u, L, r, m)
                 if v > best and sg * _dot(m, u) > 0.0 and perp(m, u) > 0.0:
@@ -493,11 +773,13 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
                     vn = sigma_cylinder(a2, e, u, L, r, mn)
                     if vn > v:
                         v, m = vn, mn
-                if v > best:  # the children take c from the new incumbent
+                if v > best:  # the children take c and the second-order model from the new incumbent
                     best, bn = v, m
                     has = perp(bn, u) > 0.0
                     if has:
                         phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
+                    cm = _cert_model(a2, q, su, r, bn)
+                    theta = math.atan2(perp(bn, u), _dot(bn, su))
             if bound > best + tol:
                 if nodes >= RIM_BB_NODES or lev >= RIM_BB_LEVELS:
                     return best, bn, False
@@ -608,12 +890,12 @@ def cylinder_ellipsoid(E, K):
     tol = max(PAIR_CERT_REL * min(ra[0], ra[1], ra[2], r, L), 2.0 * BB_TOL_ULPS * U * scale)
     n, _, _ = local_max(a2, e, u, L, r)
     value = sigma_cylinder(a2, e, u, L, r, n)
-    ub = upper_bound(a2, e, u, L, r, rho, n, value, tol)
+    slack = PAIR_SIGMA_SLACK_ULPS * U * scale
+    ub = upper_bound(a2, e, u, L, r, rho, n, value, tol, slack)
     status = CERTIFIED
     if ub - value > tol:
-        slack = PAIR_SIGMA_SLACK_ULPS * U * scale
         value, n, proven = deep_search(a2, e, u, L, r, value, n, tol, slack)
-        ub2 = upper_bound(a2, e, u, L, r, rho, n, value, tol)
+        ub2 = upper_bound(a2, e, u, L, r, rho, n, value, tol, slack)
         by_axis = False
         if not proven and ub2 - value > tol:  # a flat rim: E a spheroid about (nearly) the cylinder's axis
             by_axis, m, v = axis_max(a2, e, u, L, r, tol, scale, n)

@@ -346,9 +346,11 @@ def _sweep_bound(a2, e, u, L, r, n):
 def _capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack):
     """ub4 (side contacts, n.u = 0): the capsule of radius t = min(r, L - |y.u|) (y the witness) on the
     segment [-(L - t), L - t] u, moved by (r - t) towards the witness, lies in K and has K's support at n,
-    so max sigma <= its maximum, proven by capsule.py (ub1, ub2, else its enumeration of every critical
-    point, each value plus slack).  Tight when that capsule's own maximum is at n: the witness on its
-    side, and the rim's curvature r - t not beyond sigma's along the side.  inf when t <= 0."""
+    so max sigma <= its maximum, proven by capsule.py: ub1, ub2, else its enumeration (every critical
+    point of a piece whose certified bound exceeds the best by more than tol / 2, each within slack:
+    the capsule's maximum is below the best found + max(tol / 2, slack)).  Tight when that capsule's own maximum is at n:
+    the witness on its side, and the rim's curvature r - t not beyond sigma's along the side.  inf when
+    t <= 0."""
     ya = _dot(_witness(a2, e, n, value), u)
     t = min(r, L - abs(ya))
     if not t > 0.0:
@@ -358,8 +360,8 @@ def _capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack):
     ub = capsule.upper_bound(a2, ec, u, lc, t, rho, n, value, tol)
     if ub - value <= tol:
         return ub
-    best, _ = capsule.enumerate_max(a2, ec, u, lc, t, value, n, tol)
-    return min(ub, best + slack)
+    best, _ = capsule.enumerate_max(a2, ec, u, lc, t, value, n, 0.5 * tol)
+    return min(ub, best + max(0.5 * tol, slack))
 
 
 @stage

@@ -441,42 +441,6 @@ def _arc_max(a2, p, v1, v2, span, slack, floor):
     return best, bm
 
 
-@jit
-def _lune_bound(a2, p, su, ca, cq, width, slack, floor):
-    """(bound, m): the maximum of f_p over the lune {n : n.su >= 0, azimuth about su in [0, width]
-    from ca} (su the rim's half axis sg u, ca and cq = su x ca unit and perpendicular to it, width <=
-    pi/2) and where it is attained: the maxima over its two meridian arcs (pole to equator) and its
-    equator arc, and every local maximum of f_p on the sphere (secular_roots, pole_normal) inside it;
-    first, the global maximum of f_p (foot3, its weak-duality bound sd_upper) when it lies in the lune
-    or is already below `floor`."""
-    t, m = foot3(a2, p)
-    top = sd_upper(a2, p, t)
-    if top <= floor or (_dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width)):
-        return top, m
-    best, bm = _arc_max(a2, p, su, ca, 0.5 * math.pi, slack, floor)
-    v, m = _arc_max(a2, p, su, _turn(ca, cq, width), 0.5 * math.pi, slack, floor)
-    if v > best:
-        best, bm = v, m
-    v, m = _arc_max(a2, p, ca, cq, width, slack, floor)
-    if v > best:
-        best, bm = v, m
-    for t in secular_roots(a2, p, False):  # the largest root is foot3's, outside the lune
-        if t == t:
-            m = unit((p[0] / (t + a2[0]), p[1] / (t + a2[1]), p[2] / (t + a2[2])))
-            if _dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width):
-                v = _f(a2, p, m) + slack
-                if v > best:
-                    best, bm = v, m
-    for i in range(3):
-        for sign in (1.0, -1.0):
-            ok, m = pole_normal(a2, p, i, sign)
-            if ok and _dot(m, su) >= 0.0 and _on_arc(m, ca, cq, width):
-                v = _f(a2, p, m) + slack
-                if v > best:
-                    best, bm = v, m
-    return best, bm
-
-
 #: The split certificate (_split_settles) takes lunes whose far end is within this fraction of the
 #: incumbent's reach (_reach, along the rim) and the polar band of that half-width.
 SPLIT_REACH = 1.4
@@ -508,9 +472,11 @@ def _edge_max(a2, p, a, b, slack, floor):
 @jit
 def _poly_bound(a2, p, v0, v1, v2, v3, slack, floor):
     """(bound, m): the maximum of f_p over the convex spherical quadrilateral v0 v1 v2 v3 (unit, in
-    cyclic order, within an open hemisphere; a repeated vertex makes it a triangle) and where it is
-    attained, as _lune_bound: its four great-circle edges (_arc_max) and every local maximum of f_p on
-    the sphere inside it; first, the global maximum of f_p when it lies inside or is below `floor`."""
+    cyclic order, within an open hemisphere; a repeated vertex makes it a triangle, as a lune of the
+    rim: its pole and its two ends on the equator) and where it is attained: the maxima over its
+    great-circle edges (_arc_max) and every local maximum of f_p on the sphere (secular_roots,
+    pole_normal) inside it; first, the global maximum of f_p (foot3, its weak-duality bound sd_upper)
+    when it lies inside or is already below `floor`."""
     cen = (v0[0] + v1[0] + v2[0] + v3[0], v0[1] + v1[1] + v2[1] + v3[1], v0[2] + v1[2] + v2[2] + v3[2])
     k0, k1 = _edge_normal(v0, v1, cen), _edge_normal(v1, v2, cen)
     k2, k3 = _edge_normal(v2, v3, cen), _edge_normal(v3, v0, cen)
@@ -718,8 +684,8 @@ def _split_settles(a2, p, su, ca, cb, b, cm, n, theta, r, room, floor, slack):
 def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
     """Branch and bound over the azimuth of the rim piece sg (the hemisphere sg n.u >= 0), where
     sigma(n) = f_q(n) - r |P n| with q = e - sg L u.  For any unit c perpendicular to u, r |P n| >= r n.c,
-    so on a lune of azimuths sigma <= f_{q - r c}, whose maximum over the lune is found exactly
-    (_lune_bound).  c is the incumbent's azimuth on the lunes that contain it -- the bound there is
+    so on a lune of azimuths sigma <= f_{q - r c}, whose maximum over the lune (the spherical triangle
+    of the pole and the lune's ends on the equator) is found exactly (_poly_bound).  c is the incumbent's azimuth on the lunes that contain it -- the bound there is
     sigma's own maximum once the lune is narrow enough to hold no other local maximum of f_{q - r c}
     -- and the lune's end nearer to it elsewhere (the bound equals sigma along that meridian and
     exceeds it by r |P n| (1 - cos) of the azimuth from it).
@@ -765,9 +731,9 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
                 if _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
                     bound, m = -math.inf, bn
                 else:
-                    bound, m = _lune_bound(a2, p, su, ca, cq, width, slack, best + tol)
+                    bound, m = _poly_bound(a2, p, su, ca, _turn(ca, cq, width), su, slack, best + tol)
             else:
-                bound, m = _lune_bound(a2, p, su, ca, cq, width, slack, best + tol)
+                bound, m = _poly_bound(a2, p, su, ca, _turn(ca, cq, width), su, slack, best + tol)
             if bound > best + tol:
                 v = sigma_cylinder(a2, e, u, L, r, m)
                 if v > best and sg * _dot(m, u) > 0.0 and perp(m, u) > 0.0:

@@ -150,12 +150,12 @@ def _in_quad(rng, V, m):
 
 
 def _quad(rng, centre, size):
-    """A random convex spherical quadrilateral around the unit centre, corners about size radians away."""
+    """A random convex spherical quadrilateral around the unit centre: four corners on the circle of
+    radius size about it in its gnomonic chart (where great circles are lines), in angular order."""
     t1 = _unit(np.cross(centre, rng.normal(size=3)))
     t2 = np.cross(centre, t1)
     ang = np.sort(rng.uniform(0, 2 * np.pi, 4))
-    rad = size * rng.uniform(0.5, 1.0, 4)
-    return _unit(centre + rad[:, None] * (np.cos(ang)[:, None] * t1 + np.sin(ang)[:, None] * t2))
+    return _unit(centre + size * (np.cos(ang)[:, None] * t1 + np.sin(ang)[:, None] * t2))
 
 
 def _f(a2, p, n):

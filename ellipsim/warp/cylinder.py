@@ -1,6 +1,7 @@
 """Cylinder x ellipsoid as a Warp function: a float64 port of core/pairs/cylinder.py (its docstring has the
-method), with the same proofs, and of what it takes from core/distance/spheroids.py (_axis_of, axis_bb
-for a cylinder on a spheroid's axis).
+method), and of what it takes from core/distance/spheroids.py (_axis_of, axis_bb for a cylinder on a
+spheroid's axis).  Its proofs are the CPU's before the capsule certificate of side contacts (ub4) and the
+second-order certificate near the rim's incumbent: the same contract, more lunes on deep crossings.
 
 sigma(n) = n.e - h_E(n) - L |n.u| - r |P n| in E's principal frame (P = I - u u^T): the caps n = +-u, the
 side circle n.u = 0 (a 2-D point-ellipse problem, Eberly's secular equation; Schneider & Eberly 10.5.2)

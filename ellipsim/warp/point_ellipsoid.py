@@ -251,14 +251,6 @@ def _psi2(b0: wp.float64, b1: wp.float64, p0: wp.float64, p1: wp.float64, t: wp.
 
 
 @wp.func
-def _sign(x: wp.float64) -> wp.float64:
-    """1 for x >= 0, else -1."""
-    if x >= F64(0.0):
-        return F64(1.0)
-    return F64(-1.0)
-
-
-@wp.func
 def _pole_normal2(b0: wp.float64, b1: wp.float64, p0: wp.float64, p1: wp.float64, bmin: wp.float64):
     """foot2's normal at a root within POLE_RTOL bmin of the pole (point_ellipsoid._pole_normal2)."""
     d0 = b0 - bmin

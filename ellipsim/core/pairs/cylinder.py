@@ -345,12 +345,12 @@ def _sweep_bound(a2, e, u, L, r, n):
 @jit
 def _capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack):
     """ub4 (side contacts, n.u = 0): the capsule of radius t = min(r, L - |y.u|) (y the witness) on the
-    segment [-(L - t), L - t] u, moved by (r - t) towards the witness, lies in K and has K's support at n,
-    so max sigma <= its maximum, proven by capsule.py: ub1, ub2, else its enumeration (every critical
-    point of a piece whose certified bound exceeds the best by more than tol / 2, each within slack:
-    the capsule's maximum is below the best found + max(tol / 2, slack)).  Tight when that capsule's own maximum is at n:
-    the witness on its side, and the rim's curvature r - t not beyond sigma's along the side.  inf when
-    t <= 0."""
+    segment [-(L - t), L - t] u, moved by (r - t) to the side of K facing E (centre e - (r - t) n), lies
+    in K and has K's support there, so max sigma <= its maximum, proven by capsule.py: ub1, ub2, else
+    its enumeration (every critical point of a piece whose certified bound exceeds the best by more
+    than tol / 2, each within slack: the capsule's maximum is below the best found + tol / 2).  Tight
+    when that capsule's own maximum is at n: the witness on its side, and the rim's curvature r - t not
+    beyond sigma's along the side.  inf when t <= 0."""
     ya = _dot(_witness(a2, e, n, value), u)
     t = min(r, L - abs(ya))
     if not t > 0.0:
@@ -361,7 +361,7 @@ def _capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack):
     if ub - value <= tol:
         return ub
     best, _ = capsule.enumerate_max(a2, ec, u, lc, t, value, n, 0.5 * tol)
-    return min(ub, best + max(0.5 * tol, slack))
+    return min(ub, best + 0.5 * tol)  # tol / 2 >= 96 u S covers the critical points' slack (64 u S)
 
 
 @stage
@@ -548,7 +548,7 @@ def _cert_model(a2, q, su, r, n):
     bt = math.sqrt(0.5 * (a11 + a22) + math.sqrt(0.25 * (a11 - a22) ** 2 + a12 * a12))
     amax = max(a2[0], a2[1], a2[2])
     eg = 64.0 * U * (math.sqrt(norm2(q)) + math.sqrt(amax) + r)
-    eh = 256.0 * U * (amax * ih + r * iss)
+    eh = 256.0 * U * (amax * ih + r * iss) + 64.0 * U * r * iss2  # |P n| near 0: 1 - ut^2 and pt lose U / |P n|^2
     value = _dot(n, q) - h - r * ss
     g = (_dot(grad, t1), _dot(grad, t2))
     return (
@@ -618,14 +618,15 @@ def _quad_edge(g, Q, y, z):
 
 @stage
 def _cert_region(cm, n, r, v0, v1, v2, v3, room):
-    """Whether the rim function stays below V = G(n) + slack + room on the convex spherical
-    quadrilateral v0..v3, from the model cm of n (_cert_model; room > 0).  On the chart disc |y| <= rho
-    holding the quadrilateral's vertices, G(n + y) <= G(n) + g.y + y^T H y / 2 + M |y|^3 / 6 (Taylor; M
-    bounds G's third derivative along the plane: D3_NORM (b^3 / |B x|^2 + r / |P x|^2), |B x| >=
-    h_E(n) - b rho, |P x| >= |P n| - rho), and sigma = G(x) / |x| <= V when G(x) <= V + min(V, 0) |y|^2 / 2
-    (|x| = sqrt(1 + |y|^2) <= 1 + |y|^2 / 2).  So it suffices that the quadratic Phi(y) = g.y + y^T Q y / 2,
-    Q = H + (eh + M rho / 3 - min(V, 0)) I, stays below room - eg rho on the quadrilateral (its chart
-    image, convex): at its vertices, on its edges and at the stationary point of a definite Q inside."""
+    """Whether sigma stays below W = G(n) + slack + room (the caller's best + tol) on the convex
+    spherical quadrilateral v0..v3, from the model cm of the rim function at n (_cert_model; room > 0).
+    On the chart disc |y| <= rho holding its vertices, G(n + y) <= G(n) + g.y + y^T H y / 2 + M |y|^3 / 6
+    (Taylor; M bounds G's third derivative along the plane: D3_NORM (b^3 / |B x|^2 + r / |P x|^2),
+    |B x| >= h_E(n) - b rho, |P x| >= |P n| - rho), and sigma = G(x) / |x| <= W when G(x) <= W +
+    min(W, 0) |y|^2 / 2 (|x| = sqrt(1 + |y|^2) <= 1 + |y|^2 / 2; min(W - slack, 0) is used, lower).  So
+    it suffices that the quadratic Phi(y) = g.y + y^T Q y / 2, Q = H + (eh + M rho / 3 - min(W - slack,
+    0)) I, stays below room - eg (rho + 1) on the quadrilateral's chart image (convex): at its vertices,
+    on its edges and at the stationary point of a definite Q inside."""
     ok, t, g, H, value, h, ss, bt, eg, eh, _ = cm
     ok0, y0 = _chart(n, t, v0)
     ok1, y1 = _chart(n, t, v1)
@@ -649,7 +650,7 @@ def _cert_region(cm, n, r, v0, v1, v2, v3, room):
     V = value + room
     shift = eh + M * rho / 3.0 - min(V, 0.0)
     Q = (H[0] + shift, H[1], H[2] + shift)
-    d = room - eg * rho
+    d = room - eg * (rho + 1.0)  # eg: also the O(u) slivers of the quadrilateral the float chart misses
     if d <= 0.0:
         return False
     best = max(_quad_edge(g, Q, y0, y1), _quad_edge(g, Q, y1, y2), _quad_edge(g, Q, y2, y3), _quad_edge(g, Q, y3, y0))
@@ -670,8 +671,9 @@ def _cert_region(cm, n, r, v0, v1, v2, v3, room):
 @stage
 def _split_settles(a2, p, su, ca, cb, b, cm, n, theta, r, room, floor, slack):
     """Whether the lune between the meridians of ca and cb holds no sigma above floor = best + tol: on
-    the incumbent n's polar band [theta - b, theta + b] (theta n's polar angle from su) by n's second-order model (_cert_region, room = floor - G(n) - slack), above
-    and below it by the maximum of f_p (p = q - r c, sigma <= f_p) over the two pieces (_poly_bound)."""
+    the incumbent n's polar band [theta - b, theta + b] (theta n's polar angle from su) by n's
+    second-order model (_cert_region, room = floor - G(n) - slack), above and below it by the maximum
+    of f_p (p = q - r c, sigma <= f_p) over the two pieces (_poly_bound)."""
     ta, tb = max(theta - b, 0.0), min(theta + b, 0.5 * math.pi)
     va, vb = _turn(su, ca, ta), _turn(su, cb, ta)  # su itself at ta = 0
     wa, wb = (ca, cb) if tb == 0.5 * math.pi else (_turn(su, ca, tb), _turn(su, cb, tb))
@@ -687,10 +689,11 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
     """Branch and bound over the azimuth of the rim piece sg (the hemisphere sg n.u >= 0), where
     sigma(n) = f_q(n) - r |P n| with q = e - sg L u.  For any unit c perpendicular to u, r |P n| >= r n.c,
     so on a lune of azimuths sigma <= f_{q - r c}, whose maximum over the lune (the spherical triangle
-    of the pole and the lune's ends on the equator) is found exactly (_poly_bound).  c is the incumbent's azimuth on the lunes that contain it -- the bound there is
-    sigma's own maximum once the lune is narrow enough to hold no other local maximum of f_{q - r c}
-    -- and the lune's end nearer to it elsewhere (the bound equals sigma along that meridian and
-    exceeds it by r |P n| (1 - cos) of the azimuth from it).
+    of the pole and the lune's ends on the equator) is found exactly (_poly_bound).  c is the
+    incumbent's azimuth on the lunes that contain it -- the bound there is sigma's own maximum once
+    the lune is narrow enough to hold no other local maximum of f_{q - r c} -- and the lune's end
+    nearer to it elsewhere (the bound equals sigma along that meridian and exceeds it by r |P n|
+    (1 - cos) of the azimuth from it); lunes within the incumbent's reach go to _split_settles.
     Four quarter lunes from the incumbent's azimuth, each split in two depth first (no allocation: a
     node is its level and index) until its bound is within tol of the incumbent; a lune whose
     maximiser beats the incumbent starts a rim Newton run there.  Returns (best, bn, proven): proven

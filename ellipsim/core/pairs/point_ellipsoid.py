@@ -200,7 +200,8 @@ def _pole_normal2(b0, b1, p0, p1, bmin):
     """foot2's normal when the largest root lies within POLE_RTOL bmin of the pole -bmin, where t itself
     cannot resolve it: the root in delta = t + bmin of S = c0 / (delta + d0)^2 + c1 / (delta + d1)^2 = 1
     (c_i = b_i p_i^2, d_i = b_i - bmin exact by Sterbenz), by Newton on the concave increasing
-    S^(-1/2) - 1 (from the left, monotone), then n ~ p_i / (delta + d_i): on a (near-)circle it follows
+    S^(-1/2) - 1 (its first step from the right lands left of the root, or is cut to 1e-3 of delta;
+    from the left it rises monotonically), then n ~ p_i / (delta + d_i): on a (near-)circle it follows
     p, where Eberly's limit formula would put it on an axis whatever p is (2 |p| below the maximum).
     When S stays at most 1 as delta -> 0 (p zero on the pole's axis), Eberly's limit point (his q_k = 0
     case, GTCG 10.5.2)."""

@@ -27,9 +27,13 @@ Warm start (issue 13): a data attached in mode "narrowphase" owns a table (attac
 context.py, address and size in its registry row) of each ellipsoid pair's last two normals, in the
 world frame, and whether the last call made a contact.  The seed is the last normal extrapolated by
 the one before (1.0-1.3 Newton steps on the bench's settled scenes, 2.0 from the last normal, 3.3-3.9
-from the bisector).  A pair in contact at its last call goes straight to Newton from it; another is
-first tried against the separating axes and then against sigma along the seed (a direction whose
-sigma exceeds the margin proves the pair apart beyond it: distance.sigma_lower_bound).  The seed
+from the bisector).  Every pair is first tried against the centre line (certified_filter.
+centre_line_separates), before its slot is read: MuJoCo's bounding spheres leave ~650 such pairs a
+step on the 16-figure heap, and the slot is most often a cache miss.  Then a pair in contact at its
+last call goes straight to Newton from the seed; another is tried against the bisector of the exit
+normals and against sigma along the seed (a direction whose sigma exceeds the margin proves the pair
+apart beyond it: distance.sigma_lower_bound).  A pair proven apart by an axis keeps its slot as it
+was (only a seed, and whether the bisector is tried next time).  The seed
 never decides the proof (distance.pair_signed_distance_from), so warm results meet the cold
 contract; the table has epochs (context.py): when the data's time goes back or jumps ahead (a reset,
 mj_setState, a rollout's next initial state) the next trajectory starts cold, bit-identical to a
@@ -59,10 +63,9 @@ from numba.extending import intrinsic
 
 from ..core._jit import jit
 from ..core.distance.ellipsoid_pair import GLOBAL, contact_at, pair_signed_distance_from, sigma_lower_bound
-from ..core.exact.certified_filter import bounding_spheres_apart, separated_by_axes
+from ..core.exact.certified_filter import bisector_separates_pair, centre_line_separates, separated_by_axes
 from ..core.pairs import box, capsule, cylinder
 from ..core.tolerances import FILTER_CCD_FACTOR, FILTER_RELATIVE_SLACK
-from ..core.vec3 import norm2
 from .context import (
     APART,
     BOX,
@@ -410,9 +413,8 @@ def narrowphase(m, d, con, g1, g2, margin):
         Ag, Bg = A, B
         if grow > 0.0:
             Ag, Bg = _ellipsoid(xpos, xmat, size, t1, g1, grow), _ellipsoid(xpos, xmat, size, t2, g2, grow)
-        ca, cb = Ag[0], Bg[0]
-        if bounding_spheres_apart(Ag[2], Bg[2], norm2((cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]))):
-            atomic_add(counters + 8 * SEPARATED, 1)  # most separated pairs: before the table is read
+        if centre_line_separates(Ag, Bg):  # most separated pairs (MuJoCo's bounding spheres overlap):
+            atomic_add(counters + 8 * SEPARATED, 1)  # before the table is read, its slot a likely cache miss
             return 0
         # the pair's entry in this data's warm-start table (context.WARM_SLOT_WORDS): its normal of
         # the last call, and whether that call made a contact
@@ -435,7 +437,7 @@ def narrowphase(m, d, con, g1, g2, margin):
                 seed = (2.0 * last[0] - before[0], 2.0 * last[1] - before[1], 2.0 * last[2] - before[2])
                 touching = (table[k, 0] & 1) == 1
         if not touching:  # in contact at the last call: most likely still, go straight to Newton
-            if separated_by_axes(Ag, Bg):
+            if bisector_separates_pair(Ag, Bg):
                 atomic_add(counters + 8 * SEPARATED, 1)
                 return 0
             if k >= 0 and sigma_lower_bound(A, B, seed) >= margin:  # the last normal proves it apart

@@ -220,12 +220,11 @@ def certify_pair(A, B):
     return pencil_certificates(Ra, ra, Rb, ib, e, me, ee, qb)
 
 
-@jit
-def separated_by_axes(A, B):
-    """True when a separating plane normal to one of three cheap axes is certified: the bounding
-    spheres, the centre line, the bisector of the exit normals.  The contact filter's test: it
-    proves ~95% of the separated pairs a MuJoCo broad phase produces for ~40 ns, where the full
-    certify_pair would spend ~100 ns more on every touching pair it must keep anyway."""
+@stage
+def centre_line_separates(A, B):
+    """The first two of separated_by_axes's axes: the bounding spheres, then the centre line.  The
+    narrow phase's first test (~10 ns): it settles most separated pairs before the warm-start table
+    is read."""
     (ca, Ra, ra), (cb, Rb, rb) = A, B
     d = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
     dd = norm2(d)
@@ -236,10 +235,27 @@ def separated_by_axes(A, B):
     if not _in_float_range(ra, rb):
         return False
     rsum = max(ra[0], ra[1], ra[2]) + max(rb[0], rb[1], rb[2])
-    za, zb = rotate_t(Ra, d), rotate_t(Rb, d)
-    if axis_separates(dd, dd, dd, za, ra, zb, rb, rsum):
-        return True
-    return bisector_separates(d, Ra, ra, za, Rb, rb, zb, rsum)
+    return axis_separates(dd, dd, dd, rotate_t(Ra, d), ra, rotate_t(Rb, d), rb, rsum)
+
+
+@stage
+def bisector_separates_pair(A, B):
+    """The last of separated_by_axes's axes, the bisector of the exit normals (bisector_separates)."""
+    (ca, Ra, ra), (cb, Rb, rb) = A, B
+    d = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
+    if norm2(d) == 0.0 or not _in_float_range(ra, rb):
+        return False
+    rsum = max(ra[0], ra[1], ra[2]) + max(rb[0], rb[1], rb[2])
+    return bisector_separates(d, Ra, ra, rotate_t(Ra, d), Rb, rb, rotate_t(Rb, d), rsum)
+
+
+@jit
+def separated_by_axes(A, B):
+    """True when a separating plane normal to one of three cheap axes is certified: the bounding
+    spheres, the centre line, the bisector of the exit normals.  The contact filter's test: it
+    proves ~95% of the separated pairs a MuJoCo broad phase produces for ~40 ns, where the full
+    certify_pair would spend ~100 ns more on every touching pair it must keep anyway."""
+    return centre_line_separates(A, B) or bisector_separates_pair(A, B)
 
 
 @jit

@@ -446,6 +446,10 @@ def _arc_max(a2, p, v1, v2, span, slack, floor):
 #: 0.7, 1.4 and 2.5 on the pair benchmark's penetrating and deep poses; the certificate is checked
 #: whatever the multiple).
 SPLIT_REACH = 1.4
+#: Band half-widths _split_settles tries, halving from the reach, before it gives the lune back: a band
+#: as wide as the reach often leaves the model's concavity to the cubic remainder (the certificate
+#: failed 7.2 times per uncertified penetrating pair at one try; penetrating 9% faster with three).
+SPLIT_TRIES = 3
 #: |D^3 |z|[w, w, w]| <= 3 |a| b^2 / |z|^2 with a^2 + b^2 = |w|^2, at most 2 / sqrt(3) |w|^3 / |z|^2.
 D3_NORM = 1.1548
 
@@ -673,11 +677,16 @@ def _split_settles(a2, p, su, ca, cb, b, cm, n, theta, r, room, floor, slack):
     """Whether the lune between the meridians of ca and cb holds no sigma above floor = best + tol: on
     the incumbent n's polar band [theta - b, theta + b] (theta n's polar angle from su) by n's
     second-order model (_cert_region, room = floor - G(n) - slack), above and below it by the maximum
-    of f_p (p = q - r c, sigma <= f_p) over the two pieces (_poly_bound)."""
-    ta, tb = max(theta - b, 0.0), min(theta + b, 0.5 * math.pi)
-    va, vb = _turn(su, ca, ta), _turn(su, cb, ta)  # su itself at ta = 0
-    wa, wb = (ca, cb) if tb == 0.5 * math.pi else (_turn(su, ca, tb), _turn(su, cb, tb))
-    if not _cert_region(cm, n, r, va, wa, wb, vb, room):
+    of f_p (p = q - r c, sigma <= f_p) over the two pieces (_poly_bound).  The band starts at the
+    half-width b and is halved while the certificate fails on it (SPLIT_TRIES widths)."""
+    for _ in range(SPLIT_TRIES):  # a band too wide for the model's concavity: halve it
+        ta, tb = max(theta - b, 0.0), min(theta + b, 0.5 * math.pi)
+        va, vb = _turn(su, ca, ta), _turn(su, cb, ta)  # su itself at ta = 0
+        wa, wb = (ca, cb) if tb == 0.5 * math.pi else (_turn(su, ca, tb), _turn(su, cb, tb))
+        if _cert_region(cm, n, r, va, wa, wb, vb, room):
+            break
+        b *= 0.5
+    else:
         return False
     if ta > 0.0 and _poly_bound(a2, p, su, va, vb, su, slack, floor)[0] > floor:
         return False

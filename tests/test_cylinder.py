@@ -213,6 +213,59 @@ def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
     assert passed > 20
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_split_settles_never_passes_a_lune_above_its_floor(seed):
+    """cylinder._split_settles, as _rim_bb calls it on lunes about a rim maximum found by Newton: where it
+    says the rim function G(n) = n.q - h_E(n) - r |n x u| stays below floor on the lune (pole to equator,
+    between two meridians), 4000 points filling the lune agree; it never says so for a floor below G at
+    the maximum (the lune holds it); and it does say so for some lunes at the bench's tolerance."""
+    rng = np.random.default_rng(seed)
+    passed = 0
+    for _ in range(80):
+        a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
+        u = _unit(rng.normal(size=3))
+        L, r = rng.uniform(0.01, 0.3), rng.uniform(0.01, 0.15)
+        e = rng.normal(size=3) * 0.1
+        q = e - L * u
+        m, _, code = cylinder._rim_newton(a2, tuple(e), tuple(u), L, r, 1.0, tuple(_unit(u + rng.normal(size=3))))
+        if code != cylinder.CONVERGED:
+            continue
+        n0 = np.asarray(m)
+        su = tuple(u)
+        cm = cylinder._cert_model(a2, tuple(q), su, r, tuple(n0))
+        w1, w2 = (np.asarray(w) for w in cylinder.tangent_basis(su))
+        phi = np.arctan2(n0 @ w2, n0 @ w1)
+        theta = np.arctan2(np.linalg.norm(np.cross(n0, u)), n0 @ u)
+        scale = np.linalg.norm(q) + np.sqrt(max(a2)) + r
+        slack = 64 * 2.0**-53 * scale
+        reach = cylinder.SPLIT_REACH * cm[10]
+        if not reach > 0.0:
+            continue
+        for width in (0.3, 0.05, 0.01) * np.asarray(reach / max(cm[6], 1e-9)):
+            a = phi - rng.uniform(0.0, 1.0) * width  # the lune [a, a + width] holds the maximum's azimuth
+            ca, cb = (tuple(np.cos(t) * w1 + np.sin(t) * w2) for t in (a, a + width))
+            c = np.cos(phi) * w1 + np.sin(phi) * w2
+            p = tuple(q - r * c)
+            for tol in (1e-13, 1e-6, -1e-9):
+                floor = cm[4] + tol * scale
+                room = floor - cm[4] - slack
+                if room <= 0.0:
+                    assert tol < 0  # only the floor below the maximum leaves no room: never passes
+                    continue
+                if not cylinder._split_settles(a2, p, su, ca, cb, reach, cm, tuple(n0), theta, r, room, floor, slack):
+                    continue
+                assert tol > 0
+                passed += tol == 1e-13
+                t = rng.uniform(a, a + width, 4000)
+                th = np.arccos(rng.uniform(0.0, 1.0, 4000))  # polar angle from u, pole to equator
+                az = np.cos(t)[:, None] * w1 + np.sin(t)[:, None] * w2
+                n = np.cos(th)[:, None] * u + np.sin(th)[:, None] * az
+                n = np.vstack([n, n0])
+                G = n @ q - np.sqrt((n * n) @ np.asarray(a2)) - r * np.linalg.norm(np.cross(n, u), axis=1)
+                assert G.max() <= floor + slack
+    assert passed > 10
+
+
 def test_kernel_hand_picked_cases():
     I = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     E = ((0.0, 0.0, 0.0), I, (0.3, 0.2, 0.1))

@@ -181,6 +181,19 @@ def test_polygon_bound_is_the_maximum_over_the_polygon(seed):
         assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
 
 
+def _random_rim(rng):
+    """A random ellipsoid (squared semi-axes a2, its frame) and the rim sg = 1 of a random cylinder (unit
+    axis u, radius r, rim centre q = e - L u), and a rim Newton run from a random start n0: (a2, u, r, q,
+    n0, (maximiser, code))."""
+    a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
+    u = _unit(rng.normal(size=3))
+    L, r = rng.uniform(0.01, 0.3), rng.uniform(0.01, 0.15)
+    e = rng.normal(size=3) * 0.1
+    n0 = _unit(u + rng.normal(size=3))
+    m, _, code = cylinder._rim_newton(a2, tuple(e), tuple(u), L, r, 1.0, tuple(n0))
+    return a2, u, r, e - L * u, n0, (m, code)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
     """cylinder._cert_region: where it says the rim function G(n) = n.q - h_E(n) - r |n x u| stays below
@@ -189,17 +202,10 @@ def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
     rng = np.random.default_rng(seed)
     passed = 0
     for _ in range(60):
-        a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
-        u = _unit(rng.normal(size=3))
-        L, r = rng.uniform(0.01, 0.3), rng.uniform(0.01, 0.15)
-        e = rng.normal(size=3) * 0.1
-        sg = 1.0
-        q = e - sg * L * u
-        n0 = _unit(u + rng.normal(size=3))
-        m, _, code = cylinder._rim_newton(a2, tuple(e), tuple(u), L, r, sg, tuple(n0))
+        a2, u, r, q, n0, (m, code) = _random_rim(rng)
         if code == cylinder.CONVERGED and rng.random() < 0.8:
             n0 = np.asarray(m)
-        cm = cylinder._cert_model(a2, tuple(q), tuple(sg * u), r, tuple(n0))
+        cm = cylinder._cert_model(a2, tuple(q), tuple(u), r, tuple(n0))
         scale = np.linalg.norm(q) + np.sqrt(max(a2)) + r
         slack = 64 * 2.0**-53 * scale
         for size in (1e-3, 1e-2, 0.05, 0.2):
@@ -222,12 +228,7 @@ def test_split_settles_never_passes_a_lune_above_its_floor(seed):
     rng = np.random.default_rng(seed)
     passed = 0
     for _ in range(80):
-        a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
-        u = _unit(rng.normal(size=3))
-        L, r = rng.uniform(0.01, 0.3), rng.uniform(0.01, 0.15)
-        e = rng.normal(size=3) * 0.1
-        q = e - L * u
-        m, _, code = cylinder._rim_newton(a2, tuple(e), tuple(u), L, r, 1.0, tuple(_unit(u + rng.normal(size=3))))
+        a2, u, r, q, _, (m, code) = _random_rim(rng)
         if code != cylinder.CONVERGED:
             continue
         n0 = np.asarray(m)

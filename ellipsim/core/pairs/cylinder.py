@@ -740,14 +740,12 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
             room = best + tol - cm[4] - slack
             reach = SPLIT_REACH * cm[10]
             far = max(off, width - off) if off <= width else min(off, 2.0 * math.pi - off + width)
-            if reach > 0.0 and far * cm[6] <= reach and room > 0.0:
-                cb = _turn(w1, w2, a + width)
-                if _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
-                    bound, m = -math.inf, bn
-                else:
-                    bound, m = _poly_bound(a2, p, su, ca, _turn(ca, cq, width), su, slack, best + tol)
+            cb = _turn(ca, cq, width)  # the lune's other end
+            near = reach > 0.0 and far * cm[6] <= reach and room > 0.0  # within the incumbent's reach
+            if near and _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
+                bound, m = -math.inf, bn
             else:
-                bound, m = _poly_bound(a2, p, su, ca, _turn(ca, cq, width), su, slack, best + tol)
+                bound, m = _poly_bound(a2, p, su, ca, cb, su, slack, best + tol)
             if bound > best + tol:
                 v = sigma_cylinder(a2, e, u, L, r, m)
                 if v > best and sg * _dot(m, u) > 0.0 and perp(m, u) > 0.0:

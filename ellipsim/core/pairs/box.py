@@ -31,11 +31,8 @@ When neither closes (deep crossings), a branch and bound over the 26 pieces (enu
 whose extended smooth function's certified maximum does not beat the incumbent is skipped, one whose
 maximiser lies inside it is taken whole, the others have every critical point evaluated: a complete
 case analysis, status ENUMERATED.  Before that, a negative incumbent lets whole closed octants (a vertex
-piece with its three edges and corners) and edge arcs be skipped by tangent planes: for any point x of
-E, h_E(n) >= n.x, so f_q(n) <= (q - x).n, and a linear g.n below floor < 0 at every corner of a cone is
-below floor on all of it (g.sum l_k c_k <= floor sum l_k |c_k| <= floor |sum l_k c_k|): three dot
-products a node, the cone split at its flat midpoints when they do not close (octant_below, arc_below;
-x the support point at the node's centre, or at the incumbent's normal when the node holds it).
+piece with its three edges and corners) and edge arcs be skipped by tangent planes of h_E
+(tangent_cones.py): three dot products a node.
 
 Ported from the validated pair-type prototype (10 000 poses: never below a 20 000-direction reference
 by more than 1e-12 of the smaller shortest half-size; every maximum certified or enumerated).
@@ -60,6 +57,7 @@ from .point_ellipsoid import (
     secular_roots,
     support,
 )
+from .tangent_cones import arc_below, cone_below, tangent_point
 
 #: How box_ellipsoid proved its maximum (as capsule.py): CERTIFIED or ENUMERATED, both proofs.
 CERTIFIED, ENUMERATED = 0, 1
@@ -67,9 +65,8 @@ CERTIFIED, ENUMERATED = 0, 1
 ACTIVE = 0
 #: active-set switches of the local solve before it hands over to the certificates / enumeration
 MAX_SWITCHES = 8
-#: levels of halvings of an edge arc before enumerate_max solves the piece instead (an octant gets 4
-#: levels of quarters, octant_below)
-ARC_DEPTH = 5
+#: the tangent-plane tests' disc axis: none (r = 0, a box has no disc part)
+NO_AXIS = (0.0, 0.0, 1.0)
 
 
 @stage
@@ -292,131 +289,6 @@ def _vertex_q(e, V, r, s0, s1, s2):
 
 
 @stage
-def _corner_below(g, c, floor):
-    """g.c / |c| <= floor (< 0), without a square root: the corner c of a cone need not be unit."""
-    d = _dot(g, c)
-    return d <= 0.0 and d * d >= floor * floor * _dot(c, c)
-
-
-@stage
-def _tangent_below(q, x, a, b, c, floor):
-    """(q - x).n <= floor on the cone of the corners a, b, c (module docstring)."""
-    g = (q[0] - x[0], q[1] - x[1], q[2] - x[2])
-    return _corner_below(g, a, floor) and _corner_below(g, b, floor) and _corner_below(g, c, floor)
-
-
-@stage
-def _holds(n, a, b, c):
-    """n in the cone of a, b, c (counter-clockwise), to a margin that lets a corner or an edge count:
-    only a choice of tangent point hangs on it."""
-    eps = -1e-9 * (_dot(a, a) + _dot(b, b) + _dot(c, c))
-    return _dot(cross3(a, b), n) >= eps and _dot(cross3(b, c), n) >= eps and _dot(cross3(c, a), n) >= eps
-
-
-@stage
-def _node_below(a2, q, sb, bn, a, b, c, floor):
-    """f_q <= floor on the cone a, b, c: the tangent at the incumbent bn when the cone holds it, else (or
-    then) the tangent at the cone's centre."""
-    if _holds(bn, a, b, c) and _tangent_below(q, sb, a, b, c, floor):
-        return True
-    _, s = support(a2, (a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2]))
-    return _tangent_below(q, s, a, b, c, floor)
-
-
-@stage
-def _twice(a):
-    return (2.0 * a[0], 2.0 * a[1], 2.0 * a[2])
-
-
-@stage
-def _add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-@stage
-def _quarter(a, b, c, k):
-    """Child k of the cone a, b, c split at its flat midpoints (corners doubled: the test is scale-free;
-    children share their computed corners, so they tile the parent)."""
-    if k == 0:
-        return _twice(a), _add(a, b), _add(c, a)
-    if k == 1:
-        return _add(a, b), _twice(b), _add(b, c)
-    if k == 2:
-        return _add(c, a), _add(b, c), _twice(c)
-    return _add(a, b), _add(b, c), _add(c, a)
-
-
-@stage
-def octant_below(a2, q, sb, bn, a, b, c, floor):
-    """True when f_q <= floor on the whole closed cone of a, b, c (an octant: a vertex piece, its edges
-    and corners), proven by tangent planes on up to 4 levels of quarters; False when floor
-    >= 0 or a leaf does not close.  sb: E's support point at bn."""
-    if not floor < 0.0:
-        return False
-    if _dot(cross3(a, b), c) < 0.0:
-        b, c = c, b
-    if _node_below(a2, q, sb, bn, a, b, c, floor):
-        return True
-    for k1 in range(4):  # the 4 levels written out (numba: no recursion in a stage)
-        a1, b1, c1 = _quarter(a, b, c, k1)
-        if _node_below(a2, q, sb, bn, a1, b1, c1, floor):
-            continue
-        for k2 in range(4):
-            a2_, b2, c2 = _quarter(a1, b1, c1, k2)
-            if _node_below(a2, q, sb, bn, a2_, b2, c2, floor):
-                continue
-            for k3 in range(4):
-                a3, b3, c3 = _quarter(a2_, b2, c2, k3)
-                if _node_below(a2, q, sb, bn, a3, b3, c3, floor):
-                    continue
-                for k4 in range(4):
-                    a4, b4, c4 = _quarter(a3, b3, c3, k4)
-                    if not _node_below(a2, q, sb, bn, a4, b4, c4, floor):
-                        return False
-    return True
-
-
-@stage
-def _arc_node_below(a2, q, sb, bn, a, b, floor):
-    """f_q <= floor on the arc of the (non-unit) corners a, b: as _node_below, a cone of two corners."""
-    m = cross3(a, b)
-    mm = _dot(m, m)
-    mn = _dot(m, bn)
-    if mn * mn <= 1e-18 * mm and _dot(cross3(a, bn), m) >= -1e-9 * mm and _dot(cross3(bn, b), m) >= -1e-9 * mm:
-        g = (q[0] - sb[0], q[1] - sb[1], q[2] - sb[2])
-        if _corner_below(g, a, floor) and _corner_below(g, b, floor):
-            return True
-    _, s = support(a2, _add(a, b))
-    g = (q[0] - s[0], q[1] - s[1], q[2] - s[2])
-    return _corner_below(g, a, floor) and _corner_below(g, b, floor)
-
-
-@stage
-def arc_below(a2, q, sb, bn, a, b, floor):
-    """True when f_q <= floor on the whole arc from a to b (an edge piece with its ends), proven by
-    tangent planes on dyadic pieces of the chord a..b down to 2^-ARC_DEPTH, depth first (t0 the piece's
-    start, w its width, in units of the finest piece); False when floor >= 0 or a finest piece does
-    not close."""
-    if not floor < 0.0:
-        return False
-    full = 1 << ARC_DEPTH
-    t0, w = 0, full
-    while t0 < full:
-        u0, u1 = t0 / full, (t0 + w) / full
-        pa = ((1.0 - u0) * a[0] + u0 * b[0], (1.0 - u0) * a[1] + u0 * b[1], (1.0 - u0) * a[2] + u0 * b[2])
-        pb = ((1.0 - u1) * a[0] + u1 * b[0], (1.0 - u1) * a[1] + u1 * b[1], (1.0 - u1) * a[2] + u1 * b[2])
-        if _arc_node_below(a2, q, sb, bn, pa, pb, floor):
-            t0 += w
-            while w < full and t0 % (2 * w) == 0:
-                w *= 2
-        elif w > 1:
-            w //= 2
-        else:
-            return False
-    return True
-
-
-@stage
 def _below_slack(q, a2, best):
     """The rounding allowance of the tangent tests: the support point and the node corners are off by
     ulps, sigma by that times its Lipschitz bound |q| + max a."""
@@ -446,7 +318,7 @@ def enumerate_max(a2, e, V, r, best, bn, tol):
         for sg in (1.0, -1.0):
             v = face_normal(V, i)
             best, bn = _consider(a2, e, V, r, (sg * v[0], sg * v[1], sg * v[2]), best, bn)
-    _, sb = support(a2, bn)
+    xb = tangent_point(a2, NO_AXIS, 0.0, bn)
     f = (face_normal(V, 0), face_normal(V, 1), face_normal(V, 2))
     done = 0
     k = 0
@@ -457,7 +329,7 @@ def enumerate_max(a2, e, V, r, best, bn, tol):
                 a = (s0 * f[0][0], s0 * f[0][1], s0 * f[0][2])
                 b = (s1 * f[1][0], s1 * f[1][1], s1 * f[1][2])
                 c = (s2 * f[2][0], s2 * f[2][1], s2 * f[2][2])
-                if octant_below(a2, q, sb, bn, a, b, c, best + tol - _below_slack(q, a2, best)):
+                if cone_below(a2, q, NO_AXIS, 0.0, bn, xb, a, b, c, best + tol - _below_slack(q, a2, best)):
                     done |= 1 << k
                 k += 1
     for i in range(3):
@@ -478,7 +350,7 @@ def enumerate_max(a2, e, V, r, best, bn, tol):
                 )
                 fa = (sj * f[j][0], sj * f[j][1], sj * f[j][2])
                 fb = (sk * f[k][0], sk * f[k][1], sk * f[k][2])
-                if arc_below(a2, q, sb, bn, fa, fb, best + tol - _below_slack(q, a2, best)):
+                if arc_below(a2, q, NO_AXIS, 0.0, bn, xb, fa, fb, best + tol - _below_slack(q, a2, best)):
                     continue
                 p1, p2 = _dot(q, b1), _dot(q, b2)
                 p = (c * p1 + s * p2, -s * p1 + c * p2, 0.0)

@@ -35,7 +35,8 @@ curvature along the rim: ~20 bisections for 1e-12.  So lunes near the incumbent 
 polar band instead (_split_settles): the band by a second-order certificate, sigma = G(x) / |x| for
 the concave 1-homogeneous G on the gnomonic chart at the incumbent, Taylor with a proven third-
 derivative bound (_cert_model, _cert_region), the rest of the lune by f_{q - r c} over spherical
-polygons (_poly_bound).  A rim whose branch and bound runs out of budget leaves the pair UNPROVEN.
+polygons (_poly_bound).  Before either, a lune that tangent planes of h_E + r |P n| close
+(tangent_cones.py) is skipped.  A rim whose branch and bound runs out of budget leaves the pair UNPROVEN.
 
 Ported from the pair-type prototype (10 000 poses: never below a 20 000-direction reference by more
 than 1e-12 of the smaller shortest half-size), with the rim's branch and bound in place of its
@@ -63,6 +64,7 @@ from .point_ellipsoid import (
     secular_roots,
     support,
 )
+from .tangent_cones import cone_below, tangent_point
 
 #: How cylinder_ellipsoid ended: CERTIFIED (an upper bound within PAIR_CERT_REL of the smaller
 #: shortest half-size of the value), ENUMERATED (every piece bounded or solved) or UNPROVEN.
@@ -703,7 +705,8 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
     the lune is narrow enough to hold no other local maximum of f_{q - r c} -- and the lune's end
     nearer to it elsewhere (the bound equals sigma along that meridian and exceeds it by r |P n|
     (1 - cos) of the azimuth from it); lunes within the incumbent's reach go to _split_settles.
-    Four quarter lunes from the incumbent's azimuth, each split in two depth first (no allocation: a
+    A lune whose tangent planes close it (cone_below: the cone of the pole and its two ends; three dot
+    products a node) skips all that.  Four quarter lunes from the incumbent's azimuth, each split in two depth first (no allocation: a
     node is its level and index) until its bound is within tol of the incumbent; a lune whose
     maximiser beats the incumbent starts a rim Newton run there.  Returns (best, bn, proven): proven
     False when RIM_BB_NODES lunes or RIM_BB_LEVELS levels did not settle it."""
@@ -717,6 +720,7 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
         phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
     cm = _cert_model(a2, q, su, r, bn)
     theta = math.atan2(perp(bn, u), _dot(bn, su))
+    xb = tangent_point(a2, u, r, bn)
     start = phi - 0.5 * quarter
     nodes = 0
     for k in range(4):
@@ -742,7 +746,9 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
             far = max(off, width - off) if off <= width else min(off, 2.0 * math.pi - off + width)
             cb = _turn(ca, cq, width)  # the lune's other end
             near = reach > 0.0 and far * cm[6] <= reach and room > 0.0  # within the incumbent's reach
-            if near and _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
+            if cone_below(a2, q, u, r, bn, xb, su, ca, cb, best + tol - slack):
+                bound, m = -math.inf, bn  # closed by tangent planes (tangent_cones.py)
+            elif near and _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
                 bound, m = -math.inf, bn
             else:
                 bound, m = _poly_bound(a2, p, su, ca, cb, su, slack, best + tol)
@@ -760,6 +766,7 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
                         phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
                     cm = _cert_model(a2, q, su, r, bn)
                     theta = math.atan2(perp(bn, u), _dot(bn, su))
+                    xb = tangent_point(a2, u, r, bn)
             if bound > best + tol:
                 if nodes >= RIM_BB_NODES or lev >= RIM_BB_LEVELS:
                     return best, bn, False

@@ -64,7 +64,7 @@ from .point_ellipsoid import (
     secular_roots,
     support,
 )
-from .tangent_cones import cone_below, tangent_point
+from .tangent_cones import cone_below
 
 #: How cylinder_ellipsoid ended: CERTIFIED (an upper bound within PAIR_CERT_REL of the smaller
 #: shortest half-size of the value), ENUMERATED (every piece bounded or solved) or UNPROVEN.
@@ -720,7 +720,6 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
         phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
     cm = _cert_model(a2, q, su, r, bn)
     theta = math.atan2(perp(bn, u), _dot(bn, su))
-    xb = tangent_point(a2, u, r, bn)
     start = phi - 0.5 * quarter
     nodes = 0
     for k in range(4):
@@ -746,7 +745,7 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
             far = max(off, width - off) if off <= width else min(off, 2.0 * math.pi - off + width)
             cb = _turn(ca, cq, width)  # the lune's other end
             near = reach > 0.0 and far * cm[6] <= reach and room > 0.0  # within the incumbent's reach
-            if cone_below(a2, q, u, r, bn, xb, su, ca, cb, best + tol - slack):
+            if cone_below(a2, q, u, r, bn, bn, su, ca, cb, best + tol - slack):  # (r > 0: bn unused)
                 bound, m = -math.inf, bn  # closed by tangent planes (tangent_cones.py)
             elif near and _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack):
                 bound, m = -math.inf, bn
@@ -766,7 +765,6 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack):
                         phi = math.atan2(_dot(bn, w2), _dot(bn, w1))
                     cm = _cert_model(a2, q, su, r, bn)
                     theta = math.atan2(perp(bn, u), _dot(bn, su))
-                    xb = tangent_point(a2, u, r, bn)
             if bound > best + tol:
                 if nodes >= RIM_BB_NODES or lev >= RIM_BB_LEVELS:
                     return best, bn, False

@@ -29,6 +29,12 @@ kind = "hold"
 """
 
 
+def _ctrl_c_default():
+    """SIGINT back to its default before exec, so the child installs Python's KeyboardInterrupt handler
+    even when pytest itself runs as a background job (which ignores SIGINT)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def cli(*args, env=None):
     return subprocess.run([sys.executable, "-m", "ellipsim", *args], capture_output=True, text=True, env=env)
 
@@ -478,6 +484,7 @@ def test_ctrl_c_stops_the_workers_keeps_the_rows_and_leaves_no_partial_recording
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_ctrl_c_default,  # a shell's background job ignores SIGINT, and the child would inherit it
     )
     deadline = time.monotonic() + 120
     while not list(out.glob(".*.rrd.*.part")) and time.monotonic() < deadline:

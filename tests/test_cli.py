@@ -25,7 +25,7 @@ from ellipsim.app.cli import scenarios as scenarios_command
 from ellipsim.core.samples import generic_pairs, near_contact_pairs
 
 
-def _ctrl_c_default():
+def ctrl_c_default():
     """SIGINT back to its default before exec, so the child installs Python's KeyboardInterrupt handler
     even when pytest itself runs as a background job (which ignores SIGINT)."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
@@ -273,7 +273,7 @@ def test_interrupted_recording_keeps_its_frames(tmp_path, sig, status, word):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        preexec_fn=_ctrl_c_default,  # a shell's background job ignores SIGINT, and the child would inherit it
+        preexec_fn=ctrl_c_default,  # a shell's background job ignores SIGINT, and the child would inherit it
     )
     try:
         line = proc.stderr.readline()  # the progress bar's first line: stepping has begun

@@ -10,6 +10,7 @@ import time
 
 import pytest
 from rerun.chunk import RrdReader
+from test_cli import ctrl_c_default
 
 from ellipsim.app import scenario, simulate
 from ellipsim.app import sweep as sw
@@ -27,12 +28,6 @@ ellipsoids = 4
 [control]
 kind = "hold"
 """
-
-
-def _ctrl_c_default():
-    """SIGINT back to its default before exec, so the child installs Python's KeyboardInterrupt handler
-    even when pytest itself runs as a background job (which ignores SIGINT)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def cli(*args, env=None):
@@ -484,7 +479,7 @@ def test_ctrl_c_stops_the_workers_keeps_the_rows_and_leaves_no_partial_recording
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        preexec_fn=_ctrl_c_default,  # a shell's background job ignores SIGINT, and the child would inherit it
+        preexec_fn=ctrl_c_default,  # a shell's background job ignores SIGINT, and the child would inherit it
     )
     deadline = time.monotonic() + 120
     while not list(out.glob(".*.rrd.*.part")) and time.monotonic() < deadline:

@@ -174,11 +174,39 @@ def test_polygon_bound_is_the_maximum_over_the_polygon(seed):
         V = _quad(rng, _unit(rng.normal(size=3)), rng.choice([0.05, 0.3, 1.0]))
         if rng.random() < 0.3:
             V[3] = V[0]  # a triangle
-        bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf)
+        bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf)
         dense = _f(a2, p, _in_quad(rng, V, 4000)).max()
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
         assert bound >= dense - 1e-13 * scale
         assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_polygon_bound_stopping_early_still_answers_the_question(seed):
+    """cylinder._poly_bound as the rim's branch and bound calls it (floor = stop = the level it asks
+    about; it may stop at the first edge value above that level): against 4000 points filling the
+    polygon, it never answers "below the level" when a point is above it, and an answer above the level
+    is attained by the point it returns; with the level just below the maximum, the early stop is taken
+    on some polygons (a value below the exact maximum comes back)."""
+    rng = np.random.default_rng(seed)
+    stopped = 0
+    for _ in range(40):
+        a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
+        p = rng.normal(size=3) * rng.choice([0.05, 0.3])
+        V = _quad(rng, _unit(rng.normal(size=3)), rng.choice([0.05, 0.3, 1.0]))
+        exact, _ = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf)
+        dense = _f(a2, p, _in_quad(rng, V, 4000)).max()
+        scale = np.linalg.norm(p) + np.sqrt(max(a2))
+        for level in (dense - 0.3 * scale, dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale):
+            bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, level, level)
+            if dense > level:
+                assert bound > level
+            if bound > level:
+                assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
+            else:
+                assert bound >= dense - 1e-13 * scale
+            stopped += bound < exact - 1e-9 * scale
+    assert stopped > 0
 
 
 def _random_rim(rng):

@@ -413,17 +413,19 @@ def secular_roots(a2, q, largest=True):
     t = p + 1e-300
     for i in range(3):
         t = max(t, -a2[i] + abs(c[i]))
-    S, _, _ = _S3(a2, c, t)
-    if not largest:
-        pass
-    elif S > 1.0:
-        r1 = _root(a2, c, t, p, math.inf, scale)
-    elif S == 1.0 or t > p + 1e-300:
-        r1 = t
+    if largest:
+        S, _, _ = _S3(a2, c, t)
+        if S > 1.0:
+            r1 = _root(a2, c, t, p, math.inf, scale)
+        elif S == 1.0 or t > p + 1e-300:
+            r1 = t
     # between the two rightmost poles: psi concave, 0 or 2 roots around its maximum
     pl, pr = -a2[i1], -a2[i2]
     cl, cr = abs(c[i1]), abs(c[i2])
     # S >= cl^2/(t-pl)^2 + cr^2/(pr-t)^2 >= (cl^(2/3) + cr^(2/3))^3 / (pr-pl)^2: no root if >= 1
+    # (cl + cr)^2 <= g^3 (the 2/3-power mean): far enough beyond, g^3 is not computed
+    if (cl + cr) * (cl + cr) >= (pr - pl) * (pr - pl) * (1.0 + 1e-9):
+        return r1, ra, rb
     g = cl ** (2.0 / 3.0) + cr ** (2.0 / 3.0)
     if pr > pl and g * g * g < (pr - pl) * (pr - pl) * (1.0 + 1e-12):
         eps = 1e-15 * scale

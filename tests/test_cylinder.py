@@ -209,6 +209,39 @@ def test_polygon_bound_stopping_early_still_answers_the_question(seed):
     assert stopped > 0
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_arc_bound_asked_about_a_level_never_answers_below_wrongly(seed):
+    """cylinder._edge_max as the polygon bound calls it, floor = stop = a level near the arc's maximum
+    (it may answer from the circle's weak-duality bound, the tangent plane at the arc's middle or an end
+    above the level): against 2000 points along the arc, never "below the level" when a point is above
+    it, an answer above the level attained by the point it returns, and with no level (floor -inf, stop
+    inf) the maximum itself, however long the arc (up to a meridian's quarter turn and beyond)."""
+    rng = np.random.default_rng(seed)
+    below = 0
+    for _ in range(60):
+        a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
+        p = rng.normal(size=3) * rng.choice([0.05, 0.3])
+        a = _unit(rng.normal(size=3))
+        b = _unit(a + rng.choice([0.05, 0.5, 1.5]) * _unit(rng.normal(size=3)))
+        t = np.linspace(0.0, 1.0, 2000)[:, None]
+        pts = _unit((1.0 - t) * a + t * b)
+        dense = _f(a2, p, pts).max()
+        scale = np.linalg.norm(p) + np.sqrt(max(a2))
+        exact, m = cylinder._edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, -np.inf, np.inf)
+        assert exact >= dense - 1e-13 * scale
+        assert abs(_f(a2, p, np.asarray(m)) - exact) <= 1e-12 * scale
+        for level in (dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale, dense + 1e-2 * scale):
+            bound, m = cylinder._edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, level, level)
+            if dense > level:
+                assert bound > level
+            if bound > level:
+                assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
+            else:
+                assert bound >= dense - 1e-13 * scale
+                below += 1
+    assert below > 0
+
+
 def _random_rim(rng):
     """A random ellipsoid (squared semi-axes a2, its frame) and the rim sg = 1 of a random cylinder (unit
     axis u, radius r, rim centre q = e - L u), and a rim Newton run from a random start n0: (a2, u, r, q,

@@ -181,6 +181,17 @@ def test_polygon_bound_is_the_maximum_over_the_polygon(seed):
         assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
 
 
+def _answers_the_level(a2, p, bound, m, level, dense, scale):
+    """A bound asked whether f_p exceeds `level` somewhere (dense: the largest f_p sampled there): never
+    "below" when a sample is above; "above" attained by the point m it returns; "below" an upper bound."""
+    if dense > level:
+        assert bound > level
+    if bound > level:
+        assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
+    else:
+        assert bound >= dense - 1e-13 * scale
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_polygon_bound_stopping_early_still_answers_the_question(seed):
     """cylinder._poly_bound as the rim's branch and bound calls it (floor = stop = the level it asks
@@ -199,12 +210,7 @@ def test_polygon_bound_stopping_early_still_answers_the_question(seed):
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
         for level in (dense - 0.3 * scale, dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale):
             bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, level, level)
-            if dense > level:
-                assert bound > level
-            if bound > level:
-                assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
-            else:
-                assert bound >= dense - 1e-13 * scale
+            _answers_the_level(a2, p, bound, m, level, dense, scale)
             stopped += bound < exact - 1e-9 * scale
     assert stopped > 0
 
@@ -232,13 +238,8 @@ def test_arc_bound_asked_about_a_level_never_answers_below_wrongly(seed):
         assert abs(_f(a2, p, np.asarray(m)) - exact) <= 1e-12 * scale
         for level in (dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale, dense + 1e-2 * scale):
             bound, m = cylinder._edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, level, level)
-            if dense > level:
-                assert bound > level
-            if bound > level:
-                assert abs(_f(a2, p, np.asarray(m)) - bound) <= 1e-12 * scale
-            else:
-                assert bound >= dense - 1e-13 * scale
-                below += 1
+            _answers_the_level(a2, p, bound, m, level, dense, scale)
+            below += bound <= level
     assert below > 0
 
 

@@ -174,7 +174,7 @@ def test_polygon_bound_is_the_maximum_over_the_polygon(seed):
         V = _quad(rng, _unit(rng.normal(size=3)), rng.choice([0.05, 0.3, 1.0]))
         if rng.random() < 0.3:
             V[3] = V[0]  # a triangle
-        bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf)
+        bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf, np.inf)
         dense = _f(a2, p, _in_quad(rng, V, 4000)).max()
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
         assert bound >= dense - 1e-13 * scale
@@ -205,11 +205,11 @@ def test_polygon_bound_stopping_early_still_answers_the_question(seed):
         a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
         p = rng.normal(size=3) * rng.choice([0.05, 0.3])
         V = _quad(rng, _unit(rng.normal(size=3)), rng.choice([0.05, 0.3, 1.0]))
-        exact, _ = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf)
+        exact, _ = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf, np.inf)
         dense = _f(a2, p, _in_quad(rng, V, 4000)).max()
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
         for level in (dense - 0.3 * scale, dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale):
-            bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, level, level)
+            bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, level, level, np.inf)
             _answers_the_level(a2, p, bound, m, level, dense, scale)
             stopped += bound < exact - 1e-9 * scale
     assert stopped > 0
@@ -315,7 +315,9 @@ def test_split_settles_never_passes_a_lune_above_its_floor(seed):
                 if room <= 0.0:
                     assert tol < 0  # only the floor below the maximum leaves no room: never passes
                     continue
-                if not cylinder._split_settles(a2, p, su, ca, cb, reach, cm, tuple(n0), theta, r, room, floor, slack):
+                if not cylinder._split_settles(
+                    a2, p, su, ca, cb, reach, cm, tuple(n0), theta, r, room, floor, slack, np.inf
+                ):
                     continue
                 assert tol > 0
                 passed += tol == 1e-13
@@ -327,6 +329,40 @@ def test_split_settles_never_passes_a_lune_above_its_floor(seed):
                 G = n @ q - np.sqrt((n * n) @ np.asarray(a2)) - r * np.linalg.norm(np.cross(n, u), axis=1)
                 assert G.max() <= floor + slack
     assert passed > 10
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_equator_bound_is_above_the_lune_bound_on_its_equator_arc(seed):
+    """cylinder._equator_bound, which lets the rim's lune bound skip its equator edge: from the side
+    circle's certified bound (circle_max_bound, as deep_search takes it) it is never below f_p (p = q -
+    r c, c anywhere on the lune's arc) at 2000 points of the arc, for lunes up to a quarter turn; and it
+    settles (is below f_p's maximum over the whole lune) some of them, so the shortcut is taken."""
+    rng = np.random.default_rng(seed)
+    below_lune = 0
+    for _ in range(150):
+        a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
+        u = _unit(rng.normal(size=3))
+        L, r = rng.uniform(0.01, 0.3), rng.uniform(0.01, 0.15)
+        e = rng.normal(size=3) * 0.1
+        sg = rng.choice([1.0, -1.0])
+        su, q = tuple(sg * u), e - sg * L * u
+        w1, w2 = cylinder.tangent_basis(tuple(u))
+        _, side_ub = cylinder.circle_max_bound(a2, tuple(e), w1, w2)
+        v1, v2 = (np.asarray(w) for w in cylinder.tangent_basis(su))
+        a, width = rng.uniform(0.0, 2.0 * np.pi), rng.uniform(1e-3, 0.5 * np.pi)
+        ca, cb = (np.cos(t) * v1 + np.sin(t) * v2 for t in (a, a + width))
+        tc = a + rng.choice([0.0, width, rng.uniform(0.0, width)])
+        c = np.cos(tc) * v1 + np.sin(tc) * v2
+        p = q - r * c
+        scale = np.linalg.norm(e) + np.sqrt(max(a2)) + r + L
+        slack = 64 * 2.0**-53 * scale
+        bound = cylinder._equator_bound(side_ub - r, r, tuple(ca), tuple(cb), tuple(c), slack)
+        t = np.linspace(a, a + width, 2000)
+        arc = np.cos(t)[:, None] * v1 + np.sin(t)[:, None] * v2
+        assert _f(a2, p, arc).max() <= bound
+        lune, _ = cylinder._poly_bound(a2, tuple(p), su, tuple(ca), tuple(cb), su, 0.0, -np.inf, np.inf, np.inf)
+        below_lune += bound < lune - 1e-9 * scale
+    assert below_lune > 3
 
 
 def test_kernel_hand_picked_cases():

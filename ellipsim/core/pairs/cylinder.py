@@ -412,6 +412,17 @@ def _arc_top(a2, p, m, v1, v2, cs, sn, slack, best, bm):
     return best, bm
 
 
+@stage
+def _plane_pole(la, lb, qb):
+    """The limit point of the 2-D point-ellipse problem at its pole -la (la != lb, qb the point's other
+    coordinate): (ok, n_a, n_b), the normal's coordinates up to sign of n_a; one square root for both signs."""
+    xb = lb * qb / (lb - la)
+    rest = 1.0 - xb * xb / lb
+    if not rest >= 0.0:
+        return False, 0.0, 0.0
+    return True, math.sqrt(rest * la) / la, xb / lb
+
+
 @jit
 def _arc_max(a2, p, v1, v2, cs, sn, end, slack, floor, stop):
     """(bound, m): the maximum of f_p over the arc {cos t v1 + sin t v2 : t in [0, span]} (v1, v2
@@ -458,24 +469,16 @@ def _arc_max(a2, p, v1, v2, cs, sn, end, slack, floor, stop):
             best, bm = _arc_top(
                 a2, p, from_plane(q[0] / (t + lam), q[1] / (t + mu), c, s, v1, v2), v1, v2, cs, sn, slack, best, bm
             )
-    # the limit points at the poles -lam, -mu (pole_normal of b3, written out: its third axis is not E's)
+    # the limit points at the poles -lam, -mu (pole_normal of b3 in the plane: its third axis is not E's)
     if lam != mu:
-        x1 = mu * q[1] / (mu - lam)
-        rest = 1.0 - x1 * x1 / mu
-        if rest >= 0.0:
-            x0 = math.sqrt(rest * lam) / lam
-            for sign in (1.0, -1.0):
-                best, bm = _arc_top(
-                    a2, p, from_plane(sign * x0, x1 / mu, c, s, v1, v2), v1, v2, cs, sn, slack, best, bm
-                )
-        x0 = lam * q[0] / (lam - mu)
-        rest = 1.0 - x0 * x0 / lam
-        if rest >= 0.0:
-            x1 = math.sqrt(rest * mu) / mu
-            for sign in (1.0, -1.0):
-                best, bm = _arc_top(
-                    a2, p, from_plane(x0 / lam, sign * x1, c, s, v1, v2), v1, v2, cs, sn, slack, best, bm
-                )
+        ok, x0, y1 = _plane_pole(lam, mu, q[1])
+        ok2, x1, y0 = _plane_pole(mu, lam, q[0])
+        for sign in (1.0, -1.0):  # (the order of the written-out blocks before: ties keep their point)
+            if ok:
+                best, bm = _arc_top(a2, p, from_plane(sign * x0, y1, c, s, v1, v2), v1, v2, cs, sn, slack, best, bm)
+        for sign in (1.0, -1.0):
+            if ok2:
+                best, bm = _arc_top(a2, p, from_plane(y0, sign * x1, c, s, v1, v2), v1, v2, cs, sn, slack, best, bm)
     return best, bm
 
 

@@ -282,6 +282,42 @@ def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
 
 
 @pytest.mark.parametrize("seed", range(3))
+def test_reach_keeps_the_cubic_term_within_half_the_concavity_margin(seed):
+    """cylinder._reach at rim maxima found by Newton: at the radius rho it returns, the third-derivative
+    bound M(rho) of the chart disc keeps M rho / 3 within half the concavity margin mu along the rim
+    (rho below the fixed point of rho = 1.5 mu / M(rho)); rho is never below the radius with M taken at
+    the largest disc rho0, and well above it (1.5x) for some maxima."""
+    rng = np.random.default_rng(seed)
+    longer = checked = 0
+    for _ in range(120):
+        a2, u, r, q, _, (m, code) = _random_rim(rng)
+        if code != cylinder.CONVERGED:
+            continue
+        ok, t, g, H, value, h, ss, bt, _, _, reach = cylinder._cert_model(a2, tuple(q), tuple(u), r, tuple(m))
+        s = np.array([u @ t[0], u @ t[1]])
+        s /= np.linalg.norm(s)
+        a = np.array([-s[1], s[0]])
+        Hm = np.array([[H[0], H[1]], [H[1], H[2]]])
+        qaa, qss = a @ Hm @ a - min(value, 0.0), s @ Hm @ s - min(value, 0.0)
+        if not (ok and qaa < 0.0 and reach > 0.0):
+            continue
+        checked += 1
+        mu = min(-qaa, -qss) if qss < 0.0 else -qaa
+        rho0 = 0.5 * min(h / bt, ss)
+
+        def M(rho):
+            return cylinder.D3_NORM * (bt**3 / (h - bt * rho) ** 2 + r / (ss - rho) ** 2)
+
+        assert M(reach) * reach <= 1.5 * mu * (1.0 + 1e-12)
+        first = min(rho0, 1.5 * mu / M(rho0))
+        if qss > 0.0:
+            first = min(first, max(-(g[0] * s[0] + g[1] * s[1]), 0.0) / qss)
+        assert reach >= first * (1.0 - 1e-12)
+        longer += reach >= 1.5 * first
+    assert checked > 40 and longer > 10
+
+
+@pytest.mark.parametrize("seed", range(3))
 def test_split_settles_never_passes_a_lune_above_its_floor(seed):
     """cylinder._split_settles, as _rim_bb calls it on lunes about a rim maximum found by Newton: where it
     says the rim function G(n) = n.q - h_E(n) - r |n x u| stays below floor on the lune (pole to equator,

@@ -503,6 +503,9 @@ SKIP_EXCESS = 64.0
 RIM_LUNES = 6
 #: |D^3 |z|[w, w, w]| <= 3 |a| b^2 / |z|^2 with a^2 + b^2 = |w|^2, at most 2 / sqrt(3) |w|^3 / |z|^2.
 D3_NORM = 1.1548
+#: Steps of _reach's fixed-point iteration (odd: the radius then stays below the fixed point; 3 and 5
+#: measured the same on the pair benchmark's deep poses).
+REACH_STEPS = 5
 
 
 @stage
@@ -636,9 +639,12 @@ def _cert_model(a2, q, su, r, n):
 @stage
 def _reach(g, H, value, h, ss, bt, r, s1, s2):
     """A chart radius within which _cert_region is likely to hold (a heuristic: the certificate itself
-    is checked there): where M rho / 3 is half the margin of the concavity -(H - min(value, 0) I) along
-    the rim (the chart direction perpendicular to u) and, across it, half of that margin or, for an
-    incumbent on the side circle whose gradient points off the rim (g.s < 0), what that slope allows."""
+    is checked there): where M(rho) rho / 3 is half the margin of the concavity -(H - min(value, 0) I)
+    along the rim (the chart direction perpendicular to u) and, across it, half of that margin or, for
+    an incumbent on the side circle whose gradient points off the rim (g.s < 0), what that slope allows.
+    M(rho), the third-derivative bound on the chart disc of radius rho, falls as rho does, so the radius
+    is the fixed point of rho = 1.5 mu / M(rho) (capped at rho0), approached from below by REACH_STEPS
+    (odd) steps from rho0: M taken at rho0 alone left it up to 4x short (deep 4-7% faster)."""
     c = min(value, 0.0)
     ns = math.sqrt(s1 * s1 + s2 * s2)
     if not ns > 0.0:
@@ -650,9 +656,11 @@ def _reach(g, H, value, h, ss, bt, r, s1, s2):
     if not qaa < 0.0:
         return 0.0
     mu = min(-qaa, -qss) if qss < 0.0 else -qaa
-    rho = 0.5 * min(h / bt, ss)
-    M = D3_NORM * (bt * bt * bt / ((h - bt * rho) ** 2) + r / ((ss - rho) ** 2))
-    rho = min(rho, 1.5 * mu / M)
+    rho0 = 0.5 * min(h / bt, ss)
+    rho = rho0
+    for _ in range(REACH_STEPS):  # odd steps end below the fixed point: M(rho) rho <= 1.5 mu holds there
+        M = D3_NORM * (bt * bt * bt / ((h - bt * rho) ** 2) + r / ((ss - rho) ** 2))
+        rho = min(rho0, 1.5 * mu / M)
     if qss > 0.0:
         rho = min(rho, max(-(g[0] * s[0] + g[1] * s[1]), 0.0) / qss)
     return rho

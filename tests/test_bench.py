@@ -174,6 +174,29 @@ def test_in_situ_noop_slots_are_restored_and_calls_counted():
     assert mujoco.get_mjcb_time() is None or mujoco.get_mjcb_time() is not inside_mujoco._clock
 
 
+def test_deepest_crossing_reads_ellipsoid_pairs_only():
+    """Two round ellipsoids (r = 0.1) 0.15 apart cross 0.05 deep; the deeper sphere in the floor is not
+    an ellipsoid pair; with no stepping the segment's depth is the start's."""
+    import mujoco
+
+    from ellipsim.app.bench import inside_mujoco
+
+    xml = """<mujoco><worldbody><geom type="plane" size="1 1 0.1"/>
+      <body pos="0 0 0.3"><freejoint/><geom type="ellipsoid" size="0.1 0.1 0.1"/></body>
+      <body pos="0.15 0 0.3"><freejoint/><geom type="ellipsoid" size="0.1 0.1 0.1"/></body>
+      <body pos="1 0 0"><freejoint/><geom type="sphere" size="0.1"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    state = np.empty(mujoco.mj_stateSize(model, bench.STEP_STATE))
+    mujoco.mj_getState(model, data, state, bench.STEP_STATE)
+    start, segment = inside_mujoco.deepest_crossing(model, data, state, 0)
+    assert abs(start - 0.05) < 2e-4 and segment == start  # MuJoCo's EPA at its default tolerance: 4e-5 off
+    assert -data.contact.dist[: data.ncon].min() > 0.09  # the sphere's 0.1 in the floor, left out
+    start2, segment2 = inside_mujoco.deepest_crossing(model, data, state, 3)
+    assert start2 == start and segment2 >= start
+
+
 def test_pile_xml_thickness_draws_thin_third_semi_axes():
     import mujoco
 

@@ -177,6 +177,25 @@ def steps(model, data, state, size):
     return us, speed, counters
 
 
+def _deepest(model, data):
+    """The deepest ellipsoid-ellipsoid crossing among data's contacts (-dist, m; 0 if none crosses)."""
+    n = data.ncon
+    ell = (model.geom_type[data.contact.geom[:n]] == ELL).all(axis=1) if n else np.zeros(0, bool)
+    return max(0.0, -float(data.contact.dist[:n][ell].min())) if ell.any() else 0.0
+
+
+def deepest_crossing(model, data, state, steps):
+    """The deepest ellipsoid-ellipsoid crossing plain MuJoCo's contacts report (m): in `state`, and over
+    `steps` plain mj_step calls from it (the builtin segment the speed-ups time)."""
+    mujoco.mj_setState(model, data, state, STEP_STATE)
+    mujoco.mj_forward(model, data)
+    start = deepest = _deepest(model, data)
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+        deepest = max(deepest, _deepest(model, data))
+    return start, deepest
+
+
 def contacts(model, data, state, nstep):
     """compare_narrowphase at MuJoCo's default ccd_tolerance and at 1e-10 (500 iterations)."""
     mujoco.mj_setState(model, data, state, STEP_STATE)
@@ -417,7 +436,7 @@ def capsule_twin(name, size):
 
 def measure(size):
     names = size["scenes"] or tuple(SCENES)
-    rows, compared, longs, timers, situ = {}, {}, {}, {}, {}
+    rows, compared, longs, timers, situ, depths = {}, {}, {}, {}, {}, {}
     for name in names:
         make, settle_steps = SCENES[name]
         say(f"inside MuJoCo: {name}: settle, mj_step in {size['step_rounds']} interleaved rounds ...")
@@ -426,6 +445,7 @@ def measure(size):
         mujoco.mj_forward(model, data)
         pp = per_pair(model, data)
         rows[name] = (model.ngeom, pp, *steps(model, data, state, size))
+        depths[name] = deepest_crossing(model, data, state, size["steps"])
         say(f"inside MuJoCo: {name}: MuJoCo's timers per mode, ellipsim's calls in situ ...")
         timers[name] = breakdown(
             {mode: (model, data, state, mode) for mode in STEP_MODES}, size["steps"], timer_rounds(size)
@@ -445,12 +465,12 @@ def measure(size):
         if name in names:
             say(f"inside MuJoCo: long runs of {name} ...")
             longs[name] = long_run(SCENES[name][0](), size["long_seconds"])
-    return rows, compared, deep, longs, twin, types, timers, situ
+    return rows, compared, deep, longs, twin, types, timers, situ, depths
 
 
 def write(result, size, out, plt):
     """The section's markdown, and mujoco.png in `out`."""
-    rows, compared, deep, longs, twin, types, timers, situ = result
+    rows, compared, deep, longs, twin, types, timers, situ, depths = result
     _plot(plt, out, rows)
     L = [
         "## 5. Inside MuJoCo",
@@ -472,6 +492,15 @@ def write(result, size, out, plt):
             f"| {f[0]:.2f} ({f[1]:.2f}-{f[2]:.2f}) | **{n[0]:.2f}** ({n[1]:.2f}-{n[2]:.2f}) "
             f"| {counters['filter']['seen']:.0f} | {counters['filter']['discarded']:.0f} | {counters['narrowphase']['fallbacks']:.2g} |"
         )
+    L += [
+        "",
+        f"Deepest ellipsoid-ellipsoid crossing in plain MuJoCo (-dist of its own contacts): in the settled state the "
+        f"segments start from, and over a builtin segment's {size['steps']} steps.",
+        "",
+        "| scene | deepest crossing at the start, mm | deepest within the segment, mm |",
+        "|---|---:|---:|",
+        *(f"| {name} | {a * 1e3:.2f} | {b * 1e3:.2f} |" for name, (a, b) in depths.items()),
+    ]
     L += _write_timers(timers, situ, rows, twin, size)
     L += [
         "",

@@ -54,13 +54,11 @@ from . import capsule
 from .point_ellipsoid import (
     circle_max_bound,
     contact_in_world,
-    foot2,
     foot3,
     from_plane,
     pole_normal,
     project_ellipse,
     sd_upper,
-    sd_upper2,
     secular_roots,
     support,
 )
@@ -431,13 +429,13 @@ def _arc_max(a2, p, v1, v2, cs, sn, end, slack, floor, stop):
     problem in the plane; its secular roots through the 3-D enumeration with a third axis longer than
     both, as in box.enumerate_max, and the limit points at its two poles), the latter plus slack (their
     rounding).  First, the tangent plane at the arc's middle (f_p(m) <= m.(p - s) for s = s_E(middle),
-    its maximum over the arc exact) when it, plus slack, is below `floor` (an upper bound then, as
-    sd_upper2's; first, before the projection and foot2: deep poses 3% faster than after them); then
-    the circle's global maximum (foot2, its weak-duality bound sd_upper2) when it lies on the arc or is
-    already below `floor`; an end above `stop` as soon as one is (callers that only ask whether the
-    maximum exceeds a level pass it as `stop`; inf for the maximum itself).  The arc's end is `end`
-    itself and its test is by products, without angles (tangent-plane idea: tangent_cones.py; GTCG
-    10.5.2)."""
+    its maximum over the arc exact) when it, plus slack, is below `floor` (an upper bound then, by
+    weak duality; first, before the projection: deep poses 3% faster than after it); an end above
+    `stop` as soon as one is (callers that only ask whether the maximum exceeds a level pass it as
+    `stop`; inf for the maximum itself).  The circle's global maximum is one of the roots, not tried
+    first by foot2: on the pair benchmark's deep poses it lay on the arc for none of 1677 arcs and
+    settled 6 below `floor` (deep 4% faster without).  The arc's end is `end` itself and its test is by
+    products, without angles (tangent-plane idea: tangent_cones.py; GTCG 10.5.2)."""
     p1, p2 = _dot(p, v1), _dot(p, v2)
     # a tangent plane at the arc's middle: f_p(m) <= m.(p - s_E(mid)) everywhere (weak duality)
     mid = (v1[0] + end[0], v1[1] + end[1], v1[2] + end[2])
@@ -452,11 +450,6 @@ def _arc_max(a2, p, v1, v2, cs, sn, end, slack, floor, stop):
         return lin + slack, v1
     lam, mu, c, s = project_ellipse(a2, v1, v2)
     q = (c * p1 + s * p2, -s * p1 + c * p2, 0.0)
-    t, m0, m1 = foot2(lam, mu, q[0], q[1])
-    top = sd_upper2(lam, mu, q[0], q[1], t)
-    m = from_plane(m0, m1, c, s, v1, v2)
-    if top <= floor or _on_arc(m, v1, v2, cs, sn):
-        return top, m
     best, bm = _f(a2, p, v1), v1
     v = _f(a2, p, end)
     if v > best:
@@ -464,7 +457,7 @@ def _arc_max(a2, p, v1, v2, cs, sn, end, slack, floor, stop):
     if best > stop:
         return best, bm
     b3 = (lam, mu, 2.0 * max(lam, mu))
-    for t in secular_roots(b3, q, False):  # the largest root is foot2's, off the arc
+    for t in secular_roots(b3, q, True):
         if t == t:
             best, bm = _arc_top(
                 a2, p, from_plane(q[0] / (t + lam), q[1] / (t + mu), c, s, v1, v2), v1, v2, cs, sn, slack, best, bm
@@ -541,10 +534,10 @@ def _poly_bound(a2, p, v0, v1, v2, v3, slack, floor, stop, edge12):
     great-circle edges (_arc_max) and every local maximum of f_p on the sphere (secular_roots,
     pole_normal) inside it.  Once an edge is above `stop`, that value and point, without the interior
     (_rim_bb and _split_settles only ask whether the maximum exceeds best + tol, and take the point as
-    a start for a local climb; inf for the maximum itself).  Then the global maximum of f_p (foot3, its
-    weak-duality bound sd_upper) when it lies inside or is already below `floor` (after the edges: on
-    the pair benchmark's deep poses it never settled a lune before them; 3% faster).  edge12: a known
-    upper bound of f_p on the edge v1 v2 (inf if none), taken for that edge when <= floor."""
+    a start for a local climb; inf for the maximum itself).  The global maximum of f_p is one of the
+    roots, not tried first by foot3: on the pair benchmark's deep poses it lay inside none of 575
+    lunes and settled none below `floor`.  edge12: a known upper bound of f_p on the edge v1 v2 (inf if
+    none), taken for that edge when <= floor."""
     cen = (v0[0] + v1[0] + v2[0] + v3[0], v0[1] + v1[1] + v2[1] + v3[1], v0[2] + v1[2] + v2[2] + v3[2])
     k0, k1 = _edge_normal(v0, v1, cen), _edge_normal(v1, v2, cen)
     k2, k3 = _edge_normal(v2, v3, cen), _edge_normal(v3, v0, cen)
@@ -562,11 +555,7 @@ def _poly_bound(a2, p, v0, v1, v2, v3, slack, floor, stop, edge12):
         best, bm = v, m
     if best > stop:
         return best, bm
-    t, m = foot3(a2, p)
-    top = sd_upper(a2, p, t)
-    if top <= floor or (_dot(m, k0) >= 0.0 and _dot(m, k1) >= 0.0 and _dot(m, k2) >= 0.0 and _dot(m, k3) >= 0.0):
-        return top, m
-    for t in secular_roots(a2, p, False):
+    for t in secular_roots(a2, p, True):
         if t == t:
             m = unit((p[0] / (t + a2[0]), p[1] / (t + a2[1]), p[2] / (t + a2[2])))
             if _dot(m, k0) >= 0.0 and _dot(m, k1) >= 0.0 and _dot(m, k2) >= 0.0 and _dot(m, k3) >= 0.0:
@@ -787,7 +776,10 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack, side_ub):
     (1 - cos) of the azimuth from it); lunes within the incumbent's reach go to _split_settles.
     A lune whose tangent planes close it (cone_below: the cone of the pole and its two ends; three dot
     products a node) skips all that, and a lune holding the incumbent whose bound is predicted to fail
-    (SKIP_EXCESS) is split without one.  RIM_LUNES lunes from the incumbent's azimuth, each split in
+    (SKIP_EXCESS) is split without one.  The cone is not tried on a lune holding the incumbent itself
+    (on this rim): sigma reaches best there, a hair below the cone's level best + tol - slack, and on
+    the pair benchmark's deep poses the planes closed 18 of the 216 lunes holding its azimuth on the rim
+    facing E, ~600 ns a failure (deep 3% faster without).  RIM_LUNES lunes from the incumbent's azimuth, each split in
     two depth first (no allocation: a node is its level and index) until its bound is within tol of the
     incumbent; a lune whose maximiser beats the incumbent starts a rim Newton run there.  A lune's
     ends are turned from its azimuths (two sines and cosines a node), and c at the incumbent is its own
@@ -832,7 +824,9 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack, side_ub):
             holds = has and off <= width and not near
             if holds and math.ldexp(xs, 2 * (xl - lev)) > SKIP_EXCESS * tol:
                 bound, m = math.inf, bn  # its bound would fail too (SKIP_EXCESS): split it unbounded
-            elif cone_below(a2, q, u, r, bn, bn, su, ca, cb, best + tol - slack):  # (r > 0: bn unused)
+            elif not (holds and sg * _dot(bn, u) > 0.0) and cone_below(
+                a2, q, u, r, bn, bn, su, ca, cb, best + tol - slack
+            ):
                 bound, m = -math.inf, bn  # closed by tangent planes (tangent_cones.py)
             elif near and _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack, equator):
                 bound, m = -math.inf, bn

@@ -281,6 +281,54 @@ def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
     assert passed > 20
 
 
+def _frame(P, i):
+    E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
+    K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
+    return tuple(tuple(float(c) for c in x) for x in cylinder.to_frame(E, K))
+
+
+def _above_mirror(P, i, rng, k):
+    """max over k random directions n of the rim facing away from E's centre of sigma(n) - sigma(n'),
+    n' = n - 2 (n.u) u / |u|^2 its mirror image."""
+    e, a2, u = _frame(P, i)
+    e_, u_ = np.array(e), np.array(u)
+    n = rng.normal(size=(k, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n *= np.where((n @ u_) * (e_ @ u_) > 0.0, -1.0, 1.0)[:, None]
+    mirror = n - 2.0 * (n @ u_)[:, None] * u_ / (u_ @ u_)
+    args = (a2, e, u, P["sK"][i, 1], P["sK"][i, 0])
+    return max(
+        cylinder.sigma_cylinder(*args, tuple(x)) - cylinder.sigma_cylinder(*args, tuple(y)) for x, y in zip(n, mirror)
+    )
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_mirrored_rim_is_nowhere_above_its_mirror_image(seed):
+    """cylinder._mirrored, on the pair benchmark's penetrating poses: where it says E lies on one side of
+    K's mid-plane, sigma at 2000 directions of the rim facing away from E's centre is never above sigma
+    at their mirror images n - 2 (n.u) u (so deep_search skips that rim), and the kernel, which skips it
+    on the poses its branch and bound proves, matches the dense reference.  Where it says no, some
+    direction is above its mirror image on some pose."""
+    from ellipsim.app.bench import pair_types as bench_poses
+
+    rng = np.random.default_rng(seed)
+    cE, RE, rE, cK, RK, sK = bench_poses.poses("cylinder", "penetrating", 400, rng)
+    P = dict(cE=cE, RE=RE, rE=rE, cK=cK, RK=RK, sK=sK)
+    frames = [_frame(P, i) for i in range(400)]
+    mirrored = np.array([cylinder._mirrored(a2, e, u) for e, a2, u in frames])
+    out = [_kernel(P, i) for i in range(400)]
+    status = np.array([o[0] for o in out])
+    pick = np.flatnonzero(mirrored & (status == cylinder.ENUMERATED))
+    assert len(pick) >= 10 and (~mirrored).sum() >= 50
+    Q = {k: v[pick] for k, v in P.items()}
+    ref, _ = reference(Q)
+    s_min = np.minimum(Q["rE"].min(1), Q["sK"][:, :2].min(1))
+    for j, i in enumerate(pick):
+        assert _above_mirror(P, i, rng, 2000) <= 1e-15
+        assert abs(out[i][1] - ref[j]) <= 1e-12 * s_min[j]
+    assert max(_above_mirror(P, i, rng, 300) for i in np.flatnonzero(~mirrored)[:50]) > 1e-6
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_reach_keeps_the_cubic_term_within_half_the_concavity_margin(seed):
     """cylinder._reach at rim maxima found by Newton: at the radius rho it returns, the third-derivative

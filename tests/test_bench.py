@@ -92,6 +92,9 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         and "| 4 figures in a heap: capsule twin | capsule twin, plain MuJoCo |" in report
     )
     assert "| 1 figure | 0 | nan |" in report  # no ellipsim call: no cost per call
+    assert "| 1 figure | 0.00 | 0.00 |" in report  # one figure: no ellipsoid pair crosses another
+    calls = report.split("Calls into MuJoCo's collision functions per step")[1].split("\n")[0]
+    assert calls.startswith(" in plain MuJoCo") and "4 figures in a heap" in calls and "capsule twin" in calls
 
 
 @pytest.mark.slow
@@ -172,6 +175,29 @@ def test_in_situ_noop_slots_are_restored_and_calls_counted():
     ns, calls, noop = inside_mujoco.in_situ(model, data, state, 5, 1)
     assert calls > 0 and np.isfinite(ns) and noop >= 0
     assert mujoco.get_mjcb_time() is None or mujoco.get_mjcb_time() is not inside_mujoco._clock
+
+
+def test_narrow_calls_counts_every_call_and_restores_the_table():
+    """On the small pile, the calls counted per step are at least its contacts per step (each contact
+    comes from one call, several per call at most for MuJoCo's multi-contact pairs: not among ellipsoids),
+    the stepping is MuJoCo's own (the same state after the same steps as without counting), and every
+    slot holds its function again after."""
+    import mujoco
+
+    from ellipsim.app.bench import inside_mujoco
+    from ellipsim.mujoco import structs
+
+    table, n = structs.collision_table()
+    before = list(table)
+    model, data, state = _small_pile()
+    calls = inside_mujoco.narrow_calls(model, data, state, 5)
+    counted = data.qpos.copy()
+    assert list(table) == before
+    mujoco.mj_setState(model, data, state, bench.STEP_STATE)
+    for _ in range(5):
+        mujoco.mj_step(model, data)
+    np.testing.assert_array_equal(data.qpos, counted)
+    assert calls >= data.ncon > 0
 
 
 def test_deepest_crossing_reads_ellipsoid_pairs_only():

@@ -406,6 +406,35 @@ def in_situ(model, data, state, steps, rounds):
     return float(np.median(per_call)), calls, float(np.median(noop))
 
 
+def narrow_calls(model, data, state, steps):
+    """Calls per step into MuJoCo's collision functions (every filled slot of mjCOLLISIONFUNC, whatever
+    the pair type) over `steps` plain mj_step calls from `state`: each slot wrapped by a counting Python
+    function that calls the one it replaces, restored after (a count: the wrapper's time is not measured)."""
+    table, ntypes = structs.collision_table()
+    calls, keep, saved = [0], [], {}
+
+    def counting(original):
+        def counted(m, d, con, g1, g2, margin):
+            calls[0] += 1
+            return original(m, d, con, g1, g2, margin)
+
+        return _NARROW_FN(counted)
+
+    try:
+        for k in range(ntypes * ntypes):
+            if table[k]:
+                saved[k] = table[k]
+                keep.append(counting(_NARROW_FN(table[k])))
+                table[k] = ctypes.cast(keep[-1], ctypes.c_void_p).value
+        mujoco.mj_setState(model, data, state, STEP_STATE)
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+    finally:
+        for k, v in saved.items():
+            table[k] = v
+    return calls[0] / steps
+
+
 def timer_rounds(size):
     """Rounds of the timer breakdown and of in_situ (a quarter of the speed-ups' rounds, at least 3)."""
     return max(3, size["step_rounds"] // 4)
@@ -414,7 +443,8 @@ def timer_rounds(size):
 def capsule_twin(name, size):
     """A figure heap with ellipsoid limbs in narrowphase mode against its capsule twin (scenes.
     capsule_twin_xml) in plain MuJoCo, each settled from the same drop: (ellipsoid µs/step, capsule
-    µs/step, median per-round ratio ellipsoid / capsule, breakdown of both)."""
+    µs/step, median per-round ratio ellipsoid / capsule, breakdown of both, narrow_calls of both in
+    plain MuJoCo)."""
     xml = SCENES[name][0]()
     ell = settled(xml, SCENES[name][1])
     cap = settled(scenes.capsule_twin_xml(xml), SCENES[name][1])
@@ -431,7 +461,8 @@ def capsule_twin(name, size):
         size["steps"],
         timer_rounds(size),
     )
-    return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules"), timers
+    calls = (narrow_calls(*ell, size["steps"]), narrow_calls(*cap, size["steps"]))
+    return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules"), timers, calls
 
 
 def measure(size):
@@ -616,6 +647,11 @@ def _write_timers(timers, situ, rows, twin, size):
                 f"| {name} | {mode} | {t['step']:.0f} | {t['broad']:.0f} | {t['narrow']:.0f} | {t['constraint']:.0f} "
                 f"| {other:.0f} | {t['contacts']:.0f} |"
             )
+    L += [
+        "",
+        f"Calls into MuJoCo's collision functions per step in plain MuJoCo (every pair type, {size['steps']} steps "
+        f"from the settled state): {twin[0]} {twin[5][0]:.0f}, its capsule twin {twin[5][1]:.0f}.",
+    ]
     L += [
         "",
         "ellipsim's calls inside mj_step: the states of a narrowphase segment, each set and run through mj_forward with "

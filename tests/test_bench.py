@@ -7,6 +7,7 @@ import pytest
 
 from ellipsim import Relation, classify, signed_distance
 from ellipsim.app.bench import common as bench
+from ellipsim.app.bench.inside_mujoco import TWIN_SWAPPED
 from ellipsim.app.cli import main
 from ellipsim.core.samples import STRESS, stress_pairs
 
@@ -95,6 +96,9 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
     assert "| 1 figure | 0.00 | 0.00 |" in report  # one figure: no ellipsoid pair crosses another
     calls = report.split("Calls into MuJoCo's collision functions per step")[1].split("\n")[0]
     assert calls.startswith(" in plain MuJoCo") and "4 figures in a heap" in calls and "capsule twin" in calls
+    same = report.split("| from the settled state of |")[1].split("\n\n")[0]
+    assert "| the ellipsoids' |" in same and "| the twin's |" in same
+    assert f"| 4 figures in a heap: capsule twin | {TWIN_SWAPPED[0]} |" in report
 
 
 @pytest.mark.slow
@@ -198,6 +202,22 @@ def test_narrow_calls_counts_every_call_and_restores_the_table():
         mujoco.mj_step(model, data)
     np.testing.assert_array_equal(data.qpos, counted)
     assert calls >= data.ncon > 0
+
+
+def test_twin_same_state_pairs_each_state_with_both_models():
+    """Each row compares the two models from one settled state: the ellipsoids' own row with the twin
+    run from the ellipsoids' state, the twin's own row with the ellipsoids run from the twin's."""
+    from ellipsim.app.bench import inside_mujoco as im
+
+    timers = {
+        im.TWIN_OWN[0]: {"narrow": 100.0},
+        im.TWIN_OWN[1]: {"narrow": 60.0},
+        im.TWIN_SWAPPED[0]: {"narrow": 80.0},
+        im.TWIN_SWAPPED[1]: {"narrow": 70.0},
+    }
+    got = im._twin_same_state(("heap", 0.0, 0.0, 1.0, timers, (740.0, 580.0, 600.0, 650.0)))
+    assert got["the ellipsoids'"] == (100.0, 70.0, 100.0 / 70.0, 740.0, 650.0)
+    assert got["the twin's"] == (80.0, 60.0, 80.0 / 60.0, 600.0, 580.0)
 
 
 def test_deepest_crossing_reads_ellipsoid_pairs_only():

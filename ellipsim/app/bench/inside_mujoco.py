@@ -11,8 +11,8 @@
    gradient-ascent starts.
 4b. Other pair types: ellipsoid x capsule, box, cylinder per call against MuJoCo's (pair_types.py).
 5. Long runs: plain and narrowphase from the same drop; kinetic energy, depth, bodies leaving.
-6. Where mj_step's time goes: MuJoCo's own timers (mjcb_time set) per mode and for the capsule twin,
-   and the cost of an ellipsim call inside mj_step (its narrow phase against a no-op function in the
+6. Where mj_step's time goes: MuJoCo's own timers (mjcb_time set) per mode and for the capsule twin
+   (each model also from the other's settled state), and the cost of an ellipsim call inside mj_step (its narrow phase against a no-op function in the
    same table slots, on the same states).
 """
 
@@ -440,14 +440,26 @@ def timer_rounds(size):
     return max(3, size["step_rounds"] // 4)
 
 
+#: the twin's timer rows: each model from its own settled state, then from the other's (TWIN_SWAPPED)
+TWIN_OWN = ("ellipsoids, narrowphase", "capsule twin, plain MuJoCo")
+TWIN_SWAPPED = (
+    "ellipsoids, narrowphase, from the twin's settled state",
+    "capsule twin, plain MuJoCo, from the ellipsoids' settled state",
+)
+
+
 def capsule_twin(name, size):
     """A figure heap with ellipsoid limbs in narrowphase mode against its capsule twin (scenes.
     capsule_twin_xml) in plain MuJoCo, each settled from the same drop: (ellipsoid µs/step, capsule
-    µs/step, median per-round ratio ellipsoid / capsule, breakdown of both, narrow_calls of both in
-    plain MuJoCo)."""
+    µs/step, median per-round ratio ellipsoid / capsule, breakdown, narrow_calls in plain MuJoCo).
+    The breakdown and the calls also run each model from the other's settled state (TWIN_SWAPPED: the
+    twin changes only geom types and masses, so the states fit both), which parts the narrow phases'
+    difference into the heaps' states and the cost of the same contacts."""
     xml = SCENES[name][0]()
     ell = settled(xml, SCENES[name][1])
     cap = settled(scenes.capsule_twin_xml(xml), SCENES[name][1])
+    if ell[2].shape != cap[2].shape:
+        raise RuntimeError(f"{name}: the capsule twin's state does not fit the ellipsoid model's")
     fns = {
         "ellipsoids": step_segment(*ell, size["steps"], "narrowphase"),
         "capsules": step_segment(*cap, size["steps"], "builtin"),
@@ -456,12 +468,14 @@ def capsule_twin(name, size):
         fn()
     t = interleaved(fns, size["step_rounds"], self_timed=True)
     us = {k: float(np.median(v)) / size["steps"] * 1e6 for k, v in t.items()}
-    timers = breakdown(
-        {"ellipsoids, narrowphase": (*ell, "narrowphase"), "capsule twin, plain MuJoCo": (*cap, "builtin")},
-        size["steps"],
-        timer_rounds(size),
-    )
-    calls = (narrow_calls(*ell, size["steps"]), narrow_calls(*cap, size["steps"]))
+    runs = {
+        TWIN_OWN[0]: (*ell, "narrowphase"),
+        TWIN_OWN[1]: (*cap, "builtin"),
+        TWIN_SWAPPED[0]: (*ell[:2], cap[2], "narrowphase"),
+        TWIN_SWAPPED[1]: (*cap[:2], ell[2], "builtin"),
+    }
+    timers = breakdown(runs, size["steps"], timer_rounds(size))
+    calls = tuple(narrow_calls(*runs[k][:3], size["steps"]) for k in (*TWIN_OWN, *TWIN_SWAPPED))
     return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules"), timers, calls
 
 
@@ -621,8 +635,23 @@ def write(result, size, out, plt):
 def _twin_narrow(twin):
     """(ellipsoids' narrow µs/step, the capsule twin's, their ratio) from the twin's timers."""
     t = twin[4]
-    ours, theirs = t["ellipsoids, narrowphase"]["narrow"], t["capsule twin, plain MuJoCo"]["narrow"]
+    ours, theirs = t[TWIN_OWN[0]]["narrow"], t[TWIN_OWN[1]]["narrow"]
     return ours, theirs, ours / theirs
+
+
+def _twin_same_state(twin):
+    """{whose settled state: (ellipsoids' narrow µs/step, the twin's, their ratio, the ellipsoid model's
+    calls/step, the twin's)} from the same states (capsule_twin)."""
+    t, calls = twin[4], twin[5]
+    pairs = {
+        "the ellipsoids'": (TWIN_OWN[0], TWIN_SWAPPED[1], 0, 3),
+        "the twin's": (TWIN_SWAPPED[0], TWIN_OWN[1], 2, 1),
+    }
+    out = {}
+    for state, (a, b, ca, cb) in pairs.items():
+        ours, theirs = t[a]["narrow"], t[b]["narrow"]
+        out[state] = (ours, theirs, ours / theirs, calls[ca], calls[cb])
+    return out
 
 
 def _write_timers(timers, situ, rows, twin, size):
@@ -651,6 +680,18 @@ def _write_timers(timers, situ, rows, twin, size):
         "",
         f"Calls into MuJoCo's collision functions per step in plain MuJoCo (every pair type, {size['steps']} steps "
         f"from the settled state): {twin[0]} {twin[5][0]:.0f}, its capsule twin {twin[5][1]:.0f}.",
+        "",
+        f"The same comparison from the same state (each model's {size['steps']} steps from the ellipsoids' and from "
+        "the twin's settled state, the rows above): what the narrow phases' ratio owes to the heaps settling "
+        "differently, and what to the cost of the same contacts.",
+        "",
+        "| from the settled state of | ellipsim's narrow phase µs/step | the twin's µs/step | ratio "
+        "| calls/step, ellipsoid model | calls/step, twin |",
+        "|---|---:|---:|---:|---:|---:|",
+        *(
+            f"| {state} | {a:.0f} | {b:.0f} | {r:.2f}x | {ca:.0f} | {cb:.0f} |"
+            for state, (a, b, r, ca, cb) in _twin_same_state(twin).items()
+        ),
     ]
     L += [
         "",

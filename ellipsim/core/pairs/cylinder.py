@@ -493,6 +493,8 @@ SKIP_EXCESS = 64.0
 #: The rim's branch and bound starts from this many equal lunes, the first centred on the incumbent's
 #: azimuth (6: deep and penetrating 7% faster than 4 quarters on the pair benchmark's poses, 5 and 7 the
 #: same as 6; a narrower first lune leaves its linear bound less excess and its tangent cones less to do).
+#: At least 3: a lune's bound (_poly_bound, cone_below) needs its ends less than pi apart (with 2, half
+#: circles, it missed maxima by up to 1e-3 on the deep poses).
 RIM_LUNES = 6
 #: |D^3 |z|[w, w, w]| <= 3 |a| b^2 / |z|^2 with a^2 + b^2 = |w|^2, at most 2 / sqrt(3) |w|^3 / |z|^2.
 D3_NORM = 1.1548
@@ -777,15 +779,20 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack, side_ub):
     A lune whose tangent planes close it (cone_below: the cone of the pole and its two ends; three dot
     products a node) skips all that, and a lune holding the incumbent whose bound is predicted to fail
     (SKIP_EXCESS) is split without one.  The cone is not tried on a lune holding the incumbent itself
-    (on this rim): sigma reaches best there, a hair below the cone's level best + tol - slack, and on
-    the pair benchmark's deep poses the planes closed 18 of the 216 lunes holding its azimuth on the rim
-    facing E, ~600 ns a failure (deep 3% faster without).  RIM_LUNES lunes from the incumbent's azimuth, each split in
-    two depth first (no allocation: a node is its level and index) until its bound is within tol of the
-    incumbent; a lune whose maximiser beats the incumbent starts a rim Newton run there.  A lune's
-    ends are turned from its azimuths (two sines and cosines a node), and c at the incumbent is its own
-    azimuth's.  Returns (best, bn, proven): proven False when RIM_BB_NODES lunes or RIM_BB_LEVELS
-    levels did not settle it.  side_ub: an upper bound of sigma on the side circle (deep_search's), which
-    bounds f_p on a lune's equator arc (_equator_bound)."""
+    (on this rim, or on the side circle to rounding): sigma reaches best there, a hair below the cone's
+    level best + tol - slack, and on the pair benchmark's deep poses the planes closed 18 of the 216
+    lunes holding its azimuth on the rim facing E, ~600 ns a failure (deep 3% faster without); nor on a
+    lune within the incumbent's reach, which goes to _split_settles at once (those two: deep and
+    penetrating 2-3% faster, A/B).  RIM_LUNES lunes from the incumbent's azimuth, each split in two
+    depth first (no allocation: a node is its level and index) until its bound is within tol of the
+    incumbent; a lune whose maximiser beats the incumbent starts a rim Newton run there.  A node starts
+    on the vector its predecessor ended on (a first child on its parent's start) and only a split turns
+    a new end (a sine and cosine), the last lune ending on the first one's start: the lunes tile the
+    circle with shared end vectors, and a lune that settles whole costs one turn (deep 2.5% faster than
+    two a node); c at the incumbent is its own azimuth's.  Returns (best, bn, proven): proven False
+    when RIM_BB_NODES lunes or RIM_BB_LEVELS levels did not settle it.  side_ub: an upper bound of
+    sigma on the side circle (deep_search's), which bounds f_p on a lune's equator arc
+    (_equator_bound)."""
     q = (e[0] - sg * L * u[0], e[1] - sg * L * u[1], e[2] - sg * L * u[2])
     su = (sg * u[0], sg * u[1], sg * u[2])
     w1, w2 = tangent_basis(su)
@@ -800,13 +807,17 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack, side_ub):
     start = phi - 0.5 * first
     nodes = 0
     xs, xl = 0.0, 0  # the last failed bound of a lune holding the incumbent: its excess and level
+    e0 = _turn(w1, w2, start)
+    cb = e0
     for k in range(RIM_LUNES):
         a0 = start + k * first
+        end = e0 if k == RIM_LUNES - 1 else _turn(w1, w2, a0 + first)  # the last closes the circle on e0
         lev, idx = 0, 0
+        ca = cb  # the next lune starts where the last one ended
         while True:
             width = math.ldexp(first, -lev)
             a = a0 + idx * width
-            ca, cb = _turn(w1, w2, a), _turn(w1, w2, a + width)  # the lune's ends
+            cb = end if idx + 1 == (1 << lev) else _turn(w1, w2, a + width)  # the lune's far end
             off = (phi - a) % (2.0 * math.pi)
             if not has:
                 c = _turn(w1, w2, a + 0.5 * width)
@@ -824,8 +835,10 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack, side_ub):
             holds = has and off <= width and not near
             if holds and math.ldexp(xs, 2 * (xl - lev)) > SKIP_EXCESS * tol:
                 bound, m = math.inf, bn  # its bound would fail too (SKIP_EXCESS): split it unbounded
-            elif not (holds and sg * _dot(bn, u) > 0.0) and cone_below(
-                a2, q, u, r, bn, bn, su, ca, cb, best + tol - slack
+            elif (
+                not near
+                and not (holds and sg * _dot(bn, u) >= -1e-12)
+                and cone_below(a2, q, u, r, bn, bn, su, ca, cb, best + tol - slack)
             ):
                 bound, m = -math.inf, bn  # closed by tangent planes (tangent_cones.py)
             elif near and _split_settles(a2, p, su, ca, cb, reach, cm, bn, theta, r, room, best + tol, slack, equator):
@@ -853,13 +866,14 @@ def _rim_bb(a2, e, u, L, r, sg, best, bn, tol, slack, side_ub):
             if bound > best + tol:
                 if nodes >= RIM_BB_NODES or lev >= RIM_BB_LEVELS:
                     return best, bn, False
-                lev, idx = lev + 1, 2 * idx
+                lev, idx = lev + 1, 2 * idx  # the first child: its parent's start ca
                 continue
             while lev > 0 and idx % 2 == 1:
                 lev, idx = lev - 1, idx // 2
             if lev == 0:
                 break
             idx += 1
+            ca = cb  # the next node starts where this one ended
     return best, bn, True
 
 

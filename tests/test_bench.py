@@ -215,7 +215,8 @@ def test_twin_same_state_pairs_each_state_with_both_models():
         im.TWIN_SWAPPED[0]: {"narrow": 80.0},
         im.TWIN_SWAPPED[1]: {"narrow": 70.0},
     }
-    got = im._twin_same_state(("heap", 0.0, 0.0, 1.0, timers, (740.0, 580.0, 600.0, 650.0)))
+    calls = dict(zip(timers, (740.0, 580.0, 600.0, 650.0), strict=True))
+    got = im._twin_same_state(("heap", 0.0, 0.0, 1.0, timers, calls))
     assert got["the ellipsoids'"] == (100.0, 70.0, 100.0 / 70.0, 740.0, 650.0)
     assert got["the twin's"] == (80.0, 60.0, 80.0 / 60.0, 600.0, 580.0)
 

@@ -12,8 +12,8 @@
 4b. Other pair types: ellipsoid x capsule, box, cylinder per call against MuJoCo's (pair_types.py).
 5. Long runs: plain and narrowphase from the same drop; kinetic energy, depth, bodies leaving.
 6. Where mj_step's time goes: MuJoCo's own timers (mjcb_time set) per mode and for the capsule twin
-   (each model also from the other's settled state), and the cost of an ellipsim call inside mj_step (its narrow phase against a no-op function in the
-   same table slots, on the same states).
+   (each model also from the other's settled state), and the cost of an ellipsim call inside mj_step
+   (its narrow phase against a no-op function in the same table slots, on the same states).
 """
 
 import contextlib
@@ -451,7 +451,7 @@ TWIN_SWAPPED = (
 def capsule_twin(name, size):
     """A figure heap with ellipsoid limbs in narrowphase mode against its capsule twin (scenes.
     capsule_twin_xml) in plain MuJoCo, each settled from the same drop: (ellipsoid µs/step, capsule
-    µs/step, median per-round ratio ellipsoid / capsule, breakdown, narrow_calls in plain MuJoCo).
+    µs/step, median per-round ratio ellipsoid / capsule, breakdown, {run: narrow_calls in plain MuJoCo}).
     The breakdown and the calls also run each model from the other's settled state (TWIN_SWAPPED: the
     twin changes only geom types and masses, so the states fit both), which parts the narrow phases'
     difference into the heaps' states and the cost of the same contacts."""
@@ -475,7 +475,7 @@ def capsule_twin(name, size):
         TWIN_SWAPPED[1]: (*cap[:2], ell[2], "builtin"),
     }
     timers = breakdown(runs, size["steps"], timer_rounds(size))
-    calls = tuple(narrow_calls(*runs[k][:3], size["steps"]) for k in (*TWIN_OWN, *TWIN_SWAPPED))
+    calls = {k: narrow_calls(*run[:3], size["steps"]) for k, run in runs.items()}
     return us["ellipsoids"], us["capsules"], relative(t, "ellipsoids", "capsules"), timers, calls
 
 
@@ -643,14 +643,11 @@ def _twin_same_state(twin):
     """{whose settled state: (ellipsoids' narrow µs/step, the twin's, their ratio, the ellipsoid model's
     calls/step, the twin's)} from the same states (capsule_twin)."""
     t, calls = twin[4], twin[5]
-    pairs = {
-        "the ellipsoids'": (TWIN_OWN[0], TWIN_SWAPPED[1], 0, 3),
-        "the twin's": (TWIN_SWAPPED[0], TWIN_OWN[1], 2, 1),
-    }
+    pairs = {"the ellipsoids'": (TWIN_OWN[0], TWIN_SWAPPED[1]), "the twin's": (TWIN_SWAPPED[0], TWIN_OWN[1])}
     out = {}
-    for state, (a, b, ca, cb) in pairs.items():
+    for state, (a, b) in pairs.items():
         ours, theirs = t[a]["narrow"], t[b]["narrow"]
-        out[state] = (ours, theirs, ours / theirs, calls[ca], calls[cb])
+        out[state] = (ours, theirs, ours / theirs, calls[a], calls[b])
     return out
 
 
@@ -679,7 +676,7 @@ def _write_timers(timers, situ, rows, twin, size):
     L += [
         "",
         f"Calls into MuJoCo's collision functions per step in plain MuJoCo (every pair type, {size['steps']} steps "
-        f"from the settled state): {twin[0]} {twin[5][0]:.0f}, its capsule twin {twin[5][1]:.0f}.",
+        f"from the settled state): {twin[0]} {twin[5][TWIN_OWN[0]]:.0f}, its capsule twin {twin[5][TWIN_OWN[1]]:.0f}.",
         "",
         f"The same comparison from the same state (each model's {size['steps']} steps from the ellipsoids' and from "
         "the twin's settled state, the rows above): what the narrow phases' ratio owes to the heaps settling "

@@ -78,6 +78,7 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         "9. ellipsim on MuJoCo Warp",
         "| capsule x ellipsoid | 100 m away | deep (-0.3) | ellipsim on Warp |",
         "| ellipsoid x box |",
+        "## 11. Other pair types, run after run",
     ):
         assert section in report
     for png in ("pareto.png", "stress.png", "scaling.png", "table1.png", "mujoco.png"):
@@ -219,6 +220,15 @@ def test_twin_same_state_pairs_each_state_with_both_models():
     got = im._twin_same_state(("heap", 0.0, 0.0, 1.0, timers, calls))
     assert got["the ellipsoids'"] == (100.0, 70.0, 100.0 / 70.0, 740.0, 650.0)
     assert got["the twin's"] == (80.0, 60.0, 80.0 / 60.0, 600.0, 580.0)
+
+
+def test_pair_spread_reports_median_lowest_highest_and_slower_runs():
+    from ellipsim.app.bench import pair_spread
+
+    runs = [{"cylinder": {"deep": (100.0, mujoco, 0, 400)}} for mujoco in (96.0, 103.0, 110.0)]
+    lines = pair_spread.write(runs, {}, None, None)
+    row = next(line for line in lines if line.startswith("| ellipsoid x cylinder | deep |"))
+    assert row == "| ellipsoid x cylinder | deep | 100 | 103 | 1.03x | 0.96x | 1.10x | 1 of 3 |"
 
 
 def test_deepest_crossing_reads_ellipsoid_pairs_only():

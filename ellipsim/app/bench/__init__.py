@@ -21,6 +21,8 @@ each:
    cost per pair, collision and mjw.step per world-step on the heap and the pile
 10. gradients: signed_distance and time_of_impact with their exact derivatives against without;
    `ellipsim fix` on the replay dance (4 and 64 figures): frames/s, change, pairs freed, verification
+11. pairs: section 5's table of the other pair types against MuJoCo's function, measured again and
+   again: each cell's speed-up as median, lowest and highest over the runs
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -29,7 +31,19 @@ import datetime
 import os
 import time
 
-from . import accuracy, gradients, inside_mujoco, motion, on_warp, scaling, speculative, startup, stress, table1
+from . import (
+    accuracy,
+    gradients,
+    inside_mujoco,
+    motion,
+    on_warp,
+    pair_spread,
+    scaling,
+    speculative,
+    startup,
+    stress,
+    table1,
+)
 from .common import SIZES, machine_description, plt
 
 SECTIONS = {
@@ -43,6 +57,7 @@ SECTIONS = {
     "speculative": speculative,
     "warp": on_warp,
     "gradients": gradients,
+    "pairs": pair_spread,
 }
 
 

@@ -218,8 +218,8 @@ def test_polygon_bound_stopping_early_still_answers_the_question(seed):
 @pytest.mark.parametrize("seed", range(4))
 def test_arc_bound_asked_about_a_level_never_answers_below_wrongly(seed):
     """cylinder._edge_max as the polygon bound calls it, floor = stop = a level near the arc's maximum
-    (it may answer from the circle's weak-duality bound, the tangent plane at the arc's middle or an end
-    above the level): against 2000 points along the arc, never "below the level" when a point is above
+    (it may answer from the circle's weak-duality bound, the tangent planes at the arc's ends and middle
+    or an end above the level): against 2000 points along the arc, never "below the level" when a point is above
     it, an answer above the level attained by the point it returns, and with no level (floor -inf, stop
     inf) the maximum itself, however long the arc (up to a meridian's quarter turn and beyond)."""
     rng = np.random.default_rng(seed)
@@ -241,6 +241,33 @@ def test_arc_bound_asked_about_a_level_never_answers_below_wrongly(seed):
             _answers_the_level(a2, p, bound, m, level, dense, scale)
             below += bound <= level
     assert below > 0
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tangent_plane_envelope_bounds_the_arc_and_is_tight(seed):
+    """cylinder._envelope, from the planes tangent to h_E at an arc's start, middle and end: never below
+    f_p at 4000 points along the arc (it is _arc_max's shortcut), and within those points' spacing of
+    the envelope's own sampled maximum (the split between two planes is where they cross: a split
+    anywhere else is looser), on arcs from 1e-3 rad to a half circle."""
+    rng = np.random.default_rng(seed)
+    for _ in range(80):
+        a2 = np.asarray(rng.uniform(0.02, 0.3, 3) ** 2)
+        p = rng.normal(size=3) * rng.choice([0.05, 0.3])
+        v1 = _unit(rng.normal(size=3))
+        v2 = _unit(np.cross(v1, rng.normal(size=3)))
+        span = rng.choice([1e-3, 0.1, 1.0, np.pi / 2, 2.5, np.pi])
+        cs, sn = np.cos(span), np.sin(span)
+        ends = (v1, _unit(v1 + (cs * v1 + sn * v2)) if span < np.pi else v2, cs * v1 + sn * v2)
+        g = [(p @ v1 - s @ v1, p @ v2 - s @ v2) for s in (a2 * n / np.sqrt(a2 @ (n * n)) for n in ends)]
+        bound = cylinder._envelope(*map(tuple, g), cs, sn)
+        t = np.linspace(0.0, span, 4000)[:, None]
+        pts = np.cos(t) * v1 + np.sin(t) * v2
+        scale = np.linalg.norm(p) + np.sqrt(a2.max())
+        assert bound >= _f(tuple(a2), p, pts).max() - 1e-13 * scale
+        if span < np.pi:  # (a half circle has no middle: the ends' planes alone, looser)
+            env = np.min([np.cos(t[:, 0]) * gk[0] + np.sin(t[:, 0]) * gk[1] for gk in g], axis=0).max()
+            step = span / 3999 * np.abs(g).max() * 2  # the envelope's maximum is often a kink: first order
+            assert env - 1e-13 * scale <= bound <= env + step + 1e-13 * scale
 
 
 def _random_rim(rng):

@@ -1,7 +1,7 @@
 """Section 11 (pairs): the other pair types' table (pair_types.py, also in section 5) measured
 size["pair_repeats"] times in one process on the same poses, each cell's speed-up as its median,
 lowest and highest: a single run's cell moves by several percent with the VM (deep cylinder crossings
-measured 0.96-1.15x on the same code), which one table cannot show."""
+once measured 0.96-1.15x across runs of one build), which one table cannot show."""
 
 import numpy as np
 

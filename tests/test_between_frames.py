@@ -369,7 +369,7 @@ def test_replay_reports_and_records_the_contact_between_frames(plate, tmp_path):
     (event,) = result.between_events()
     assert event["geoms"] == ["plate", "pellet"] and event["bodies"] == ["board", "bullet"] and event["frame"] == 1
     assert event["status"] == "contact" and 0.1 < event["t_begin"] < event["t_end"] < 0.2
-    assert result.overlapping.sum() == 0  # no frame sees it
+    assert result.in_contact.sum() == 0  # no frame sees it
     assert rp.replay(plate, motion, fps=FPS).between is None  # not looked for by default
     points, texts = {}, []
     for c in RrdReader(path).stream().to_chunks():

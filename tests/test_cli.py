@@ -139,10 +139,15 @@ def test_show_must_not_be_negative():
     assert len(lines) == 1 and "--show: expected a non-negative integer, got -1" in lines[0]
 
 
-def test_compare_quotes_the_near_tangent_band(monkeypatch, capsys):
-    monkeypatch.setattr("ellipsim.app.comparison.NEAR_TANGENT", 3e-6)
-    assert main(["compare", "replay", "--steps", "5", "--show", "0"]) == 0
-    assert "within 3e-06 m of touching" in capsys.readouterr().out
+def test_compare_quotes_the_bands_it_judges_by(capsys):
+    """The near-tangent band and the normal_off angle are the library's constants, quoted as such, and the
+    JSON states the angle."""
+    from ellipsim.core.tolerances import NEAR_TANGENT
+    from ellipsim.mujoco.judge import NORMAL_OFF_DEG
+
+    assert main(["compare", "pile", "--steps", "850", "--show", "0"]) == 0  # near-tangent pairs from step 825
+    out = capsys.readouterr().out
+    assert f"within {NEAR_TANGENT:g} m of the margin" in out and f"beyond {NORMAL_OFF_DEG:g} deg of the exact" in out
 
 
 def test_compare_json_is_compact_in_a_folder_made_for_it(tmp_path, capsys):
@@ -151,23 +156,30 @@ def test_compare_json_is_compact_in_a_folder_made_for_it(tmp_path, capsys):
     assert main(["compare", "replay", "--steps", "300", "--json", str(out)]) == 0
     text = out.read_text()
     report = json.loads(text)
-    assert report["steps"] == 300 and len(report["per_frame"]["both"]) == 300
+    assert report["steps"] == 300 and len(report["per_step"]["both"]) == 300
     lines = text.splitlines()
-    assert len(lines) <= 30 + len(report["disagreements"]) + len(report["passed_through"] or []), text[:2000]
+    assert len(lines) <= 90 + len(report["disagreements"]) + len(report["passed_through"] or []), text[:2000]
     both = next(line for line in lines if line.lstrip().startswith('"both"'))
-    assert json.loads(both.split(": ", 1)[1].rstrip(",")) == report["per_frame"]["both"]
+    assert json.loads(both.split(": ", 1)[1].rstrip(",")) == report["per_step"]["both"]
 
 
 def _disagreement(step):
-    return types.SimpleNamespace(
+    from ellipsim.mujoco.validate import Disagreement
+
+    return Disagreement(
         step=step,
+        geom1=0,
+        geom2=1,
         names=("a", "b"),
         mujoco_contact=True,
+        mujoco_dist=-1e-3,
         relation="separated",
         contact_scale=1.01,
         geom_distance=0.01,
         right="ellipsim",
         reason="r",
+        kind="mujoco_extra",
+        pair_type="ellipsoid-ellipsoid",
     )
 
 
@@ -179,8 +191,11 @@ def test_compare_says_how_many_disagreements_it_does_not_show(show, more):
     from ellipsim.app.comparison import Comparison
 
     counts = np.array([[0, 3, 4, 0]])
-    validation = types.SimpleNamespace(counts=counts, contacts_disabled=False)
-    c = Comparison("s", 1, validation, counts[:, 2], counts[:, 0], [_disagreement(k) for k in range(4)], [], [])
+    ds = [_disagreement(k) for k in range(4)]
+    by_type = np.zeros((1, 5, 4), dtype=np.int64)
+    by_type[0, 0] = counts[0]
+    validation = types.SimpleNamespace(counts=counts, by_type=by_type, contacts_disabled=False, disagreements=ds)
+    c = Comparison("s", 1, validation, counts[:, 2], counts[:, 0], {"mujoco_extra": ds}, None, None)
     lines = c.summary(show)
     shown = [line for line in lines if line.startswith("    step ")]
     assert [line.split(":")[0] for line in shown] == [f"    step {k}" for k in range(min(show, 4))]
@@ -203,8 +218,8 @@ def test_a_model_without_contacts_says_so(tmp_path, capsys):
     assert not contacts_disabled(mujoco.MjModel.from_xml_string(CONTACTS_OFF.replace('contact="disable"', "")))
     assert main(["compare", str(path), "--steps", "5"]) == 0
     out = capsys.readouterr().out
-    assert 'none to compare: the model disables contacts (<option><flag contact="disable"/>)' in out
-    assert "agreement 0/0" not in out
+    assert 'no candidate pairs in 5 steps: the model disables contacts (<option><flag contact="disable"/>)' in out
+    assert "0/0" not in out and "agreement" not in out
     assert main(["run", str(path), "--steps", "5"]) == 0
     out = capsys.readouterr().out
     assert "contacts per step (all geoms): mean 0.0, max 0; none: the model disables contacts" in out

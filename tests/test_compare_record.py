@@ -23,28 +23,31 @@ STEPS = 8
 
 
 def fake(step, kind):
-    """A disagreement between geoms a (1) and b (2) of kind missed / extra / near_tangent."""
+    """A disagreement between geoms a (1) and b (2) of kind mujoco_extra / mujoco_missed / near_tangent."""
     return Disagreement(
         step=step,
         geom1=1,
         geom2=2,
         names=("a", "b"),
-        mujoco_contact=kind == "missed",
-        mujoco_dist=-1e-4 if kind == "missed" else float("nan"),
-        relation="separated" if kind == "missed" else "overlapping",
+        bodies=("left", "right"),
+        pair_type="ellipsoid-ellipsoid",
+        kind=kind,
+        mujoco_contact=kind == "mujoco_extra",
+        mujoco_dist=-1e-4 if kind == "mujoco_extra" else float("nan"),
+        relation="separated" if kind == "mujoco_extra" else "overlapping",
         contact_scale=1.001,
-        geom_distance=1e-9 if kind == "near_tangent" else 0.01 * (1 if kind == "missed" else -1),
+        geom_distance=1e-9 if kind == "near_tangent" else 0.01 * (1 if kind == "mujoco_extra" else -1),
         right="ellipsim",
         reason=f"why {kind}",
         signed_distance=0.5,
-        mujoco_pos=(0.1, 0.2, 0.3) if kind == "missed" else None,
-        mujoco_normal=(1.0, 0.0, 0.0) if kind == "missed" else None,
+        mujoco_pos=(0.1, 0.2, 0.3) if kind == "mujoco_extra" else None,
+        mujoco_normal=(1.0, 0.0, 0.0) if kind == "mujoco_extra" else None,
         ellipsim_pos=(0.1 * step, 0.0, 0.3),
         ellipsim_normal=(0.0, 1.0, 0.0),
     )
 
 
-INJECTED = {2: ["missed", "extra"], 3: ["near_tangent"], 6: ["extra"]}
+INJECTED = {2: ["mujoco_extra", "mujoco_missed"], 3: ["near_tangent"], 6: ["mujoco_missed"]}
 
 
 @pytest.fixture(scope="module")
@@ -86,12 +89,12 @@ def test_disagreements_are_marked_at_their_step_and_cleared_after(recorded):
     np.testing.assert_allclose(np.array(rows[6], dtype=np.float64), [[0.6, 0.0, 0.3]], rtol=1e-6)
     _, _, colors = rec.temporal("/world/disagreements", "Points3D:colors")
     by_kind = {k: packed(c) for k, (c, _) in compare_record.kinds("MuJoCo").items()}
-    assert dict(zip(frames, colors))[2] == [by_kind["missed"], by_kind["extra"]]
+    assert dict(zip(frames, colors))[2] == [by_kind["mujoco_extra"], by_kind["mujoco_missed"]]
     assert dict(zip(frames, colors))[3] == [by_kind["near_tangent"]]
     _, _, labels = rec.temporal("/world/disagreements", "Points3D:labels")
-    assert dict(zip(frames, labels))[2] == ["missed: a / b", "extra: a / b"]
+    assert dict(zip(frames, labels))[2] == ["mujoco_extra: a / b", "mujoco_missed: a / b"]
     assert rec.static("/world/disagreements", "Points3D:show_labels") == [[True]]  # few: their labels shown
-    # both contacts: MuJoCo's where it made one (the missed pair), ellipsim's at every disagreement
+    # both contacts: MuJoCo's where it made one (the mujoco_extra pair), ellipsim's at every disagreement
     frames, _, vectors = rec.temporal("/world/disagreements/mujoco", "Arrows3D:vectors")
     length = record.NORMAL_LENGTH * record.scene_scale(_geometry(recorded[0]))
     assert dict(zip(frames, vectors))[2] == [pytest.approx([length, 0, 0], rel=1e-6)]
@@ -112,17 +115,17 @@ def test_every_disagreement_has_a_log_line_at_its_step(recorded):
     lines = [(f, t[0]) for f, t in zip(frames, texts)]
     assert [f for f, _ in lines] == [2, 2, 3, 6]
     first = lines[0][1]
-    assert first.startswith("step 2: missed: geoms a / b (bodies left / right)")
+    assert first.startswith("step 2: mujoco_extra: ellipsoid-ellipsoid a / b (bodies left / right)")
     assert "MuJoCo dist -0.0001 m, normal (1.0000, 0.0000, 0.0000)" in first
-    assert "normal (0.0000, 1.0000, 0.0000)" in first and "why missed" in first
-    assert "MuJoCo no contact" in lines[1][1]
+    assert "normal (0.0000, 1.0000, 0.0000)" in first and "why mujoco_extra" in first
+    assert "MuJoCo: no contact" in lines[1][1]
     _, _, levels = rec.temporal("/events/disagreements", "TextLog:level")
     assert [lv[0] for lv in levels] == ["WARN", "WARN", "INFO", "WARN"]
 
 
 def test_disagreement_counts_per_step(recorded):
     _, rec, _ = recorded
-    for kind in ("missed", "extra", "near_tangent"):
+    for kind in ("mujoco_extra", "mujoco_missed", "near_tangent", "normal_off"):
         frames, _, scalars = rec.temporal(f"/counts/disagreements/{kind}", "Scalars:scalars")
         assert frames == list(range(STEPS))
         expected = [float(INJECTED.get(step, []).count(kind)) for step in range(STEPS)]
@@ -158,7 +161,7 @@ def test_the_layout_shows_the_disagreements(recorded):
     )
     assert views["TextLog"] == ["events"] and views["TextDocument"] == ["legend"] and views["3D"] == ["world"]
     text = rec.static("/legend", "TextDocument:text")[-1][0]
-    assert "magenta** ball: MuJoCo made a contact the exact test separates" in text and "yellow" in text
+    assert "magenta** ball: mujoco_extra, MuJoCo made a contact the exact test separates" in text and "yellow" in text
     assert eye["look_target"][2] > 0  # inside the bodies, above the floor
 
 
@@ -170,10 +173,8 @@ def test_compare_record_on_the_command_line_logs_the_disagreements_the_json_list
     assert rec.temporal("/counts/pairs/builtin", "Scalars:scalars")[0] == list(range(40))
     listed = json.loads(report.read_text())["disagreements"]
     frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
-    assert [(f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)] == [
-        (d["step"], d["kind"].replace("_", " ")) for d in listed
-    ]
-    assert {"/world/contacts", "/world/disagreements", "/counts/disagreements/missed"} <= rec.entities()
+    assert [(f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)] == [(d["step"], d["kind"]) for d in listed]
+    assert {"/world/contacts", "/world/disagreements", "/counts/disagreements/mujoco_missed"} <= rec.entities()
     views, _, _ = blueprint_of(rec)
     text = rec.static("/legend", "TextDocument:text")[-1][0]
     if listed:  # a log panel only when there is something to list, else a line saying so

@@ -106,7 +106,7 @@ def test_limbs_reaching_through_each_other_stay_apart_between_frames(seed):
     result = fix_motion(model, motion)
     assert (result.before_violations > 0).sum() >= 50
     check = rp.replay(model, result.motion, between=True)
-    assert (check.overlapping == 0).all() and len(check.between_events()) == 0
+    assert (check.in_contact == 0).all() and len(check.between_events()) == 0
     assert result.between == [] and result.unfreed == []
     report = json.loads(json.dumps(result.report()))  # (the --json report of a motion that needed fixing)
     assert report["frames_changed"] == int(result.changed.sum()) and report["touching_between_frames"] == []

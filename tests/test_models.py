@@ -257,22 +257,33 @@ def test_run_and_compare_a_model_from_the_command_line(tmp_path):
     got = json.loads(report.read_text())
     assert {
         "scenario",
+        "engine",
         "steps",
-        "builtin_contacts",
-        "ellipsim_overlaps",
-        "missed",
-        "extra",
-        "near_tangent",
-        "agreement",
         "pairs",
-        "per_frame",
+        "agreement",
+        "mujoco_contacts",
+        "ellipsim_contacts",
+        "mujoco_extra",
+        "mujoco_missed",
+        "near_tangent",
+        "normal_off",
+        "undetermined",
+        "no_candidates",
+        "normal_off_deg",
+        "by_pair_type",
+        "per_step",
         "disagreements",
         "passed_through",
         "contacts_disabled",
     } == set(got)
     assert got["passed_through"] is None or isinstance(got["passed_through"], list)  # None: not looked for
-    assert got["scenario"] == "zoo" and got["steps"] == 100 and got["ellipsim_overlaps"] > 0
-    assert got["missed"] == 0 and got["extra"] == 0
+    assert got["scenario"] == "zoo" and got["steps"] == 100 and got["ellipsim_contacts"] > 0
+    assert got["mujoco_extra"] == 0 and got["mujoco_missed"] == 0
+    # the hug: the left hand (a sphere) and forearm (a capsule) in the torso (an ellipsoid), both judged
+    by_type = got["by_pair_type"]
+    assert (
+        by_type["ellipsoid-sphere"]["ellipsim_contacts"] > 0 and by_type["ellipsoid-capsule"]["ellipsim_contacts"] > 0
+    )
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ import pytest
 
 import ellipsim.mujoco as em
 from ellipsim.core.tolerances import DIST_TOL
-from ellipsim.mujoco import attachment, context, geoms, nativecache, publish, structs
+from ellipsim.mujoco import attachment, context, geoms, judge, nativecache, publish, structs
 from ellipsim.mujoco.context import FILTER_PAIR_TYPES, PAIR_TYPES, RECORDED
 
 TYPES = {
@@ -109,7 +109,7 @@ def test_a_model_is_handled_exactly_when_a_row_covers_its_pair(a, b):
         paired.geom_contype[g] = paired.geom_conaffinity[g] = 0
     assert attachment.ellipsoid_pair_possible(paired, "narrowphase") == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
     assert len(attachment.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
-    assert len(geoms.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in FILTER_PAIR_TYPES})
+    assert len(geoms.explicit_pairs(paired)) == (t in {(r.type1, r.type2) for r in PAIR_TYPES})
 
 
 def test_warm_start_slots_count_the_types_of_the_warm_rows():
@@ -120,26 +120,30 @@ def test_warm_start_slots_count_the_types_of_the_warm_rows():
         assert attachment.warm_slots(model) == expected, name
 
 
-def test_the_filter_covers_exactly_the_filter_rows_in_either_order():
-    """The compiled filter in mode "record" records a pair exactly when geoms.ellipsim_pair_types
-    and a row of FILTER_PAIR_TYPES (either order) say ellipsim tests it."""
-    names = ["plane", "sphere", "capsule", "ellipsoid", "cylinder", "box"]
-    model = _model(names)
+def test_the_recorder_covers_every_row_and_the_filter_its_rows_in_either_order():
+    """The compiled filter in mode "record" records a pair exactly when a row of PAIR_TYPES (either order)
+    says ellipsim judges it (judge.judged says the same); in mode "filter" it tests (counts as seen)
+    exactly the pairs of FILTER_PAIR_TYPES (the geoms overlap: it discards none)."""
+    names = ["plane", "sphere", "capsule", "ellipsoid", "cylinder", "box", "ellipsoid"]
+    model = _model(names, spacing=0.015)  # every pair overlapping: the filter discards none
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    rows = {(r.type1, r.type2) for r in FILTER_PAIR_TYPES}
+    rows = {(r.type1, r.type2) for r in PAIR_TYPES}
+    filtered = {(r.type1, r.type2) for r in FILTER_PAIR_TYPES}
     fn = nativecache.function("filter").ctypes
-    with attachment.Attachment(model, data, "record", capacity=64) as att:
-        for g1 in range(len(names)):
-            for g2 in range(len(names)):
-                if g1 == g2:
-                    continue
-                before = int(att._counters[RECORDED])
-                assert fn(model._address, data._address, g1, g2) == 0
-                recorded = int(att._counters[RECORDED]) - before
-                want = tuple(sorted((int(model.geom_type[g1]), int(model.geom_type[g2])))) in rows
-                assert recorded == want, (names[g1], names[g2])
-                assert bool(geoms.ellipsim_pair_types(model, np.array([g1]), np.array([g2]))[0]) == want
+    for mode, counter, want_rows in (("record", RECORDED, rows), ("filter", context.SEEN, filtered)):
+        with attachment.Attachment(model, data, mode, capacity=64) as att:
+            for g1 in range(len(names)):
+                for g2 in range(len(names)):
+                    if g1 == g2:
+                        continue
+                    before = int(att._counters[counter])
+                    assert fn(model._address, data._address, g1, g2) == 0
+                    counted = int(att._counters[counter]) - before
+                    want = tuple(sorted((int(model.geom_type[g1]), int(model.geom_type[g2])))) in want_rows
+                    assert counted == want, (mode, names[g1], names[g2])
+                    if mode == "record":
+                        assert bool(judge.judged(model, np.array([g1]), np.array([g2]))[0]) == want
 
 
 def _row_model():

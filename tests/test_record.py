@@ -138,6 +138,8 @@ def make_frames(rng, first, last):
         touching_counts=np.array([0, 1, 1, 0, 0, 0, 0][first:last]),
         contact_counts=np.array(counts) + 1,
         bounds=np.stack([np.array(BOX_LO) - 0.1 * frame[:, None], np.array(BOX_HI) + 0.05 * frame[:, None]], axis=1),
+        builtin_by_type=np.column_stack([np.array([1, 0, 2, 0, 5, 1, 3][first:last]), np.zeros(f, dtype=int)]),
+        ellipsim_by_type=np.column_stack([np.array([1, 0, 2, 1, 5, 0, 3][first:last]), np.zeros(f, dtype=int)]),
     )
 
 

@@ -14,7 +14,9 @@ from rerun.chunk import RrdReader
 from ellipsim import Ellipsoids, Relation, classify, signed_distance
 from ellipsim.app import record
 from ellipsim.app import replay as rp
-from ellipsim.mujoco.geoms import ellipsoid_geoms
+from ellipsim.core.pairs.shape_distance import shape_distance
+from ellipsim.mujoco.geoms import PairRules
+from ellipsim.mujoco.judge import judged, judged_geoms
 
 ZOO = pathlib.Path(__file__).parent / "models" / "zoo.xml"
 FPS = 24.0
@@ -34,10 +36,14 @@ def hug_motion(model, frames=30):
 
 
 def reference(model, motion):
-    """Per frame, every allowed pair of ellipsoid geoms classified one by one, with its depth:
-    {frame: {(g1, g2): (relation, depth)}} for touching and overlapping pairs, and ncon per frame."""
+    """Per frame, every allowed pair of geoms ellipsim judges (an ellipsoid with an ellipsoid, sphere,
+    capsule, box or cylinder) decided one by one, with its depth: {frame: {(g1, g2): (relation, depth)}}
+    for touching (1) and in-contact (2: the signed distance below the margin, 0 in the zoo) pairs, and
+    ncon per frame.  Ellipsoid pairs by classify; the others by their proven distance (shape_distance)."""
     data = mujoco.MjData(model)
-    ids, radii, rules = ellipsoid_geoms(model)
+    ids = judged_geoms(model)
+    rules = PairRules(model, ids)
+    assert (model.geom_margin[ids] == 0).all()
     out, ncon = {}, []
     for f, q in enumerate(motion):
         data.qpos[:] = q
@@ -45,15 +51,33 @@ def reference(model, motion):
         ncon.append(data.ncon)
         for i in range(len(ids)):
             for j in range(i + 1, len(ids)):
-                if not rules.allowed([i], [j])[0]:
+                g1, g2 = int(ids[i]), int(ids[j])
+                if not rules.allowed([i], [j])[0] or not judged(model, [g1], [g2])[0]:
                     continue
-                a = Ellipsoids(data.geom_xpos[ids[i]], data.geom_xmat[ids[i]].reshape(3, 3), radii[i])
-                b = Ellipsoids(data.geom_xpos[ids[j]], data.geom_xmat[ids[j]].reshape(3, 3), radii[j])
-                rel = int(classify(a, b)[0])
+                rel, depth = _one_pair(model, data, g1, g2)
                 if rel:
-                    depth = -signed_distance(a, b)[0][0] if rel == Relation.OVERLAPPING else None
-                    out.setdefault(f, {})[(int(ids[i]), int(ids[j]))] = (rel, depth)
+                    out.setdefault(f, {})[(g1, g2)] = (rel, depth)
     return out, ncon
+
+
+def _one_pair(model, data, g1, g2):
+    """(relation 0 apart / 1 touching / 2 in contact, depth or None) of one pair at data's state."""
+    types = [int(model.geom_type[g]) for g in (g1, g2)]
+    shape = {int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule", int(mujoco.mjtGeom.mjGEOM_BOX): "box"}
+    shape[int(mujoco.mjtGeom.mjGEOM_CYLINDER)] = "cylinder"
+
+    def ellipsoid(g):
+        r = model.geom_size[g] if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_ELLIPSOID else [model.geom_size[g, 0]] * 3
+        return Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3), r)
+
+    if not set(types) & set(shape):
+        a, b = ellipsoid(g1), ellipsoid(g2)
+        rel = int(classify(a, b)[0])
+        return rel, (-signed_distance(a, b)[0][0] if rel == Relation.OVERLAPPING else None)
+    e, s = (g1, g2) if types[0] == mujoco.mjtGeom.mjGEOM_ELLIPSOID else (g2, g1)
+    kind = shape[int(model.geom_type[s])]
+    d = shape_distance(ellipsoid(e), kind, data.geom_xpos[s], data.geom_xmat[s].reshape(3, 3), model.geom_size[s])[0][0]
+    return (2, max(-d, 0.0)) if d < 0 else (0, None)
 
 
 @pytest.fixture(scope="module")
@@ -80,8 +104,8 @@ def test_replay_matches_a_pair_by_pair_reference(model, hug):
             assert got[f][pair][0] == rel
             if depth is not None:
                 assert got[f][pair][1] == pytest.approx(depth, rel=1e-12, abs=1e-15)
-    overlapping = [sum(1 for rel, _ in want.get(f, {}).values() if rel == 2) for f in range(len(motion))]
-    assert result.overlapping.tolist() == overlapping
+    in_contact = [sum(1 for rel, _ in want.get(f, {}).values() if rel == 2) for f in range(len(motion))]
+    assert result.in_contact.tolist() == in_contact
     assert result.touching.sum() == sum(1 for f in want for rel, _ in want[f].values() if rel == 1)
     assert result.mujoco_contacts.tolist() == ncon
     deepest = [max((d for rel, d in want.get(f, {}).values() if rel == 2), default=0.0) for f in range(len(motion))]
@@ -93,11 +117,11 @@ def test_body_pairs_say_which_bodies_and_when(model, hug):
     pairs = result.body_pairs()
     top = pairs[0]
     assert top["bodies"] == ["torso", "forearm_l"] and top["geoms"] == ["torso", "hand_l"]
-    frames = np.flatnonzero(result.overlapping)
+    frames = np.flatnonzero(result.in_contact)
     assert (
-        top["frames_overlapping"] > 5
+        top["frames_in_contact"] > 5
         and top["first"] == frames[0]
-        and set(top["overlap_frames"]) <= set(frames.tolist())
+        and set(top["contact_frames"]) <= set(frames.tolist())
     )
     assert top["deepest"] == pytest.approx(result.deepest.max())
     assert rp.frame_ranges([1, 2, 3, 7, 9, 10]) == "1-3, 7, 9-10"
@@ -122,7 +146,7 @@ def test_replay_records_every_frame(model, tmp_path):
                 rows[f] = (t, v[0])
     assert sorted(rows) == list(range(12))
     assert [rows[f][0] for f in range(12)] == [round(f / FPS * 1e9) for f in range(12)]
-    assert [rows[f][1] for f in range(12)] == result.overlapping.astype(float).tolist()
+    assert [rows[f][1] for f in range(12)] == result.in_contact.astype(float).tolist()
 
 
 def test_replay_refuses_bad_arguments(model):
@@ -208,14 +232,18 @@ def test_replay_on_the_command_line(model, tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert "zoo: 30 frames of qpos (nq = 19: 14 (2 free joints) + 5 (5 hinges)) at 24 fps" in proc.stdout
-    assert "deepest overlap:" in proc.stdout and "bodies torso / forearm_l (geoms torso / hand_l)" in proc.stdout
-    assert "torso / forearm_l: overlapping in" in proc.stdout and "MuJoCo's contacts on the same frames" in proc.stdout
+    assert "deepest penetration:" in proc.stdout and "bodies torso / forearm_l (geoms torso / hand_l)" in proc.stdout
+    assert "torso / forearm_l: in contact in" in proc.stdout and "MuJoCo's contacts on the same frames" in proc.stdout
+    assert "ellipsoid-capsule: MuJoCo mean" in proc.stdout  # the forearm, a capsule, judged too
     report = json.loads(out.read_text())
     assert report["frames"] == 30 and report["nq"] == 19 and report["fps"] == FPS
-    assert report["frames_overlapping"] == sum(1 for n in report["per_frame"]["overlapping"] if n)
+    assert report["frames_in_contact"] == sum(1 for n in report["per_frame"]["in_contact"] if n)
+    by_type = report["by_pair_type"]
+    assert by_type["ellipsoid-capsule"]["ellipsim_contacts"] > 0
+    assert sum(c["mujoco_contacts"] for c in by_type.values()) == report["mujoco_judged_contacts"]
     assert report["body_pairs"][0]["bodies"] == ["torso", "forearm_l"]
     frame = report["body_pairs"][0]["deepest_frame"]
-    deepest = max(p["depth"] for p in report["per_frame"]["pairs"][frame] if p["relation"] == "overlapping")
+    deepest = max(p["depth"] for p in report["per_frame"]["pairs"][frame] if p["relation"] == "contact")
     assert deepest == report["per_frame"]["deepest"][frame] == report["body_pairs"][0]["deepest"]
     assert (tmp_path / "hug.rrd").stat().st_size > 0
 
@@ -239,7 +267,7 @@ def test_replay_mistakes_are_one_line(tmp_path, motion, extra, message):
     assert message in lines[0]
 
 
-def test_replay_of_a_model_without_ellipsoids(tmp_path):
+def test_replay_of_a_model_without_a_pair_ellipsim_judges(tmp_path):
     xml = tmp_path / "boxes.xml"
     xml.write_text(
         "<mujoco><worldbody><geom type='plane' size='1 1 .1'/><body><freejoint/><geom type='box' size='.1 .1 .1'/>"
@@ -248,5 +276,5 @@ def test_replay_of_a_model_without_ellipsoids(tmp_path):
     np.save(tmp_path / "m.npy", np.array([[0, 0, z, 1, 0, 0, 0] for z in (0.5, 0.05)], dtype=float))
     proc = cli("replay", str(xml), str(tmp_path / "m.npy"))
     assert proc.returncode == 0, proc.stderr
-    assert "fewer than two ellipsoid or sphere geoms" in proc.stdout
+    assert "the model has no pair ellipsim judges" in proc.stdout
     assert "MuJoCo's contacts on the same frames: 4 in all" in proc.stdout  # the box on the plane, second frame

@@ -236,8 +236,8 @@ def test_pile_and_replay_make_contacts():
 
 def test_frame_buffer_reads_every_contact_in_order():
     """The vectorised read of data.contact: all of MuJoCo's contacts, in MuJoCo's order, positions
-    and normals (first row of the frame) as a per-contact loop reads them, flagged when between two
-    ellipsoids; and the verdicts of the frame's pairs."""
+    and normals (first row of the frame) as a per-contact loop reads them, flagged when on a pair ellipsim
+    judges (here two ellipsoids; the floor is a plane); and the verdicts of the frame's pairs."""
     model, data = simulate.build(scenario.load("pile"))
     ids, _, _ = ellipsoid_geoms(model)
     for _ in range(700):
@@ -253,7 +253,7 @@ def test_frame_buffer_reads_every_contact_in_order():
     np.testing.assert_array_equal(f.contact_normal, [c.frame[:3] for c in contacts])
     np.testing.assert_array_equal(f.contact_ellipsoids, both)
     assert f.contact_counts.tolist() == [data.ncon] and f.builtin_counts.tolist() == [sum(both)]
-    assert f.ellipsim_counts[0] == np.count_nonzero(chunk.relation == 2) > 0
+    assert f.ellipsim_counts[0] == np.count_nonzero(chunk.contact == capture.CONTACT) > 0
     assert buffer.flush() is None
 
 
@@ -407,10 +407,21 @@ def test_compare_writes_json(tmp_path, capsys):
     path = tmp_path / "c.json"
     assert main(["compare", "crowd", "--steps", "300", "--json", str(path)]) == 0
     report = json.loads(path.read_text())
-    assert {"steps", "builtin_contacts", "ellipsim_overlaps", "missed", "extra"} <= set(report)
-    assert report["steps"] == 300 and len(report["per_frame"]["builtin_contacts"]) == 300
-    assert report["builtin_contacts"] == sum(report["per_frame"]["builtin_contacts"]) > 0
-    assert report["missed"] == 0 and report["extra"] == 0
+    counters = {"pairs", "mujoco_contacts", "ellipsim_contacts", "mujoco_extra", "mujoco_missed", "near_tangent"}
+    assert {"steps", "normal_off", *counters} <= set(report)
+    assert report["steps"] == 300 and len(report["per_step"]["mujoco_contacts"]) == 300
+    assert report["mujoco_contacts"] == sum(report["per_step"]["mujoco_contacts"]) > 0
+    assert report["mujoco_extra"] == 0 and report["mujoco_missed"] == 0
+    by_type = report["by_pair_type"]
+    assert list(by_type) == [
+        "ellipsoid-ellipsoid",
+        "ellipsoid-sphere",
+        "ellipsoid-capsule",
+        "ellipsoid-box",
+        "ellipsoid-cylinder",
+    ]
+    for key in counters | {"normal_off", "agreement"}:  # the same counters per type, adding up to the totals
+        assert sum(c[key] for c in by_type.values()) == report[key], key
     assert "agreement" in capsys.readouterr().out
 
 

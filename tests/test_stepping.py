@@ -92,7 +92,7 @@ def test_run_and_replay_see_the_same_frames_of_the_same_poses():
         motion[k] = data.qpos
     played = rp.replay(model, motion, fps=1 / s.timestep, between=True)
     fr = run.frames
-    np.testing.assert_array_equal(played.overlapping, fr.ellipsim_counts)
+    np.testing.assert_array_equal(played.in_contact, fr.ellipsim_counts)
     np.testing.assert_array_equal(played.touching, fr.touching_counts)
     np.testing.assert_array_equal(played.mujoco_contacts, fr.contact_counts)
     np.testing.assert_array_equal(played.mujoco_pairs, fr.builtin_counts)

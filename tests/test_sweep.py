@@ -150,11 +150,12 @@ def test_a_row_is_plain_mujoco_validated_then_the_mode(tmp_path):
     row = sw.run_variant(v)
     s = scenario.load("tumble")
     validation, _ = simulate.validation(s, 30)
-    missed, extra, near = sw.split_disagreements(validation)
+    kinds = [d.kind for d in validation.disagreements]
     c = validation.counts.sum(axis=0)
     assert row["error"] is None and row["mode"] == "narrowphase" and row["steps"] == 30
-    assert (row["pairs"], row["mujoco_contacts"], row["ellipsim_overlaps"]) == (c.sum(), c[0] + c[2], c[0] + c[3])
-    assert (row["missed"], row["extra"], row["near_tangent"]) == (len(missed), len(extra), len(near))
+    assert (row["pairs"], row["mujoco_contacts"], row["ellipsim_contacts"]) == (c.sum(), c[0] + c[2], c[0] + c[3])
+    for kind in ("mujoco_extra", "mujoco_missed", "near_tangent", "normal_off"):
+        assert row[kind] == kinds.count(kind), kind
     assert row["mujoco_contacts"] > 10 and row["fallbacks"] == 0 and row["mujoco_warnings"] == 0
     # the flailing feet cross: 7.5 cm deep at frame 3 (exact signed distance, checked by hand)
     assert 0.07 < row["deepest_penetration"] < 0.08
@@ -342,7 +343,7 @@ def test_cli_prints_the_table(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "2 variants (2 control.amplitude), 30 steps each" in text
     ids = [r["variant"] for r in read_csv(out / sw.RESULTS)]
-    head = next(line for line in text.splitlines() if "variant" in line and "missed" in line)
+    head = next(line for line in text.splitlines() if "variant" in line and "missed" in line and "normal_off" in line)
     assert head.split()[:3] == ["variant", "control.amplitude", "steps/s"]
     assert [line.split()[:2] for line in text.splitlines() if line.split()[:1] in ([ids[0]], [ids[1]])] == [
         [ids[0], "0.8"],
@@ -362,10 +363,11 @@ def test_plot_takes_categories_failures_and_a_lone_variant(tmp_path):
             "mode": m,
             "seed": s,
             "mujoco_contacts": 3 + s,
-            "ellipsim_overlaps": 3,
-            "missed": 0,
-            "extra": s,
+            "ellipsim_contacts": 3,
+            "mujoco_extra": 0,
+            "mujoco_missed": s,
             "near_tangent": 0,
+            "normal_off": 1,
             "steps_per_second": 1000.0 * (s + 1),
             "deepest_penetration": 0.001,
             "error": None,
@@ -375,10 +377,11 @@ def test_plot_takes_categories_failures_and_a_lone_variant(tmp_path):
     ] + [{"mode": "filter", "seed": 0, "error": "ScenarioError: no"}]
     for k in (
         "mujoco_contacts",
-        "ellipsim_overlaps",
-        "missed",
-        "extra",
+        "ellipsim_contacts",
+        "mujoco_extra",
+        "mujoco_missed",
         "near_tangent",
+        "normal_off",
         "steps_per_second",
         "deepest_penetration",
     ):

@@ -518,8 +518,33 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
     out = capsys.readouterr().out
     r = __import__("json").loads(report.read_text())
     assert r["engine"] == "warp" and r["worlds"] == 2 and r["steps"] == 6
-    assert r["checked"] > 0 and r["exact_contacts"] > 0
-    assert f"missed {len(r['missed'])}, extra {len(r['extra'])}" in out
+    assert r["pairs"] > 0 and r["ellipsim_contacts"] > 0
+    kinds = ("mujoco_extra", "mujoco_missed", "near_tangent", "normal_off")
+    assert ", ".join(f"{r[k]} {k}" for k in kinds) in out
+    assert [sum(d["kind"] == k for d in r["disagreements"]) for k in kinds] == [r[k] for k in kinds]
+    # one vocabulary: the same counters, pair types and disagreement fields as `compare` on MuJoCo C
+    c_report = tmp_path / "c.json"
+    assert cli.main(["compare", str(path), "--steps", "6", "--json", str(c_report)]) == 0
+    c = __import__("json").loads(c_report.read_text())
+    from ellipsim.app.comparison import COUNTERS, disagreement_json
+    from tests.test_compare_record import fake
+
+    assert set(COUNTERS) <= set(r) and set(COUNTERS) <= set(c) and r["normal_off_deg"] == c["normal_off_deg"]
+    assert (
+        list(r["by_pair_type"])
+        == list(c["by_pair_type"])
+        == [
+            "ellipsoid-ellipsoid",
+            "ellipsoid-sphere",
+            "ellipsoid-capsule",
+            "ellipsoid-box",
+            "ellipsoid-cylinder",
+        ]
+    )
+    assert all(set(x) == set(COUNTERS) for x in [*r["by_pair_type"].values(), *c["by_pair_type"].values()])
+    fields = set(disagreement_json(fake(0, "mujoco_extra")))
+    assert all(set(d) == fields | {"world"} for d in r["disagreements"])
+    assert all(set(d) == fields for d in c["disagreements"])
     # the recording: world 0, every step, Warp's contacts, and its disagreements where the JSON says
     from tests.test_record import Recording
 
@@ -528,17 +553,18 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
     assert frames == list(range(6)) and sum(c[0] for c in counts) > 0
     _, _, positions = rec.temporal("/world/contacts", "Points3D:positions")
     assert [len(p) for p in positions] == [c[0] for c in counts]  # Warp's contacts of world 0, drawn
-    world0 = sorted((d["step"], kind) for kind in ("missed", "extra") for d in r[kind] if d["world"] == 0)
+    world0 = sorted((d["step"], d["kind"]) for d in r["disagreements"] if d["world"] == 0)
     frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
     assert sorted((f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)) == world0
     (name,) = rec.static("/counts/pairs/builtin", "SeriesLines:names")[-1]
-    assert name == "Warp contacts (ellipsoid pairs)"
+    assert name == "Warp contacts (dist < margin)"
 
 
 @pytest.mark.parametrize(
     "argv, shown",
     [
-        (["run", "handshake", "--worlds", "2"], "--worlds and --device are for --engine warp"),
+        (["run", "handshake", "--worlds", "2"], "--worlds is for --engine warp"),
+        (["compare", "pile", "--nconmax", "100", "--njmax", "9"], "--nconmax and --njmax are for --engine warp"),
         (["compare", "pile", "--engine", "warp", "--plot", "x.png"], "--plot and --between-frames are for"),
         (["run", "pile", "--engine", "warp", "--mode", "filter"], "--mode filter is MuJoCo C's"),
         (["run", "replay", "--engine", "warp", "--between-frames"], "--between-frames is for --engine mujoco"),

@@ -17,13 +17,11 @@ from time import perf_counter
 import mujoco
 import numpy as np
 
-from ..core.distance.ellipsoid_pair import signed_distance
-from ..core.ellipsoids import Ellipsoids
-from ..core.exact.classify import classify
 from ..core.relation import Relation
 from ..core.rotations import quaternion_product, quaternions_to_rotations
 from ..mujoco.between import BetweenFrames
-from ..mujoco.geoms import ellipsoid_geoms, frame_pairs
+from ..mujoco.geoms import PairRules, ellipsoid_geoms, explicit_pairs, frame_pairs, pair_margins
+from ..mujoco.judge import KEYS, judged, judged_geoms, pair_type, verdicts_at
 from .trajectory import GEOM_KINDS, Frames, SceneGeometry
 
 #: Values (float64) a FrameBuffer may hold per chunk: 2^23 = 64 MB.  Per frame it keeps 12 per
@@ -50,13 +48,25 @@ _SDF = int(mujoco.mjtGeom.mjGEOM_SDF)
 _MESH = int(mujoco.mjtGeom.mjGEOM_MESH)
 _HFIELD = int(mujoco.mjtGeom.mjGEOM_HFIELD)
 _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
-_NO_CONTACTS = (
-    np.zeros((0, 3)),
-    np.zeros((0, 3)),
-    np.zeros(0, dtype=bool),
-    np.zeros((0, 2), dtype=np.int32),
-    np.zeros(0),
-)
+_NO_CONTACTS = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 2), dtype=np.int64), np.zeros(0))
+#: the pair types of two ellipsoids or an ellipsoid and a sphere (judge.KEYS), what between.py checks
+_ROUND = (0, 1)
+
+
+def _reach(model, ids):
+    """(g,) bounding radius of each geom grown by its share of a dynamic pair's margin: MuJoCo's
+    geom_rbound plus geom_margin (opt.o_margin / 2 under override), a part in 1e9 more so that rounding
+    in the sphere test never drops a pair within its margin."""
+    if model.opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_OVERRIDE):
+        share = np.full(len(ids), 0.5 * float(model.opt.o_margin))
+    else:
+        share = model.geom_margin[ids]
+    return (model.geom_rbound[ids] + np.maximum(share, 0.0)) * (1 + 1e-9)
+
+
+def _per_frame(frame, kind, f, T):
+    """(f, T) int64 counts of (frame, kind) pairs."""
+    return np.bincount(frame * T + kind, minlength=f * T).reshape(f, T).astype(np.int64)
 
 
 def names_of(model, kind, count, prefix):
@@ -172,23 +182,34 @@ def _plane(model, size):
     return vertices, np.array([[0, 1, 2], [0, 2, 3]])
 
 
+#: Chunk.contact's codes: apart, exactly touching (margin 0, ellipsoid and sphere pairs: classify), in
+#: contact (signed distance < margin: judge.py's rule)
+APART, TOUCHING, CONTACT = 0, 1, 2
+
+
 @dataclasses.dataclass
 class Chunk:
-    """What FrameBuffer.flush returns: the Frames, and every candidate ellipsoid pair it decided.
+    """What FrameBuffer.flush returns: the Frames, and every candidate pair it decided.
 
-    pairs : (P, 3) int64 (frame number, i, j), i < j indices into the g ellipsoid geoms
-    relation : (P,) int8 Relation
-    depth : (P,) float64 penetration depth of overlapping pairs (metres, >= 0; nan for the others),
-        or None when not asked for
-    centers : (f, g, 3) the ellipsoids' centres, metres (a view of the buffer: copy to keep)
+    pairs : (P, 3) int64 (frame number, i, j), i < j indices into the buffer's judged geoms `ids`
+    kind : (P,) int8 pair type (index into mujoco.judge.KEYS)
+    contact : (P,) int8 APART, TOUCHING or CONTACT (signed distance < the pair's margin)
+    dist : (P,) float64 signed distance where measured (pairs in contact when depth was asked for,
+        capsule, box and cylinder pairs, ellipsoid pairs with a margin), else nan
+    depth : (P,) float64 max(0, -dist) of the pairs in contact (metres; nan for the others), or None
+        when not asked for
+    centers : (f, g, 3) the judged geoms' centres, metres (a view of the buffer: copy to keep)
     rotations : (f, g, 3, 3) their rotations (a view of the buffer)
-    events : between.Events of the steps into and within these frames (pairs index the g ellipsoid
-        geoms), or None when not asked for (or checked in the background: FrameBuffer.collect)
+    events : between.Events of the steps into and within these frames (pairs index the buffer's
+        ellipsoid and sphere geoms `ellipsoid_ids`), or None when not asked for (or checked in the
+        background: FrameBuffer.collect)
     """
 
     frames: Frames
     pairs: np.ndarray
-    relation: np.ndarray
+    kind: np.ndarray
+    contact: np.ndarray
+    dist: np.ndarray
     depth: np.ndarray
     centers: np.ndarray
     events: object = None
@@ -199,11 +220,17 @@ class FrameBuffer:
     """Frames of one (model, data), collected with `add` after each step or pose and decided in
     chunks with `flush`.
 
+    Every pair of a type ellipsim judges (mujoco.judge: an ellipsoid with an ellipsoid, sphere, capsule,
+    box or cylinder) that MuJoCo's rules allow and whose bounding spheres come within the pair's margin,
+    and every <pair> element of such a type, is judged with the one margin rule (judge.py): in contact
+    when its signed distance is below its margin; MuJoCo's side counts its contacts with dist < margin.
+
     record : also keep the moving bodies' poses and every contact's position and normal (for a
-        recording); without it a frame costs only the ellipsoids' poses and contact counts.
-    depth : flush also measures the penetration depth of overlapping pairs (core.signed_distance).
-    between : flush also finds the contacts that begin and end between two frames (between.Events,
-        the step from the previous chunk included); between_seconds accumulates their wall time.
+        recording); without it a frame costs only the judged geoms' poses and MuJoCo's contacts.
+    depth : flush also measures the signed distance of the pairs in contact (Chunk.depth).
+    between : flush also finds the contacts that begin and end between two frames (between.Events of
+        the ellipsoid and sphere geoms, the step from the previous chunk included); between_seconds
+        accumulates their wall time.
     background : with between, the check runs on a thread of the buffer's own every BETWEEN_STRIDE
         frames, while the next frames are collected (its kernels release the GIL; the touching pairs
         at the frames are found by its own exact classify): Chunk.events is None, `collect` returns
@@ -212,9 +239,14 @@ class FrameBuffer:
 
     def __init__(self, model, *, record=False, depth=False, between=False, background=False):
         self.model = model
-        self.ids, self.radii, self.rules = ellipsoid_geoms(model)
-        self.tested = np.zeros(model.ngeom, dtype=bool)
-        self.tested[self.ids] = True
+        self.ids = judged_geoms(model)
+        self.rules = PairRules(model, self.ids)
+        self.ellipsoid_ids, self.radii, ellipsoid_rules = ellipsoid_geoms(model)
+        self.round_at = np.searchsorted(self.ids, self.ellipsoid_ids)  # the ellipsoid and sphere geoms in ids
+        self.rho = _reach(model, self.ids)
+        explicit = explicit_pairs(model)
+        self.explicit = np.searchsorted(self.ids, explicit).reshape(-1, 2)  # <pair> elements, positions in ids
+        self._explicit_keys = np.sort(self.explicit[:, 0].astype(np.int64) * len(self.ids) + self.explicit[:, 1])
         self.record, self.depth = record, depth
         self.moving = np.flatnonzero((model.body_jntnum > 0) | (model.body_mocapid >= 0))
         parent = model.body_parentid[self.moving]
@@ -229,16 +261,15 @@ class FrameBuffer:
         self.xpos = np.empty((self.capacity, n, 3))
         self.xquat = np.empty((self.capacity, n, 4))
         self.times = np.empty(self.capacity)
-        self.builtin = np.empty(self.capacity, dtype=np.int64)
         self.bounds = np.empty((self.capacity, 2, 3))
         solid = (model.geom_type != _PLANE) & (model.geom_type != _HFIELD)
         self._solid = np.flatnonzero(solid) if solid.any() else np.arange(model.ngeom)
         self._rbound = model.geom_rbound[self._solid][:, None]
         self.ncon = np.empty(self.capacity, dtype=np.int64)
-        self.contacts = []  # per frame: (pos (k, 3), normal (k, 3), both tested (k,))
+        self.contacts = []  # per frame: (pos (k, 3), normal (k, 3), geom (k, 2), dist (k,)); pos, normal when recording
         self.n = 0
         self.next_frame = 0
-        self.between = BetweenFrames(self.radii, self.rules) if between else None
+        self.between = BetweenFrames(self.radii, ellipsoid_rules) if between else None
         self.between_seconds = 0.0
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="ellipsim-between") if between and background else None
         self._futures = []  # the background checks, in order
@@ -261,20 +292,18 @@ class FrameBuffer:
             self.bounds[k, 0], self.bounds[k, 1] = data.xpos.min(axis=0), data.xpos.max(axis=0)
         if contacts is not None:
             geom, dist, pos, normal = (np.asarray(x) for x in contacts)
-        elif data.ncon:
-            con = data.contact
-            geom, dist, pos, normal = con.geom, con.dist, con.pos, con.frame[:, :3]
-        ncon = len(geom) if contacts is not None else data.ncon
+            ncon = len(geom)
+        else:
+            ncon = data.ncon
+            if ncon:
+                con = data.contact
+                geom, dist, pos, normal = con.geom, con.dist, con.pos, con.frame[:, :3]
         self.ncon[k] = ncon
         if ncon:
-            both = self.tested[geom].all(axis=1)
-            self.builtin[k] = np.count_nonzero(both)
-            if self.record:
-                self.contacts.append((pos.copy(), normal.copy(), both, geom.copy(), dist.copy()))
+            kept = (pos.copy(), normal.copy()) if self.record else (None, None)
+            self.contacts.append((*kept, geom.astype(np.int64), dist.astype(np.float64)))
         else:
-            self.builtin[k] = 0
-            if self.record:
-                self.contacts.append(_NO_CONTACTS)
+            self.contacts.append(_NO_CONTACTS)
         if self.record:
             self.xpos[k] = data.xpos[self.posed]
             self.xquat[k] = data.xquat[self.posed]
@@ -288,86 +317,121 @@ class FrameBuffer:
         f, g = self.n, len(self.ids)
         if f == 0:
             return None
+        model = self.model
         first = self.next_frame
         centers = self.centers[:f]
         rotations = self.rotations[:f].reshape(f, g, 3, 3)
-        pairs = frame_pairs(centers, self.radii, self.rules)
+        pairs = self._pairs(centers)
+        pf, i, j = pairs.T
+        geoms = np.column_stack([self.ids[i], self.ids[j]])
+        T = len(KEYS)
+        margin = pair_margins(model, geoms)
+        xpos = np.stack([centers[pf, i], centers[pf, j]], axis=1)
+        xmat = np.stack([rotations[pf, i], rotations[pf, j]], axis=1)
+        v = verdicts_at(model, geoms, xpos, xmat, margin, measure_within=self.depth)
+        contact = np.where(v.within, CONTACT, np.where(v.relation == Relation.TOUCHING, TOUCHING, APART)).astype(
+            np.int8
+        )
+        depth = np.where(contact == CONTACT, np.maximum(-v.dist, 0.0), np.nan) if self.depth else None
         state = np.zeros((f, g), dtype=np.int8)
-        depth = None
-        if len(pairs):
-            pf, i, j = pairs.T
-            if 2 * len(pairs) > f * g:  # validating every pose once is cheaper than both sides of every pair
-                every = Ellipsoids(
-                    centers.reshape(-1, 3),
-                    rotations.reshape(-1, 3, 3),
-                    np.broadcast_to(self.radii, (f, g, 3)).reshape(-1, 3),
-                )
-                a, b = every[pf * g + i], every[pf * g + j]  # indexing a batch does not validate again
-            else:
-                a = Ellipsoids(centers[pf, i], rotations[pf, i], self.radii[i])
-                b = Ellipsoids(centers[pf, j], rotations[pf, j], self.radii[j])
-            relation = classify(a, b)
-            np.maximum.at(state, (pf, i), relation)
-            np.maximum.at(state, (pf, j), relation)
-            if self.depth:
-                depth = np.full(len(pairs), np.nan)
-                over = np.flatnonzero(relation == Relation.OVERLAPPING)
-                if len(over):
-                    dist = signed_distance(a[over], b[over])[0]
-                    depth[over] = np.maximum(-dist, 0.0)
-        else:
-            relation = np.zeros(0, dtype=np.int8)
-            pf = np.zeros(0, dtype=np.int64)
-            if self.depth:
-                depth = np.zeros(0)
-        overlapping = np.bincount(pf[relation == Relation.OVERLAPPING], minlength=f)
-        touching = np.bincount(pf[relation == Relation.TOUCHING], minlength=f)
+        np.maximum.at(state, (pf, i), contact)
+        np.maximum.at(state, (pf, j), contact)
+        ours = _per_frame(pf[contact == CONTACT], v.kind[contact == CONTACT], f, T)
+        touching = np.bincount(pf[contact == TOUCHING], minlength=f)
+        theirs, judged_contact = self._mujoco_counts(f, T)
         frame = first + np.arange(f, dtype=np.int64)
         body_pos, body_quat = self._relative_poses(f)
+        counts = np.array([len(c[3]) for c in self.contacts], dtype=np.int64)
+        contact_frame = np.repeat(frame, counts)
+        contact_geoms = np.concatenate([c[2] for c in self.contacts]).reshape(-1, 2).astype(np.int64)
+        contact_dist = np.concatenate([c[3] for c in self.contacts]).astype(np.float64)
         if self.record:
-            counts = np.array([len(c[0]) for c in self.contacts], dtype=np.int64)
-            contact_frame = np.repeat(frame, counts)
             contact_pos = np.concatenate([c[0] for c in self.contacts]).reshape(-1, 3)
             contact_normal = np.concatenate([c[1] for c in self.contacts]).reshape(-1, 3)
-            contact_ellipsoids = np.concatenate([c[2] for c in self.contacts]).astype(bool)
-            contact_geoms = np.concatenate([c[3] for c in self.contacts]).reshape(-1, 2).astype(np.int64)
-            contact_dist = np.concatenate([c[4] for c in self.contacts]).astype(np.float64)
         else:
             contact_frame = np.zeros(0, dtype=np.int64)
             contact_pos = contact_normal = np.zeros((0, 3))
-            contact_ellipsoids = np.zeros(0, dtype=bool)
+            judged_contact = np.zeros(0, dtype=bool)
             contact_geoms, contact_dist = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
         frames = Frames(
             frame=frame,
             times=self.times[:f].copy(),
             body_pos=body_pos,
             body_quat=body_quat,
-            state=state,
+            state=state[:, self.round_at],
             contact_frame=contact_frame,
             contact_pos=contact_pos,
             contact_normal=contact_normal,
-            contact_ellipsoids=contact_ellipsoids,
+            contact_ellipsoids=judged_contact,
             contact_geoms=contact_geoms,
             contact_dist=contact_dist,
-            builtin_counts=self.builtin[:f].copy(),
-            ellipsim_counts=overlapping.astype(np.int64),
+            builtin_counts=theirs.sum(axis=1),
+            ellipsim_counts=ours.sum(axis=1),
             touching_counts=touching.astype(np.int64),
             contact_counts=self.ncon[:f].copy(),
             bounds=self.bounds[:f].copy(),
+            builtin_by_type=theirs,
+            ellipsim_by_type=ours,
         )
         out_pairs = pairs.copy()
         out_pairs[:, 0] += first
         events = None
         if self.between is not None:
             if self._worker is None:
-                events = self._check(frame, frames.times, centers, rotations, out_pairs[relation != Relation.SEPARATED])
+                # pairs of the geoms themselves touching or overlapping at a frame (not a between event)
+                round_pairs = np.isin(v.kind, _ROUND) & (v.relation != Relation.SEPARATED)
+                ei = np.searchsorted(self.round_at, i[round_pairs])
+                ej = np.searchsorted(self.round_at, j[round_pairs])
+                events = self._check(
+                    frame,
+                    frames.times,
+                    centers[:, self.round_at],
+                    rotations[:, self.round_at],
+                    np.column_stack([out_pairs[round_pairs, 0], ei, ej]),
+                )
             else:
                 self._submit()
-        chunk = Chunk(frames, out_pairs, relation, depth, centers, events, rotations)
+        chunk = Chunk(frames, out_pairs, v.kind, contact, v.dist, depth, centers, events, rotations)
         self.n = self._sent = 0
         self.next_frame += f
         self.contacts = []
         return chunk
+
+    def _pairs(self, centers):
+        """(P, 3) int64 (frame, i, j), i < j into ids: the frames' judged pairs within reach (MuJoCo's rules,
+        bounding spheres grown by the geoms' margins) and the <pair> elements, each once, sorted."""
+        f, g = centers.shape[:2]
+        found = frame_pairs(centers, self.rho, self.rules)
+        if len(found):
+            found = found[judged(self.model, self.ids[found[:, 1]], self.ids[found[:, 2]])]
+        if len(self.explicit):
+            key = found[:, 1] * g + found[:, 2]
+            found = found[~np.isin(key, self._explicit_keys)]  # MuJoCo collides a named pair as its <pair> only
+            named = np.column_stack(
+                [np.repeat(np.arange(f), len(self.explicit)), np.tile(self.explicit, (f, 1))]
+            ).astype(np.int64)
+            found = np.concatenate([found, named])
+            found = found[np.lexsort((found[:, 2], found[:, 1], found[:, 0]))]
+        return found.reshape(-1, 3).astype(np.int64)
+
+    def _mujoco_counts(self, f, T):
+        """MuJoCo's side of the frames: ((f, T) int64 pairs of each judged type with a contact of dist <
+        margin, each pair once; (K,) bool, each contact is on a judged pair)."""
+        counts = np.array([len(c[3]) for c in self.contacts], dtype=np.int64)
+        geom = np.concatenate([c[2] for c in self.contacts]).reshape(-1, 2).astype(np.int64)
+        dist = np.concatenate([c[3] for c in self.contacts]).astype(np.float64)
+        kind = pair_type(self.model, geom[:, 0], geom[:, 1]) if len(geom) else np.zeros(0, dtype=np.int8)
+        judged_contact = kind >= 0
+        out = np.zeros((f, T), dtype=np.int64)
+        at = np.flatnonzero(judged_contact)
+        if len(at):
+            active = at[dist[at] < pair_margins(self.model, geom[at])]
+            frame = np.repeat(np.arange(f), counts)[active]
+            lo, hi = np.minimum(geom[active, 0], geom[active, 1]), np.maximum(geom[active, 0], geom[active, 1])
+            key = (frame * self.model.ngeom + lo) * self.model.ngeom + hi
+            _, first = np.unique(key, return_index=True)  # a pair once, however many contacts MuJoCo made
+            np.add.at(out, (frame[first], kind[active][first]), 1)
+        return out, judged_contact
 
     def _check(self, *args):
         """between.check, timed (on the buffer's thread with background=True: one at a time)."""
@@ -377,13 +441,13 @@ class FrameBuffer:
         return events
 
     def _submit(self):
-        """Hand the frames added since the last hand-over to the background check (copies: the
-        buffer fills up again meanwhile)."""
+        """Hand the frames added since the last hand-over to the background check (copies of the
+        ellipsoid and sphere geoms' poses: the buffer fills up again meanwhile)."""
         lo, hi, g = self._sent, self.n, len(self.ids)
         if hi > lo:
             frames = self.next_frame + np.arange(lo, hi, dtype=np.int64)
-            rotations = self.rotations[lo:hi].reshape(hi - lo, g, 3, 3)
-            args = (frames, self.times[lo:hi].copy(), self.centers[lo:hi].copy(), rotations.copy())
+            rotations = self.rotations[lo:hi].reshape(hi - lo, g, 3, 3)[:, self.round_at]
+            args = (frames, self.times[lo:hi].copy(), self.centers[lo:hi, self.round_at], rotations)
             # in the caller's context: a core.threads.limit around the caller holds for the check too
             self._futures.append(self._worker.submit(contextvars.copy_context().run, self._check, *args))
             self._sent = hi

@@ -30,10 +30,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from ..core.distance.ellipsoid_pair import signed_distance
-from ..core.ellipsoids import Ellipsoids
 from ..core.tolerances import NEAR_TANGENT
+from ..mujoco.judge import NORMAL_OFF_DEG, verdicts_at
 from . import capture, record
+from .comparison import line
 from .errors import STOPS
 
 DISAGREEMENTS_PATH = "world/disagreements"
@@ -47,24 +47,20 @@ ANGLE_PATH = "differences/normal_angle"
 ENGINE_ONLY = (230, 0, 200, 255)  # magenta: the engine's contact, the exact test separates
 EXACT_ONLY = (250, 230, 0, 255)  # yellow: the exact test's contact, none from the engine
 NEAR = (250, 250, 250, 255)  # white: within NEAR_TANGENT of touching
+NORMAL_OFF = (0, 220, 230, 255)  # cyan: both in contact, the engine's normal off
 MUJOCO_COLOR = (110, 160, 240, 255)  # as MuJoCo's count series
 ELLIPSIM_COLOR = (170, 20, 20, 255)  # as ellipsim's
 MARKER_RADIUS = 0.45  # scene scales: a disagreement's marker, larger than a contact's
 
 
 def kinds(engine):
-    """{kind: (colour, series name)} of an engine's compare, in its own words: `compare` on MuJoCo C
-    calls MuJoCo's contacts the exact test separates missed (comparison.split_disagreements), the
-    Warp compare calls them extra (warp_compare); the colour says the same thing for both."""
-    if engine == "Warp":
-        return {
-            "missed": (EXACT_ONLY, "missed (exact contact, none from Warp)"),
-            "extra": (ENGINE_ONLY, "extra (Warp contact, the exact test separates)"),
-        }
+    """{kind: (colour, series name)} of a compare recording, the same words for every engine
+    (mujoco.validate.KINDS)."""
     return {
-        "missed": (ENGINE_ONLY, "missed (MuJoCo contact, ellipsim separated)"),
-        "extra": (EXACT_ONLY, "extra (ellipsim overlapping, no MuJoCo contact)"),
-        "near_tangent": (NEAR, f"within {NEAR_TANGENT:g} m of touching"),
+        "mujoco_extra": (ENGINE_ONLY, f"mujoco_extra ({engine} contact, the exact test separates)"),
+        "mujoco_missed": (EXACT_ONLY, f"mujoco_missed (exact contact, none from {engine})"),
+        "near_tangent": (NEAR, f"near_tangent (one side only, within {NEAR_TANGENT:g} m of the margin)"),
+        "normal_off": (NORMAL_OFF, f"normal_off ({engine}'s normal more than {NORMAL_OFF_DEG:g} deg off)"),
     }
 
 
@@ -73,25 +69,24 @@ def legend(engine):
     return [
         "",
         "**Disagreements** (at their step; listed in the log, whose lines name the step):",
-        f"- **magenta** ball: {engine} made a contact the exact test separates",
-        f"- **yellow** ball: the exact test makes a contact {engine} did not",
-        *([f"- **white** ball: within {NEAR_TANGENT:g} m of touching (mj_geomDistance)"] if engine != "Warp" else []),
+        f"- **magenta** ball: mujoco_extra, {engine} made a contact the exact test separates",
+        f"- **yellow** ball: mujoco_missed, the exact test makes a contact {engine} did not",
+        f"- **white** ball: near_tangent, one of those within {NEAR_TANGENT:g} m of the margin",
+        f"- **cyan** ball: normal_off, both in contact, {engine}'s normal more than {NORMAL_OFF_DEG:g} deg off",
         f"- at each: {engine}'s contact in **blue**, ellipsim's in **dark red**, point and normal",
     ]
 
 
 def kind_of(d):
-    """A mujoco.validate.Disagreement's kind, as comparison.split_disagreements sorts it."""
-    if abs(d.geom_distance) < NEAR_TANGENT:
-        return "near_tangent"
-    return "missed" if d.mujoco_contact else "extra"
+    """A mujoco.validate.Disagreement's kind."""
+    return d.kind
 
 
 def panels(engine="MuJoCo", log=True):
     """The column beside a compare recording's 3D view; log : with the log panel (there are
     disagreements or contacts between steps to list)."""
     return [
-        (rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"), 2),
+        (rrb.TimeSeriesView(origin="counts/pairs", name="pairs in contact (every type ellipsim judges)"), 2),
         (rrb.TimeSeriesView(origin=COUNTS_PATH, name="disagreements per step"), 2),
         (rrb.TimeSeriesView(origin=DISTANCE_PATH, name=f"|{engine} dist - ellipsim's| on {engine}'s contacts, m"), 1),
         (rrb.TimeSeriesView(origin=ANGLE_PATH, name=f"normal angle on {engine}'s contacts, deg"), 1),
@@ -111,6 +106,7 @@ class CompareRecording:
         self.engine = engine
         self.recorder = recorder
         self.names = capture.ModelNames.of(model)
+        self.model = model
         self.buffer = capture.FrameBuffer(model, record=True)
         recorder.begin(capture.geometry(model, title, self.names))
         recorder.panels = lambda r: panels(engine, self.written > 0 or r.events_written > 0)
@@ -130,7 +126,7 @@ class CompareRecording:
         name, color, width = record.BUILTIN_SERIES
         rec.log(
             record.BUILTIN_PATH,
-            rr.SeriesLines(names=f"{engine} contacts (ellipsoid pairs)", colors=color, widths=width),
+            rr.SeriesLines(names=f"{engine} contacts (dist < margin)", colors=color, widths=width),
             static=True,
         )
         rec.log(DISTANCE_PATH, rr.SeriesLines(names="largest distance difference, m", widths=1.5), static=True)
@@ -198,38 +194,38 @@ class CompareRecording:
         self._differences(chunk)
 
     def _differences(self, chunk):
-        """The largest distance and normal differences per frame over MuJoCo's contacts between two
-        tested geoms, against ellipsim's signed distance on the same poses."""
+        """The largest distance and normal differences per frame over the engine's contacts on pairs
+        ellipsim judges, against ellipsim's signed distance on the same poses."""
         f = chunk.frames
         mine = np.flatnonzero(f.contact_ellipsoids)
         if len(mine) == 0:
             return
         ids = self.buffer.ids
         local = f.contact_frame[mine] - f.frame[0]
-        i, j = (np.searchsorted(ids, f.contact_geoms[mine, k]) for k in (0, 1))
-        radii = self.buffer.radii
-        a = Ellipsoids(chunk.centers[local, i], chunk.rotations[local, i], radii[i])
-        b = Ellipsoids(chunk.centers[local, j], chunk.rotations[local, j], radii[j])
-        dist, normal = signed_distance(a, b)[:2]
-        ddist = np.abs(f.contact_dist[mine] - dist)
-        cos = np.clip(np.einsum("ij,ij->i", normal, f.contact_normal[mine]), -1.0, 1.0)
+        geoms = f.contact_geoms[mine]
+        i, j = (np.searchsorted(ids, geoms[:, k]) for k in (0, 1))
+        xpos = np.stack([chunk.centers[local, i], chunk.centers[local, j]], axis=1)
+        xmat = np.stack([chunk.rotations[local, i], chunk.rotations[local, j]], axis=1)
+        v = verdicts_at(self.model, geoms, xpos, xmat, np.zeros(len(mine)), measure=np.ones(len(mine), dtype=bool))
+        ddist = np.abs(f.contact_dist[mine] - v.dist)
+        cos = np.clip(np.einsum("ij,ij->i", v.normal, f.contact_normal[mine]), -1.0, 1.0)
         angle = np.degrees(np.arccos(cos))
         frames = np.unique(local)
         at = np.searchsorted(frames, local)
         worst_dist, worst_angle = np.zeros(len(frames)), np.zeros(len(frames))
-        np.maximum.at(worst_dist, at, ddist)
-        np.maximum.at(worst_angle, at, angle)
+        np.fmax.at(worst_dist, at, ddist)
+        np.fmax.at(worst_angle, at, angle)
         indexes = record._indexes(f.times[frames], f.frame[frames])
         rec = self.recorder.rec
         rec.send_columns(DISTANCE_PATH, indexes=indexes, columns=rr.Scalars.columns(scalars=worst_dist))
         rec.send_columns(ANGLE_PATH, indexes=indexes, columns=rr.Scalars.columns(scalars=worst_angle))
 
     def _write_disagreements(self, step, time, ds, kinds):
-        rec, names = self.recorder.rec, self.names
+        rec = self.recorder.rec
         rec.set_time("frame", sequence=step)
         rec.set_time("time", duration=np.timedelta64(int(round(time * 1e9)), "ns"))
         points = np.array([d.ellipsim_pos for d in ds], dtype=np.float64)
-        labels = [f"{kind.replace('_', ' ')}: {d.names[0]} / {d.names[1]}" for kind, d in zip(kinds, ds)]
+        labels = [f"{kind}: {d.names[0]} / {d.names[1]}" for kind, d in zip(kinds, ds)]
         rec.log(DISAGREEMENTS_PATH, rr.Points3D(points, colors=[self.kinds[k][0] for k in kinds], labels=labels))
         length = record.NORMAL_LENGTH * self.scale
         ours = np.array([d.ellipsim_normal for d in ds], dtype=np.float64)
@@ -239,7 +235,7 @@ class CompareRecording:
         normals = np.array([d.mujoco_normal for d in theirs], dtype=np.float64).reshape(-1, 3)
         rec.log(MUJOCO_PATH, rr.Points3D(at), rr.Arrows3D(origins=at, vectors=length * normals))
         for kind, d in zip(kinds, ds):
-            text = line(step, kind, d, names, self.engine)
+            text = line(d, self.engine)
             rec.log(LOG_PATH, rr.TextLog(text, level="INFO" if kind == "near_tangent" else "WARN"))
         rec.reset_time()
         self._shown = step
@@ -256,18 +252,3 @@ class CompareRecording:
             rec.log(path, rr.Points3D(empty), rr.Arrows3D(origins=empty, vectors=empty))
         rec.reset_time()
         self._shown = None
-
-
-def _vector(v):
-    return "none" if v is None else "(" + ", ".join(f"{x:.4f}" for x in v) + ")"
-
-
-def line(step, kind, d, names, engine="MuJoCo"):
-    """The log line of one disagreement; engine : whose contact it is ("MuJoCo", "Warp")."""
-    bodies = [names.bodies[names.geom_body[g]] for g in (d.geom1, d.geom2)]
-    theirs = f"dist {d.mujoco_dist:.6g} m, normal {_vector(d.mujoco_normal)}" if d.mujoco_contact else "no contact"
-    return (
-        f"step {step}: {kind.replace('_', ' ')}: geoms {d.names[0]} / {d.names[1]} (bodies {bodies[0]} / {bodies[1]}); "
-        f"{engine} {theirs}; ellipsim {d.relation}, signed distance {d.signed_distance:.6g} m, normal "
-        f"{_vector(d.ellipsim_normal)}; right: {d.right} ({d.reason})"
-    )

@@ -46,6 +46,8 @@ from ..mujoco.jacobian import _bodies, distance_jacobian, interpolated_distance_
 from .mjcf import make_data
 
 METRICS = ("mass", "identity")
+#: the pair types fix keeps apart, as indices into mujoco.judge.KEYS: ellipsoid x ellipsoid and x sphere
+PAIR_TYPES = (0, 1)
 #: Gauss-Newton iterations per frame before a pair is declared not freed
 MAX_ITERATIONS = 30
 #: target = clearance + SLACK_REL * (the model's smallest ellipsoid semi-axis): the constraints are

@@ -39,7 +39,7 @@ What is written (B bodies, G geoms):
                                    begun so far is shown
     events/between_frames          TextLog, a line per such contact at its time (level WARN)
     counts/pairs/builtin           Scalars per frame: MuJoCo's contacts between ellipsoid geoms
-    counts/pairs/ellipsim          Scalars per frame: pairs ellipsim finds overlapping
+    counts/pairs/ellipsim          Scalars per frame: pairs ellipsim finds in contact (signed distance < margin)
     counts/contacts/all            Scalars per frame: all of MuJoCo's contacts
     legend                         TextDocument (markdown): what each colour means
 
@@ -93,8 +93,8 @@ NORMAL_RADIUS = 0.04
 BETWEEN_RADIUS = 0.35
 # Series styles: MuJoCo's line wide and light, ellipsim's thin and dark on top of it, so that where
 # the counts agree the thin line runs inside the wide one and both are seen.
-BUILTIN_SERIES = ("MuJoCo contacts (ellipsoid pairs)", (110, 160, 240, 255), 6.0)
-ELLIPSIM_SERIES = ("ellipsim overlapping pairs (exact)", (170, 20, 20, 255), 1.5)
+BUILTIN_SERIES = ("MuJoCo contacts (dist < margin)", (110, 160, 240, 255), 6.0)
+ELLIPSIM_SERIES = ("ellipsim contacts (exact: signed distance < margin)", (170, 20, 20, 255), 1.5)
 ALL_SERIES = ("MuJoCo contacts (all geoms)", (40, 40, 40, 255), 1.5)
 #: The 3D view's camera: looking at the centre of the bodies' bounding box over the run from this
 #: direction (front right, above), as close as keeps the whole box in view (camera()).
@@ -145,7 +145,7 @@ def run_panels(between=False):
     """The column beside a run's 3D view: the two contact-count plots, the legend, and the log of
     contacts between frames when there are any (between)."""
     panels = [
-        (rrb.TimeSeriesView(origin="counts/pairs", name="ellipsoid pairs in contact"), 3),
+        (rrb.TimeSeriesView(origin="counts/pairs", name="pairs in contact (every type ellipsim judges)"), 3),
         (rrb.TimeSeriesView(origin="counts/contacts", name="all MuJoCo contacts"), 2),
         (rrb.TextDocumentView(origin=LEGEND_PATH, name="what the colours mean"), 2),
     ]

@@ -1,14 +1,15 @@
-"""The animation check: a motion (qpos per frame) played on a model, and which frames make its
-ellipsoid geoms touch or overlap.
+"""The animation check: a motion (qpos per frame) played on a model, and which frames bring a pair of
+geoms ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or cylinder) into contact.
 
     motion = load_motion("walk.csv", model.nq)          # (frames, nq), .npy or .csv
     result = replay(model, motion, fps=30)              # a ReplayResult
 
-Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPosition, for its contact
-count on the same frames), then ellipsim's verdict on every candidate pair of every frame in one
-batched exact classify per chunk of frames (stepping.FrameLoop over a capture.FrameBuffer: sweep and prune per frame, MuJoCo's
-pair rules, core.exact.classify), and the penetration depth of the overlapping pairs
-(core.signed_distance).  Only the touching and overlapping pairs are kept.  With between=True, also
+Per frame: qpos, MuJoCo's forward kinematics and its own collision (mj_fwdPosition, for its contacts
+on the same frames), then ellipsim's verdict on every candidate pair of every frame, a chunk of frames
+at a time (stepping.FrameLoop over a capture.FrameBuffer: sweep and prune per frame, MuJoCo's pair
+rules, mujoco.judge's one margin rule: in contact when the signed distance is below the pair's
+margin, on both sides), and the penetration depth of the pairs in contact.  Only the touching and
+in-contact pairs are kept.  With between=True, also
 the contacts that begin and end between two frames (pairs separated at both frames that touch in
 between on the interpolated motion: mujoco.between, core.motion.time_of_impact).
 """
@@ -132,20 +133,24 @@ def _read_csv(path):
 
 @dataclasses.dataclass
 class ReplayResult:
-    """What `replay` found, per frame (F,) and per contact pair (P touching or overlapping pairs).
+    """What `replay` found, per frame (F,) and per pair (P pairs touching or in contact).
 
     fps : frames per second of the motion
-    touching, overlapping : (F,) int64, pairs ellipsim classifies touching / overlapping
-    deepest : (F,) float64, the largest penetration depth of the frame, metres (0 without overlap)
-    deepest_pair : (F,) int64, index into the pair arrays of that pair (-1 without overlap)
-    mujoco_contacts : (F,) int64, all of MuJoCo's contacts; mujoco_pairs : (F,) those between two
-        ellipsoid geoms
+    touching, in_contact : (F,) int64, ellipsoid pairs ellipsim classifies exactly touching / pairs of
+        every judged type in contact (signed distance < the pair's margin)
+    in_contact_by_type, mujoco_by_type : (F, T) the pairs in contact per pair type (mujoco.judge.KEYS), by
+        ellipsim and by MuJoCo (a contact with dist < margin)
+    deepest : (F,) float64, the largest penetration depth of the frame, metres (0 without contact)
+    deepest_pair : (F,) int64, index into the pair arrays of that pair (-1 without contact)
+    mujoco_contacts : (F,) int64, all of MuJoCo's contacts; mujoco_pairs : (F,) the pairs ellipsim
+        judges on which MuJoCo made a contact with dist < margin
     pair_frame : (P,) int64; pair_geoms : (P, 2) int64 MuJoCo geom ids; pair_relation : (P,) int8
-        (1 touching, 2 overlapping); pair_depth : (P,) float64 metres (nan when touching)
+        (1 touching, 2 in contact: capture.TOUCHING, CONTACT); pair_depth : (P,) float64 metres, max(0,
+        -signed distance) (nan when touching); pair_type : (P,) int8 index into mujoco.judge.KEYS
     geom_names, body_names : MuJoCo's names (or geom{i} / body{i}); geom_body : (ngeom,) int64
-    candidates : number of candidate pairs decided, all frames
-    between : mujoco.between.Events, the contacts between frames (pairs index the ellipsoid geoms
-        `ellipsoid_ids`), or None when not looked for; between_candidates : the pairs whose motion
+    judged_geoms : how many geoms are of a type ellipsim judges; candidates : pairs decided, all frames
+    between : mujoco.between.Events, the contacts between frames (pairs index the ellipsoid and sphere
+        geoms `ellipsoid_ids`), or None when not looked for; between_candidates : the pairs whose motion
         between two frames time_of_impact decided
     seconds : wall time of kinematics and MuJoCo's collision; analysis_seconds : of ellipsim's verdicts
         (and of waiting for the contacts between frames); between_seconds : the wall time of their
@@ -154,7 +159,9 @@ class ReplayResult:
 
     fps: float
     touching: np.ndarray
-    overlapping: np.ndarray
+    in_contact: np.ndarray
+    in_contact_by_type: np.ndarray
+    mujoco_by_type: np.ndarray
     deepest: np.ndarray
     deepest_pair: np.ndarray
     mujoco_contacts: np.ndarray
@@ -163,10 +170,12 @@ class ReplayResult:
     pair_geoms: np.ndarray
     pair_relation: np.ndarray
     pair_depth: np.ndarray
+    pair_type: np.ndarray
     geom_names: list
     body_names: list
     geom_body: np.ndarray
-    ellipsoids: int
+    judged_geoms: int
+    possible: bool
     candidates: int
     seconds: float
     analysis_seconds: float
@@ -186,9 +195,9 @@ class ReplayResult:
         return capture.ModelNames(self.geom_names, self.body_names, self.geom_body)
 
     def body_pairs(self):
-        """Per pair of bodies that touch or overlap in some frame, most overlapping frames first:
-        list of dicts {bodies, geoms (the deepest pair's), frames_overlapping, frames_touching,
-        first, last, deepest (m), deepest_frame}."""
+        """Per pair of bodies that touch or are in contact in some frame, most frames in contact first:
+        list of dicts {bodies, geoms (the deepest pair's), frames_in_contact, frames_touching, first,
+        last, deepest (m), deepest_frame, contact_frames}."""
         if len(self.pair_frame) == 0:
             return []
         bodies = np.sort(self.geom_body[self.pair_geoms], axis=1)
@@ -197,7 +206,7 @@ class ReplayResult:
         out = []
         for k, (b1, b2) in enumerate(keys):
             mine = np.flatnonzero(group == k)
-            over = mine[self.pair_relation[mine] == 2]
+            over = mine[self.pair_relation[mine] == capture.CONTACT]
             frames_over = np.unique(self.pair_frame[over])
             frames_touch = np.setdiff1d(np.unique(self.pair_frame[mine]), frames_over)
             depth = self.pair_depth[over]
@@ -206,16 +215,16 @@ class ReplayResult:
                 {
                     "bodies": [self.body_names[b1], self.body_names[b2]],
                     "geoms": [self.geom_names[g] for g in self.pair_geoms[deepest]],
-                    "frames_overlapping": int(len(frames_over)),
+                    "frames_in_contact": int(len(frames_over)),
                     "frames_touching": int(len(frames_touch)),
                     "first": int(self.pair_frame[mine].min()),
                     "last": int(self.pair_frame[mine].max()),
                     "deepest": float(depth.max()) if len(over) else 0.0,
                     "deepest_frame": int(self.pair_frame[deepest]),
-                    "overlap_frames": frames_over.tolist(),
+                    "contact_frames": frames_over.tolist(),
                 }
             )
-        out.sort(key=lambda d: (-d["frames_overlapping"], -d["deepest"], d["first"]))
+        out.sort(key=lambda d: (-d["frames_in_contact"], -d["deepest"], d["first"]))
         return out
 
     def between_events(self):
@@ -227,39 +236,48 @@ class ReplayResult:
 
     def summary(self, show):
         """The lines `ellipsim replay` prints after playing: timings, frames in contact, the deepest
-        overlap, MuJoCo's contacts, `show` body pairs and contacts between frames at most."""
+        penetration, MuJoCo's contacts, `show` body pairs and contacts between frames at most."""
+        from .simulate import contact_lines
+
         F = self.frames
-        over = np.flatnonzero(self.overlapping)
-        touch_only = np.flatnonzero((self.touching > 0) & (self.overlapping == 0))
+        over = np.flatnonzero(self.in_contact)
+        touch_only = np.flatnonzero((self.touching > 0) & (self.in_contact == 0))
         lines = [
             f"  kinematics and MuJoCo's collision {self.seconds:.2f} s; ellipsim's exact verdicts on "
-            f"{self.candidates} candidate pairs of {self.ellipsoids} ellipsoid geoms {self.analysis_seconds:.2f} s"
+            f"{self.candidates} candidate pairs of {self.judged_geoms} geoms it judges {self.analysis_seconds:.2f} s"
         ]
-        if self.ellipsoids < 2:
-            lines.append("  the model has fewer than two ellipsoid or sphere geoms: ellipsim has no pair to test")
+        if not self.possible:
+            lines.append(
+                "  the model has no pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or "
+                "cylinder that may collide): nothing to test"
+            )
         lines.append(
-            f"  frames with overlapping pairs: {len(over)} of {F} ({frame_ranges(over)}); touching only: {len(touch_only)}"
+            f"  frames with pairs in contact (distance < margin): {len(over)} of {F} ({frame_ranges(over)}); "
+            f"touching only: {len(touch_only)}"
         )
         if len(over):
             f = int(over[np.argmax(self.deepest[over])])
             g1, g2 = self.pair_geoms[self.deepest_pair[f]]
             b1, b2 = (self.body_names[self.geom_body[g]] for g in (g1, g2))
             lines.append(
-                f"  deepest overlap: {length(self.deepest[f])} at frame {f} ({f / self.fps:.3f} s): bodies {b1} / {b2} "
+                f"  deepest penetration: {length(self.deepest[f])} at frame {f} ({f / self.fps:.3f} s): bodies {b1} / {b2} "
                 f"(geoms {self.geom_names[g1]} / {self.geom_names[g2]})"
             )
         lines.append(
-            f"  MuJoCo's contacts on the same frames: {int(self.mujoco_contacts.sum())} in all (max {int(self.mujoco_contacts.max())} "
-            f"in a frame), {int(self.mujoco_pairs.sum())} between ellipsoid geoms; ellipsim: {int(self.overlapping.sum())} "
-            f"overlapping, {int(self.touching.sum())} touching pairs"
+            f"  MuJoCo's contacts on the same frames: {int(self.mujoco_contacts.sum())} in all (max "
+            f"{int(self.mujoco_contacts.max())} in a frame); on the pairs ellipsim judges, within the margin: MuJoCo "
+            f"{int(self.mujoco_pairs.sum())}, ellipsim {int(self.in_contact.sum())} (and {int(self.touching.sum())} "
+            "exactly touching)"
         )
+        if self.possible:
+            lines += contact_lines(_ByType(self.mujoco_by_type, self.in_contact_by_type), F, "frames")[1:]
         body_pairs = self.body_pairs()
         if body_pairs:
-            lines.append("  body pairs in contact (most overlapping frames first):")
+            lines.append("  body pairs in contact (most frames in contact first):")
             for bp in body_pairs[:show]:
-                frames = frame_ranges(bp["overlap_frames"], most=4)
+                frames = frame_ranges(bp["contact_frames"], most=4)
                 lines.append(
-                    f"    {bp['bodies'][0]} / {bp['bodies'][1]}: overlapping in {bp['frames_overlapping']} frames ({frames}), "
+                    f"    {bp['bodies'][0]} / {bp['bodies'][1]}: in contact in {bp['frames_in_contact']} frames ({frames}), "
                     f"deepest {length(bp['deepest'])} at frame {bp['deepest_frame']}; touching only in {bp['frames_touching']}"
                 )
             if len(body_pairs) > show:
@@ -268,22 +286,27 @@ class ReplayResult:
             lines += capture.between_lines(
                 self.between_events(), self.between_candidates, self.between_seconds, show, "frames"
             )
-        elif self.ellipsoids >= 2:
+        elif self.possible:
             lines.append("  contacts that begin and end between two frames: not looked for (--between-frames)")
         return lines
 
     def report(self, model_path, motion_path, nq):
         """The JSON report (`ellipsim replay --json`) of the motion file `motion_path` played on the
-        model file `model_path` (nq qpos values): totals, body pairs, contacts between frames, per frame."""
+        model file `model_path` (nq qpos values): totals, per pair type, body pairs,
+        contacts between frames, per frame."""
+        from ..mujoco.judge import KEYS
+
         per_pair = [[] for _ in range(self.frames)]
         for p in range(len(self.pair_frame)):
             g1, g2 = (int(g) for g in self.pair_geoms[p])
+            contact = self.pair_relation[p] == capture.CONTACT
             per_pair[int(self.pair_frame[p])].append(
                 {
                     "geoms": [self.geom_names[g1], self.geom_names[g2]],
                     "bodies": [self.body_names[self.geom_body[g1]], self.body_names[self.geom_body[g2]]],
-                    "relation": "overlapping" if self.pair_relation[p] == 2 else "touching",
-                    "depth": None if self.pair_relation[p] != 2 else float(self.pair_depth[p]),
+                    "pair_type": KEYS[int(self.pair_type[p])],
+                    "relation": "contact" if contact else "touching",
+                    "depth": float(self.pair_depth[p]) if contact else None,
                 }
             )
         return {
@@ -292,31 +315,46 @@ class ReplayResult:
             "frames": self.frames,
             "fps": self.fps,
             "nq": int(nq),
-            "ellipsoid_geoms": self.ellipsoids,
+            "judged_geoms": self.judged_geoms,
             "candidate_pairs": self.candidates,
-            "frames_overlapping": int(np.count_nonzero(self.overlapping)),
-            "frames_touching_only": int(np.count_nonzero((self.touching > 0) & (self.overlapping == 0))),
-            "overlapping_pairs": int(self.overlapping.sum()),
+            "frames_in_contact": int(np.count_nonzero(self.in_contact)),
+            "frames_touching_only": int(np.count_nonzero((self.touching > 0) & (self.in_contact == 0))),
+            "ellipsim_contacts": int(self.in_contact.sum()),
             "touching_pairs": int(self.touching.sum()),
             "mujoco_contacts": int(self.mujoco_contacts.sum()),
-            "mujoco_ellipsoid_contacts": int(self.mujoco_pairs.sum()),
+            "mujoco_judged_contacts": int(self.mujoco_pairs.sum()),
+            "by_pair_type": {
+                key: {
+                    "mujoco_contacts": int(self.mujoco_by_type[:, k].sum()),
+                    "ellipsim_contacts": int(self.in_contact_by_type[:, k].sum()),
+                }
+                for k, key in enumerate(KEYS)
+            },
             "deepest": float(self.deepest.max()) if self.frames else 0.0,
             "body_pairs": self.body_pairs(),
             "between_frames": self.between_events() if self.between is not None else None,
             "per_frame": {
                 "time": (np.arange(self.frames) / self.fps).tolist(),
                 "touching": self.touching.tolist(),
-                "overlapping": self.overlapping.tolist(),
+                "in_contact": self.in_contact.tolist(),
                 "deepest": self.deepest.tolist(),
                 "mujoco_contacts": self.mujoco_contacts.tolist(),
-                "mujoco_ellipsoid_contacts": self.mujoco_pairs.tolist(),
+                "mujoco_judged_contacts": self.mujoco_pairs.tolist(),
                 "pairs": per_pair,
             },
         }
 
 
+@dataclasses.dataclass
+class _ByType:
+    """The two (F, T) count arrays simulate.contact_lines reads."""
+
+    builtin_by_type: np.ndarray
+    ellipsim_by_type: np.ndarray
+
+
 def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="replay", between=False):
-    """Pose `model` at every frame of `motion` (F, nq) and decide every candidate ellipsoid pair.
+    """Pose `model` at every frame of `motion` (F, nq) and decide every candidate pair ellipsim judges.
 
     fps : frames per second, > 0 (the recording's time line, and the report's times).
     between : also find the contacts that begin and end between two frames, on the interpolated motion
@@ -333,10 +371,14 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         raise ValueError(f"motion must have shape (frames, {model.nq}) (frames >= 1), got {motion.shape}")
     if isinstance(fps, bool) or not isinstance(fps, (int, float, np.floating)) or not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive finite number, got {fps!r}")
+    from ..mujoco.attachment import ellipsoid_pair_possible
+    from ..mujoco.judge import KEYS
+
     data = make_data(model, name)
-    F = len(motion)
-    per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "overlapping", "mujoco_contacts", "mujoco_pairs")}
-    pairs, relations, depths = [], [], []
+    F, T = len(motion), len(KEYS)
+    per_frame = {k: np.zeros(F, dtype=np.int64) for k in ("touching", "in_contact", "mujoco_contacts", "mujoco_pairs")}
+    ours_by_type, theirs_by_type = np.zeros((F, T), dtype=np.int64), np.zeros((F, T), dtype=np.int64)
+    pairs, relations, depths, kinds = [], [], [], []
     candidates = 0
 
     def on_chunk(chunk):
@@ -344,14 +386,16 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         fr = chunk.frames
         at = fr.frame
         per_frame["touching"][at] = fr.touching_counts
-        per_frame["overlapping"][at] = fr.ellipsim_counts
+        per_frame["in_contact"][at] = fr.ellipsim_counts
         per_frame["mujoco_contacts"][at] = fr.contact_counts
         per_frame["mujoco_pairs"][at] = fr.builtin_counts
+        ours_by_type[at], theirs_by_type[at] = fr.ellipsim_by_type, fr.builtin_by_type
         candidates += len(chunk.pairs)
-        hit = chunk.relation > 0
+        hit = chunk.contact > 0
         pairs.append(chunk.pairs[hit])
-        relations.append(chunk.relation[hit])
+        relations.append(chunk.contact[hit])
         depths.append(chunk.depth[hit])
+        kinds.append(chunk.kind[hit])
 
     loop = FrameLoop(
         model, recorder=recorder, title=name, on_chunk=on_chunk, depth=True, between=between, background=between
@@ -366,10 +410,12 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     buffer, names = loop.buffer, loop.names
     pairs = np.concatenate(pairs) if pairs else np.zeros((0, 3), dtype=np.int64)
     relation = np.concatenate(relations) if relations else np.zeros(0, dtype=np.int8)
-    depth = np.where(relation == 2, np.concatenate(depths), np.nan) if len(relation) else np.zeros(0)
+    kind = np.concatenate(kinds) if kinds else np.zeros(0, dtype=np.int8)
+    contact = relation == capture.CONTACT
+    depth = np.where(contact, np.concatenate(depths), np.nan) if len(relation) else np.zeros(0)
     geoms = np.column_stack([buffer.ids[pairs[:, 1]], buffer.ids[pairs[:, 2]]]).astype(np.int64).reshape(-1, 2)
     deepest, deepest_pair = np.zeros(F), np.full(F, -1, dtype=np.int64)
-    over = np.flatnonzero(relation == 2)
+    over = np.flatnonzero(contact)
     if len(over):
         order = over[np.lexsort((-depth[over], pairs[over, 0]))]  # by frame, deepest first
         first = order[np.r_[True, pairs[order[1:], 0] != pairs[order[:-1], 0]]]
@@ -378,7 +424,9 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
     return ReplayResult(
         fps=float(fps),
         touching=per_frame["touching"],
-        overlapping=per_frame["overlapping"],
+        in_contact=per_frame["in_contact"],
+        in_contact_by_type=ours_by_type,
+        mujoco_by_type=theirs_by_type,
         deepest=deepest,
         deepest_pair=deepest_pair,
         mujoco_contacts=per_frame["mujoco_contacts"],
@@ -387,15 +435,17 @@ def replay(model, motion, *, fps=30.0, progress=None, recorder=None, name="repla
         pair_geoms=geoms,
         pair_relation=relation,
         pair_depth=depth,
+        pair_type=kind,
         geom_names=names.geoms,
         body_names=names.bodies,
         geom_body=names.geom_body,
-        ellipsoids=len(buffer.ids),
+        judged_geoms=len(buffer.ids),
+        possible=bool(ellipsoid_pair_possible(model, "narrowphase")),
         candidates=candidates,
         seconds=loop.seconds,
         analysis_seconds=loop.analysis_seconds,
         record_seconds=loop.record_seconds,
-        ellipsoid_ids=buffer.ids.astype(np.int64),
+        ellipsoid_ids=buffer.ellipsoid_ids.astype(np.int64),
         between=loop.events(),
         between_candidates=buffer.between.candidates if between else 0,
         between_seconds=buffer.between_seconds,

@@ -106,14 +106,17 @@ def controller(model, data, s):
 
 @dataclasses.dataclass
 class FrameCounts:
-    """Per recorded frame (F,): time (s), MuJoCo's contacts between ellipsoid geoms, pairs ellipsim
-    finds overlapping and touching, all of MuJoCo's contacts."""
+    """Per recorded frame (F,): time (s), the pairs ellipsim judges in contact (dist < margin) by MuJoCo
+    and by ellipsim, ellipsoid pairs ellipsim finds exactly touching, all of MuJoCo's contacts; and the
+    first two per pair type, (F, T) (mujoco.judge.KEYS)."""
 
     times: np.ndarray
     builtin_counts: np.ndarray
     ellipsim_counts: np.ndarray
     touching_counts: np.ndarray
     contact_counts: np.ndarray
+    builtin_by_type: np.ndarray
+    ellipsim_by_type: np.ndarray
 
 
 @dataclasses.dataclass
@@ -176,11 +179,7 @@ class Run:
             ),
         ]
         if len(fr.times):
-            lines.append(
-                f"  ellipsoid pairs over {len(fr.times)} recorded frames: MuJoCo contacts mean {fr.builtin_counts.mean():.1f} "
-                f"(max {fr.builtin_counts.max()}), ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
-                f"(max {fr.ellipsim_counts.max()})"
-            )
+            lines += contact_lines(fr, len(fr.times))
         if "seen" in c:
             share = c["discarded"] / max(c["seen"], 1)
             lines.append(
@@ -198,6 +197,28 @@ class Run:
                 "  contacts between frames: not looked for (a dynamic scenario; `ellipsim compare` checks every step)"
             )
         return lines
+
+
+def contact_lines(fr, frames, unit="recorded frames"):
+    """The summary's lines on contacts of the pairs ellipsim judges over `frames` frames of a FrameCounts
+    (or anything with builtin_by_type and ellipsim_by_type (F, T)): one for all, one per pair type present."""
+    from ..mujoco.judge import KEYS
+
+    theirs, ours = np.asarray(fr.builtin_by_type), np.asarray(fr.ellipsim_by_type)
+    lines = [
+        f"  pairs in contact (distance < margin) over {frames} {unit}, every pair type ellipsim judges: MuJoCo "
+        f"mean {theirs.sum(axis=1).mean():.2f} (max {theirs.sum(axis=1).max()}), ellipsim mean "
+        f"{ours.sum(axis=1).mean():.2f} (max {ours.sum(axis=1).max()}); `ellipsim compare` judges each pair"
+    ]
+    for k, key in enumerate(KEYS):
+        if theirs[:, k].any() or ours[:, k].any():
+            lines.append(
+                f"    {key}: MuJoCo mean {theirs[:, k].mean():.2f} (max {theirs[:, k].max()}), ellipsim mean "
+                f"{ours[:, k].mean():.2f} (max {ours[:, k].max()})"
+            )
+    if not (theirs.any() or ours.any()):
+        lines.append("    no pair of a type ellipsim judges came into contact")
+    return lines
 
 
 def recorded_frames(s, steps):
@@ -259,9 +280,19 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
 
     def on_chunk(chunk):
         f = chunk.frames
-        chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
+        chunks.append(
+            (
+                f.times,
+                f.builtin_counts,
+                f.ellipsim_counts,
+                f.touching_counts,
+                f.contact_counts,
+                f.builtin_by_type,
+                f.ellipsim_by_type,
+            )
+        )
         if keep:
-            kept.append((chunk.centers.copy(), f.state))
+            kept.append((chunk.centers[:, loop.buffer.round_at].copy(), f.state))
 
     loop = FrameLoop(model, recorder=recorder, title=s.name, on_chunk=on_chunk, between=between)
     ncon_sum, ncon_max = 0, 0
@@ -282,7 +313,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
     kept_frames = None
     if keep:
         centers, state = (np.concatenate(parts) for parts in zip(*kept))
-        kept_frames = Kept([loop.names.geoms[g] for g in loop.buffer.ids], centers, state)
+        kept_frames = Kept([loop.names.geoms[g] for g in loop.buffer.ellipsoid_ids], centers, state)
     events = loop.events()
     return Run(
         s,
@@ -296,7 +327,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
         ncon_sum / steps,
         int(ncon_max),
         kept_frames,
-        capture.describe_events(events, loop.buffer.ids, loop.names) if between else None,
+        capture.describe_events(events, loop.buffer.ellipsoid_ids, loop.names) if between else None,
         loop.buffer.between.candidates if between else 0,
         loop.buffer.between_seconds,
         contacts_disabled(model),

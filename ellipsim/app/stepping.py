@@ -102,5 +102,5 @@ class FrameLoop:
         if self.recorder is not None:
             t0 = time.perf_counter()
             for events in found:
-                capture.record_events(self.recorder, events, self.buffer.ids, self.names)
+                capture.record_events(self.recorder, events, self.buffer.ellipsoid_ids, self.names)
             self.record_seconds += time.perf_counter() - t0

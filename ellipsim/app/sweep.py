@@ -11,11 +11,12 @@ same variant has the same id in every sweep; it names its .rrd and is that recor
 
 Each variant runs two passes of `steps` steps from the same initial state:
 
-1. plain MuJoCo under mujoco.validate (simulate.validation): every candidate ellipsoid pair of
-   every step, MuJoCo's contact against the exact test.  Columns pairs, mujoco_contacts,
-   ellipsim_overlaps, missed, extra, near_tangent: they compare MuJoCo's own detection with the
-   exact one, so they come from plain MuJoCo whatever the mode (in narrowphase mode the
-   ellipsoid contacts are ellipsim's own: nothing left to compare).
+1. plain MuJoCo under mujoco.validate (simulate.validation): every candidate pair of a type
+   ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or cylinder) at every step,
+   MuJoCo's contact against the exact test, one margin rule on both sides.  Columns pairs,
+   mujoco_contacts, ellipsim_contacts, mujoco_extra, mujoco_missed, near_tangent, normal_off: they
+   compare MuJoCo's own detection with the exact one, so they come from plain MuJoCo whatever the
+   mode (in narrowphase mode those contacts are ellipsim's own: nothing left to compare).
 2. the scenario's mode (builtin, filter or narrowphase; a kinematic scenario replays its poses),
    stepped as `ellipsim run` does and recorded with --record.  Columns steps_per_second
    (stepping alone), fallbacks (narrowphase), mujoco_warnings, deepest_penetration (exact, at
@@ -57,9 +58,9 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from ..core import threads
-from ..core.tolerances import NEAR_TANGENT
+from ..mujoco.validate import KIND_MEANINGS, KINDS
 from . import scenario as scenarios
-from .comparison import split_disagreements
+from .comparison import counters
 from .errors import UserError
 from .mjcf import one_line
 
@@ -85,15 +86,16 @@ COLUMNS = {
     "steps": "steps of each pass",
     "wall_seconds": "TIMING: wall time of the whole variant in its worker (building, both passes, recording)",
     "steps_per_second": "TIMING, mode pass: steps per second of stepping alone",
-    "pairs": "plain-MuJoCo pass: candidate ellipsoid pairs of MuJoCo's broad phase, summed over the steps",
-    "mujoco_contacts": "plain-MuJoCo pass: candidate pairs in which MuJoCo made a contact (dist < margin), summed",
-    "ellipsim_overlaps": "plain-MuJoCo pass: candidate pairs the exact test finds overlapping, summed",
-    "missed": f"plain-MuJoCo pass: MuJoCo contact, exact test separated, more than {NEAR_TANGENT:g} m from touching",
-    "extra": f"plain-MuJoCo pass: exact test overlapping, no MuJoCo contact, more than {NEAR_TANGENT:g} m from touching",
-    "near_tangent": f"plain-MuJoCo pass: disagreements within {NEAR_TANGENT:g} m of touching (mj_geomDistance)",
+    "pairs": "plain-MuJoCo pass: candidate pairs of every type ellipsim judges (MuJoCo's broad phase), summed over the steps",
+    "mujoco_contacts": "plain-MuJoCo pass: candidate pairs on which MuJoCo made a contact (dist < margin), summed",
+    "ellipsim_contacts": "plain-MuJoCo pass: candidate pairs the exact test puts in contact (signed distance < margin), summed",
+    "mujoco_extra": f"plain-MuJoCo pass: {KIND_MEANINGS['mujoco_extra']}",
+    "mujoco_missed": f"plain-MuJoCo pass: {KIND_MEANINGS['mujoco_missed']}",
+    "near_tangent": f"plain-MuJoCo pass: {KIND_MEANINGS['near_tangent']}",
+    "normal_off": f"plain-MuJoCo pass: {KIND_MEANINGS['normal_off']}",
     "fallbacks": "mode pass: pairs the narrow phase handed back to MuJoCo's function (empty in other modes)",
     "mujoco_warnings": "mode pass: MuJoCo's warnings (unstable simulation, contact buffer full, ...)",
-    "deepest_penetration": "mode pass: deepest overlap of two ellipsoids, metres (exact signed distance, recorded frames)",
+    "deepest_penetration": "mode pass: deepest penetration of a pair ellipsim judges, metres (exact signed distance, recorded frames)",
     "error": "why the variant failed (empty when it ran)",
 }
 _METRICS = (
@@ -102,10 +104,11 @@ _METRICS = (
     "steps_per_second",
     "pairs",
     "mujoco_contacts",
-    "ellipsim_overlaps",
-    "missed",
-    "extra",
+    "ellipsim_contacts",
+    "mujoco_extra",
+    "mujoco_missed",
     "near_tangent",
+    "normal_off",
     "fallbacks",
     "mujoco_warnings",
     "deepest_penetration",
@@ -355,16 +358,8 @@ def _measure(variant):
 
     s = scenarios.from_table(variant.table, variant.path)
     validation, _ = simulate.validation(s, variant.steps)
-    missed, extra, near = split_disagreements(validation)
-    both, _, mujoco_only, ellipsim_only = (int(c) for c in validation.counts.sum(axis=0))
-    out = {
-        "pairs": int(validation.counts.sum()),
-        "mujoco_contacts": both + mujoco_only,
-        "ellipsim_overlaps": both + ellipsim_only,
-        "missed": len(missed),
-        "extra": len(extra),
-        "near_tangent": len(near),
-    }
+    c = counters(validation)
+    out = {key: c[key] for key in ("pairs", "mujoco_contacts", "ellipsim_contacts", *KINDS)}
     if variant.record is None:
         return out | _mode_pass(s, variant, None)
     from .record import Recorder
@@ -824,9 +819,10 @@ def rows_table(rows, keys):
         "pairs",
         "MuJoCo",
         "exact",
-        "missed",
         "extra",
+        "missed",
         "near",
+        "normal_off",
         "fallbacks",
         "deepest mm",
     ]
@@ -837,10 +833,11 @@ def rows_table(rows, keys):
             cell(r["steps_per_second"], "{:,.0f}"),
             cell(r["pairs"]),
             cell(r["mujoco_contacts"]),
-            cell(r["ellipsim_overlaps"]),
-            cell(r["missed"]),
-            cell(r["extra"]),
+            cell(r["ellipsim_contacts"]),
+            cell(r["mujoco_extra"]),
+            cell(r["mujoco_missed"]),
             cell(r["near_tangent"]),
+            cell(r["normal_off"]),
             cell(r["fallbacks"]),
             cell(None if r["deepest_penetration"] is None else r["deepest_penetration"] * 1000, "{:.3g}"),
         ]
@@ -861,7 +858,7 @@ def rows_table(rows, keys):
 # --- the plot --------------------------------------------------------------------------------------
 
 
-_STYLE = {"-": "solid", "--": "dashed", ":": "dotted"}
+_STYLE = {"-": "solid", "--": "dashed", ":": "dotted", "-.": "dash-dot"}
 
 
 def _number(value):
@@ -871,7 +868,7 @@ def _number(value):
 def plot_rows(rows, keys, path, *, title="sweep"):
     """sweep.png: four panels against the first varied key (numeric: an axis; else categories), a
     line per combination of the other keys, seeds as mean with a min-max bar: MuJoCo's contacts
-    and the exact test's overlaps, the disagreements, steps/s, the deepest penetration."""
+    and the exact test's contacts, the disagreements, steps/s, the deepest penetration."""
     import matplotlib
     import matplotlib.ticker
     from matplotlib.figure import Figure  # no pyplot: no backend or global figure state touched
@@ -893,12 +890,17 @@ def plot_rows(rows, keys, path, *, title="sweep"):
 
     panels = (
         (
-            "ellipsoid pairs in contact, all steps (plain MuJoCo pass)",
-            (("mujoco_contacts", "-", "MuJoCo"), ("ellipsim_overlaps", "--", "exact")),
+            "pairs in contact (distance < margin), all steps (plain MuJoCo pass)",
+            (("mujoco_contacts", "-", "MuJoCo"), ("ellipsim_contacts", "--", "exact")),
         ),
         (
             "disagreements with the exact test (plain MuJoCo pass)",
-            (("missed", "-", "missed"), ("extra", "--", "extra"), ("near_tangent", ":", "near-tangent")),
+            (
+                ("mujoco_extra", "-", "mujoco_extra"),
+                ("mujoco_missed", "--", "mujoco_missed"),
+                ("near_tangent", ":", "near_tangent"),
+                ("normal_off", "-.", "normal_off"),
+            ),
         ),
         ("steps per second (mode pass)", (("steps_per_second", "-", None),)),
         ("deepest penetration, mm (mode pass)", (("deepest_penetration", "-", None),)),

@@ -98,18 +98,22 @@ class Frames:
     frame : (f,) int64, frame numbers (consecutive, from 0 for the first chunk of a run)
     times : (f,) float64 seconds
     body_pos, body_quat : (f, M, 3), (f, M, 4) w x y z: pose of each moving body relative to its parent
-    state : (f, g) int8, per ellipsim: 0 free, 1 touching, 2 overlapping (the worst over its pairs)
+    state : (f, g) int8, per ellipsoid or sphere geom: 0 free, 1 touching, 2 in contact (the worst over
+        its pairs: capture.APART, TOUCHING, CONTACT)
     contact_frame : (K,) int64 frame number of each of MuJoCo's contacts (every geom pair type)
     contact_pos, contact_normal : (K, 3) metres, (K, 3) unit (first row of MuJoCo's contact frame)
-    contact_ellipsoids : (K,) bool, the contact is between two geoms ellipsim tests
+    contact_ellipsoids : (K,) bool, the contact is on a pair ellipsim judges (mujoco.judge: an ellipsoid
+        with an ellipsoid, sphere, capsule, box or cylinder)
     contact_geoms : (K, 2) int64, the contact's two geoms; contact_dist : (K,) float64, MuJoCo's
         distance (metres, negative: penetration)
-    builtin_counts : (f,) int64, MuJoCo's contacts between two geoms ellipsim tests
-    ellipsim_counts : (f,) int64, pairs ellipsim classifies overlapping
-    touching_counts : (f,) int64, pairs ellipsim classifies touching
+    builtin_counts : (f,) int64, pairs ellipsim judges on which MuJoCo made a contact with dist < margin
+    ellipsim_counts : (f,) int64, pairs ellipsim finds in contact (signed distance < margin)
+    touching_counts : (f,) int64, ellipsoid and sphere pairs ellipsim classifies exactly touching
     contact_counts : (f,) int64, all of MuJoCo's contacts
     bounds : (f, 2, 3) metres, the lower and upper corner of the bodies' bounding box in each frame
         (every geom but planes and height fields, world frame; the recording's camera frames their union)
+    builtin_by_type, ellipsim_by_type : (f, T) int64, builtin_counts and ellipsim_counts per pair type
+        (mujoco.judge.KEYS)
     """
 
     frame: np.ndarray
@@ -128,6 +132,8 @@ class Frames:
     touching_counts: np.ndarray
     contact_counts: np.ndarray
     bounds: np.ndarray
+    builtin_by_type: np.ndarray
+    ellipsim_by_type: np.ndarray
 
     def __len__(self):
         return len(self.frame)
@@ -135,6 +141,7 @@ class Frames:
     def check(self, geometry):
         """ValueError naming the field when the shapes do not fit `geometry` or values are not finite."""
         f, M, g, K = len(self.frame), len(geometry.moving), len(geometry.ellipsoids), len(self.contact_frame)
+        types = np.shape(self.builtin_by_type)[-1] if np.ndim(self.builtin_by_type) == 2 else 0
         _check_shapes(
             self,
             {
@@ -152,6 +159,8 @@ class Frames:
                 "touching_counts": (f,),
                 "contact_counts": (f,),
                 "bounds": (f, 2, 3),
+                "builtin_by_type": (f, types),
+                "ellipsim_by_type": (f, types),
             },
         )
         if f and np.any(np.diff(self.frame) != 1):

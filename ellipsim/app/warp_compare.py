@@ -1,15 +1,17 @@
 """`ellipsim compare ... --engine warp`: plain MuJoCo Warp's own contacts, every world, against the exact test.
 
 The scenario runs in N worlds on plain Warp (nothing attached), from per-world layouts as `run --engine
-warp` starts them (warp_run.world_states).  At each compared step, every candidate
-sphere x ellipsoid and ellipsoid x ellipsoid pair of every world (the model's collision rules, as
-ellipsim.warp takes them; capsule pairs are not checked here, as `compare` on MuJoCo C checks none) whose bounding spheres come within margin + gap gets ellipsim's CPU narrow
-phase on Warp's float32 poses widened to float64 (proven global maxima, or counted unproven); a pair the
-exact test puts within margin + gap that Warp left without a contact is missed, a Warp contact the exact
-test does not make is extra; on pairs both have, the distance error (over the pair's smallest
-semi-axis) and the normal's angle.  A pair is matched to Warp's contact whichever way round Warp names
-its geoms (SAP orders equal types by its sort); pairs Warp skips for sleeping bodies are not asked for;
-a step where Warp's candidate or contact buffer overflowed is counted (its misses are the buffer's).
+warp` starts them (warp_run.world_states).  At each compared step, every candidate pair of a type
+ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or cylinder: the model's collision
+rules, as ellipsim.warp takes them) of every world whose bounding spheres come within the pair's margin
+gets the exact verdicts of mujoco.validate.judge_contacts on Warp's float32 poses widened to float64:
+the same one margin rule (a contact below the pair's margin on both sides) and the same words as
+`compare` on MuJoCo C (mujoco_extra, mujoco_missed, near_tangent, normal_off; "mujoco" is the engine,
+here MuJoCo Warp), judged against Warp's ccd_tolerance.  On pairs both have, the distance error (over
+the pair's smallest size) and the normal's angle.  A pair is matched to Warp's contact whichever way
+round Warp names its geoms (SAP orders equal types by its sort); pairs Warp skips for sleeping bodies
+are not asked for; a step where Warp's candidate or contact buffer overflowed is counted and explained
+(its misses are the buffer's: raise --nconmax / --njmax).
 """
 
 import dataclasses
@@ -17,9 +19,11 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from ..core.distance.ellipsoid_pair import signed_distance
-from ..core.ellipsoids import Ellipsoids
+from ..mujoco.geoms import pair_gaps, pair_margins
+from ..mujoco.judge import KEYS, NORMAL_OFF_DEG
+from ..mujoco.validate import KIND_MEANINGS, KINDS, Names, judge_contacts
 from . import simulate, warp_run
+from .comparison import COUNTERS, disagreement_json, line
 from .scenario import ScenarioError
 
 
@@ -29,38 +33,65 @@ class WarpComparison:
     nworld: int
     steps: int
     pairs: int  # candidate pairs per world
-    checked: int  # (world, step, pair) triples measured exactly
-    exact: int  # of which within margin + gap
-    missed: list  # (step, world, g1, g2, exact dist) of each miss
-    extra: list  # (step, world, g1, g2, Warp's dist, exact dist)
-    dist_err: np.ndarray  # per common contact, over r_min
+    counts: np.ndarray  # (T, 4) COLUMNS of mujoco.Validation per pair type, summed over worlds and steps
+    disagreements: list  # (world, mujoco.validate.Disagreement)
+    dist_err: np.ndarray  # per common contact, over the pair's smallest size
     angle: np.ndarray  # per common contact, degrees
     unproven: int
     overflow_steps: int = 0
+    overflow: str = ""  # why, when Warp's buffers overflowed
+
+    def counters(self, column=None):
+        """The comparison.COUNTERS of pair type `column` (None: all)."""
+        rows = self.counts if column is None else self.counts[column : column + 1]
+        both, neither, warp_only, exact_only = (int(x) for x in rows.sum(axis=0))
+        mine = [d for _, d in self.disagreements if column is None or d.pair_type == KEYS[column]]
+        out = {
+            "pairs": both + neither + warp_only + exact_only,
+            "agreement": both + neither,
+            "mujoco_contacts": both + warp_only,
+            "ellipsim_contacts": both + exact_only,
+            **{kind: sum(d.kind == kind for d in mine) for kind in KINDS},
+            "undetermined": sum(d.right == "undetermined" for d in mine),
+        }
+        assert tuple(out) == COUNTERS
+        return out
 
     def summary(self, show):
         e = self.dist_err
+        t = self.counters()
         lines = [
-            f"  Warp's contacts on {self.pairs} ellipsoid pairs per world x {self.nworld} worlds x {self.steps} steps: "
-            f"{self.checked} pairs within reach measured exactly, {self.exact} exact contacts",
-            f"  missed {len(self.missed)}, extra {len(self.extra)}"
+            f"  Warp's contacts on {self.pairs} candidate pairs per world (every type ellipsim judges) x {self.nworld} "
+            f"worlds x {self.steps} steps: {t['pairs']} pairs within reach judged exactly, contacts Warp "
+            f"{t['mujoco_contacts']} / exact {t['ellipsim_contacts']}",
+            "  "
+            + ", ".join(f"{t[kind]} {kind}" for kind in KINDS)
             + (
-                f"; on {e.size} common contacts distance error / r_min max {e.max():.1e} (median {np.median(e):.1e}), "
-                f"normal max {self.angle.max():.2g} deg"
+                f"; on {e.size} common contacts distance error / smallest size max {e.max():.1e} (median "
+                f"{np.median(e):.1e}), normal max {self.angle.max():.2g} deg"
                 if e.size
                 else ""
             )
             + (f"; {self.unproven} exact maxima unproven" if self.unproven else ""),
+            "  by pair type:",
         ]
+        for k, key in enumerate(KEYS):
+            c = self.counters(k)
+            if c["pairs"] == 0:
+                lines.append(f"    {key}: no candidate pairs")
+                continue
+            lines.append(
+                f"    {key}: {c['pairs']} pairs, contacts Warp {c['mujoco_contacts']} / exact {c['ellipsim_contacts']}; "
+                + ", ".join(f"{c[kind]} {kind}" for kind in KINDS)
+            )
         if self.overflow_steps:
-            lines.append(f"  warning: Warp's candidate or contact buffer overflowed at {self.overflow_steps} steps")
-        for kind, rows in (("missed", self.missed), ("extra", self.extra)):
-            for row in rows[:show]:
-                lines.append(
-                    f"    {kind}: step {row[0]}, world {row[1]}, geoms {row[2]} x {row[3]}, " + _dists(kind, row)
-                )
-            if len(rows) > show:
-                lines.append(f"    ... and {len(rows) - show} more {kind}")
+            lines.append(f"  warning: Warp's buffers overflowed {self.overflow}")
+        if self.disagreements:
+            lines.append("  disagreements (" + "; ".join(f"{k}: {m}" for k, m in KIND_MEANINGS.items()) + "):")
+        for w, d in self.disagreements[:show]:
+            lines.append("    " + line(d, "Warp", world=w))
+        if len(self.disagreements) > show:
+            lines.append(f"    ... and {len(self.disagreements) - show} more (--show N, or --json)")
         return lines
 
     def report(self):
@@ -71,97 +102,94 @@ class WarpComparison:
             worlds=self.nworld,
             steps=self.steps,
             pairs_per_world=self.pairs,
-            checked=self.checked,
-            exact_contacts=self.exact,
-            missed=[dict(step=r[0], world=r[1], geoms=[r[2], r[3]], exact_dist=r[4]) for r in self.missed],
-            extra=[
-                dict(step=r[0], world=r[1], geoms=[r[2], r[3]], warp_dist=r[4], exact_dist=r[5]) for r in self.extra
-            ],
+            **self.counters(),
+            normal_off_deg=NORMAL_OFF_DEG,
+            by_pair_type={key: self.counters(k) for k, key in enumerate(KEYS)},
+            disagreements=[disagreement_json(d, world=w) for w, d in self.disagreements],
             dist_err_max=float(e.max()) if e.size else None,
             normal_err_max_deg=float(self.angle.max()) if e.size else None,
             unproven=self.unproven,
             overflow_steps=self.overflow_steps,
+            overflow=self.overflow or None,
         )
 
 
-def _dists(kind, row):
-    if kind == "missed":
-        return f"exact distance {row[4]:.3g} m, no Warp contact"
-    return f"Warp distance {row[4]:.3g} m, exact {row[5]:.3g} m"
-
-
-def compare(s, *, steps, nworld, device="cpu", progress=None, recorder=None):
+def compare(s, *, steps, nworld, device="cpu", progress=None, recorder=None, nconmax=None, njmax=None):
     """Step scenario s in nworld worlds on plain MuJoCo Warp and check its contacts (module docstring).
     recorder : an optional record.Recorder for world 0 (compare_record.CompareRecording with Warp's
-    contacts and poses; its closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent)."""
+    contacts and poses; its closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent).
+    nconmax, njmax : contacts and constraint rows per world (warp_run.setup's defaults)."""
     wp, mjw, ew = warp_run._warp()
     if s.kinematic:
         raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
     simulate.check_steps(s, steps)
-    model, _, control, m, d, naconmax, _ = warp_run.setup(s, nworld, device)
+    setup = warp_run.setup(s, nworld, device, nconmax=nconmax, njmax=njmax)
     with wp.ScopedDevice(device):
-        pairs, pairid = ew.candidate_pairs(m, pair_ids=True)
-    ellipsoids = np.all(np.isin(model.geom_type[pairs], (2, 4)), axis=1)  # as `compare` on MuJoCo C
-    pairs, pairid = pairs[ellipsoids], pairid[ellipsoids]
+        pairs, pairid = ew.candidate_pairs(setup.m, pair_ids=True)
+    pairs = np.sort(pairs, axis=1).astype(np.int64)  # g1 < g2, as the judge and the reports take them
     if recorder is None:
-        return _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress)
+        return _run(s, setup, pairs, pairid, steps, nworld, device, progress)
     from .compare_record import CompareRecording
 
-    observer = CompareRecording(recorder, model, s.name, engine="Warp")
-    return observer.run(
-        lambda: _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer)
-    )
+    observer = CompareRecording(recorder, setup.model, s.name, engine="Warp")
+    return observer.run(lambda: _run(s, setup, pairs, pairid, steps, nworld, device, progress, observer))
 
 
-def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device, progress, observer=None):
+def _run(s, setup, pairs, pairid, steps, nworld, device, progress, observer=None):
     wp, mjw, _ = warp_run._warp()
+    model, control, m, d = setup.model, setup.control, setup.m, setup.d
+    naconmax = setup.naconmax
     g1, g2 = pairs[:, 0], pairs[:, 1]
-    sphere = model.geom_type == 2
-    radii = np.where(sphere[:, None], model.geom_size[:, :1], model.geom_size).astype(np.float32)
-    rbound = radii.max(1)
-    # margin + gap as Warp takes them (collision_core.contact_margin_gap): an explicit pair's own, else the sums
-    explicit = pairid[:, 0]
-    own = np.maximum(explicit, 0)
-    sums = model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]
-    pair_sums = model.pair_margin[own] + model.pair_gap[own] if model.npair else np.zeros(len(pairs))
-    limit = np.where(explicit >= 0, pair_sums, sums).astype(np.float32)
-    reach = rbound[g1] + rbound[g2] + limit
+    margin, gap = pair_margins(model, pairs), pair_gaps(model, pairs)
+    explicit = pairid[:, 0] >= 0
+    reach = model.geom_rbound[g1] + model.geom_rbound[g2] + np.maximum(margin, 0.0)
+    smallest = np.minimum(_smallest_size(model, g1), _smallest_size(model, g2))
     sleep = bool(model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP)
     asleep, static = int(mujoco.mjtSleepState.mjS_ASLEEP), int(mujoco.mjtSleepState.mjS_STATIC)
     b1, b2 = model.geom_bodyid[g1], model.geom_bodyid[g2]
-    overflow = 0
-    missed, extra, errs, angles = [], [], [], []
-    checked = exact_n = unproven = 0
+    names = Names.of(model)
+    T = len(KEYS)
+    counts = np.zeros((T, 4), dtype=np.int64)
+    overflow, overflow_why = 0, ""
+    disagreements, errs, angles = [], [], []
+    unproven = 0
     ngeom = model.ngeom
-    keys = np.minimum(g1, g2).astype(np.int64) * ngeom + np.maximum(g1, g2)  # a pair whichever way round
+    keys = g1 * ngeom + g2  # sorted: candidate_pairs lists the pairs in the filtered table's order
     order = np.argsort(keys)
-    rmin = np.minimum(radii[g1].min(1), radii[g2].min(1))
-    wide = lambda x: x.astype(np.float64)  # noqa: E731
+    ccd = float(model.opt.ccd_tolerance)
     mirror = mujoco.MjData(model) if observer is not None else None
     with wp.ScopedDevice(device):
         for k in range(steps):
             warp_run.send_controls(d, model, control, k * s.timestep)
             mjw.step(m, d)
-            xpos, xmat = d.geom_xpos.numpy(), d.geom_xmat.numpy()
+            xpos, xmat = d.geom_xpos.numpy().astype(np.float64), d.geom_xmat.numpy().astype(np.float64)
             n = min(int(d.nacon.numpy()[0]), naconmax)
-            cw, cg, cd, cf = (
-                a.numpy()[:n] for a in (d.contact.worldid, d.contact.geom, d.contact.dist, d.contact.frame)
+            cw, cg, cd, cf, cp = (
+                a.numpy()[:n]
+                for a in (d.contact.worldid, d.contact.geom, d.contact.dist, d.contact.frame, d.contact.pos)
             )
-            first = (len(missed), len(extra))  # this step's, for the recording of world 0
+            first = len(disagreements)  # this step's, for the recording of world 0
             if observer is not None:
                 zero = cw == 0
-                world0 = (cg[zero], cd[zero], d.contact.pos.numpy()[:n][zero], cf[zero, 0])
-            # Warp's contacts on the candidate pairs, per (world, pair): distance and normal (from pairs[:, 0])
+                world0 = (cg[zero], cd[zero], cp[zero], cf[zero, 0])
+            # Warp's contact on each candidate pair, per (world, pair): distance, normal (from g1), point
             ckey = np.minimum(cg[:, 0], cg[:, 1]).astype(np.int64) * ngeom + np.maximum(cg[:, 0], cg[:, 1])
             at = np.minimum(np.searchsorted(keys, ckey, sorter=order), len(keys) - 1) if len(keys) else ckey * 0
             hit = (keys[order[at]] == ckey) if len(keys) else np.zeros(n, bool)
-            pk, cw = order[at[hit]], cw[hit]
+            pk, world = order[at[hit]], cw[hit]
             flip = cg[hit, 0] != g1[pk]  # named the other way round: normal reversed
             wdist = np.full((nworld, len(pairs)), np.nan)
-            wnormal = np.zeros((nworld, len(pairs), 3))
-            wdist[cw, pk] = cd[hit]
-            wnormal[cw, pk] = np.where(flip[:, None], -cf[hit, 0], cf[hit, 0])
-            overflow += int(d.nacon.numpy()[0]) > naconmax or int(d.ncollision.numpy()[0]) > naconmax
+            wnormal = np.full((nworld, len(pairs), 3), np.nan)
+            wpos = np.full((nworld, len(pairs), 3), np.nan)
+            # several contacts on a pair: the one with the smallest dist (written last after a sort)
+            sort = np.argsort(-cd[hit], kind="stable")
+            wdist[world[sort], pk[sort]] = cd[hit][sort]
+            wnormal[world[sort], pk[sort]] = np.where(flip[:, None], -cf[hit, 0], cf[hit, 0])[sort]
+            wpos[world[sort], pk[sort]] = cp[hit][sort]
+            lost = warp_run.overflow(d, setup)
+            if lost:
+                overflow += 1
+                overflow_why = overflow_why or f"at step {k} and {{more}}: {lost}"
             awake = d.body_awake.numpy() if sleep else None
             for w in range(nworld):
                 ok = np.linalg.norm(xpos[w, g2] - xpos[w, g1], axis=1) <= reach
@@ -172,109 +200,68 @@ def _run(s, model, control, m, d, pairs, pairid, steps, nworld, naconmax, device
                 sel = np.flatnonzero(ok | ~np.isnan(wdist[w]))
                 if sel.size == 0:
                     continue
-                dist, normal, pos, status = signed_distance(
-                    Ellipsoids(wide(xpos[w, g1[sel]]), wide(xmat[w, g1[sel]]), wide(radii[g1[sel]])),
-                    Ellipsoids(wide(xpos[w, g2[sel]]), wide(xmat[w, g2[sel]]), wide(radii[g2[sel]])),
+                p = pairs[sel]
+                engine = (wdist[w, sel], wnormal[w, sel], wpos[w, sel])
+                judged = judge_contacts(
+                    model,
+                    k,
+                    p,
+                    xpos[w][p],
+                    xmat[w][p].reshape(-1, 2, 3, 3),
+                    margin[sel],
+                    gap[sel],
+                    explicit[sel],
+                    engine,
+                    names,
+                    ccd_tolerance=ccd,
+                    who="Warp",
                 )
-                checked += sel.size
-                unproven += int(np.count_nonzero(status))
-                want = dist < limit[sel]
-                got = ~np.isnan(wdist[w, sel])
-                exact_n += int(want.sum())
-                for j in np.flatnonzero(want & ~got):
-                    p = sel[j]
-                    missed.append((k, w, int(g1[p]), int(g2[p]), float(dist[j]), normal[j], pos[j], None))
-                for j in np.flatnonzero(got & ~want):
-                    p = sel[j]
-                    extra.append(
-                        (
-                            k,
-                            w,
-                            int(g1[p]),
-                            int(g2[p]),
-                            float(wdist[w, p]),
-                            float(dist[j]),
-                            normal[j],
-                            pos[j],
-                            wnormal[w, p],
-                        )
-                    )
-                both = np.flatnonzero(got & want)
-                p = sel[both]
-                errs.append(np.abs(wdist[w, p] - dist[both]) / rmin[p])
-                na, nb = wnormal[w, p], normal[both]
+                counts += judged.by_type
+                v = judged.verdicts
+                unproven += int(np.count_nonzero(np.isfinite(v.dist) & ~v.proven))
+                disagreements += [(w, x) for x in judged.disagreements]
+                both = np.flatnonzero((engine[0] < margin[sel]) & v.within)
+                errs.append(np.abs(engine[0][both] - v.dist[both]) / smallest[sel[both]])
+                na, nb = engine[1][both], v.normal[both]
                 angles.append(np.degrees(np.arctan2(np.linalg.norm(np.cross(na, nb), axis=1), (na * nb).sum(1))))
             if observer is not None:
-                _observe(observer, model, mirror, d, k, (k + 1) * s.timestep, world0, missed, extra, first)
+                _observe(observer, model, mirror, d, k, (k + 1) * s.timestep, world0, disagreements[first:])
             if progress:
                 progress(k + 1, steps)
+    if overflow:
+        overflow_why = overflow_why.replace("{more}", f"{overflow - 1} more steps")
     return WarpComparison(
         s.name,
         nworld,
         steps,
         len(pairs),
-        checked,
-        exact_n,
-        missed,
-        extra,
+        counts,
+        disagreements,
         np.concatenate(errs) if errs else np.zeros(0),
         np.concatenate(angles) if angles else np.zeros(0),
         unproven,
         overflow,
+        overflow_why,
     )
 
 
-def _observe(observer, model, mirror, d, step, time, contacts, missed, extra, first):
-    """Hand world 0's step to a compare_record.CompareRecording: its poses as Warp holds them (float32,
-    widened) in a MuJoCo C MjData, Warp's contacts, and its missed and extra pairs of the step (from
-    index `first` of each list) as mujoco.validate.Disagreement."""
-    from ..mujoco.validate import Disagreement
+def _smallest_size(model, geoms):
+    """(k,) the smallest size of each geom: an ellipsoid's or box's smallest semi-axis or half-size, a
+    sphere's radius, the smaller of a capsule's or cylinder's radius and half-length."""
+    size, t = model.geom_size[geoms], model.geom_type[geoms]
+    out = size.min(axis=1)
+    out[t == mujoco.mjtGeom.mjGEOM_SPHERE] = size[t == mujoco.mjtGeom.mjGEOM_SPHERE, 0]
+    two = (t == mujoco.mjtGeom.mjGEOM_CAPSULE) | (t == mujoco.mjtGeom.mjGEOM_CYLINDER)
+    out[two] = size[two, :2].min(axis=1)
+    return out
 
+
+def _observe(observer, model, mirror, d, step, time, contacts, found):
+    """Hand world 0's step to a compare_record.CompareRecording: its poses as Warp holds them (float32,
+    widened) in a MuJoCo C MjData, Warp's contacts, and the step's disagreements of world 0."""
     mirror.qpos[:] = d.qpos.numpy()[0]
     mirror.time = time
     mujoco.mj_kinematics(model, mirror)
     mirror.xpos[:], mirror.xquat[:] = d.xpos.numpy()[0], d.xquat.numpy()[0]
     mirror.geom_xpos[:], mirror.geom_xmat[:] = d.geom_xpos.numpy()[0], d.geom_xmat.numpy()[0].reshape(-1, 9)
-    names = observer.names.geoms
-    found, kinds = [], []
-    for kind, rows in (("missed", missed[first[0] :]), ("extra", extra[first[1] :])):
-        for row in rows:
-            if row[1] != 0:
-                continue
-            g1, g2 = row[2], row[3]
-            exact, normal, pos = (row[4], row[5], row[6]) if kind == "missed" else (row[5], row[6], row[7])
-            warp_normal = None if kind == "missed" else tuple(float(x) for x in row[8])
-            warp_pos = None
-            if kind == "extra":
-                geom, _, at, _ = contacts
-                on = np.flatnonzero(
-                    ((geom[:, 0] == g1) & (geom[:, 1] == g2)) | ((geom[:, 0] == g2) & (geom[:, 1] == g1))
-                )
-                warp_pos = tuple(float(x) for x in at[on[0]]) if len(on) else None
-            reason = (
-                f"exact distance {exact:.6g} m within margin + gap; Warp made no contact"
-                if kind == "missed"
-                else f"Warp's contact at dist {row[4]:.6g} m; the exact distance {exact:.6g} m is beyond margin + gap"
-            )
-            found.append(
-                Disagreement(
-                    step=step,
-                    geom1=g1,
-                    geom2=g2,
-                    names=(names[g1], names[g2]),
-                    mujoco_contact=kind == "extra",
-                    mujoco_dist=row[4] if kind == "extra" else float("nan"),
-                    relation="overlapping" if exact < 0 else "separated",
-                    contact_scale=float("nan"),
-                    geom_distance=float("nan"),
-                    right="ellipsim",
-                    reason=reason,
-                    signed_distance=exact,
-                    mujoco_pos=warp_pos,
-                    mujoco_normal=warp_normal,
-                    ellipsim_pos=tuple(float(x) for x in pos),
-                    ellipsim_normal=tuple(float(x) for x in normal),
-                )
-            )
-            kinds.append(kind)
-    observer(model, mirror, step, found, kinds, contacts)
+    observer(model, mirror, step, [x for w, x in found if w == 0], None, contacts)

@@ -21,8 +21,10 @@ from .stepping import FrameLoop
 #: Distinct layout seeds at most (each one a model build on the host).
 SEEDS = 64
 
-#: Contact slots per world given to Warp (d.naconmax = worlds x this, at least 64 per world).
+#: Contact slots per world given to Warp (d.naconmax = worlds x this x ngeom, at least MIN_CONTACTS per
+#: world; --nconmax sets it): the 16-figure heap makes ~1 contact per geom, a pile of ellipsoids in a box 2-3.
 CONTACTS_PER_GEOM = 4
+MIN_CONTACTS = 64
 
 
 def _warp():
@@ -71,27 +73,84 @@ def world_states(s, model, data, nworld):
     return qpos, distinct
 
 
-def setup(s, nworld, device):
-    """(model, data, control, m, d, naconmax, seeds): scenario s built (simulate.build) and put on Warp
-    in nworld worlds from world_states; d.naconmax = nworld x max(64, CONTACTS_PER_GEOM ngeom)."""
+@dataclasses.dataclass
+class Setup:
+    """A scenario put on MuJoCo Warp (setup): MuJoCo C's model and data, the controller, Warp's m and d, the
+    buffer sizes (naconmax: contacts of all worlds; nconmax, njmax: contacts and constraint rows a world)
+    and the layout seeds used."""
+
+    model: object
+    data: object
+    control: object
+    m: object
+    d: object
+    naconmax: int
+    nconmax: int
+    njmax: int
+    seeds: int
+
+
+def default_nconmax(model):
+    """Contacts a world may hold: CONTACTS_PER_GEOM per geom, at least MIN_CONTACTS."""
+    return max(MIN_CONTACTS, CONTACTS_PER_GEOM * model.ngeom)
+
+
+def default_njmax(model, nconmax):
+    """Constraint rows a world may hold: every contact slot with its rows (pyramidal cone: 2 (condim - 1)
+    a contact, elliptic: condim; the model's largest condim), a row per limited joint and per dof with
+    friction loss, six per equality constraint.  mujoco_warp's own guess (io._default_njmax) is 53 rows
+    plus 2.26 nv per height field: the 16-figure heap overflows it on its first contacts."""
+    condim = int(max(model.geom_condim.max(initial=3), model.pair_dim.max(initial=3)))
+    rows = condim if model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else max(1, 2 * (condim - 1))
+    other = int(model.jnt_limited.sum()) + int(np.count_nonzero(model.dof_frictionloss)) + 6 * model.neq
+    return nconmax * rows + other
+
+
+def setup(s, nworld, device, *, nconmax=None, njmax=None):
+    """A Setup: scenario s built (simulate.build) and put on Warp in nworld worlds from world_states, with
+    nconmax contacts and njmax constraint rows a world (default_nconmax, default_njmax when None), Warp's
+    own overflow prints off (m.opt.warn_overflow: overflows are counted and explained instead, overflow())."""
     wp, mjw, _ = _warp()
     model, data = simulate.build(s)
     control = simulate.controller(model, data, s)
     mujoco.mj_forward(model, data)
     qpos, seeds = world_states(s, model, data, nworld)
-    naconmax = nworld * max(64, CONTACTS_PER_GEOM * model.ngeom)
+    nconmax = default_nconmax(model) if nconmax is None else int(nconmax)
+    njmax = default_njmax(model, nconmax) if njmax is None else int(njmax)
+    naconmax = nworld * nconmax
     with wp.ScopedDevice(device):
         m = mjw.put_model(model)
-        d = put_worlds(model, data, qpos, naconmax)
-    return model, data, control, m, d, naconmax, seeds
+        m.opt.warn_overflow = 0
+        d = put_worlds(model, data, qpos, naconmax, njmax)
+    return Setup(model, data, control, m, d, naconmax, nconmax, njmax, seeds)
 
 
-def put_worlds(model, data, qpos, naconmax):
+def put_worlds(model, data, qpos, naconmax, njmax=None):
     """A mujoco_warp Data of data's state in len(qpos) worlds, world w at qpos[w] (the current device)."""
     _, mjw, _ = _warp()
-    d = mjw.put_data(model, data, nworld=len(qpos), naconmax=naconmax)
+    d = mjw.put_data(model, data, nworld=len(qpos), naconmax=naconmax, njmax=njmax)
     d.qpos.assign(np.asarray(qpos, np.float32))
     return d
+
+
+def overflow(d, setup):
+    """Why Warp's buffers overflowed since the last call, one line ('' when they did not); clears d.overflow.
+    Contacts past naconmax and constraint rows past njmax are lost for that step."""
+    _, mjw, _ = _warp()
+    flags = int(np.bitwise_or.reduce(d.overflow.numpy(), initial=0))
+    if not flags:
+        return ""
+    d.overflow.zero_()
+    kinds = mjw.OverflowType
+    why = []
+    if flags & (kinds.BROADPHASE | kinds.NARROWPHASE):
+        why.append(f"contacts past naconmax {setup.naconmax} ({setup.nconmax} a world: raise --nconmax) were dropped")
+    if flags & kinds.NEFC:
+        why.append(f"constraint rows past njmax {setup.njmax} a world (raise --njmax) were dropped")
+    other = flags & ~int(kinds.BROADPHASE | kinds.NARROWPHASE | kinds.NEFC)
+    if other:
+        why.append(f"another of Warp's buffers overflowed ({kinds(other)!r})")
+    return "; ".join(why)
 
 
 def send_controls(d, model, control, t):
@@ -117,6 +176,7 @@ class WarpRun:
     counters: dict
     overflow_frames: int
     seeds: int = 1
+    overflow: str = ""  # why (warp_run.overflow), the first time
 
     def summary(self):
         rate = self.steps / max(self.seconds, 1e-9)
@@ -132,10 +192,10 @@ class WarpRun:
         ]
         fr = self.frames
         if len(fr.times):
-            lines.append(
-                f"  world 0 at {len(fr.times)} frames: ellipsim overlaps mean {fr.ellipsim_counts.mean():.1f} "
-                f"(max {fr.ellipsim_counts.max()}), MuJoCo C's contacts on the same poses mean {fr.builtin_counts.mean():.1f}"
-            )
+            lines += [
+                x.replace("over ", "of world 0 (mirrored in MuJoCo C: its contacts) over ", 1)
+                for x in simulate.contact_lines(fr, len(fr.times))
+            ]
         if self.counters:
             k = self.counters
             lines.append(
@@ -143,14 +203,13 @@ class WarpRun:
                 f"maxima, {k['overflow']} contacts over naconmax"
             )
         if self.overflow_frames:
-            lines.append(
-                f"  warning: Warp's candidate or contact buffer overflowed at {self.overflow_frames} frames (contacts lost there)"
-            )
+            lines.append(f"  warning: Warp's buffers overflowed at {self.overflow_frames} frames: {self.overflow}")
         return lines
 
 
-def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=None):
-    """Step scenario s in nworld worlds on MuJoCo Warp (module docstring); returns a WarpRun."""
+def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=None, nconmax=None, njmax=None):
+    """Step scenario s in nworld worlds on MuJoCo Warp (module docstring); returns a WarpRun.
+    nconmax, njmax : contacts and constraint rows a world (setup's defaults when None)."""
     wp, mjw, ew = _warp()
     mode = mode or s.mode
     if s.kinematic:
@@ -159,19 +218,38 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
         raise ValueError(f"nworld must be a positive integer, got {nworld!r}")
     simulate.check_steps(s, steps)
     every = simulate.record_every(s)
-    chunks, counts, overflow = [], [], 0
+    chunks, counts, overflowed, why = [], [], 0, ""
 
     def on_chunk(chunk):
         f = chunk.frames
-        chunks.append((f.times, f.builtin_counts, f.ellipsim_counts, f.touching_counts, f.contact_counts))
+        chunks.append(
+            (
+                f.times,
+                f.builtin_counts,
+                f.ellipsim_counts,
+                f.touching_counts,
+                f.contact_counts,
+                f.builtin_by_type,
+                f.ellipsim_by_type,
+            )
+        )
 
-    model, data, control, m, d, naconmax, seeds = setup(s, nworld, device)
+    put = setup(s, nworld, device, nconmax=nconmax, njmax=njmax)
+    model, data, control, m, d, naconmax, seeds = (
+        put.model,
+        put.data,
+        put.control,
+        put.m,
+        put.d,
+        put.naconmax,
+        put.seeds,
+    )
     mirror = mujoco.MjData(model)
     start = d.qpos.numpy()
     with wp.ScopedDevice(device):
         att = ew.attach(m) if mode != "builtin" else None
         mjw.step(m, d)  # compiles (minutes on a first CPU run), before the loop's timer
-        d = put_worlds(model, data, start, naconmax)  # the initial state again
+        d = put_worlds(model, data, start, naconmax, put.njmax)  # the initial state again
         if att:
             att.reset_counters()
         loop = FrameLoop(model, recorder=recorder, title=s.name, on_chunk=on_chunk)
@@ -179,14 +257,16 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
         frame_seconds = 0.0
 
         def step(k):
-            nonlocal overflow, frame_seconds
+            nonlocal overflowed, why, frame_seconds
             send_controls(d, model, control, k * s.timestep)
             mjw.step(m, d)
             if k % every == 0:
                 wp.synchronize()
                 t_frame = time.perf_counter()
                 n = int(d.nacon.numpy()[0])
-                overflow += n > naconmax or int(d.ncollision.numpy()[0]) > naconmax
+                lost = overflow(d, put)
+                overflowed += bool(lost)
+                why = why or lost
                 w = d.contact.worldid.numpy()[: min(n, naconmax)]
                 counts.append(np.bincount(w, minlength=nworld))
                 mirror.qpos[:] = d.qpos.numpy()[0]
@@ -202,4 +282,4 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
         if att:
             att.detach()
     frames = simulate.FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
-    return WarpRun(s, mode, steps, nworld, device, seconds, np.array(counts), frames, counters, int(overflow), seeds)
+    return WarpRun(s, mode, steps, nworld, device, seconds, np.array(counts), frames, counters, overflowed, seeds, why)

@@ -10,6 +10,10 @@ MuJoCo would make is lost, so trajectories are bit-identical.  With speculative 
 (mjENBL_SPECULATIVE) no pair is discarded: MuJoCo's conservative advancement runs only for pairs that
 reach its narrow phase, and a pair apart now may meet within the step.
 
+mode "record" (geoms.PairRecorder, what validate judges): the same callback keeps every pair, after
+MuJoCo's bitmask test, and records those of every row of PAIR_TYPES (ellipsoid with ellipsoid,
+sphere, capsule, box or cylinder) in the data's pair buffer.
+
 mode "narrowphase": an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at ellipsoid x ellipsoid,
 sphere x ellipsoid, capsule x ellipsoid, ellipsoid x box and ellipsoid x cylinder (where MuJoCo has
 mjc_Convex: GJK, then EPA).  It returns no contact for pairs certified separated beyond the margin, else the signed
@@ -318,14 +322,17 @@ def contact_filter(m, d, g1, g2):
     if (contype[g1] & conaff[g2]) == 0 and (contype[g2] & conaff[g1]) == 0:
         return 1  # MuJoCo's own bitmask test, which this callback replaces
     gtype = carray(i32_pointer(_word(ma + ctx[_TYPE])), (n,))
-    t1, t2 = gtype[g1], gtype[g2]  # in either order: context.FILTER_PAIR_TYPES (tests/test_pair_table.py)
-    if not ((t1 == ELLIPSOID and (t2 == ELLIPSOID or t2 == SPHERE)) or (t1 == SPHERE and t2 == ELLIPSOID)):
+    t1, t2 = gtype[g1], gtype[g2]  # in either order: the rows of context.PAIR_TYPES (tests/test_pair_table.py)
+    other = t2 if t1 == ELLIPSOID else (t1 if t2 == ELLIPSOID else -1)
+    if other != ELLIPSOID and other != SPHERE and other != CAPSULE and other != BOX and other != CYLINDER:
         return 0
     reg = carray(i64_pointer(ctx[REGISTRY_ADDRESS]), (ctx[REGISTRY_ROWS], REGISTRY_COLUMNS))
     slot = _slot(reg, da)
     mode = reg[slot, 2] if slot else 0
     if mode != FILTER and mode != RECORD:
         return 0  # a data ellipsim is not attached to in these modes: MuJoCo's own test, as above
+    if mode == FILTER and other != ELLIPSOID and other != SPHERE:
+        return 0  # the filter tests context.FILTER_PAIR_TYPES; "record" records every row of PAIR_TYPES
     if mode == RECORD:
         i = atomic_add(reg[slot, 1] + 8 * RECORDED, 1)
         if i < reg[slot, 4]:

@@ -16,7 +16,11 @@ from ..core.distance.ellipsoid_pair import GLOBAL, signed_distance
 from ..core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL, TIGHT_CCD_ITERATIONS, TIGHT_CCD_TOLERANCE
 from .attachment import Attachment, check_model_data
 from .context import ELLIPSOID
-from .geoms import ellipsim_pair_types, enclosing, explicit_pairs, pair_gaps, pair_margins, proof_tolerance
+from .geoms import explicit_pairs, pair_gaps, pair_margins
+from .judge import enclosing, pair_type, proof_tolerance
+
+#: the pair types compare_narrowphase compares: ellipsoid x ellipsoid and x sphere (judge.KEYS 0, 1)
+_ROUND = (0, 1)
 
 
 @dataclasses.dataclass
@@ -79,7 +83,7 @@ def _ellipsoid_contacts(model, data):
     """_Contacts of the ellipsoid and sphere-ellipsoid contacts in data."""
     con, n = data.contact, data.ncon
     geom = con.geom[:n].astype(np.int64)
-    kept = np.flatnonzero(ellipsim_pair_types(model, geom[:, 0], geom[:, 1]))
+    kept = np.flatnonzero(np.isin(pair_type(model, geom[:, 0], geom[:, 1]), _ROUND))
     key, first_from_end = np.unique((geom[kept, 0] * model.ngeom + geom[kept, 1])[::-1], return_index=True)
     last = kept[::-1][first_from_end]
     return _Contacts(key, con.dist[:n][last], con.frame[:n][last, :3], con.pos[:n][last])
@@ -119,6 +123,7 @@ def compare_narrowphase(model, data, nstep, *, progress=None):
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(model.ngeom)]
     matched = near = explicit_matched = 0
     named = explicit_pairs(model)
+    named = named[np.isin(pair_type(model, named[:, 0], named[:, 1]), _ROUND)]
     named = named[:, 0].astype(np.int64) * model.ngeom + named[:, 1]
     worst = [0.0, 0.0, 0.0]
     differences = []

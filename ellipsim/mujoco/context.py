@@ -95,6 +95,8 @@ class PairType(NamedTuple):
     """A geom-type pair ellipsim handles, as a row of PAIR_TYPES."""
 
     name: str
+    #: the pair type as reports name it (validate, compare, replay, run: `by_pair_type`), the ellipsoid first
+    key: str
     #: MuJoCo's table order, type1 <= type2 (engine_collision_driver.c swaps a pair by type)
     type1: int
     type2: int
@@ -110,18 +112,52 @@ class PairType(NamedTuple):
 
 #: Every geom-type pair ellipsim handles: the narrow phase replaces MuJoCo's table entry of each
 #: (attachment.py), the context holds MuJoCo's function for each (publish.py), the filter covers those
-#: marked `filter`.  callbacks.py dispatches on geom types in compiled code, written out there;
+#: marked `filter`, the recorder of candidate pairs (mode "record") and the validation (judge.py) all.  callbacks.py dispatches on geom types in compiled code, written out there;
 #: tests/test_pair_table.py checks that code against these rows.  Capsule geoms size the warm-start
 #: table though capsule pairs start cold: kept, as the table's size decides which pairs share a set,
 #: and so the trajectories.
 PAIR_TYPES = (
     PairType(
-        "ellipsoid x ellipsoid", ELLIPSOID, ELLIPSOID, FALLBACK_ELLIPSOID, True, True, "core.distance.ellipsoid_pair"
+        "ellipsoid x ellipsoid",
+        "ellipsoid-ellipsoid",
+        ELLIPSOID,
+        ELLIPSOID,
+        FALLBACK_ELLIPSOID,
+        True,
+        True,
+        "core.distance.ellipsoid_pair",
     ),
-    PairType("sphere x ellipsoid", SPHERE, ELLIPSOID, FALLBACK_SPHERE, True, True, "core.distance.ellipsoid_pair"),
-    PairType("capsule x ellipsoid", CAPSULE, ELLIPSOID, FALLBACK_CAPSULE, False, True, "core.pairs.capsule"),
-    PairType("ellipsoid x box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.pairs.box"),
-    PairType("ellipsoid x cylinder", ELLIPSOID, CYLINDER, FALLBACK_CYLINDER, False, False, "core.pairs.cylinder"),
+    PairType(
+        "sphere x ellipsoid",
+        "ellipsoid-sphere",
+        SPHERE,
+        ELLIPSOID,
+        FALLBACK_SPHERE,
+        True,
+        True,
+        "core.distance.ellipsoid_pair",
+    ),
+    PairType(
+        "capsule x ellipsoid",
+        "ellipsoid-capsule",
+        CAPSULE,
+        ELLIPSOID,
+        FALLBACK_CAPSULE,
+        False,
+        True,
+        "core.pairs.capsule",
+    ),
+    PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.pairs.box"),
+    PairType(
+        "ellipsoid x cylinder",
+        "ellipsoid-cylinder",
+        ELLIPSOID,
+        CYLINDER,
+        FALLBACK_CYLINDER,
+        False,
+        False,
+        "core.pairs.cylinder",
+    ),
 )
 FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
 

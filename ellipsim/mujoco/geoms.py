@@ -1,5 +1,6 @@
-"""Ellipsoid geoms of a MuJoCo model, the pairs MuJoCo collides (dynamic and <pair> elements), their
-margins and gaps, and the exact verdict on MuJoCo's contact test `signed distance < margin`.
+"""The geom pairs of a MuJoCo model that MuJoCo collides (dynamic and <pair> elements), their margins and
+gaps, MuJoCo's rules for them, and its candidate pairs as its broad phase makes them (the exact verdict on
+its contact test is judge.py's).
 
 How MuJoCo 4.0 treats a geom pair (src/engine/engine_collision_driver.c, mj_collision,
 filterCollisionPair, mj_narrowphase, mj_setContact; checked on the 4.0.0 wheel):
@@ -19,14 +20,10 @@ filterCollisionPair, mj_narrowphase, mj_setContact; checked on the 4.0.0 wheel):
 import mujoco
 import numpy as np
 
-from ..core.distance.ellipsoid_pair import GLOBAL, signed_distance
-from ..core.ellipsoids import Ellipsoids, orthonormality_defect
-from ..core.exact.classify import classify
 from ..core.motion.broad_phase import sweep_and_prune
-from ..core.relation import Relation
-from ..core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
 from .attachment import Attachment, check_model_data
-from .context import ELLIPSOID, FILTER_PAIR_TYPES, SPHERE
+from .context import ELLIPSOID, SPHERE
+from .judge import judged, judged_geoms
 
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 _SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
@@ -37,17 +34,6 @@ _AWAKE = int(mujoco.mjtSleepState.mjS_AWAKE)
 #: Bounding spheres of the broad phase are the largest semi-axis times this (one part in 1e9 more,
 #: so that rounding in the sphere test never drops a pair whose ellipsoids touch).
 _SPHERE_SLACK = 1 + 1e-9
-
-
-def ellipsim_pair_types(model, g1, g2):
-    """(k,) bool: are geoms g1, g2 (k,) a pair ellipsim tests (ellipsoid x ellipsoid or x sphere: the
-    rows of context.FILTER_PAIR_TYPES), in either order?"""
-    t1, t2 = model.geom_type[g1], model.geom_type[g2]
-    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-    out = np.zeros(np.shape(lo), dtype=bool)
-    for row in FILTER_PAIR_TYPES:
-        out |= (lo == row.type1) & (hi == row.type2)
-    return out
 
 
 def _keys(model, pairs):
@@ -103,8 +89,8 @@ def pair_gaps(model, pairs):
 
 
 def explicit_pairs(model, data=None):
-    """(p, 2) int32: the geom pairs of the model's <contact><pair> elements that ellipsim tests
-    (ellipsoid x ellipsoid, sphere x ellipsoid), each once, g1 < g2, sorted.
+    """(p, 2) int32: the geom pairs of the model's <contact><pair> elements that ellipsim judges
+    (a row of context.PAIR_TYPES: judge.judged), each once, g1 < g2, sorted.
 
     With data: only those MuJoCo collides at data's state (none when contacts or constraints are
     disabled; under mjENBL_SLEEP not those with both bodies asleep), as mj_collision does; the
@@ -113,7 +99,7 @@ def explicit_pairs(model, data=None):
         return np.zeros((0, 2), dtype=np.int32)
     keys = _explicit(model)[0]
     pairs = np.stack(divmod(keys, model.ngeom), axis=1).astype(np.int32)
-    pairs = pairs[ellipsim_pair_types(model, pairs[:, 0], pairs[:, 1])]
+    pairs = pairs[judged(model, pairs[:, 0], pairs[:, 1])]
     if data is None:
         return pairs
     check_model_data(model, data)
@@ -125,88 +111,44 @@ def explicit_pairs(model, data=None):
     return pairs
 
 
-def proof_tolerance(a, b):
-    """(k,) metres: how close core.distance.ellipsoid_pair proves a GLOBAL signed distance of the pairs (a[i], b[i])
-    to the true one, TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of its docstring (r_min
-    the shortest of the six semi-axes, S = |c_b - c_a| + the two largest, delta the larger rotation's
-    orthonormality defect + 4 u; the larger of the two rotations' defects, as either may be A's)."""
-    rmin = np.minimum(a.radii.min(axis=1), b.radii.min(axis=1))
-    S = np.linalg.norm(b.centers - a.centers, axis=1) + a.radii.max(axis=1) + b.radii.max(axis=1)
-    delta = np.maximum(orthonormality_defect(a.rotations), orthonormality_defect(b.rotations)) + 4.0 * U
-    return np.maximum(BB_TOL_REL * rmin, (BB_TOL_ULPS * U + 6.0 * delta) * S)
-
-
-def within_threshold(model, data, pairs, threshold):
-    """MuJoCo's contact test, signed distance of the geoms < threshold, decided pair by pair.
-
-    pairs : (k, 2) ellipsoid or sphere geom ids; threshold : (k,) metres (the pair's margin, or
-    margin + gap).  returns (within, decided, dist, relation):
-    within (k,) bool, ellipsim's verdict (its float estimate where not decided); decided (k,) bool;
-    dist (k,) the geoms' signed distance where it was needed (core.distance.ellipsoid_pair), else nan;
-    relation (k,) int8, the exact Relation of the bare geoms.
-
-    Exact wherever classify settles it, on every float input: threshold == 0 (interiors overlap iff the
-    signed distance is < 0), overlapping with threshold > 0, separated or touching with threshold < 0,
-    touching (distance exactly 0).  Elsewhere the proven signed distance: decided when its status is
-    GLOBAL and it is more than proof_tolerance from threshold; an UNPROVEN maximum is never a verdict.
-    """
-    pairs = np.asarray(pairs).reshape(-1, 2)
-    threshold = np.asarray(threshold, dtype=np.float64)
-    k = len(pairs)
-    zero = np.zeros(k)
-    a, b = enclosing(model, data, pairs[:, 0], zero), enclosing(model, data, pairs[:, 1], zero)
-    relation = classify(a, b) if k else np.zeros(0, dtype=np.int8)
-    overlap, touching = relation == Relation.OVERLAPPING, relation == Relation.TOUCHING
-    within = np.where(touching, threshold > 0, overlap)
-    decided = np.ones(k, dtype=bool)
-    dist = np.full(k, np.nan)
-    dist[touching] = 0.0
-    i = np.flatnonzero(~touching & (((threshold > 0) & ~overlap) | ((threshold < 0) & overlap)))
-    if len(i):
-        d, _, _, status = signed_distance(a[i], b[i])
-        dist[i] = d
-        within[i] = d < threshold[i]
-        decided[i] = (status == GLOBAL) & (np.abs(d - threshold[i]) > proof_tolerance(a[i], b[i]))
-    return within, decided, dist, relation
-
-
-def pair_contact_dist(model, data, pairs):
-    """(k,) smallest dist of data's contacts on each geom pair (k, 2) sorted by (g1, g2), g1 < g2,
-    whichever order the contact names them in; nan for a pair without contact."""
-    geom = data.contact.geom[: data.ncon].astype(np.int64)
+def pair_contacts(model, data, pairs):
+    """MuJoCo's contact on each geom pair (k, 2), g1 < g2, sorted by (g1, g2), whichever order the contact
+    names them in: the one with the smallest dist when it made several.  returns dist (k,) metres (nan for
+    a pair without contact), normal (k, 3) unit from g1 to g2, pos (k, 3) (nan without contact)."""
+    n = data.ncon
+    geom = data.contact.geom[:n].astype(np.int64)
     key = np.minimum(geom[:, 0], geom[:, 1]) * model.ngeom + np.maximum(geom[:, 0], geom[:, 1])
     pair_key = pairs[:, 0].astype(np.int64) * model.ngeom + pairs[:, 1]
-    i = np.minimum(np.searchsorted(pair_key, key), len(pairs) - 1)
-    on_pair = pair_key[i] == key
-    smallest = np.full(len(pairs), np.inf)
-    np.fmin.at(smallest, i[on_pair], data.contact.dist[: data.ncon][on_pair])  # fmin: as Python's min(...)
-    touched = np.zeros(len(pairs), dtype=bool)
-    touched[i[on_pair]] = True
-    return np.where(touched, smallest, np.nan)
-
-
-def enclosing(model, data, geoms, grow):
-    """Ellipsoids (k,) of geoms, each grown to enclose its body offset by grow (k,)."""
-    size = model.geom_size[geoms].copy()
-    sphere = model.geom_type[geoms] == SPHERE
-    size[sphere] = size[sphere, :1]
-    scale = 1.0 + grow / size.min(axis=1)
-    radii = np.where(sphere[:, None], size + grow[:, None], size * scale[:, None])
-    return Ellipsoids(data.geom_xpos[geoms], data.geom_xmat[geoms].reshape(-1, 3, 3), radii)
+    k = len(pairs)
+    dist, normal, pos = np.full(k, np.nan), np.full((k, 3), np.nan), np.full((k, 3), np.nan)
+    if k == 0 or n == 0:
+        return dist, normal, pos
+    i = np.minimum(np.searchsorted(pair_key, key), k - 1)
+    on_pair = np.flatnonzero(pair_key[i] == key)
+    if len(on_pair) == 0:
+        return dist, normal, pos
+    d = data.contact.dist[:n][on_pair]
+    order = on_pair[np.lexsort((d, i[on_pair]))]  # by pair, smallest dist first
+    first = order[np.r_[True, i[order[1:]] != i[order[:-1]]]]
+    at = i[first]
+    dist[at] = data.contact.dist[:n][first]
+    sign = np.where(geom[first, 0] == pairs[at, 0], 1.0, -1.0)  # MuJoCo's normal points from its geom1
+    normal[at] = sign[:, None] * data.contact.frame[:n][first, :3]
+    pos[at] = data.contact.pos[:n][first]
+    return dist, normal, pos
 
 
 class PairRecorder:
-    """Records the ellipsoid and sphere-ellipsoid pairs MuJoCo's broad phase sends to collision, while
-    the `with` block runs (the contact filter in record mode: it applies MuJoCo's own bitmask test
-    and otherwise keeps every pair, so contacts and state are plain MuJoCo's).
+    """Records the pairs of every type ellipsim judges (context.PAIR_TYPES) that MuJoCo's broad phase
+    sends to collision, while the `with` block runs (the contact filter in record mode: it applies
+    MuJoCo's own bitmask test and otherwise keeps every pair, so contacts and state are plain MuJoCo's).
 
     The buffer starts at 8 pairs per such geom and doubles when a step overflows it (that step is
     collided again): memory follows the candidates, not the g (g - 1) / 2 possible pairs."""
 
     def __init__(self, model, data):
         check_model_data(model, data)
-        ell = int(np.count_nonzero((model.geom_type == ELLIPSOID) | (model.geom_type == SPHERE)))
-        self.model, self.data, self.capacity = model, data, 8 * ell + 64
+        self.model, self.data, self.capacity = model, data, 8 * len(judged_geoms(model)) + 64
         self._att = None
 
     def __enter__(self):
@@ -231,8 +173,9 @@ class PairRecorder:
 
 
 def candidate_pairs(model, data):
-    """(k, 2) int32: the ellipsoid and sphere-ellipsoid geom pairs MuJoCo's broad phase sends to
-    collision at the current state (runs mj_forward; contacts and state as plain MuJoCo leaves them)."""
+    """(k, 2) int32: the geom pairs of every type ellipsim judges (ellipsoid with ellipsoid, sphere,
+    capsule, box or cylinder: context.PAIR_TYPES) that MuJoCo's broad phase sends to collision at the
+    current state, g1 < g2, sorted (runs mj_forward; contacts and state as plain MuJoCo leaves them)."""
     with PairRecorder(model, data) as recorder:
         return recorder.forward()
 
@@ -301,7 +244,8 @@ def frame_pairs(centers, radii, rules):
     """Pairs (frame, i, j), i < j, of every frame whose bounding spheres overlap and that `rules`
     allow: (P, 3) int64, sorted by frame.
 
-    centers : (F, g, 3) metres; radii : (g, 3) semi-axes; rules : PairRules over the same g geoms.
+    centers : (F, g, 3) metres; radii : (g, 3) semi-axes (the sphere: the largest, a part in 1e9 more), or
+    (g,) the bounding spheres' radii themselves; rules : PairRules over the same g geoms.
     Sweep and prune per frame (core.motion.broad_phase), then MuJoCo's rules on the pairs it found, vectorised
     (no (g, g) matrix).
     """
@@ -309,6 +253,7 @@ def frame_pairs(centers, radii, rules):
     g = centers.shape[1]
     if g < 2 or len(centers) == 0:
         return np.zeros((0, 3), dtype=np.int64)
-    rho = np.ascontiguousarray(radii.max(axis=1) * _SPHERE_SLACK)
+    radii = np.asarray(radii, dtype=np.float64)
+    rho = np.ascontiguousarray(radii.max(axis=1) * _SPHERE_SLACK if radii.ndim == 2 else radii)
     pairs = sweep_and_prune(centers, rho)
     return pairs[rules.allowed(pairs[:, 1], pairs[:, 2])]

@@ -150,7 +150,7 @@ def measure(size):
                     before=int(result.before_violations.sum()),
                     unfreed=len(result.unfreed),
                     closest=float(result.after_min[np.isfinite(result.after_min)].min()),
-                    overlapping=int((check.overlapping > 0).sum()),
+                    overlapping=int((check.in_contact > 0).sum()),
                     between_before=len(rp.replay(model, motion, between=True).between_events()),
                     between=len(check.between_events()),
                 )

@@ -217,8 +217,8 @@ def accuracy(size, device):
                             method=method,
                             n=n,
                             exact=int(want.sum()),
-                            missed=int((want & ~got).sum()),
-                            extra=int((got & ~want).sum()),
+                            mujoco_missed=int((want & ~got).sum()),
+                            mujoco_extra=int((got & ~want).sum()),
                             err=float(err.max()) if err.size else 0.0,
                             angle=float(np.degrees(angle).max()) if err.size else 0.0,
                             unproven=unproven,
@@ -348,12 +348,12 @@ def write(result, size, out, plt):
         "## 9. ellipsim on MuJoCo Warp",
         "",
         f"On {dev}.  One pair per world, {r['accuracy'][0]['n']} worlds per row; exact: ellipsim's CPU narrow phase "
-        "on the same float32 poses (widened to float64; proven global maxima).  Missed: the exact distance is below "
-        "the margin, no contact; extra: a contact the exact test does not make.  Error: |dist - exact| over the "
+        "on the same float32 poses (widened to float64; proven global maxima).  mujoco_missed: the exact distance is "
+        "below the margin, no contact from the engine; mujoco_extra: the engine's contact the exact test does not make.  Error: |dist - exact| over the "
         "pair's smallest semi-axis, and the normal's angle (degrees), on pairs both have.  Tight: ccd_tolerance "
         "1e-10, ccd_iterations 1000.",
         "",
-        "| pair | where | category | method | exact contacts | missed | extra | max distance error / r_min | "
+        "| pair | where | category | method | exact contacts | mujoco_missed | mujoco_extra | max distance error / r_min | "
         "max normal error (deg) | unproven |",
         "|---|---|---|---|---:|---:|---:|---:|---:|---:|",
     ]
@@ -362,7 +362,7 @@ def write(result, size, out, plt):
         where = "origin" if a["offset"] == 0 else f"{a['offset']:.0f} m away"
         un = "-" if a["unproven"] is None else str(a["unproven"])
         L.append(
-            f"| {pair} | {where} | {a['category']} | {a['method']} | {a['exact']} | {a['missed']} | {a['extra']} | "
+            f"| {pair} | {where} | {a['category']} | {a['method']} | {a['exact']} | {a['mujoco_missed']} | {a['mujoco_extra']} | "
             f"{a['err']:.1e} | {a['angle']:.1e} | {un} |"
         )
     c = r["cost"]

@@ -306,12 +306,24 @@ def engine_options(p, what):
     p.add_argument("--engine", choices=("mujoco", "warp"), default="mujoco", help=f"MuJoCo C (default) or {what}")
     p.add_argument("--worlds", type=positive_int, help="--engine warp: worlds stepped at once (default 1)")
     p.add_argument("--device", choices=("cpu", "cuda"), help="--engine warp: Warp's device (default cpu)")
+    p.add_argument(
+        "--nconmax",
+        type=positive_int,
+        help="--engine warp: contacts a world may hold (default 4 per geom, at least 64); an overflow is reported",
+    )
+    p.add_argument(
+        "--njmax",
+        type=positive_int,
+        help="--engine warp: constraint rows a world may hold (default: every contact slot's rows, limits, "
+        "equalities); an overflow is reported",
+    )
 
 
 def check_engine(args):
-    """UserError for --worlds or --device without --engine warp."""
-    if args.engine != "warp" and (args.worlds is not None or args.device is not None):
-        raise UserError("--worlds and --device are for --engine warp")
+    """UserError for --worlds, --device, --nconmax or --njmax without --engine warp."""
+    given = [f"--{k}" for k in ("worlds", "device", "nconmax", "njmax") if getattr(args, k, None) is not None]
+    if args.engine != "warp" and given:
+        raise UserError(f"{' and '.join(given)} {'is' if len(given) == 1 else 'are'} for --engine warp")
 
 
 def model_options(p):

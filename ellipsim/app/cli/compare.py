@@ -57,7 +57,7 @@ def compare(args):
         write_json(args.json, result.report())
         print(f"  report: {args.json}")
     if args.plot:
-        _plot_compare(args.plot, s, result.builtin, result.ours, result.missed + result.extra, result.near)
+        _plot_compare(args.plot, s, result.builtin, result.ours, result.kinds)
         print(f"  plot: {args.plot}")
     if recorder:
         print(
@@ -87,7 +87,15 @@ def _compare_warp(args, s):
     )
     recorder = recorder_for(args.record, args) if args.record else None
     result, size = recorded(
-        recorder, warp_compare.compare, s, steps=steps, nworld=nworld, device=device, progress=bar(f"  {s.name}", steps)
+        recorder,
+        warp_compare.compare,
+        s,
+        steps=steps,
+        nworld=nworld,
+        device=device,
+        progress=bar(f"  {s.name}", steps),
+        nconmax=args.nconmax,
+        njmax=args.njmax,
     )
     print("\n".join(result.summary(args.show)))
     if args.json:
@@ -119,18 +127,19 @@ def _pyplot():
     return plt
 
 
-def _plot_compare(path, s, builtin, ours, disagree, near):
+def _plot_compare(path, s, builtin, ours, kinds):
     plt = _pyplot()
     t = np.arange(len(builtin)) * s.timestep
     fig, ax = plt.subplots(figsize=(9, 3.6), constrained_layout=True)
-    ax.step(t, builtin, where="post", label="MuJoCo built-in contacts", lw=1.4)
-    ax.step(t, ours, where="post", label="ellipsim overlapping pairs (exact)", lw=1.0, ls="--")
-    for ds, marker, label in ((disagree, "x", "disagreement"), (near, ".", "near-tangent disagreement")):
+    ax.step(t, builtin, where="post", label="MuJoCo contacts (dist < margin)", lw=1.4)
+    ax.step(t, ours, where="post", label="ellipsim contacts (exact: signed distance < margin)", lw=1.0, ls="--")
+    for kind, marker in (("mujoco_extra", "x"), ("mujoco_missed", "+"), ("near_tangent", "."), ("normal_off", "^")):
+        ds = kinds[kind]
         if ds:
-            ax.plot([d.step * s.timestep for d in ds], [builtin[d.step] for d in ds], marker, ls="none", label=label)
+            ax.plot([d.step * s.timestep for d in ds], [builtin[d.step] for d in ds], marker, ls="none", label=kind)
     ax.set_xlabel("simulated time [s]")
-    ax.set_ylabel("ellipsoid pairs in contact")
-    ax.set_title(f"{s.name}: MuJoCo vs ellipsim, per step")
+    ax.set_ylabel("pairs in contact")
+    ax.set_title(f"{s.name}: MuJoCo vs ellipsim, per step (every pair type ellipsim judges)")
     ax.legend(loc="best", fontsize=8)
     made_parents(path, "--plot")
     try:

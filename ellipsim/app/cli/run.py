@@ -85,6 +85,8 @@ def _run_warp(args, s):
         device=device,
         mode=mode,
         progress=bar(f"  {s.name}", steps),
+        nconmax=args.nconmax,
+        njmax=args.njmax,
     )
     print("\n".join(result.summary()))
     if recorder:

@@ -99,7 +99,7 @@ def add_parser(sub):
         help="many variants of a scenario (cartesian product of --vary lists, seeds): a CSV row each, a plot",
         epilog="example: ellipsim sweep pile --vary scene.figures=2,4,8 --vary mode=builtin,narrowphase --seeds 3 "
         "--steps 500 --out sweeps/pile ; on a Ray cluster: RAY_ADDRESS=head:6379 ellipsim sweep ... --backend ray. "
-        "Each variant steps plain MuJoCo validated against the exact test (contacts, missed, extra), then its mode "
+        "Each variant steps plain MuJoCo validated against the exact test (contacts, mujoco_extra, mujoco_missed, near_tangent, normal_off), then its mode "
         "(steps/s, fallbacks, deepest penetration); DIR/columns.json says what each column holds. A re-run into the "
         "same DIR skips the variants already in results.csv. Exit status 1 when a variant failed (its row says why).",
     )

@@ -394,10 +394,19 @@ def test_fit_mistakes_are_one_line(tmp_path):
 
 def test_bench_sections_are_the_suites_and_the_cli_starts_without_it(tmp_path, capsys):
     from ellipsim.app import bench
+    from ellipsim.app.cli import bench as bench_cli
 
-    assert main(["bench", "--only", "stress", "nosuch", "--out", str(tmp_path / "b")]) == 2
+    assert list(bench_cli.SECTIONS) == list(bench.SECTIONS)  # --help lists the suite's sections, in its order
+    with pytest.raises(SystemExit) as stopped:
+        main(["bench", "--only", "stress", "nosuch", "--out", str(tmp_path / "b")])
+    assert stopped.value.code == 2
     err = capsys.readouterr().err.strip()
-    assert err == f"ellipsim: error: --only: unknown section 'nosuch'; the sections are {', '.join(bench.SECTIONS)}"
+    assert err.startswith("ellipsim bench: error: argument --only: invalid choice: 'nosuch'") and err.count("\n") == 0
+    assert all(repr(name) in err for name in bench.SECTIONS)
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    shown = capsys.readouterr().out
+    assert all(f"  {name:<12} {what}" in shown for name, what in bench_cli.SECTIONS.items())
     assert not (tmp_path / "b").exists()
     code = "import sys\nfrom ellipsim.app import cli\ncli.parser()\nprint('ellipsim.app.bench' in sys.modules)\n"
     assert (
@@ -425,3 +434,12 @@ def test_record_flags_draw_labels_and_the_models_colours(tmp_path):
     plain = Recording(default)
     assert plain.static(entity, "Ellipsoids3D:show_labels") == [[False]]
     assert plain.temporal(entity, "Ellipsoids3D:colors")[2][0] != mjcf  # a hue per figure instead
+
+
+@pytest.mark.parametrize("command", [["run"], ["compare", "--steps", "3"], ["run", "--engine", "warp", "--steps", "2"]])
+def test_a_model_mujoco_refuses_is_one_line_naming_the_file_as_typed(tmp_path, command):
+    """No header before the error (it is printed once the model is built), and the file as the user typed
+    it, as ellipsim's own errors show it (not MuJoCo's absolute path)."""
+    (tmp_path / "bad.xml").write_text('<mujoco><worldbody><geom type="sphere" size="-1"/></worldbody></mujoco>')
+    line = one_line_error(cli(command[0], "bad.xml", *command[1:], cwd=tmp_path))
+    assert line.startswith("ellipsim: error: bad.xml: MuJoCo ") and str(tmp_path) not in line, line

@@ -133,8 +133,14 @@ def test_a_pair_that_cannot_be_freed_is_reported(tmp_path, capsys):
     motion = np.zeros((5, 1))
     result = fix_motion(model, motion, smooth=0)
     assert len(result.unfreed) == 5
-    assert {(g1, g2) for _, g1, g2, _ in result.unfreed} == {(0, 1)}
-    assert all(d < 0 for *_, d in result.unfreed)
+    assert {(g1, g2) for _, g1, g2, _, _ in result.unfreed} == {(0, 1)}
+    assert all(d < 0 for _, _, _, d, _ in result.unfreed)
+    assert {why for *_, why in result.unfreed} == {"joint slide at its upper limit 0.01"}
+    report = result.report()
+    assert [x["reason"] for x in report["not_freed"]] == ["joint slide at its upper limit 0.01"] * 5
+    assert "frame 0: ga x gb at " in "\n".join(result.summary()) and "at its upper limit 0.01" in "\n".join(
+        result.summary()
+    )
     assert (result.motion[:, 0] == 0.01).all()  # pushed to the end of its range, no further
     (tmp_path / "m.xml").write_text(xml)
     np.save(tmp_path / "m.npy", motion)
@@ -205,6 +211,28 @@ def test_fix_motion_checks_its_arguments():
         fix_motion(model, motion, smooth=1.5)
     with pytest.raises(ValueError, match=r"motion must have shape \(frames, 70\)"):
         fix_motion(model, motion[:, :5])
+
+
+#: A world body and a mocap body (qpos does not move it) overlapping: no joint between them
+MOCAP = """<mujoco><worldbody>
+  <body name="a"><geom name="ga" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+  <body name="m" mocap="true" pos="0.2 0 0"><geom name="gm" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+  <body name="c" pos="3 0 0"><joint type="hinge" axis="0 0 1"/><geom name="gc" type="ellipsoid" size="0.3 0.2 0.1"/></body>
+</worldbody></mujoco>"""
+
+
+def test_a_pair_no_joint_moves_says_so(tmp_path, capsys):
+    model = mujoco.MjModel.from_xml_string(MOCAP)
+    result = fix_motion(model, np.zeros((2, model.nq)), smooth=0)
+    why = "no joint moves either geom relative to the other (no joint on the tree path between their bodies)"
+    assert [(f, g1, g2, r) for f, g1, g2, _, r in result.unfreed] == [(0, 0, 1, why), (1, 0, 1, why)]
+    (tmp_path / "m.xml").write_text(MOCAP)
+    np.save(tmp_path / "m.npy", np.zeros((2, model.nq)))
+    report = tmp_path / "r.json"
+    assert main(["fix", str(tmp_path / "m.xml"), str(tmp_path / "m.npy"), "--json", str(report)]) == 1
+    out = capsys.readouterr().out
+    assert f"frame 0: ga x gm at -0.1871 m: {why}" in out
+    assert [x["reason"] for x in __import__("json").loads(report.read_text())["not_freed"]] == [why, why]
 
 
 def test_a_frame_the_solver_cannot_move_is_still_reported():

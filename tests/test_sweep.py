@@ -258,14 +258,17 @@ def test_recordings_one_per_variant_named_and_identified_by_it(tmp_path):
         "2",
     )
     assert proc.returncode == 0, proc.stderr
-    ids = [r["variant"] for r in read_csv(out / sw.RESULTS)]
-    assert len(ids) == 2 and sorted(p.name for p in out.glob("*.rrd")) == sorted(f"{i}.rrd" for i in ids)
-    for vid in ids:
-        reader = RrdReader(str(out / f"{vid}.rrd"))
+    rows = read_csv(out / sw.RESULTS)
+    ids = [r["variant"] for r in rows]
+    names = [f"tumble_control.amplitude={r['control.amplitude']}_{r['variant']}.rrd" for r in rows]
+    assert names == [f"tumble_control.amplitude={a}_{i}.rrd" for a, i in zip(("0.8", "1.0"), ids)]
+    assert len(ids) == 2 and sorted(p.name for p in out.glob("*.rrd")) == sorted(names)
+    for vid, name in zip(ids, names):
+        reader = RrdReader(str(out / name))
         assert [r.recording_id for r in reader.recordings()] == [vid]
         chunks = reader.stream().to_chunks()
         assert any(c.entity_path.endswith("geoms/ellipsoids") for c in chunks)
-    assert not list(out.glob(".*part")) and f"view one with: ellipsim view {out / ids[0]}.rrd" in proc.stdout
+    assert not list(out.glob(".*part")) and f"view one with: ellipsim view {out / names[0]}" in proc.stdout
 
 
 @pytest.mark.parametrize(
@@ -410,7 +413,9 @@ def test_ray_gives_the_rows_of_the_local_pool(tmp_path, ray_local):
     out = tmp_path / "ray"
     rows = sw.sweep("tumble", **TINY, backend="ray", out=out, record=True, progress=lambda *a: calls.append(a))
     assert deterministic(rows) == deterministic(local) and calls[-1] == (4, 4)
-    assert sorted(p.name for p in out.glob("*.rrd")) == sorted(f"{r['variant']}.rrd" for r in rows)
+    assert sorted(p.name for p in out.glob("*.rrd")) == sorted(
+        sw.recording_name("tumble.toml", {k: r[k] for k in ("control.amplitude", "seed")}, r["variant"]) for r in rows
+    )
     assert ray_local.is_initialized()  # a sweep leaves a Ray it did not start running
 
 

@@ -67,6 +67,14 @@ STEP_MAX = 0.25
 #: contacts left after 8, 12 and 16 rounds)
 BETWEEN_ROUNDS = 16
 BETWEEN_MARGIN_MAX = 512.0
+#: Why a contact between frames is left, and why one is not checked (FixResult.between, half_turns)
+BETWEEN_REASON = (
+    f"contacts between frames: {BETWEEN_ROUNDS} rounds of correcting both frames together, with the motion in "
+    "between constrained, did not free them"
+)
+HALF_TURN_REASON = "a geom of the pair turns by about a half turn between the frames: no interpolated motion to check"
+#: A Jacobian entry below this (metres per radian or metre) moves the pair by nothing that counts
+MOVES = 1e-9
 #: instants of the interpolated motion between two frames scanned for a pair's closest approach (the
 #: constraints sit at the closest and its neighbours; the margin covers what lies between grid points)
 BETWEEN_GRID = 21
@@ -85,9 +93,10 @@ class FixResult:
     before_min: np.ndarray  #: (F,) smallest candidate pair distance of the input (inf: no candidate pair)
     after_min: np.ndarray  #: (F,) the same for the corrected motion, proven
     before_violations: np.ndarray  #: (F,) pairs closer than the clearance in the input
-    unfreed: list  #: (frame, geom1, geom2, distance) of pairs still closer than the clearance
+    unfreed: list  #: (frame, geom1, geom2, distance, reason) of pairs still closer than the clearance (_reason)
     unproven: int  #: pair distances whose maximum was not proven (counted as not freed)
     between: list  #: (frame, geom1, geom2) of contacts between frames f and f + 1 the repair left
+    #: (BETWEEN_ROUNDS rounds of correcting both frames together did not free them)
     half_turns: list  #: (frame, geom1, geom2) of candidate pairs with a geom turning by about a half turn between
     #: frames f and f + 1: no interpolated motion, so not checked between those frames (nor repaired)
     joint_names: list
@@ -113,17 +122,19 @@ class FixResult:
                 f"  closest pair after the fix: {self.after_min[finite].min():.4g} m (before: {self.before_min[finite].min():.4g} m)"
             )
         if self.between:
-            lines.append(f"  still touching between frames: {len(self.between)} pairs")
+            lines.append(f"  still touching between frames: {len(self.between)} pairs ({BETWEEN_REASON})")
             for frame, g1, g2 in self.between[:show]:
                 lines.append(f"    frames {frame}-{frame + 1}: {self.geom_names[g1]} x {self.geom_names[g2]}")
         if self.half_turns:
-            lines.append(f"  not checked between frames (a geom turns by a half turn): {len(self.half_turns)} pairs")
+            lines.append(f"  not checked between frames: {len(self.half_turns)} pairs ({HALF_TURN_REASON})")
             for frame, g1, g2 in self.half_turns[:show]:
                 lines.append(f"    frames {frame}-{frame + 1}: {self.geom_names[g1]} x {self.geom_names[g2]}")
         if self.unfreed:
             lines.append(f"  not freed: {len(self.unfreed)} pair-frames")
-            for frame, g1, g2, d in self.unfreed[:show]:
-                lines.append(f"    frame {frame}: {self.geom_names[g1]} x {self.geom_names[g2]} at {d:.4g} m")
+            for frame, g1, g2, d, why in self.unfreed[:show]:
+                lines.append(f"    frame {frame}: {self.geom_names[g1]} x {self.geom_names[g2]} at {d:.4g} m: {why}")
+            if len(self.unfreed) > show:
+                lines.append(f"    ... and {len(self.unfreed) - show} more (--show N, or --json)")
         else:
             lines.append(f"  every candidate pair of every frame is at least {self.clearance:g} m apart (proven)")
         return lines
@@ -152,14 +163,21 @@ class FixResult:
             "pairs_closer_before": int(self.before_violations.sum()),
             "unproven": int(self.unproven),
             "not_freed": [
-                {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]], "distance": float(d)}
-                for f, g1, g2, d in self.unfreed
+                {
+                    "frame": int(f),
+                    "geoms": [self.geom_names[g1], self.geom_names[g2]],
+                    "distance": float(d),
+                    "reason": why,
+                }
+                for f, g1, g2, d, why in self.unfreed
             ],
             "touching_between_frames": [
-                {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]]} for f, g1, g2 in self.between
+                {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]], "reason": BETWEEN_REASON}
+                for f, g1, g2 in self.between
             ],
             "half_turns_between_frames": [
-                {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]]} for f, g1, g2 in self.half_turns
+                {"frame": int(f), "geoms": [self.geom_names[g1], self.geom_names[g2]], "reason": HALF_TURN_REASON}
+                for f, g1, g2 in self.half_turns
             ],
             "per_frame": frames,
             "seconds": self.seconds,
@@ -301,6 +319,73 @@ class _Frames:
         pairs, dist, _ = self.distances(q)
         bad = dist < self.clearance
         return q, pairs[bad], dist[bad]
+
+    def reasons(self, qpos, pairs):
+        """Why each pair (k, 2) is still closer than the clearance at qpos, the corrected pose: no joint moves
+        either geom relative to the other; every joint that could part them is at the limit it would cross
+        (named); the model's own rest pose (qpos0) has them that close too; or MAX_ITERATIONS steps of the
+        solver did not part them (pairs pulling opposite ways)."""
+        m = self.model
+        self.data.qpos[:] = qpos
+        jac = distance_jacobian(m, self.data, pairs)
+        rest = dict(zip(map(tuple, self.pairs(m.qpos0).tolist()), self.distances(m.qpos0)[1]))
+        out = []
+        for k, (g1, g2) in enumerate(pairs.tolist()):
+            dofs = self._between_dofs(m.geom_bodyid[g1], m.geom_bodyid[g2])
+            row = jac.jacobian[k]
+            if len(dofs) == 0:
+                out.append(
+                    "no joint moves either geom relative to the other (no joint on the tree path between their bodies)"
+                )
+                continue
+            moving = dofs[np.abs(row[dofs]) > MOVES] if np.isfinite(row).all() else dofs
+            held = [self._held(qpos, d, row[d]) for d in moving]
+            if len(moving) == 0:
+                out.append("no joint's motion changes their distance at this pose (a stationary point of it)")
+            elif all(held):
+                out.append("; ".join(dict.fromkeys(held)))  # each joint once
+            elif rest.get((g1, g2), np.inf) < self.clearance:
+                out.append(
+                    f"the model's rest pose (qpos0) has them {rest[(g1, g2)]:.4g} m apart too: its own geometry, "
+                    "which the joints' ranges keep"
+                )
+            else:
+                out.append(
+                    f"the iteration budget: {MAX_ITERATIONS} solver steps did not part them (other pairs pull back)"
+                )
+        return out
+
+    def _between_dofs(self, b1, b2):
+        """(n,) the dofs of the joints on the tree path between bodies b1 and b2 (they move one relative to
+        the other); none when the two are one rigid body set."""
+        m = self.model
+
+        def chain(b):
+            out = [b]
+            while b:
+                b = int(m.body_parentid[b])
+                out.append(b)
+            return out
+
+        c1, c2 = chain(int(b1)), chain(int(b2))
+        common = next(b for b in c1 if b in set(c2))
+        bodies = [b for b in c1[: c1.index(common)] + c2[: c2.index(common)]]
+        dofs = [np.arange(m.body_dofadr[b], m.body_dofadr[b] + m.body_dofnum[b]) for b in bodies if m.body_dofnum[b]]
+        return np.concatenate(dofs).astype(np.int64) if dofs else np.zeros(0, dtype=np.int64)
+
+    def _held(self, qpos, dof, slope):
+        """'' when dof is free to part the pair (slope: d dist / d dof), else which limit holds it."""
+        m = self.model
+        j = int(m.dof_jntid[dof])
+        if j not in set(self.limited.tolist()):
+            return ""
+        q, (lo, hi) = qpos[m.jnt_qposadr[j]], m.jnt_range[j]
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
+        if slope > 0 and q >= hi - 1e-9 * max(1.0, abs(hi)):
+            return f"joint {name} at its upper limit {hi:g}"
+        if slope < 0 and q <= lo + 1e-9 * max(1.0, abs(lo)):
+            return f"joint {name} at its lower limit {lo:g}"
+        return ""
 
     def min_distance(self, qpos):
         """(smallest proven distance over the candidate pairs (inf: none), pairs closer than the
@@ -501,7 +586,10 @@ def fix_motion(model, motion, *, clearance=0.0, metric="mass", smooth=4, between
     for f in np.flatnonzero(changed | (before_bad > 0)):  # corrected frames, and bad ones left as they were
         pairs, dist, status = frames.distances(out[f])
         bad = dist < frames.clearance
-        unfreed += [(int(f), int(g1), int(g2), float(d)) for (g1, g2), d in zip(pairs[bad], dist[bad])]
+        reasons = frames.reasons(out[f], pairs[bad]) if bad.any() else []
+        unfreed += [
+            (int(f), int(g1), int(g2), float(d), why) for (g1, g2), d, why in zip(pairs[bad], dist[bad], reasons)
+        ]
         after_min[f] = dist.min() if len(dist) else np.inf
         unproven += int((status != GLOBAL).sum())
     change, joint, joint_change = np.zeros(F), np.full(F, -1, dtype=np.int64), np.zeros(F)

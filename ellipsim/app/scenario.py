@@ -308,24 +308,27 @@ def _model_timestep(path, label):
     try:
         return float(mujoco.MjSpec.from_file(path).option.timestep)
     except ValueError as exc:
-        model = "this model" if label == path else f"the model {path!r}"  # the path once, where label names it
+        same = os.path.abspath(label) == path
+        model = "this model" if same else f"the model {path!r}"  # the path once, where label names it
         raise ScenarioError(f"{label}: MuJoCo cannot read {model}: {one_line(exc)}") from None
 
 
 def model_scenario(path, *, key=None, ctrl="hold"):
     """The Scenario of an MJCF model file: MJCF_DURATION seconds at the model's timestep, from
     keyframe `key` (None: the default pose), actuators held by `ctrl` (mjcf.CTRL_MODES), mode
-    narrowphase.  ScenarioError naming the file when MuJoCo cannot read it."""
-    path = os.path.abspath(os.fspath(path))
-    timestep = _model_timestep(path, path)
+    narrowphase.  ScenarioError naming the file when MuJoCo cannot read it.  The Scenario's path is the
+    file as given (what messages show), its scene's path the absolute one (what is loaded)."""
+    shown = os.fspath(path)
+    path = os.path.abspath(shown)
+    timestep = _model_timestep(path, shown)
     if not (math.isfinite(timestep) and timestep > 0):
-        raise ScenarioError(f"{path}: the model's timestep must be positive, got {timestep!r}")
+        raise ScenarioError(f"{shown}: the model's timestep must be positive, got {timestep!r}")
     name = os.path.splitext(os.path.basename(path))[0]
     scene = {"kind": "mjcf", "path": path, "key": key, "ctrl": ctrl}
     return Scenario(
         name,
-        path,
-        f"MJCF model {path}",
+        shown,
+        f"MJCF model {shown}",
         max(MJCF_DURATION, timestep),
         timestep,
         "narrowphase",

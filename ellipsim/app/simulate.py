@@ -10,6 +10,7 @@ scenario under mujoco.validate (MuJoCo's contacts against the exact test, pair b
 
 import contextlib
 import dataclasses
+import os
 
 import mujoco
 import numpy as np
@@ -31,7 +32,8 @@ BYTES_PER_VALIDATED_STEP = 40
 
 def _label(s):
     """How errors name the scenario's scene: its file, and the [scene] table for a TOML scenario."""
-    return s.path if s.scene["kind"] == "mjcf" and s.path == s.scene["path"] else f"{s.path}: [scene]"
+    direct = s.scene["kind"] == "mjcf" and os.path.abspath(s.path) == s.scene["path"]
+    return s.path if direct else f"{s.path}: [scene]"
 
 
 def build(s):
@@ -69,7 +71,10 @@ def build(s):
             key = mjcf.keyframe(model, sc["key"], label)
             mjcf.start(model, data, key, sc["ctrl"], label)
     except mjcf.ModelError as exc:
-        raise ScenarioError(str(exc) if str(exc).startswith(label) else f"{label} {exc}") from None
+        text = str(exc)
+        if sc["kind"] == "mjcf" and text.startswith(sc["path"] + ":") and label == s.path:
+            text = label + text[len(sc["path"]) :]  # the file as the user gave it
+        raise ScenarioError(text if text.startswith(label) else f"{label} {text}") from None
     except ValueError as exc:
         raise ScenarioError(f"{label} {exc}") from None
     return model, data
@@ -254,7 +259,7 @@ def advance(model, data, s, control, k):
         mujoco.mj_step(model, data)
 
 
-def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, between=False):
+def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, between=False, started=None):
     """Simulate a scenario (or replay it, when kinematic); returns a Run.
 
     steps : number of steps (default: the scenario's duration); mode : overrides the scenario's.
@@ -266,6 +271,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
         each ellipsoid's interpolated motion (core.motion.interpolation, not the keyframes' joint interpolation);
         the recording gets a marker at each one's first contact.  Ignored for a dynamic scenario
         (its frames are 1/RECORD_FPS apart, many steps).
+    started : optional callable(), called once the model is built, before the first step.
     ScenarioError for a scene or model that cannot be built or run (MuJoCo out of memory included).
     """
     mode = mode or s.mode
@@ -275,6 +281,8 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
     check_steps(s, steps)
     model, data = build(s)
     control = controller(model, data, s)
+    if started is not None:
+        started()
     between = bool(between and s.kinematic)
     chunks, kept = [], []
 
@@ -334,17 +342,20 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
     )
 
 
-def validation(s, steps=None, progress=None, between=False, recorder=None):
+def validation(s, steps=None, progress=None, between=False, recorder=None, started=None):
     """mujoco.validate on the scenario: its model, its controls (or keyframed poses), `steps` steps;
     between: also the ellipsoid pairs that pass through each other within one step; recorder: an
     optional record.Recorder, begun here and sent every step (compare_record.CompareRecording; its
-    closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent first)."""
+    closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent first); started : optional
+    callable(), called once the model is built."""
     steps = s.steps if steps is None else steps
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
     limits.check_fits(steps * BYTES_PER_VALIDATED_STEP, f"{steps} steps of pair counts")
     model, data = build(s)
     control = controller(model, data, s)
+    if started is not None:
+        started()
     if s.kinematic:
 
         def pose(m, d, k):

@@ -7,7 +7,8 @@ A variant is the scenario's TOML table with dotted keys set (`scene.figures = 4`
 0.001`), validated exactly as a file is (scenario.from_table); every variant is validated before
 any runs.  `--seeds N` runs each with scene.seed (and control.seed, for controls that draw from
 one) = 0 .. N-1.  A variant's id is a hash of its validated scenario and step count, so that the
-same variant has the same id in every sweep; it names its .rrd and is that recording's id.
+same variant has the same id in every sweep; it ends its .rrd's name (after the scenario and the varied
+values: recording_name) and is that recording's id.
 
 Each variant runs two passes of `steps` steps from the same initial state:
 
@@ -79,7 +80,7 @@ TASKS_PER_SLOT = 4
 
 #: What each column of results.csv holds (also written to DIR/columns.json).
 COLUMNS = {
-    "variant": "id: hash of the variant's validated scenario and steps; its .rrd's name and recording id",
+    "variant": "id: hash of the variant's validated scenario and steps; its recording's id, ending its .rrd's name",
     "scenario": "the scenario's (or model's) file name, without .toml or .xml",
     "seed": "scene.seed (and control.seed) of the run (with --seeds)",
     "mode": "collision detection of the mode pass (builtin, filter, narrowphase; kinematic: poses replayed)",
@@ -315,9 +316,20 @@ def plan(scenario, vary=None, *, seeds=None, steps=None, mode=None, record_dir=N
             if vid in ids:
                 raise SweepError(f"vary: {_describe(ids[vid])} and {_describe(row_values)} are the same scenario")
             ids[vid] = row_values
-            rrd = os.path.join(os.path.abspath(record_dir), f"{vid}.rrd") if record_dir is not None else None
+            rrd = None
+            if record_dir is not None:
+                rrd = os.path.join(os.path.abspath(record_dir), recording_name(os.path.basename(path), row_values, vid))
             out.append(Variant(vid, row_values, t, path, n, "kinematic" if s.kinematic else s.mode, rrd))
     return out
+
+
+def recording_name(scenario_file, values, vid):
+    """The .rrd file name of a variant: its scenario, varied values and seed, then its id (what makes it
+    unique), e.g. pile_scene.figures=4_mode=narrowphase_seed=1_3b86c8cdbaf3.rrd; characters a file name
+    should not hold become '-'."""
+    base = os.path.splitext(scenario_file)[0] if scenario_file.endswith((".toml", ".xml")) else scenario_file
+    parts = [base, *(f"{k}={format_value(v)}" for k, v in values.items()), vid]
+    return re.sub(r"[^A-Za-z0-9._=+-]", "-", "_".join(parts)) + ".rrd"
 
 
 def _describe(values):
@@ -732,7 +744,7 @@ def sweep(
     backend : "local" (processes on this machine) or "ray" (RAY_ADDRESS, or a local Ray instance)
     workers : processes (local; default os.cpu_count(), 1 runs in this process), or Ray tasks at a
         time (default: the cluster's CPUs; the CPUs of a local Ray instance)
-    record : write out/<variant>.rrd per variant, its recording id the variant id
+    record : write a .rrd per variant in out (recording_name: scenario, values, id), its recording id the variant id
     plot : draw out/sweep.png (needs matplotlib: the 'plot' extra)
     progress : optional callable(done, total) over the variants to run
     Returns a list of dicts, one per variant, keys `columns(plan(...))`: the varied values, seed,
@@ -787,7 +799,8 @@ def sweep(
     finally:
         if out is not None:
             for v in todo:  # recordings left half-written by a worker that was stopped
-                for part in glob.glob(os.path.join(glob.escape(os.path.abspath(out)), f".{v.id}.rrd.*.part")):
+                name = os.path.basename(v.record) if v.record else f"{v.id}.rrd"
+                for part in glob.glob(os.path.join(glob.escape(os.path.abspath(out)), f".{glob.escape(name)}.*.part")):
                     os.remove(part)
             results.rewrite([v.id for v in variants])
     rows = [_parse_row(fresh[v.id] if v.id in fresh else results.rows[v.id], v) for v in variants]

@@ -114,16 +114,19 @@ class WarpComparison:
         )
 
 
-def compare(s, *, steps, nworld, device="cpu", progress=None, recorder=None, nconmax=None, njmax=None):
+def compare(s, *, steps, nworld, device="cpu", progress=None, recorder=None, nconmax=None, njmax=None, started=None):
     """Step scenario s in nworld worlds on plain MuJoCo Warp and check its contacts (module docstring).
     recorder : an optional record.Recorder for world 0 (compare_record.CompareRecording with Warp's
     contacts and poses; its closing is the caller's; on Ctrl-C or SIGTERM the steps so far are sent).
-    nconmax, njmax : contacts and constraint rows per world (warp_run.setup's defaults)."""
+    nconmax, njmax : contacts and constraint rows per world (warp_run.setup's defaults); started : optional
+    callable(), called once the model is built."""
     wp, mjw, ew = warp_run._warp()
     if s.kinematic:
         raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
     simulate.check_steps(s, steps)
     setup = warp_run.setup(s, nworld, device, nconmax=nconmax, njmax=njmax)
+    if started is not None:
+        started()
     with wp.ScopedDevice(device):
         pairs, pairid = ew.candidate_pairs(setup.m, pair_ids=True)
     pairs = np.sort(pairs, axis=1).astype(np.int64)  # g1 < g2, as the judge and the reports take them

@@ -207,9 +207,12 @@ class WarpRun:
         return lines
 
 
-def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=None, nconmax=None, njmax=None):
+def run(
+    s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=None, nconmax=None, njmax=None, started=None
+):
     """Step scenario s in nworld worlds on MuJoCo Warp (module docstring); returns a WarpRun.
-    nconmax, njmax : contacts and constraint rows a world (setup's defaults when None)."""
+    nconmax, njmax : contacts and constraint rows a world (setup's defaults when None); started : optional
+    callable(), called once the model is built."""
     wp, mjw, ew = _warp()
     mode = mode or s.mode
     if s.kinematic:
@@ -235,6 +238,8 @@ def run(s, *, steps, nworld, device="cpu", mode=None, progress=None, recorder=No
         )
 
     put = setup(s, nworld, device, nconmax=nconmax, njmax=njmax)
+    if started is not None:
+        started()
     model, data, control, m, d, naconmax, seeds = (
         put.model,
         put.data,

@@ -284,21 +284,34 @@ def recorded(recorder, fn, *args, **kwargs):
 BIG_SCENE = 200
 
 
-def header(s):
-    print(f"{s.name}: {s.description}")
+def header(s, *more):
+    """What a command says of scenario `s` before it runs: its name and description, where an MJCF model
+    starts, and `more` lines.  Returns a callable that prints them, to be called once the model is built
+    (a model MuJoCo refuses is then one error line, with no header before it); only a big figure scene's
+    name and warning that MuJoCo's compile takes a while are printed at once, before the build."""
+    lines = [f"{s.name}: {s.description}"]
     if s.scene["kind"] == "figures" and s.scene["figures"] >= BIG_SCENE:
         from ..scenes import LIMBS
 
         n = s.scene["figures"]
-        print(
+        lines.append(
             f"  {n} figures: {len(LIMBS) * n + 1} bodies for MuJoCo to compile, in time that grows with their square "
-            "(500 figures: ~30 s on 2 cores) ...",
-            flush=True,
+            "(500 figures: ~30 s on 2 cores) ..."
         )
+        print("\n".join(lines), flush=True)
+        lines = []
     if s.scene["kind"] == "mjcf":
         sc = s.scene
         start = "default pose" if sc["key"] is None else f"keyframe {sc['key']!r}"
-        print(f"  from its {start}, actuators: {sc['ctrl']}")
+        lines.append(f"  from its {start}, actuators: {sc['ctrl']}")
+    lines += more
+    pending = [lines]
+
+    def started():
+        if pending:
+            print("\n".join(pending.pop()), flush=True)
+
+    return started
 
 
 def engine_options(p, what):

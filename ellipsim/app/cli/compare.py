@@ -45,11 +45,16 @@ def compare(args):
     if args.record:
         check_output(args.record, ".rrd", "--record")
     steps = steps_of(s, args, _check_validation)
-    header(s)
-    print(f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps", flush=True)
+    started = header(s, f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps")
     recorder = recorder_for(args.record, args) if args.record else None
     (v, model), size = recorded(
-        recorder, simulate.validation, s, steps, progress=bar(f"  {s.name}", steps), between=between(args)
+        recorder,
+        simulate.validation,
+        s,
+        steps,
+        progress=bar(f"  {s.name}", steps),
+        between=between(args),
+        started=started,
     )
     result = Comparison.of(s.name, v, model)
     print("\n".join(result.summary(args.show)))
@@ -79,11 +84,10 @@ def _compare_warp(args, s):
     device = warp_run.check_device(args.device or "cpu")
     steps = steps_of(s, args, simulate.check_steps)
     nworld = args.worlds or 1
-    header(s)
-    print(
+    started = header(
+        s,
         f"  comparing MuJoCo Warp's contacts ({device}, {nworld} worlds) with ellipsim over {steps} steps; the first "
         "run on a machine compiles Warp's kernels (minutes on CPU, then cached)",
-        flush=True,
     )
     recorder = recorder_for(args.record, args) if args.record else None
     result, size = recorded(
@@ -96,6 +100,7 @@ def _compare_warp(args, s):
         progress=bar(f"  {s.name}", steps),
         nconmax=args.nconmax,
         njmax=args.njmax,
+        started=started,
     )
     print("\n".join(result.summary(args.show)))
     if args.json:

@@ -38,12 +38,18 @@ def run(args):
     steps = steps_of(s, args, simulate.check_steps)
     mode = args.mode or s.mode
     what = "kinematic replay" if s.kinematic else f"mode {mode}"
-    header(s)
-    print(f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}", flush=True)
+    started = header(s, f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}")
     recorder = recorder_for(args.record, args) if args.record else None
     t0 = time.perf_counter()
     result, size = recorded(
-        recorder, simulate.run, s, steps=steps, mode=mode, progress=bar(f"  {s.name}", steps), between=between(args)
+        recorder,
+        simulate.run,
+        s,
+        steps=steps,
+        mode=mode,
+        progress=bar(f"  {s.name}", steps),
+        between=between(args),
+        started=started,
     )
     wall = time.perf_counter() - t0
     lines = result.summary(
@@ -68,12 +74,11 @@ def _run_warp(args, s):
     steps = steps_of(s, args, simulate.check_steps)
     nworld = args.worlds or 1
     mode = args.mode or s.mode
-    header(s)
-    print(
+    started = header(
+        s,
         f"  {steps} steps of {s.timestep:g} s in {nworld} worlds on MuJoCo Warp ({device}), "
         f"{'plain Warp' if mode == 'builtin' else 'ellipsim attached'}; the first run on a machine compiles "
         "Warp's kernels (minutes on CPU, then cached)",
-        flush=True,
     )
     recorder = recorder_for(args.record, args) if args.record else None
     result, size = recorded(
@@ -87,6 +92,7 @@ def _run_warp(args, s):
         progress=bar(f"  {s.name}", steps),
         nconmax=args.nconmax,
         njmax=args.njmax,
+        started=started,
     )
     print("\n".join(result.summary()))
     if recorder:

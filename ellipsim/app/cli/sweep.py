@@ -35,7 +35,7 @@ def sweep(args):
     done = sw.already_done(variants, args.out)
     plot = sw.plot_available()
     s = scenario.from_table(variants[0].table, variants[0].path)
-    header(s)
+    header(s)()  # the variants are built in their workers: an error there is the variant's row
     shape = " x ".join([f"{len(v)} {k}" for k, v in vary.items()] + ([f"{args.seeds} seeds"] if args.seeds else []))
     steps = sorted({v.steps for v in variants})
     todo = len(variants) - len(done)
@@ -77,8 +77,10 @@ def sweep(args):
     else:
         print(f"  no plot: it needs matplotlib: {install_hint('plot')}")
     if args.record:
+        first = os.path.relpath(variants[0].record) if not os.path.isabs(args.out) else variants[0].record
         print(
-            f"  recordings: {os.path.join(args.out, '<variant>.rrd')}; view one with: ellipsim view {os.path.join(args.out, rows[0]['variant'] + '.rrd')}"
+            f"  recordings: one a variant in {args.out}, named by scenario, values and id; view one with: "
+            f"ellipsim view {first}"
         )
     failed = [r for r in rows if r["error"]]
     if failed:

@@ -602,3 +602,39 @@ def test_worlds_of_a_seeded_figure_scene_start_from_other_layouts():
     model, data = simulate.build(crowd)
     qpos, seeds = warp_run.world_states(crowd, model, data, 3)
     assert seeds == 1 and all(np.array_equal(q, data.qpos) for q in qpos)
+
+
+@SLOW
+def test_an_overflow_is_a_counted_explained_line_not_warps_print(tmp_path):
+    """Buffers too small for the heap as it falls (--nconmax, --njmax just above the initial state's): `run`
+    and `compare` say how many frames or steps overflowed, which buffer and which option raises it; Warp's
+    own kernel prints stay off.  Below the initial state's, a one-line error."""
+    path = tmp_path / "heap.xml"
+    model = _pile(n=6)
+    mujoco.mj_saveLastXML(str(path), model)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    cases = [
+        ("run", ["--nconmax", str(data.ncon + 1)], "raise --nconmax"),
+        ("compare", ["--nconmax", str(data.ncon + 1)], "raise --nconmax"),
+        ("run", ["--njmax", str(data.nefc + 2)], "raise --njmax"),
+    ]
+    for command, small, hint in cases:
+        argv = [command, str(path), "--engine", "warp", "--steps", "60", *small]
+        proc = subprocess.run([sys.executable, "-m", "ellipsim", *argv], capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        out = proc.stdout + proc.stderr
+        assert "please increase" not in out and "overflow -" not in out, out[-2000:]
+        line = next(x for x in proc.stdout.splitlines() if "warning: Warp's buffers overflowed" in x)
+        assert hint in line, line
+    proc = subprocess.run(
+        [sys.executable, "-m", "ellipsim", "run", str(path), "--engine", "warp", "--steps", "60"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0 and "overflowed" not in proc.stdout  # the defaults hold the heap
+    argv = ["run", str(path), "--engine", "warp", "--steps", "2", "--nconmax", str(max(data.ncon - 1, 0) or 1)]
+    if data.ncon > 1:
+        proc = subprocess.run([sys.executable, "-m", "ellipsim", *argv], capture_output=True, text=True)
+        assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+        assert proc.stderr.strip().endswith(f"contacts of the initial state") and proc.stderr.count("\n") == 1

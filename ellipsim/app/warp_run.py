@@ -115,8 +115,13 @@ def setup(s, nworld, device, *, nconmax=None, njmax=None):
     control = simulate.controller(model, data, s)
     mujoco.mj_forward(model, data)
     qpos, seeds = world_states(s, model, data, nworld)
-    nconmax = default_nconmax(model) if nconmax is None else int(nconmax)
-    njmax = default_njmax(model, nconmax) if njmax is None else int(njmax)
+    nconmax = max(default_nconmax(model), data.ncon) if nconmax is None else int(nconmax)
+    njmax = max(default_njmax(model, nconmax), data.nefc) if njmax is None else int(njmax)
+    # the initial state must fit (mujoco_warp's put_data refuses it otherwise, with a traceback)
+    if nconmax < data.ncon:
+        raise ScenarioError(f"nconmax (--nconmax) {nconmax} is below the {data.ncon} contacts of the initial state")
+    if njmax < data.nefc:
+        raise ScenarioError(f"njmax (--njmax) {njmax} is below the {data.nefc} constraint rows of the initial state")
     naconmax = nworld * nconmax
     with wp.ScopedDevice(device):
         m = mjw.put_model(model)

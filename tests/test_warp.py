@@ -637,4 +637,4 @@ def test_an_overflow_is_a_counted_explained_line_not_warps_print(tmp_path):
     if data.ncon > 1:
         proc = subprocess.run([sys.executable, "-m", "ellipsim", *argv], capture_output=True, text=True)
         assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
-        assert proc.stderr.strip().endswith(f"contacts of the initial state") and proc.stderr.count("\n") == 1
+        assert proc.stderr.strip().endswith("contacts of the initial state") and proc.stderr.count("\n") == 1

@@ -2,6 +2,7 @@ import errno
 import io
 import json
 import os
+import pathlib
 import re
 import signal
 import subprocess
@@ -443,3 +444,40 @@ def test_a_model_mujoco_refuses_is_one_line_naming_the_file_as_typed(tmp_path, c
     (tmp_path / "bad.xml").write_text('<mujoco><worldbody><geom type="sphere" size="-1"/></worldbody></mujoco>')
     line = one_line_error(cli(command[0], "bad.xml", *command[1:], cwd=tmp_path))
     assert line.startswith("ellipsim: error: bad.xml: MuJoCo ") and str(tmp_path) not in line, line
+
+
+def test_an_mjcf_models_own_colours_textures_and_tendons_are_drawn(tmp_path):
+    """A model's own colours by default (a material's, a texture's mean times it), and its spatial tendons a
+    path each frame: the weight hangs on its rope (the path from the anchor to the hook, 0.55 m and what a soft
+    limit gives)."""
+    from ellipsim.app import capture, record
+    from tests.test_record import Recording, packed
+
+    path = pathlib.Path(__file__).parent / "models" / "weight.xml"
+    model = mujoco.MjModel.from_xml_path(str(path))
+    out = tmp_path / "w.rrd"
+    assert main(["run", str(path), "--steps", "400", "--record", str(out)]) == 0
+    rec = Recording(out)
+    rgba = lambda name: packed(record.rgba8(model.geom_rgba[model.geom(name).id]))  # noqa: E731
+    _, _, colors = rec.temporal("/world/model/weight/geoms/ellipsoids", "Ellipsoids3D:colors")
+    assert colors[0] == [rgba("weight")]  # hanging free: the model's green
+    _, _, colors = rec.temporal("/world/model/balloon/geoms/ellipsoids", "Ellipsoids3D:colors")
+    assert colors[0] == [packed(record.rgba8(model.mat_rgba[model.material("red").id]))]  # its material's
+    assert rec.static("/world/model/box/geoms/boxes", "Boxes3D:colors") == [[rgba("crate")]]
+    floor = model.mat_rgba[model.material("grid").id].copy()
+    floor[:3] *= capture.texture_colors(model)[model.material("grid").id]
+    assert rec.static("/world/model/geoms/floor", "Mesh3D:albedo_factor")[-1] == [packed(record.rgba8(floor))]
+    assert 0.1 < floor[:3].mean() < 0.5  # the checker's blues, not white
+    frames, _, strips = rec.temporal("/world/tendons", "LineStrips3D:strips")
+    assert len(frames) == 50 and all(len(s) == 1 and len(s[0]) == 2 for s in strips)  # one rope, two points
+    anchor = model.site("anchor").pos
+    for a, b in (s[0] for s in strips):
+        np.testing.assert_allclose(a, anchor, atol=1e-6)
+        # the weight below, held (MuJoCo's limit is soft: under the weight it gives a few millimetres)
+        assert np.linalg.norm(np.subtract(b, a)) <= 0.56 and b[2] < a[2]
+    _, _, colors = rec.temporal("/world/tendons", "LineStrips3D:colors")
+    assert colors[0] == [packed(record.rgba8(model.tendon_rgba[0]))]
+    hued = tmp_path / "hued.rrd"  # the hue per figure stays an option
+    assert main(["run", str(path), "--steps", "20", "--record", str(hued), "--colors", "figure"]) == 0
+    _, _, colors = Recording(hued).temporal("/world/model/weight/geoms/ellipsoids", "Ellipsoids3D:colors")
+    assert colors[0] != [rgba("weight")]

@@ -6,13 +6,14 @@ import json
 import mujoco
 import numpy as np
 import pytest
+import rerun.blueprint as rrb
 
 from ellipsim.app import compare_record, record
 from ellipsim.app.cli import main
 from ellipsim.core.distance.ellipsoid_pair import signed_distance
 from ellipsim.core.ellipsoids import Ellipsoids
 from ellipsim.mujoco.validate import Disagreement
-from tests.test_record import Recording, blueprint_of, packed
+from tests.test_record import Recording, blueprint_parts, packed
 
 TWO = """<mujoco><option gravity="0 0 -9.81"/><worldbody>
   <geom name="floor" type="plane" size="0 0 1"/>
@@ -81,22 +82,32 @@ def recorded(tmp_path_factory):
 
 
 def test_disagreements_are_marked_at_their_step_and_cleared_after(recorded):
-    _, rec, _ = recorded
+    """A ball on a pole at each disagreement's step, taken off at the next; the pole rises from ellipsim's
+    contact point straight up to above the geoms stacked there (the ball's height), in the kind's colour."""
+    model, rec, _ = recorded
     frames, _, positions = rec.temporal("/world/disagreements", "Points3D:positions")
     rows = dict(zip(frames, positions))
     assert sorted(rows) == [2, 3, 4, 6, 7]  # 4 and 7: the markers of steps 3 and 6 taken off
     assert [len(rows[f]) for f in (2, 3, 4, 6, 7)] == [2, 1, 0, 1, 0]
-    np.testing.assert_allclose(np.array(rows[6], dtype=np.float64), [[0.6, 0.0, 0.3]], rtol=1e-6)
+    head = np.array(rows[6], dtype=np.float64)
+    np.testing.assert_allclose(head[0, :2], [0.6, 0.0], rtol=1e-6)  # above the contact point (0.6, 0, 0.3)
+    scale = record.scene_scale(_geometry(model))
+    assert head[0, 2] >= 0.3 + compare_record.POLE_ABOVE * scale - 1e-6
+    _, _, strips = rec.temporal("/world/disagreements/poles", "LineStrips3D:strips")
+    pole = np.array(dict(zip(frames, strips))[6][0], dtype=np.float64)
+    np.testing.assert_allclose(pole, [[0.6, 0.0, 0.3], head[0]], rtol=1e-6)
     _, _, colors = rec.temporal("/world/disagreements", "Points3D:colors")
     by_kind = {k: packed(c) for k, (c, _) in compare_record.kinds("MuJoCo").items()}
     assert dict(zip(frames, colors))[2] == [by_kind["mujoco_extra"], by_kind["mujoco_missed"]]
     assert dict(zip(frames, colors))[3] == [by_kind["near_tangent"]]
+    verdicts = {packed(c) for c in (record.OVERLAPPING_COLOR, record.TOUCHING_COLOR, record.CONTACT_COLOR)}
+    assert not set(by_kind.values()) & verdicts  # the markers' colours are none of the verdict colours
     _, _, labels = rec.temporal("/world/disagreements", "Points3D:labels")
     assert dict(zip(frames, labels))[2] == ["mujoco_extra: a / b", "mujoco_missed: a / b"]
     assert rec.static("/world/disagreements", "Points3D:show_labels") == [[True]]  # few: their labels shown
     # both contacts: MuJoCo's where it made one (the mujoco_extra pair), ellipsim's at every disagreement
     frames, _, vectors = rec.temporal("/world/disagreements/mujoco", "Arrows3D:vectors")
-    length = record.NORMAL_LENGTH * record.scene_scale(_geometry(recorded[0]))
+    length = record.NORMAL_LENGTH * scale
     assert dict(zip(frames, vectors))[2] == [pytest.approx([length, 0, 0], rel=1e-6)]
     assert dict(zip(frames, vectors))[3] == []
     frames, _, vectors = rec.temporal("/world/disagreements/ellipsim", "Arrows3D:vectors")
@@ -115,12 +126,32 @@ def test_every_disagreement_has_a_log_line_at_its_step(recorded):
     lines = [(f, t[0]) for f, t in zip(frames, texts)]
     assert [f for f, _ in lines] == [2, 2, 3, 6]
     first = lines[0][1]
-    assert first.startswith("step 2: mujoco_extra: ellipsoid-ellipsoid a / b (bodies left / right)")
-    assert "MuJoCo dist -0.0001 m, normal (1.0000, 0.0000, 0.0000)" in first
-    assert "normal (0.0000, 1.0000, 0.0000)" in first and "why mujoco_extra" in first
-    assert "MuJoCo: no contact" in lines[1][1]
+    assert first == (
+        "step 2: mujoco_extra: ellipsoid-ellipsoid a / b (bodies left / right): MuJoCo -0.0001 m, exact 0.5 m; "
+        "right: ellipsim, the exact distance is >= margin 0"
+    )
+    assert "MuJoCo no contact" in lines[1][1] and "the exact distance is < margin 0" in lines[1][1]
     _, _, levels = rec.temporal("/events/disagreements", "TextLog:level")
     assert [lv[0] for lv in levels] == ["WARN", "WARN", "INFO", "WARN"]
+    assert set(rec.timelines()) == {"frame", "time"}  # columns only: no log_time or log_tick
+
+
+def test_the_overview_counts_and_lists_every_disagreement(recorded):
+    _, rec, _ = recorded
+    (text,) = rec.static("/overview", "TextDocument:text")[-1]
+    assert text.startswith("**4 disagreements in 8 steps**")
+    assert "| ellipsoid-ellipsoid | 1 | 2 | 1 | 0 |" in text  # extra, missed, near_tangent, normal_off
+    assert text.count("| a / b |") == 4
+
+
+def test_the_difference_plots_peaks_are_named_in_the_log(recorded):
+    _, rec, _ = recorded
+    _, _, dist = rec.temporal("/differences/distance", "Scalars:scalars")
+    frames, _, texts = rec.temporal("/events/differences", "TextLog:text")
+    peaks = [t[0] for t in texts]
+    top = next(x for x in peaks if "peak 1 of the run's |MuJoCo dist - exact|" in x)
+    assert top.endswith("on a / b (bodies left / right)")
+    assert float(top.split(": ")[2].split(" ")[0]) == pytest.approx(max(d[0] for d in dist), rel=1e-2)
 
 
 def test_disagreement_counts_per_step(recorded):
@@ -155,13 +186,16 @@ def test_distance_and_normal_differences_on_mujocos_contacts(recorded):
 
 def test_the_layout_shows_the_disagreements(recorded):
     _, rec, _ = recorded
-    views, _, eye = blueprint_of(rec)
+    views, kinds, eye, panels, containers = blueprint_parts(rec)
     assert sorted(views["TimeSeries"]) == sorted(
-        ["counts/pairs", "counts/disagreements", "differences/distance", "differences/normal_angle"]
+        ["counts/pairs", "counts/disagreements", "differences/distance", "differences/normal_angle", "depth"]
     )
-    assert views["TextLog"] == ["events"] and views["TextDocument"] == ["legend"] and views["3D"] == ["world"]
+    assert views["TextLog"] == ["events"] and sorted(views["TextDocument"]) == ["legend", "overview"]
+    assert views["3D"] == ["world"]
+    assert [c[1] for c in containers if c[0] == rrb.components.ContainerKind.Tabs.value] == [None]
+    assert {c[1] for c in containers} >= {"scene", "disagreements"}  # the log a tab of its own, the window wide
     text = rec.static("/legend", "TextDocument:text")[-1][0]
-    assert "magenta** ball: mujoco_extra, MuJoCo made a contact the exact test separates" in text and "yellow" in text
+    assert "**pink**: mujoco_extra, MuJoCo made a contact the exact test separates" in text and "yellow" in text
     assert eye["look_target"][2] > 0  # inside the bodies, above the floor
 
 
@@ -175,9 +209,7 @@ def test_compare_record_on_the_command_line_logs_the_disagreements_the_json_list
     frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
     assert [(f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)] == [(d["step"], d["kind"]) for d in listed]
     assert {"/world/contacts", "/world/disagreements", "/counts/disagreements/mujoco_missed"} <= rec.entities()
-    views, _, _ = blueprint_of(rec)
     text = rec.static("/legend", "TextDocument:text")[-1][0]
-    if listed:  # a log panel only when there is something to list, else a line saying so
-        assert views["TextLog"] == ["events"] and "No disagreements" not in text
-    else:
-        assert "TextLog" not in views and "No disagreements in 40 steps." in text
+    (overview,) = rec.static("/overview", "TextDocument:text")[-1]
+    assert overview.startswith(f"**{len(listed)} disagreements in 40 steps**")
+    assert ("No disagreements in 40 steps." in text) == (not listed)

@@ -172,6 +172,30 @@ def test_the_recording_model_sets_the_fixed_copy_beside_the_original(tmp_path):
         assert y_copy.min() > y_original.max()
 
 
+def test_the_recording_labels_the_original_and_the_fixed_copy(tmp_path, capsys):
+    """`fix --record`: a label above each copy, "original" at the model's own place, "fixed" one offset
+    beside it, over the bodies' box; the legend says which is which."""
+    from tests.test_record import Recording
+
+    path = tmp_path / "m.xml"
+    path.write_text(scenes.scene_xml(2, layout="facing", spacing=0.5))
+    model = mujoco.MjModel.from_xml_path(str(path))
+    np.save(tmp_path / "m.npy", _reaching_motion(model, frames=12))
+    out = tmp_path / "fix.rrd"
+    main(["fix", str(path), str(tmp_path / "m.npy"), "--record", str(out)])
+    rec = Recording(out)
+    (labels,) = rec.static("/world/copy_labels", "Points3D:labels")
+    (positions,) = rec.static("/world/copy_labels", "Points3D:positions")
+    assert labels == ["original", "fixed"]
+    apart = np.subtract(positions[1], positions[0])
+    text = rec.static("/legend", "TextDocument:text")[-1][0]
+    assert "labelled *original*" in text and "labelled *fixed*" in text
+    said = float(text.split("beside it, ")[1].split(" m along")[0])  # the offset the legend states
+    assert np.count_nonzero(apart) == 1 and apart.max() == pytest.approx(said, abs=0.006)
+    _, _, xpos = rec.temporal("/world/contacts", "Points3D:positions")
+    assert positions[0][2] > max((p[2] for row in xpos for p in row), default=0.0)  # above the bodies
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

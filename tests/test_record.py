@@ -17,7 +17,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
-from ellipsim.app import capture, record, scenario, simulate
+from ellipsim.app import capture, record, scenario, simulate, trajectory
 from ellipsim.app.trajectory import GEOM_KINDS, Frames, SceneGeometry
 from ellipsim.core.rotations import quaternion_product, quaternions_to_rotations
 
@@ -43,6 +43,14 @@ class Recording:
 
     def entities(self):
         return {c.entity_path for c in self.chunks}
+
+    def timelines(self):
+        """The timelines of every temporal row (the index columns of the recording's chunks)."""
+        names = set()
+        for c in self.chunks:
+            if not c.is_static:
+                names |= {n for n in c.to_record_batch().schema.names if ":" not in n and not n.startswith("rerun.")}
+        return names
 
     def static(self, entity, component):
         """Every static row of `component` on `entity`: a list of per-row values."""
@@ -292,7 +300,7 @@ def test_contacts_of_every_kind_per_frame(saved):
             assert colors[f] == [both[bool(e)] for e in c.contact_ellipsoids[mine]]
             names = [GEOMS[i][0] for i in range(len(GEOMS))]
             assert labels[f] == [
-                f"{names[g1]} / {names[g2]}: dist {d:.3g} m"
+                f"{names[g1]} / {names[g2]}: " + (f"depth {-d:.3g} m" if d < 0 else f"apart {d:.3g} m")
                 for (g1, g2), d in zip(c.contact_geoms[mine], c.contact_dist[mine])
             ]
     assert set(colors[0] + colors[2]) == set(both.values())
@@ -323,48 +331,115 @@ def test_count_series_stay_distinguishable(saved):
 
 def blueprint_of(rec):
     """The views (kind: [origin]), container kinds and the 3D view's eye controls of a recording's one blueprint."""
+    return blueprint_parts(rec)[:3]
+
+
+def blueprint_parts(rec):
+    """blueprint_of's views, container kinds and eye controls, and {panel: state} of the viewer's side panels,
+    [(container kind, name, column shares)] of the containers."""
     (store,) = rec.reader.blueprints()
-    views, kinds, eye = {}, [], {}
+    views, kinds, eye, panels, containers = {}, [], {}, {}, []
     for c in rec.reader.stream(store=store).to_chunks():
         batch = c.to_record_batch()
-        if "ViewBlueprint:class_identifier" in batch.schema.names:
+        names = batch.schema.names
+        if "ViewBlueprint:class_identifier" in names:
             (kind,) = batch.column("ViewBlueprint:class_identifier").to_pylist()
             (origin,) = batch.column("ViewBlueprint:space_origin").to_pylist()
             views.setdefault(kind[0], []).append(origin[0])
-        if "ContainerBlueprint:container_kind" in batch.schema.names:
-            kinds += batch.column("ContainerBlueprint:container_kind").to_pylist()
+        if "ContainerBlueprint:container_kind" in names:
+            kind = batch.column("ContainerBlueprint:container_kind").to_pylist()
+            kinds += kind
+            name = (
+                batch.column("ContainerBlueprint:display_name").to_pylist()
+                if "ContainerBlueprint:display_name" in names
+                else [None]
+            )
+            shares = (
+                batch.column("ContainerBlueprint:col_shares").to_pylist()
+                if "ContainerBlueprint:col_shares" in names
+                else [None]
+            )
+            containers.append((kind[0][0], (name[0] or [None])[0], shares[0]))
+        if "PanelBlueprint:state" in names:
+            panels[c.entity_path] = batch.column("PanelBlueprint:state").to_pylist()[0][0]
         for name in ("position", "look_target", "eye_up"):
-            if f"EyeControls3D:{name}" in batch.schema.names:
+            if f"EyeControls3D:{name}" in names:
                 eye[name] = np.array(batch.column(f"EyeControls3D:{name}").to_pylist()[0][0])
-    return views, kinds, eye
+    return views, kinds, eye, panels, containers
 
 
 def test_blueprint(saved):
-    views, kinds, eye = blueprint_of(saved[3])
-    assert views["3D"] == ["world"] and sorted(views["TimeSeries"]) == ["counts/contacts", "counts/pairs"]
+    assert saved[3].timelines() == {"frame", "time"}  # columns only: no log_time or log_tick
+    views, kinds, eye, panels, containers = blueprint_parts(saved[3])
+    assert views["3D"] == ["world"]
+    assert sorted(views["TimeSeries"]) == ["counts/contacts", "counts/pairs", "depth"]  # contacts deeper than 0
     assert views["TextDocument"] == ["legend"]
-    assert set(views) == {"3D", "TimeSeries", "TextDocument"}  # no contacts between frames: no empty log panel
+    assert set(views) == {"3D", "TimeSeries", "TextDocument"}  # no contacts between frames: no log tab
     assert sorted(k[0] for k in kinds) == sorted(
         [rrb.components.ContainerKind.Horizontal.value, rrb.components.ContainerKind.Vertical.value]
     )
+    # the side panels collapsed, the 3D view SCENE_SHARE of the width
+    assert panels == {"/blueprint_panel": rrb.components.PanelState.Collapsed.value} | {
+        "/selection_panel": rrb.components.PanelState.Collapsed.value
+    }  # (the time panel keeps its playback bar)
+    (scene,) = [c for c in containers if c[1] == "scene"]
+    assert scene[2] == [record.SCENE_SHARE, 100 - record.SCENE_SHARE] and record.SCENE_SHARE >= 60
 
 
-def test_the_camera_looks_into_the_bodies_bounding_box_over_the_run(saved):
-    _, chunks, _, rec, _ = saved
+def test_the_camera_frames_where_the_contacts_are(saved):
+    """The camera looks at the box of MuJoCo's contacts over the run (framing: their percentiles, grown by
+    FRAMING_PAD scene scales and to FRAMING_MIN across), from above, z up, as close as keeps it in view."""
+    g, chunks, _, rec, _ = saved
     _, _, eye = blueprint_of(rec)
-    bounds = np.concatenate([c.bounds for c in chunks])
-    lo, hi = bounds[:, 0].min(axis=0), bounds[:, 1].max(axis=0)
-    np.testing.assert_allclose(eye["look_target"], (lo + hi) / 2, rtol=1e-6)  # the centre of the union
-    assert ((lo <= eye["look_target"]) & (eye["look_target"] <= hi)).all()
+    points = np.concatenate([c.contact_pos for c in chunks])
+    scale = record.scene_scale(g)
+    lo, hi = np.percentile(points, record.FRAMING_PERCENTILES, axis=0)
+    lo, hi = lo - record.FRAMING_PAD * scale, hi + record.FRAMING_PAD * scale
+    grow = np.maximum(record.FRAMING_MIN * scale - (hi - lo), 0) / 2
+    lo, hi = lo - grow, hi + grow
+    np.testing.assert_allclose(eye["look_target"], (lo + hi) / 2, rtol=1e-6, atol=1e-9)
     distance = np.linalg.norm(eye["position"] - eye["look_target"])
     radius = np.linalg.norm(hi - lo) / 2
     assert radius < distance < 3 * radius  # outside the box, close enough that it fills the view
     assert eye["position"][2] > eye["look_target"][2] and list(eye["eye_up"]) == [0, 0, 1]  # from above, z up
 
 
+def test_framing_leaves_out_a_far_contact_and_falls_back_to_the_last_frame():
+    scale = 0.1
+    heap = np.random.default_rng(0).uniform(-0.5, 0.5, (500, 3))
+    flung = np.vstack([heap, [[30.0, 0.0, 0.0]]])  # one contact far off: not framed
+    lo, hi = record.framing(flung, np.zeros(3), np.ones(3), scale)
+    assert hi[0] < 1.0 and lo[0] > -1.0
+    lo, hi = record.framing(np.zeros((0, 3)), -np.ones(3), 2 * np.ones(3), scale)  # no contact: the bodies
+    np.testing.assert_array_equal(lo, -np.ones(3)) and np.testing.assert_array_equal(hi, 2 * np.ones(3))
+    lo, hi = record.framing(np.zeros((3, 3)), np.zeros(3), np.ones(3), scale)  # one point: FRAMING_MIN across
+    np.testing.assert_allclose(hi - lo, record.FRAMING_MIN * scale)
+
+
+def test_the_deepest_pairs_have_a_depth_series(saved):
+    """depth/<geom1> ~ <geom2>: the DEPTH_PAIRS deepest judged pairs (contact_ellipsoids), each MuJoCo's depth
+    at the frames it penetrates, 0 around them."""
+    g, chunks, _, rec, _ = saved
+    frames = trajectory.concatenate(chunks)
+    deep = np.flatnonzero(frames.contact_ellipsoids & (frames.contact_dist < 0))
+    assert len(deep)
+    names = g.geom_names
+    best = {}
+    for k in deep:
+        g1, g2 = sorted(int(x) for x in frames.contact_geoms[k])
+        key = (names[g1], names[g2])
+        best[key] = max(best.get(key, 0.0), -frames.contact_dist[k])
+    top = sorted(best, key=lambda k: -best[k])[: record.DEPTH_PAIRS]
+    drawn = sorted(e for e in rec.entities() if e.startswith("/depth/"))
+    assert drawn == sorted("/depth/" + rr.escape_entity_path_part(f"{a} ~ {b}") for a, b in top)
+    for a, b in top:
+        _, _, values = rec.temporal("/depth/" + rr.escape_entity_path_part(f"{a} ~ {b}"), "Scalars:scalars")
+        assert max(v[0] for v in values) == pytest.approx(best[(a, b)])
+
+
 def test_the_legend_says_what_the_colours_mean(saved):
     text = saved[3].static("/legend", "TextDocument:text")[-1]  # the last: logged again at close
-    for words in ("red", "amber", "green", "black", "one hue per figure", "not looked for"):
+    for words in ("red", "amber", "green", "black", "a hue per figure", "model's own colours", "not looked for"):
         assert words in text[0]
 
 

@@ -557,7 +557,7 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
     frames, _, texts = rec.temporal("/events/disagreements", "TextLog:text")
     assert sorted((f, t[0].split(":")[1].strip()) for f, t in zip(frames, texts)) == world0
     (name,) = rec.static("/counts/pairs/builtin", "SeriesLines:names")[-1]
-    assert name == "Warp contacts (dist < margin)"
+    assert name == "Warp (dist < margin)"
 
 
 @pytest.mark.parametrize(

@@ -111,9 +111,12 @@ def geometry(model, name, names=None):
     moving = np.flatnonzero((model.body_jntnum > 0) | (model.body_mocapid >= 0)).astype(np.int64)
     rgba = model.geom_rgba.astype(np.float64).copy()
     material = model.geom_matid
-    # MuJoCo draws a geom with its material's colour when the geom's own is the default (mjv_updateScene)
+    # MuJoCo draws a geom with its material's colour when the geom's own is the default (mjv_updateScene),
+    # and its texture modulates that colour: the texture's mean colour stands for it (a checker floor)
     use_material = (material >= 0) & (model.geom_rgba == _DEFAULT_RGBA).all(axis=1)
     rgba[use_material] = model.mat_rgba[material[use_material]]
+    textured = material >= 0
+    rgba[textured, :3] *= texture_colors(model)[material[textured]]
     kind = model.geom_type.astype(np.int64).copy()
     meshes = {}
     for g in range(model.ngeom):
@@ -128,6 +131,11 @@ def geometry(model, name, names=None):
     drawable = kind < len(GEOM_KINDS)
     kind[~drawable] = _MESH  # an SDF without a mesh: listed as a mesh, drawn as nothing
     ids, _, _ = ellipsoid_geoms(model)
+    tendons = spatial_tendons(model)
+    tendon_rgba = model.tendon_rgba[tendons].astype(np.float64).copy()
+    tendon_mat = model.tendon_matid[tendons]
+    use_material = (tendon_mat >= 0) & (model.tendon_rgba[tendons] == _DEFAULT_RGBA).all(axis=1)
+    tendon_rgba[use_material] = model.mat_rgba[tendon_mat[use_material]]
     return SceneGeometry(
         name=name,
         body_names=list(names.bodies),
@@ -144,7 +152,59 @@ def geometry(model, name, names=None):
         geom_rgba=rgba,
         meshes=meshes,
         ellipsoids=ids.astype(np.int64),
+        tendon_names=[names_of(model, mujoco.mjtObj.mjOBJ_TENDON, model.ntendon, "tendon")[t] for t in tendons],
+        tendon_width=model.tendon_width[tendons].astype(np.float64),
+        tendon_rgba=tendon_rgba,
     )
+
+
+def texture_colors(model):
+    """(nmat, 3): each material's RGB texture's mean colour in [0, 1] (1, 1, 1 without one): how the
+    recording colours a textured geom, its material's colour times this (MuJoCo's rendering modulates
+    the colour by the texture)."""
+    out = np.ones((model.nmat, 3))
+    role = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
+    for m in range(model.nmat):
+        t = int(model.mat_texid[m, role]) if model.mat_texid.ndim == 2 else int(model.mat_texid[m])
+        if t < 0:
+            continue
+        adr, n = int(model.tex_adr[t]), int(model.tex_width[t] * model.tex_height[t])
+        channels = int(model.tex_nchannel[t])
+        texels = model.tex_data[adr : adr + n * channels].reshape(n, channels).astype(np.float64) / 255.0
+        out[m] = texels[:, :3].mean(axis=0) if channels >= 3 else texels[:, :1].mean()
+    return out
+
+
+def spatial_tendons(model):
+    """(T,) int64: the tendons with a path in space (sites, wrapping geoms, pulleys), not the fixed ones
+    (a linear combination of joints): the ones a recording draws."""
+    if model.ntendon == 0:
+        return np.zeros(0, dtype=np.int64)
+    first = model.wrap_type[model.tendon_adr]
+    return np.flatnonzero((model.tendon_num > 0) & (first != int(mujoco.mjtWrap.mjWRAP_JOINT))).astype(np.int64)
+
+
+def tendon_strips(model, data, tendons):
+    """The paths of `tendons` at data's state (after mj_fwdPosition or mj_tendon): (strip's tendon (S,),
+    points per strip (S,), points (Q, 3)); a path breaks at a pulley into strips."""
+    points = data.wrap_xpos.reshape(-1, 3)
+    objects = data.wrap_obj.reshape(-1)
+    strip, count, out = [], [], []
+    for k, t in enumerate(tendons):
+        adr, num = int(data.ten_wrapadr[t]), int(data.ten_wrapnum[t])
+        run = []
+        for j in range(adr, adr + num):
+            if objects[j] == -2:  # a pulley: the path goes on from the next point
+                if len(run) >= 2:
+                    strip.append(k), count.append(len(run)), out.append(np.array(run))
+                run = []
+            else:
+                run.append(points[j])
+        if len(run) >= 2:
+            strip.append(k), count.append(len(run)), out.append(np.array(run))
+    if not strip:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    return np.array(strip, dtype=np.int64), np.array(count, dtype=np.int64), np.concatenate(out)
 
 
 def _mesh(model, m):
@@ -267,6 +327,8 @@ class FrameBuffer:
         self._rbound = model.geom_rbound[self._solid][:, None]
         self.ncon = np.empty(self.capacity, dtype=np.int64)
         self.contacts = []  # per frame: (pos (k, 3), normal (k, 3), geom (k, 2), dist (k,)); pos, normal when recording
+        self.tendons = spatial_tendons(model) if record else np.zeros(0, dtype=np.int64)
+        self.tendon_paths = []  # per frame when recording a model with spatial tendons: tendon_strips()
         self.n = 0
         self.next_frame = 0
         self.between = BetweenFrames(self.radii, ellipsoid_rules) if between else None
@@ -307,6 +369,8 @@ class FrameBuffer:
         if self.record:
             self.xpos[k] = data.xpos[self.posed]
             self.xquat[k] = data.xquat[self.posed]
+            if len(self.tendons):
+                self.tendon_paths.append(tendon_strips(self.model, data, self.tendons))
         self.n += 1
         if self._worker is not None and self.n - self._sent >= BETWEEN_STRIDE:
             self._submit()
@@ -372,6 +436,7 @@ class FrameBuffer:
             bounds=self.bounds[:f].copy(),
             builtin_by_type=theirs,
             ellipsim_by_type=ours,
+            **self._tendon_fields(f),
         )
         out_pairs = pairs.copy()
         out_pairs[:, 0] += first
@@ -395,7 +460,20 @@ class FrameBuffer:
         self.n = self._sent = 0
         self.next_frame += f
         self.contacts = []
+        self.tendon_paths = []
         return chunk
+
+    def _tendon_fields(self, f):
+        """Frames' tendon fields of the f frames held (none without spatial tendons or a recording)."""
+        if not self.tendon_paths:
+            return {}
+        strip, count, points = (np.concatenate([p[k] for p in self.tendon_paths]) for k in range(3))
+        return {
+            "tendon_frame_strips": np.array([len(p[0]) for p in self.tendon_paths], dtype=np.int64),
+            "tendon_strip": strip.astype(np.int64),
+            "tendon_strip_points": count.astype(np.int64),
+            "tendon_points": points.reshape(-1, 3),
+        }
 
     def _pairs(self, centers):
         """(P, 3) int64 (frame, i, j), i < j into ids: the frames' judged pairs within reach (MuJoCo's rules,

@@ -93,12 +93,27 @@ NORMAL_RADIUS = 0.04
 BETWEEN_RADIUS = 0.35
 # Series styles: MuJoCo's line wide and light, ellipsim's thin and dark on top of it, so that where
 # the counts agree the thin line runs inside the wide one and both are seen.
-BUILTIN_SERIES = ("MuJoCo contacts (dist < margin)", (110, 160, 240, 255), 6.0)
-ELLIPSIM_SERIES = ("ellipsim contacts (exact: signed distance < margin)", (170, 20, 20, 255), 1.5)
-ALL_SERIES = ("MuJoCo contacts (all geoms)", (40, 40, 40, 255), 1.5)
-#: The 3D view's camera: looking at the centre of the bodies' bounding box over the run from this
-#: direction (front right, above), as close as keeps the whole box in view (camera()).
+BUILTIN_SERIES = ("MuJoCo (dist < margin)", (110, 160, 240, 255), 6.0)
+ELLIPSIM_SERIES = ("ellipsim (exact)", (170, 20, 20, 255), 1.5)
+ALL_SERIES = ("MuJoCo contacts (all geoms)", (190, 190, 190, 255), 1.5)  # light: the viewer is dark
+#: The 3D view's camera: looking at the centre of the box where the collisions happen (framing()) from
+#: this direction (front right, above), as close as keeps the whole box in view (camera()).
 CAMERA_DIRECTION = (0.55, -1.0, 0.55)
+#: The box framed is that of MuJoCo's contacts over the run, between these percentiles of their
+#: positions on each axis (a body flung off does not pull the camera away from the heap), grown by this
+#: many scene scales (the geoms around the contacts), at least FRAMING_MIN scene scales across; without a
+#: contact, the bodies at the last frame (the settled state).  CONTACT_SAMPLES positions are kept at most
+#: (a uniform sample of those recorded).
+FRAMING_PERCENTILES = (2.0, 98.0)
+FRAMING_PAD = 1.0
+FRAMING_MIN = 6.0
+CONTACT_SAMPLES = 50_000
+#: The 3D view's share of the window's width (per cent; the side panels collapsed): the plots share the rest.
+SCENE_SHARE = 64
+#: Pairs whose depth over the run is drawn as a series (the deepest), and the rows of depth kept at most
+#: (past it, only the deepest pairs' rows are kept).
+DEPTH_PAIRS = 6
+DEPTH_ROWS = 2_000_000
 FLOOR_MARGIN = 3.0  # an infinite plane reaches this many scene scales (or tenths of the bodies' span) beyond them
 CAMERA_HALF_FOV = 0.5  # radians, a little under half of the viewer's vertical field of view
 
@@ -111,8 +126,14 @@ ALL_PATH = "counts/contacts/all"
 BETWEEN_PATH = "world/between_frames"
 BETWEEN_LOG_PATH = "events/between_frames"
 LEGEND_PATH = "legend"
+DEPTH_PATH = "depth"
+TENDONS_PATH = "world/tendons"
+COPY_LABELS_PATH = "world/copy_labels"
 
 COLOR_MODES = ("figure", "mjcf")
+#: The colour scheme a recording of each kind of scene gets unless told: ellipsim's own figures and piles
+#: a hue per figure, a user's MJCF model its own colours.
+DEFAULT_COLORS = {"figures": "figure", "pile": "figure", "mjcf": "mjcf"}
 
 RRD_MAGIC = b"RRF"  # first bytes of an .rrd file ("RRF2" in rerun 0.41)
 
@@ -126,32 +147,77 @@ _PRIMITIVES = {  # geom kinds drawn as a batch per body: entity name
 }
 
 
-def blueprint(camera=None, panels=None):
-    """The default layout: a 3D view of "world" beside a column of `panels`, (view, share) pairs
-    (default: run_panels()).  camera : the 3D view's rrb.EyeControls3D (record.camera), or None for
-    the viewer's own framing."""
+def blueprint(camera=None, panels=None, tabs=()):
+    """The default layout: a 3D view of "world" (SCENE_SHARE of the width) beside a column of `panels`,
+    (view, share) pairs (default: run_panels()); `tabs`, more views or containers, each a tab beside
+    this scene.  The viewer's side panels start collapsed (the 3D view gets the room).  camera : the 3D
+    view's rrb.EyeControls3D (record.camera), or None for the viewer's own framing."""
     panels = run_panels() if panels is None else panels
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="model", eye_controls=camera),
-            rrb.Vertical(*(view for view, _ in panels), row_shares=[share for _, share in panels]),
-            column_shares=[3, 2],
-        ),
-        collapse_panels=False,
+    scene = rrb.Horizontal(
+        rrb.Spatial3DView(origin="world", name="model", eye_controls=camera),
+        rrb.Vertical(*(view for view, _ in panels), row_shares=[share for _, share in panels]),
+        column_shares=[SCENE_SHARE, 100 - SCENE_SHARE],
+        name="scene",
     )
+    root = rrb.Tabs(scene, *tabs, active_tab=0) if tabs else scene
+    return rrb.Blueprint(root, collapse_panels=True)
 
 
-def run_panels(between=False):
-    """The column beside a run's 3D view: the two contact-count plots, the legend, and the log of
-    contacts between frames when there are any (between)."""
-    panels = [
-        (rrb.TimeSeriesView(origin="counts/pairs", name="pairs in contact (every type ellipsim judges)"), 3),
-        (rrb.TimeSeriesView(origin="counts/contacts", name="all MuJoCo contacts"), 2),
-        (rrb.TextDocumentView(origin=LEGEND_PATH, name="what the colours mean"), 2),
+def plot(origin, name, span=None):
+    """A time-series view, its legend top left; span : (start, end) seconds of the run, the time axis
+    shown (every plot of a recording then lines up on the same steps, also one whose data cover part
+    of the run), or None for the viewer's own."""
+    import rerun.blueprint.archetypes as rba
+    import rerun.blueprint.components as rbc
+
+    axis = None
+    if span is not None:
+        start, end = (rr.TimeRangeBoundary.absolute(seconds=float(t)) for t in span)
+        axis = rba.TimeAxis(view_range=rr.TimeRange(start=start, end=end))
+    return rrb.TimeSeriesView(origin=origin, name=name, axis_x=axis, plot_legend=rba.PlotLegend(rbc.Corner2D.LeftTop))
+
+
+def run_panels(depth=True, span=None):
+    """The column beside a run's 3D view: the contact counts, the depth of the deepest pairs (when any
+    penetrated: depth), all contacts, the legend; span : the run's (start, end) seconds (plot)."""
+    panels = [(plot("counts/pairs", "pairs in contact (every type ellipsim judges)", span), 3)]
+    if depth:
+        panels.append((plot(DEPTH_PATH, "depth of the deepest pairs, m", span), 3))
+    panels += [
+        (plot("counts/contacts", "all MuJoCo contacts", span), 2),
+        (rrb.TextDocumentView(origin=LEGEND_PATH, name="what the colours mean"), 3),
     ]
-    if between:
-        panels.append((rrb.TextLogView(origin="events", name="contacts between frames"), 2))
     return panels
+
+
+def log_view(origin, name):
+    """A text log of whole lines: the body only (the frame on its own column; entity path and level,
+    which the lines repeat, hidden)."""
+    import rerun.blueprint.archetypes as rba
+    import rerun.blueprint.encodings as rbe
+
+    columns = rba.TextLogColumns(
+        timeline_columns=[rbe.TimelineColumn("frame"), rbe.TimelineColumn("time", visible=False)],
+        text_log_columns=[
+            rbe.TextLogColumn("EntityPath", visible=False),
+            rbe.TextLogColumn("LogLevel", visible=False),
+            rbe.TextLogColumn("Body"),
+        ],
+    )
+    return rrb.TextLogView(origin=origin, name=name, columns=columns)
+
+
+def framing(points, lo_bodies, hi_bodies, scale):
+    """(lo, hi) of the box the camera frames: MuJoCo's contact positions (n, 3) between FRAMING_PERCENTILES,
+    grown by FRAMING_PAD scene scales, at least FRAMING_MIN across; the bodies' box (lo_bodies, hi_bodies)
+    without contacts."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(points) == 0:
+        return np.asarray(lo_bodies, dtype=np.float64), np.asarray(hi_bodies, dtype=np.float64)
+    lo, hi = np.percentile(points, FRAMING_PERCENTILES, axis=0)
+    lo, hi = lo - FRAMING_PAD * scale, hi + FRAMING_PAD * scale
+    grow = np.maximum(FRAMING_MIN * scale - (hi - lo), 0.0) / 2
+    return lo - grow, hi + grow
 
 
 def camera(lo, hi):
@@ -177,15 +243,18 @@ def legend(between=None, extra=(), engine="MuJoCo"):
     engine : whose contacts are drawn."""
     lines = [
         "**Geoms** (hover one for its name)",
-        "- blue to indigo: free; one hue per figure (kinematic tree), lighter or darker as the model colours its parts",
-        "- **red**: overlapping another geom (ellipsim's exact verdict, every candidate ellipsoid pair)",
-        "- **amber**: touching, tangent within the proof tolerance (rare in a moving scene)",
-        "- the world's own geoms (floor, walls) in the model's colours",
+        "- in a hue per figure (kinematic tree; ellipsim's scenes) or the model's own colours (an MJCF model; "
+        "`--colors` picks)",
+        "- **red**: an ellipsoid or sphere in contact with another geom (signed distance below the pair's margin: "
+        "ellipsim's exact verdict, every pair type it judges)",
+        "- **amber**: touching, tangent exactly (rare in a moving scene)",
         "",
         f"**{engine}'s contacts**: a point and its normal (from the first geom into the second); hover one for the "
-        f"geoms and {engine}'s distance (negative: the penetration depth)",
-        "- **green**: between two ellipsoid or sphere geoms",
-        "- **black**: every other contact (floor, boxes, meshes, ...)",
+        f"geoms and the depth (or the gap, within the margin)",
+        "- **green**: on a pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or cylinder)",
+        "- **black**: every other contact (floor, meshes, ...)",
+        "",
+        "The camera frames where the contacts happen over the run; the depth plot follows the deepest pairs.",
     ]
     if between is None:
         lines += ["", "Contacts between frames: not looked for in this recording"]
@@ -292,10 +361,24 @@ class Recorder:
         self.kept = 0
         self.events_written = 0
         self.between_checked = False  # set by whoever looks for contacts between frames (the legend says)
-        self.panels = lambda recorder: run_panels(recorder.events_written > 0)  # the column beside the 3D view
+        self.panels = lambda recorder: run_panels(recorder.depth_pairs > 0, recorder.span())  # beside the 3D view
+        self.tabs = lambda recorder: (  # more tabs beside the scene
+            [log_view("events", "contacts between frames")] if recorder.events_written else []
+        )
         self.legend_extra = []  # more legend lines (markdown)
         self.engine = "MuJoCo"  # whose contacts are drawn (the legend says)
+        #: (text, offset (3,)) of copies of one model side by side (ellipsim fix: original and fixed): a label
+        #: above each copy, the first at the model's own place
+        self.copy_labels = []
+        self.depth_pairs = 0  # depth series drawn (close)
         self._lo = self._hi = None  # the bodies' bounding box over the frames written
+        self._last = None  # and at the last frame
+        self._contact_sample = np.zeros((0, 3))  # a uniform sample of MuJoCo's contact positions
+        self._contacts_seen = 0
+        self._sampler = np.random.default_rng(0)  # fixed: the same run gives the same framing
+        self._times = []  # per chunk: the frames' times
+        self._depth = []  # per chunk: (frame (k,), pair key (k,), depth (k,)) of judged pairs penetrating
+        self._depth_rows = 0
 
     def __enter__(self):
         return self
@@ -342,6 +425,8 @@ class Recorder:
         )
         rec.log(NORMALS_PATH, rr.Arrows3D.from_fields(radii=NORMAL_RADIUS * self.scale), static=True)
         rec.log(BETWEEN_PATH, rr.Points3D.from_fields(show_labels=self.labels), static=True)
+        if geometry.tendon_names:
+            rec.log(TENDONS_PATH, rr.LineStrips3D.from_fields(show_labels=self.labels), static=True)
         self._log_legend()
         for entity, (name, color, width) in (
             (BUILTIN_PATH, BUILTIN_SERIES),
@@ -374,9 +459,13 @@ class Recorder:
             )
         self._write_states(frames)
         self._write_contacts(frames, indexes)
+        self._write_tendons(frames, indexes)
+        self._keep_contacts(frames)
         lo, hi = frames.bounds[:, 0].min(axis=0), frames.bounds[:, 1].max(axis=0)
         self._lo = lo if self._lo is None else np.minimum(self._lo, lo)
         self._hi = hi if self._hi is None else np.maximum(self._hi, hi)
+        self._last = (frames.bounds[-1, 0].copy(), frames.bounds[-1, 1].copy())
+        self._times.append(np.asarray(frames.times, dtype=np.float64).copy())
         for entity, counts in (
             (BUILTIN_PATH, frames.builtin_counts),
             (ELLIPSIM_PATH, frames.ellipsim_counts),
@@ -441,6 +530,8 @@ class Recorder:
         if self.rec is None:
             raise ValueError("Recorder.close before begin")
         try:
+            self._write_depth()
+            self._log_copy_labels()
             self._log_legend()
             self._size_floors()
             self.rec.send_blueprint(self.final_blueprint(), make_active=True, make_default=True)
@@ -459,10 +550,113 @@ class Recorder:
         return self.path
 
     def final_blueprint(self):
-        """The layout `close` sends: the camera on the bodies' bounding box over the frames written
-        (the viewer's own framing when none was), the column of self.panels(self)."""
-        view = camera(self._lo, self._hi) if self._lo is not None else None
-        return blueprint(view, self.panels(self))
+        """The layout `close` sends: the camera on the box where the collisions happened (framing: MuJoCo's
+        contacts over the frames written, or the bodies at the last one; the viewer's own framing when no
+        frame was written), the column of self.panels(self), the tabs of self.tabs(self)."""
+        view = camera(*self.framed()) if self._lo is not None else None
+        return blueprint(view, self.panels(self), self.tabs(self))
+
+    def span(self):
+        """(first, last) time of the frames written, seconds (None before any)."""
+        if not self._times:
+            return None
+        return float(self._times[0][0]), float(self._times[-1][-1])
+
+    def framed(self):
+        """(lo, hi): the box the camera frames (framing)."""
+        return framing(self._contact_sample, *self._last, self.scale)
+
+    def _keep_contacts(self, frames):
+        """Keep a uniform sample (CONTACT_SAMPLES at most) of MuJoCo's contact positions, and the depth of
+        the pairs ellipsim judges that penetrate (each pair once a frame, its deepest contact)."""
+        pos = np.asarray(frames.contact_pos, dtype=np.float64).reshape(-1, 3)
+        n = len(pos)
+        if n:
+            seen = self._contacts_seen + n
+            room = CONTACT_SAMPLES - len(self._contact_sample)
+            if room >= n:
+                self._contact_sample = np.concatenate([self._contact_sample, pos])
+            else:  # reservoir sampling, a chunk at a time: every position kept with the same chance
+                keep = self._sampler.random(n) < CONTACT_SAMPLES / seen
+                take = pos[keep]
+                slots = self._sampler.choice(CONTACT_SAMPLES, size=len(take), replace=False) if len(take) else []
+                if room > 0:
+                    self._contact_sample = np.concatenate([self._contact_sample, pos[:room]])
+                self._contact_sample[np.asarray(slots, dtype=np.int64)] = take
+            self._contacts_seen = seen
+        deep = np.flatnonzero(np.asarray(frames.contact_ellipsoids, bool) & (np.asarray(frames.contact_dist) < 0))
+        if len(deep):
+            geoms = np.sort(np.asarray(frames.contact_geoms)[deep], axis=1)
+            key = geoms[:, 0] * len(self.geometry.geom_names) + geoms[:, 1]
+            self._depth.append((np.asarray(frames.contact_frame)[deep], key, -np.asarray(frames.contact_dist)[deep]))
+            self._depth_rows += len(deep)
+            if self._depth_rows > DEPTH_ROWS:  # keep the rows of the deepest pairs only
+                frame, key, depth = (np.concatenate(x) for x in zip(*self._depth))
+                top = _deepest_keys(key, depth, DEPTH_PAIRS)
+                mine = np.isin(key, top)
+                self._depth = [(frame[mine], key[mine], depth[mine])]
+                self._depth_rows = int(mine.sum())
+
+    def _write_depth(self):
+        """A series per pair of the DEPTH_PAIRS deepest (judged pairs, MuJoCo's contact depth, the deepest
+        of the pair's contacts in a frame; 0 in the frames between its first and last where it does not
+        penetrate), under depth/<geom1> ~ <geom2>."""
+        if not self._depth:
+            return
+        frame, key, depth = (np.concatenate(x) for x in zip(*self._depth))
+        times = np.concatenate(self._times)
+        names, G = self.geometry.geom_names, len(self.geometry.geom_names)
+        top = _deepest_keys(key, depth, DEPTH_PAIRS)
+        for k in top:
+            mine = key == k
+            first, last = int(frame[mine].min()), int(frame[mine].max())
+            span = np.arange(max(first - 1, 0), min(last + 2, len(times)))
+            values = np.zeros(len(span))
+            np.maximum.at(values, frame[mine] - span[0], depth[mine])
+            g1, g2 = divmod(int(k), G)
+            entity = f"{DEPTH_PATH}/{rr.escape_entity_path_part(f'{names[g1]} ~ {names[g2]}')}"
+            self.rec.log(entity, rr.SeriesLines(names=f"{names[g1]} / {names[g2]}", widths=1.5), static=True)
+            self.rec.send_columns(
+                entity, indexes=_indexes(times[span], span), columns=rr.Scalars.columns(scalars=values)
+            )
+        self.depth_pairs = len(top)
+
+    def _write_tendons(self, frames, indexes):
+        """The spatial tendons' paths per frame, each strip in its tendon's colour and width."""
+        g = self.geometry
+        if not g.tendon_names:
+            return
+        cuts = np.cumsum(frames.tendon_strip_points)[:-1]
+        strips = np.split(np.asarray(frames.tendon_points, dtype=np.float64).reshape(-1, 3), cuts)
+        tendon = np.asarray(frames.tendon_strip, dtype=np.int64)
+        columns = rr.LineStrips3D.columns(
+            strips=strips if len(tendon) else [],
+            colors=rgba8(np.asarray(g.tendon_rgba)[tendon]),
+            radii=np.maximum(np.asarray(g.tendon_width)[tendon], 0.01 * self.scale).astype(np.float32),
+            labels=[g.tendon_names[t] for t in tendon],
+        )
+        self.rec.send_columns(TENDONS_PATH, indexes=indexes, columns=columns.partition(frames.tendon_frame_strips))
+
+    def _log_copy_labels(self):
+        """Labels above copies of one model side by side (copy_labels), over the box the bodies took."""
+        if not self.copy_labels or self._lo is None:
+            return
+        offsets = np.array([np.asarray(o, dtype=np.float64) for _, o in self.copy_labels])
+        span = offsets.max(axis=0) - offsets.min(axis=0)
+        center = (self._lo + self._hi - span) / 2 - offsets.min(axis=0)  # the first copy's box's centre
+        points = center + offsets
+        points[:, 2] = self._hi[2] + 2 * self.scale
+        self.rec.log(
+            COPY_LABELS_PATH,
+            rr.Points3D(
+                points,
+                labels=[text for text, _ in self.copy_labels],
+                radii=0.3 * self.scale,
+                colors=[(255, 255, 255, 255)] * len(points),
+                show_labels=True,
+            ),
+            static=True,
+        )
 
     def _size_floors(self):
         """Log the world's infinite planes again, as squares that reach FLOOR_MARGIN beyond the
@@ -654,7 +848,10 @@ class Recorder:
         names = self.geometry.geom_names
         geoms = np.asarray(frames.contact_geoms, dtype=np.int64).reshape(-1, 2)[order]
         dist = np.asarray(frames.contact_dist, dtype=np.float64)[order]
-        labels = [f"{names[g1]} / {names[g2]}: dist {d:.3g} m" for (g1, g2), d in zip(geoms.tolist(), dist.tolist())]
+        labels = [
+            f"{names[g1]} / {names[g2]}: " + (f"depth {-d:.3g} m" if d < 0 else f"apart {d:.3g} m")
+            for (g1, g2), d in zip(geoms.tolist(), dist.tolist())
+        ]
         self.rec.send_columns(
             CONTACTS_PATH,
             indexes=indexes,
@@ -749,6 +946,14 @@ def _body_paths(g):
             part = f"geoms_{b}"
         paths[b] = f"{paths[g.body_parent[b]]}/{part}"
     return paths
+
+
+def _deepest_keys(key, depth, k):
+    """The k keys with the largest depth (each key's largest), deepest first."""
+    keys, at = np.unique(key, return_inverse=True)
+    deepest = np.zeros(len(keys))
+    np.maximum.at(deepest, at.ravel(), depth)
+    return keys[np.argsort(-deepest, kind="stable")[:k]]
 
 
 def _indexes(times, frames):

@@ -40,6 +40,8 @@ class SceneGeometry:
     meshes : {geom index: (vertices (n, 3) metres in the geom's frame, triangles (m, 3) int)} for
         every mesh, height field and plane geom (a plane: a finite square of its drawn size)
     ellipsoids : (g,) int64 geoms ellipsim tests (ellipsoid and sphere geoms), sorted
+    tendon_names : list of T str, the spatial tendons drawn (each a path of points per frame)
+    tendon_width : (T,) metres; tendon_rgba : (T, 4) float in [0, 1]
     """
 
     name: str
@@ -57,6 +59,9 @@ class SceneGeometry:
     geom_rgba: np.ndarray
     meshes: dict
     ellipsoids: np.ndarray
+    tendon_names: list = dataclasses.field(default_factory=list)
+    tendon_width: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    tendon_rgba: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4)))
 
     def __post_init__(self):
         B, G = len(self.body_names), len(self.geom_names)
@@ -72,6 +77,8 @@ class SceneGeometry:
                 "geom_pos": (G, 3),
                 "geom_quat": (G, 4),
                 "geom_rgba": (G, 4),
+                "tendon_width": (len(self.tendon_names),),
+                "tendon_rgba": (len(self.tendon_names), 4),
             },
         )
         if B < 1:
@@ -114,6 +121,10 @@ class Frames:
         (every geom but planes and height fields, world frame; the recording's camera frames their union)
     builtin_by_type, ellipsim_by_type : (f, T) int64, builtin_counts and ellipsim_counts per pair type
         (mujoco.judge.KEYS)
+    tendon_frame_strips : (f,) int64, the tendon paths drawn at each frame (a tendon's path breaks at a
+        pulley into strips); tendon_strip : (S,) int64, each strip's tendon (index into the geometry's
+        tendons); tendon_strip_points : (S,) int64, its number of points; tendon_points : (Q, 3) metres,
+        the strips' points in order (empty for a model without spatial tendons)
     """
 
     frame: np.ndarray
@@ -134,6 +145,18 @@ class Frames:
     bounds: np.ndarray
     builtin_by_type: np.ndarray
     ellipsim_by_type: np.ndarray
+    tendon_frame_strips: np.ndarray = None
+    tendon_strip: np.ndarray = None
+    tendon_strip_points: np.ndarray = None
+    tendon_points: np.ndarray = None
+
+    def __post_init__(self):
+        f = len(self.frame)
+        if self.tendon_frame_strips is None:  # no tendons drawn
+            self.tendon_frame_strips = np.zeros(f, dtype=np.int64)
+            self.tendon_strip = np.zeros(0, dtype=np.int64)
+            self.tendon_strip_points = np.zeros(0, dtype=np.int64)
+            self.tendon_points = np.zeros((0, 3))
 
     def __len__(self):
         return len(self.frame)
@@ -161,6 +184,10 @@ class Frames:
                 "bounds": (f, 2, 3),
                 "builtin_by_type": (f, types),
                 "ellipsim_by_type": (f, types),
+                "tendon_frame_strips": (f,),
+                "tendon_strip": (int(np.sum(self.tendon_frame_strips)),),
+                "tendon_strip_points": (int(np.sum(self.tendon_frame_strips)),),
+                "tendon_points": (int(np.sum(self.tendon_strip_points)), 3),
             },
         )
         if f and np.any(np.diff(self.frame) != 1):
@@ -174,7 +201,23 @@ class Frames:
         bad = np.argwhere((state < 0) | (state > 2))
         if len(bad):
             raise ValueError(f"Frames.state[{bad[0][0]}, {bad[0][1]}] must be 0, 1 or 2, got {state[tuple(bad[0])]}")
-        for name in ("times", "body_pos", "body_quat", "contact_pos", "contact_normal", "contact_dist", "bounds"):
+        bad = np.flatnonzero(
+            (np.asarray(self.tendon_strip) < 0) | (np.asarray(self.tendon_strip) >= len(geometry.tendon_names))
+        )
+        if len(bad):
+            raise ValueError(
+                f"Frames.tendon_strip[{bad[0]}] must be a tendon of the geometry, got {self.tendon_strip[bad[0]]}"
+            )
+        for name in (
+            "times",
+            "body_pos",
+            "body_quat",
+            "contact_pos",
+            "contact_normal",
+            "contact_dist",
+            "bounds",
+            "tendon_points",
+        ):
             values = np.asarray(getattr(self, name), dtype=np.float64)
             bad = np.argwhere(~np.isfinite(values))
             if len(bad):

@@ -267,4 +267,6 @@ def _observe(observer, model, mirror, d, step, time, contacts, found):
     mujoco.mj_kinematics(model, mirror)
     mirror.xpos[:], mirror.xquat[:] = d.xpos.numpy()[0], d.xquat.numpy()[0]
     mirror.geom_xpos[:], mirror.geom_xmat[:] = d.geom_xpos.numpy()[0], d.geom_xmat.numpy()[0].reshape(-1, 9)
+    if model.ntendon:
+        mujoco.mj_tendon(model, mirror)  # the tendons' paths, for the recording
     observer(model, mirror, step, [x for w, x in found if w == 0], None, contacts)

@@ -234,19 +234,20 @@ def record_options(p, help="save a rerun recording"):
     p.add_argument(
         "--colors",
         choices=("figure", "mjcf"),
-        default="figure",
-        help="with --record: a hue per figure (kinematic tree; default) or the model's own colours",
+        help="with --record: a hue per figure (kinematic tree; the default for ellipsim's scenes) or the model's "
+        "own colours, its materials' textures as their mean colour (the default for an MJCF model)",
     )
 
 
-def recorder_for(path, args=None):
+def recorder_for(path, args=None, scene="mjcf"):
     """A record.Recorder for --record that keeps its frames on Ctrl-C or SIGTERM (ValueError on a
-    bad path is a user mistake), drawn as args.labels and args.colors say; the missing folders of
-    `path` are made."""
+    bad path is a user mistake), drawn as args.labels and args.colors say (colours: the default of the
+    `scene` kind, record.DEFAULT_COLORS, when not given); the missing folders of `path` are made."""
     from .. import record
 
     made_parents(path, "--record")
-    labels, colors = (getattr(args, "labels", False), getattr(args, "colors", "figure")) if args else (False, "figure")
+    labels, colors = (getattr(args, "labels", False), getattr(args, "colors", None)) if args else (False, None)
+    colors = colors or record.DEFAULT_COLORS.get(scene, "mjcf")
     try:
         return record.Recorder(path, keep_partial=True, labels=labels, colors=colors)
     except ValueError as exc:

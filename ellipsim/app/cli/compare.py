@@ -46,7 +46,7 @@ def compare(args):
         check_output(args.record, ".rrd", "--record")
     steps = steps_of(s, args, _check_validation)
     started = header(s, f"  comparing MuJoCo's built-in detection with ellipsim over {steps} steps")
-    recorder = recorder_for(args.record, args) if args.record else None
+    recorder = recorder_for(args.record, args, s.scene["kind"]) if args.record else None
     (v, model), size = recorded(
         recorder,
         simulate.validation,
@@ -89,7 +89,7 @@ def _compare_warp(args, s):
         f"  comparing MuJoCo Warp's contacts ({device}, {nworld} worlds) with ellipsim over {steps} steps; the first "
         "run on a machine compiles Warp's kernels (minutes on CPU, then cached)",
     )
-    recorder = recorder_for(args.record, args) if args.record else None
+    recorder = recorder_for(args.record, args, s.scene["kind"]) if args.record else None
     result, size = recorded(
         recorder,
         warp_compare.compare,

@@ -118,9 +118,11 @@ def fix(args):
         recorder = recorder_for(args.record, args)
         axis = "xy"[int(np.flatnonzero(offset)[0])]
         recorder.legend_extra.append(
-            f"**Original and fixed**: the original motion at the model's own place; the corrected one beside it, "
-            f"{offset.max():.2f} m along +{axis} (its bodies and geoms named `fixed/...`)."
+            f"**Original and fixed**: the original motion at the model's own place, labelled *original*; the "
+            f"corrected one beside it, {offset.max():.2f} m along +{axis}, labelled *fixed* (its bodies and geoms "
+            "named `fixed/...`)."
         )
+        recorder.copy_labels = [("original", np.zeros(3)), ("fixed", offset)]
         _, size = recorded(
             recorder, rp.replay, both, motion2, fps=args.fps, name=f"{name}: original | fixed", between=False
         )

@@ -39,7 +39,7 @@ def run(args):
     mode = args.mode or s.mode
     what = "kinematic replay" if s.kinematic else f"mode {mode}"
     started = header(s, f"  {steps} steps of {s.timestep:g} s ({steps * s.timestep:g} s simulated), {what}")
-    recorder = recorder_for(args.record, args) if args.record else None
+    recorder = recorder_for(args.record, args, s.scene["kind"]) if args.record else None
     t0 = time.perf_counter()
     result, size = recorded(
         recorder,
@@ -80,7 +80,7 @@ def _run_warp(args, s):
         f"{'plain Warp' if mode == 'builtin' else 'ellipsim attached'}; the first run on a machine compiles "
         "Warp's kernels (minutes on CPU, then cached)",
     )
-    recorder = recorder_for(args.record, args) if args.record else None
+    recorder = recorder_for(args.record, args, s.scene["kind"]) if args.record else None
     result, size = recorded(
         recorder,
         warp_run.run,

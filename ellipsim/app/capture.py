@@ -17,6 +17,7 @@ from time import perf_counter
 import mujoco
 import numpy as np
 
+from ..core.ellipsoids import Ellipsoids
 from ..core.relation import Relation
 from ..core.rotations import quaternion_product, quaternions_to_rotations
 from ..mujoco.between import BetweenFrames
@@ -303,6 +304,8 @@ class FrameBuffer:
         self.rules = PairRules(model, self.ids)
         self.ellipsoid_ids, self.radii, ellipsoid_rules = ellipsoid_geoms(model)
         self.round_at = np.searchsorted(self.ids, self.ellipsoid_ids)  # the ellipsoid and sphere geoms in ids
+        self._is_round = np.zeros(len(self.ids), dtype=bool)
+        self._is_round[self.round_at] = True
         self.rho = _reach(model, self.ids)
         explicit = explicit_pairs(model)
         self.explicit = np.searchsorted(self.ids, explicit).reshape(-1, 2)  # <pair> elements, positions in ids
@@ -390,9 +393,15 @@ class FrameBuffer:
         geoms = np.column_stack([self.ids[i], self.ids[j]])
         T = len(KEYS)
         margin = pair_margins(model, geoms)
-        xpos = np.stack([centers[pf, i], centers[pf, j]], axis=1)
-        xmat = np.stack([rotations[pf, i], rotations[pf, j]], axis=1)
-        v = verdicts_at(model, geoms, xpos, xmat, margin, measure_within=self.depth)
+        built = self._round(pairs)
+        # the poses verdicts_at reads: every pair's, or only the capsule, box and cylinder pairs' when the
+        # ellipsoid and sphere pairs come built
+        rows = np.arange(len(pairs)) if built is None else np.flatnonzero(~built[2])
+        xpos, xmat = np.empty((len(pairs), 2, 3)), np.empty((len(pairs), 2, 3, 3))
+        xpos[rows, 0], xpos[rows, 1] = centers[pf[rows], i[rows]], centers[pf[rows], j[rows]]
+        xmat[rows, 0], xmat[rows, 1] = rotations[pf[rows], i[rows]], rotations[pf[rows], j[rows]]
+        built = None if built is None else built[:2]
+        v = verdicts_at(model, geoms, xpos, xmat, margin, measure_within=self.depth, ellipsoids=built)
         contact = np.where(v.within, CONTACT, np.where(v.relation == Relation.TOUCHING, TOUCHING, APART)).astype(
             np.int8
         )
@@ -474,6 +483,27 @@ class FrameBuffer:
             "tendon_strip_points": count.astype(np.int64),
             "tendon_points": points.reshape(-1, 3),
         }
+
+    def _round(self, pairs):
+        """(a, b, round (P,) bool): the Ellipsoids of the ellipsoid and sphere pairs among `pairs` (frame, i,
+        j), in their order, each pose validated once for all its pairs, and which pairs they are; None when
+        validating per pair is cheaper (few pairs a frame: verdicts_at builds them)."""
+        f, g = self.n, len(self.ids)
+        pf, i, j = pairs.T
+        is_round = self._is_round[i] & self._is_round[j]
+        at = np.flatnonzero(is_round)
+        ge = len(self.round_at)
+        if 2 * len(at) <= f * ge:
+            return None
+        if ge == g:  # every judged geom an ellipsoid or sphere (figures): the buffer itself, no copy
+            k = i[at], j[at]
+            centers, rotations = self.centers[:f].reshape(-1, 3), self.rotations[:f].reshape(-1, 3, 3)
+        else:
+            k = np.searchsorted(self.round_at, i[at]), np.searchsorted(self.round_at, j[at])
+            centers = self.centers[:f][:, self.round_at].reshape(-1, 3)
+            rotations = self.rotations[:f].reshape(f, g, 3, 3)[:, self.round_at].reshape(-1, 3, 3)
+        every = Ellipsoids(centers, rotations, np.broadcast_to(self.radii, (f, ge, 3)).reshape(-1, 3))
+        return every[pf[at] * ge + k[0]], every[pf[at] * ge + k[1]], is_round  # indexing does not validate again
 
     def _pairs(self, centers):
         """(P, 3) int64 (frame, i, j), i < j into ids: the frames' judged pairs within reach (MuJoCo's rules,

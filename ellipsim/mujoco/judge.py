@@ -87,7 +87,7 @@ class Verdicts:
     relation : (k,) int8 Relation of the bare geoms: exact for ellipsoid and sphere pairs; from the
         proven distance for the others, UNDECIDED (-1) within `tolerance` of touching or unproven
     tolerance : (k,) metres, how close a GLOBAL distance is to the true one (proof_tolerance,
-        shape_tolerance)
+        shape_tolerance; 0 where classify alone decided: exact)
     """
 
     kind: np.ndarray
@@ -119,9 +119,11 @@ def verdicts(model, data, pairs, threshold, *, measure=None, measure_within=Fals
     return verdicts_at(model, pairs, xpos, xmat, threshold, measure=measure, measure_within=measure_within)
 
 
-def verdicts_at(model, pairs, xpos, xmat, threshold, *, measure=None, measure_within=False):
+def verdicts_at(model, pairs, xpos, xmat, threshold, *, measure=None, measure_within=False, ellipsoids=None):
     """`verdicts` of geom pairs (k, 2) at given poses: xpos (k, 2, 3) the geoms' centres, xmat (k, 2, 3, 3)
-    their rotations (MuJoCo's geom_xpos, geom_xmat), e.g. frames held in a buffer."""
+    their rotations (MuJoCo's geom_xpos, geom_xmat), e.g. frames held in a buffer.  ellipsoids : optional
+    (a, b), the Ellipsoids of the ellipsoid and sphere pairs' two geoms, in the pairs' order, already
+    built (a buffer validates each pose once, not once per pair)."""
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     threshold = np.asarray(threshold, dtype=np.float64).reshape(-1)
     k = len(pairs)
@@ -145,8 +147,11 @@ def verdicts_at(model, pairs, xpos, xmat, threshold, *, measure=None, measure_wi
     types = model.geom_type
     round_ = np.flatnonzero(np.isin(types[g1], (ELLIPSOID, SPHERE)) & np.isin(types[g2], (ELLIPSOID, SPHERE)))
     if len(round_):
-        a = ellipsoids_at(model, g1[round_], xpos[round_, 0], xmat[round_, 0])
-        b = ellipsoids_at(model, g2[round_], xpos[round_, 1], xmat[round_, 1])
+        if ellipsoids is None:
+            a = ellipsoids_at(model, g1[round_], xpos[round_, 0], xmat[round_, 0])
+            b = ellipsoids_at(model, g2[round_], xpos[round_, 1], xmat[round_, 1])
+        else:
+            a, b = ellipsoids
         _ellipsoid_pairs(a, b, threshold[round_], measure[round_], out, round_)
         if measure_within:
             j = np.flatnonzero(
@@ -167,13 +172,14 @@ def _ellipsoid_pairs(a, b, threshold, measure, out, at):
     within = np.where(touching, threshold > 0, overlap)
     decided = np.ones(len(a), dtype=bool)
     dist = np.full(len(a), np.nan)
-    tol = proof_tolerance(a, b)
+    tol = np.zeros(len(a))  # where classify alone decides, exact: no tolerance
     need = ~touching & (((threshold > 0) & ~overlap) | ((threshold < 0) & overlap))
     i = np.flatnonzero(need | measure)
     normal, pos, proven = np.full((len(a), 3), np.nan), np.full((len(a), 3), np.nan), np.zeros(len(a), bool)
     if len(i):
         d, n, p, status = signed_distance(a[i], b[i])
         dist[i], normal[i], pos[i], proven[i] = d, n, p, status == GLOBAL
+        tol[i] = proof_tolerance(a[i], b[i])
         j = np.flatnonzero(need[i])
         within[i[j]] = d[j] < threshold[i[j]]
         decided[i[j]] = proven[i[j]] & (np.abs(d[j] - threshold[i[j]]) > tol[i[j]])

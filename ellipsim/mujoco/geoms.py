@@ -72,6 +72,8 @@ def pair_margins(model, pairs):
     if model.opt.enableflags & _OVERRIDE:
         return np.full(len(pairs), float(model.opt.o_margin))
     out = model.geom_margin[pairs[:, 0]] + model.geom_margin[pairs[:, 1]]
+    if model.npair == 0:
+        return out
     at, named = _explicit_lookup(model, pairs)
     out[named] = _explicit(model)[1][at[named]]
     return out
@@ -83,6 +85,8 @@ def pair_gaps(model, pairs):
     excludes it from the constraints at or above margin."""
     pairs = np.asarray(pairs).reshape(-1, 2)
     out = model.geom_gap[pairs[:, 0]] + model.geom_gap[pairs[:, 1]]
+    if model.npair == 0:
+        return out
     at, named = _explicit_lookup(model, pairs)
     out[named] = _explicit(model)[2][at[named]]
     return out

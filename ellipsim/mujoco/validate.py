@@ -24,7 +24,7 @@ from ..core.tolerances import NEAR_TANGENT
 from .attachment import check_model_data
 from .between import BetweenFrames, Events
 from .geoms import PairRecorder, ellipsoid_geoms, explicit_pairs, pair_contacts, pair_gaps, pair_margins
-from .judge import KEYS, NORMAL_OFF_DEG, ellipsoids_at, sigma_at, verdicts_at
+from .judge import KEYS, NORMAL_OFF_DEG, ellipsoids_at, one_state_ellipsoids, sigma_at, verdicts_at
 
 #: Values (float64) of ellipsoid poses `validate` holds before looking between the steps: 2^22 = 32 MB
 #: (12 per ellipsoid and step; at most 1024 steps at a time).
@@ -248,7 +248,8 @@ def judge_contacts(
     dist, normal, pos = engine
     mj = dist < margin  # nan (no contact) compares False
     # measured where the engine made any contact (its normal is checked) and where either side says contact
-    v = verdicts_at(model, pairs, xpos, xmat, margin, measure=~np.isnan(dist), measure_within=True)
+    built = one_state_ellipsoids(model, pairs, xpos, xmat)
+    v = verdicts_at(model, pairs, xpos, xmat, margin, measure=~np.isnan(dist), measure_within=True, ellipsoids=built)
     el = v.within
     T = len(KEYS)
     column = np.where(mj, np.where(el, 0, 2), np.where(el, 3, 1))

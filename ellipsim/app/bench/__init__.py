@@ -23,6 +23,8 @@ each:
    `ellipsim fix` on the replay dance (4 and 64 figures): frames/s, change, pairs freed, verification
 11. pairs: section 5's table of the other pair types against MuJoCo's function, measured again and
    again: each cell's speed-up as median, lowest and highest over the runs
+12. validation: MuJoCo's contacts judged against the exact test on the shipped scenes and a scene of
+   every pair type: disagreements by kind, MuJoCo's normals against the exact ones, the cost per step
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -43,6 +45,7 @@ from . import (
     startup,
     stress,
     table1,
+    validation,
 )
 from .common import SIZES, machine_description, plt
 
@@ -58,6 +61,7 @@ SECTIONS = {
     "warp": on_warp,
     "gradients": gradients,
     "pairs": pair_spread,
+    "validation": validation,
 }
 
 

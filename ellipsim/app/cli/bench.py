@@ -20,6 +20,7 @@ SECTIONS = {
     "warp": "ellipsim on MuJoCo Warp against Warp's GJK/EPA (the warp extra)",
     "gradients": "exact derivatives against without; `ellipsim fix` on the replay dance",
     "pairs": "section mujoco's pair-type table measured ten times: median, lowest, highest",
+    "validation": "MuJoCo's contacts judged against the exact test: disagreements by kind, normals, cost",
 }
 
 

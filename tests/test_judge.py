@@ -10,6 +10,7 @@ import pytest
 import ellipsim.mujoco as em
 from ellipsim.app import replay as rp
 from ellipsim.app import scenario, simulate
+from ellipsim.app.bench.validation import mixed_pile_xml
 from ellipsim.app.cli import main
 from ellipsim.mujoco.judge import KEYS, NORMAL_OFF_DEG, judged, pair_type, sigma, verdicts
 from tests.test_margins_pairs import ABOVE, BELOW, ELLIPSOID_A, ELLIPSOID_B, MARGIN, SPHERE_A, rows_xml
@@ -17,39 +18,6 @@ from tests.test_margins_pairs import ABOVE, BELOW, ELLIPSOID_A, ELLIPSOID_B, MAR
 CAPSULE_B, BOX_B, CYLINDER_B = ("capsule", (0.08, 0.2)), ("box", (0.1, 0.12, 0.14)), ("cylinder", (0.09, 0.15))
 #: One pair of each type (geom a an ellipsoid, b of the type), in judge.KEYS' order
 EVERY_TYPE = (ELLIPSOID_B, SPHERE_A, CAPSULE_B, BOX_B, CYLINDER_B)
-
-
-def every_type_xml(seed=0, per_type=3):
-    """Free ellipsoids among free spheres, capsules, boxes and cylinders dropped into a box of walls (box
-    geoms too) on a floor; a few geoms with a 2 mm margin: contacts of every pair type, shallow and deep."""
-    rng = np.random.default_rng(seed)
-    shapes = [("ellipsoid", "0.05 0.035 0.025"), ("sphere", "0.03"), ("capsule", "0.02 0.04")]
-    shapes += [("box", "0.03 0.025 0.02"), ("cylinder", "0.025 0.03")]
-    bodies, k = [], 0
-    for _ in range(per_type):
-        for t, size in shapes + [shapes[0]]:  # two ellipsoids a round: ellipsoid pairs too
-            x, y = rng.uniform(-0.08, 0.08, 2)
-            q = rng.normal(size=4)
-            q /= np.linalg.norm(q)
-            margin = ' margin="0.002"' if k % 7 == 3 else ""
-            bodies.append(
-                f'<body pos="{x:.4f} {y:.4f} {0.05 + 0.06 * k:.4f}" quat="{" ".join(f"{v:.4f}" for v in q)}">'
-                f'<freejoint/><geom name="{t}{k}" type="{t}" size="{size}"{margin}/></body>'
-            )
-            k += 1
-    walls = "".join(
-        f'<geom type="box" size="{sx} {sy} 0.3" pos="{px} {py} 0.3"/>'
-        for sx, sy, px, py in (
-            (0.01, 0.15, 0.15, 0),
-            (0.01, 0.15, -0.15, 0),
-            (0.15, 0.01, 0, 0.15),
-            (0.15, 0.01, 0, -0.15),
-        )
-    )
-    return (
-        f'<mujoco><option timestep="0.002"/><worldbody><geom type="plane" size="1 1 .1"/>{walls}{"".join(bodies)}'
-        "</worldbody></mujoco>"
-    )
 
 
 def test_pair_types_are_the_tables_rows_in_either_order():
@@ -64,7 +32,7 @@ def test_validate_counts_every_type_as_mujoco_makes_its_contacts():
     """Over 400 steps of the mixed pile, validate's MuJoCo contacts per pair type are the pairs of each
     type on which MuJoCo made a contact with dist < margin (read from data.contact independently); the
     exact side disagrees only within MuJoCo's tolerance, and every type has contacts."""
-    model = mujoco.MjModel.from_xml_string(every_type_xml())
+    model = mujoco.MjModel.from_xml_string(mixed_pile_xml(per_type=3))
     data = mujoco.MjData(model)
     seen = []
 

@@ -123,6 +123,16 @@ class FrameCounts:
     builtin_by_type: np.ndarray
     ellipsim_by_type: np.ndarray
 
+    @classmethod
+    def of(cls, frames):
+        """The counts of a trajectory.Frames (what a run keeps of a chunk: not its poses)."""
+        return cls(*(getattr(frames, field.name) for field in dataclasses.fields(cls)))
+
+    @classmethod
+    def concatenate(cls, parts):
+        """One FrameCounts of consecutive ones."""
+        return cls(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(cls)))
+
 
 @dataclasses.dataclass
 class Kept:
@@ -288,17 +298,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
 
     def on_chunk(chunk):
         f = chunk.frames
-        chunks.append(
-            (
-                f.times,
-                f.builtin_counts,
-                f.ellipsim_counts,
-                f.touching_counts,
-                f.contact_counts,
-                f.builtin_by_type,
-                f.ellipsim_by_type,
-            )
-        )
+        chunks.append(FrameCounts.of(f))
         if keep:
             kept.append((chunk.centers[:, loop.buffer.round_at].copy(), f.state))
 
@@ -317,7 +317,7 @@ def run(s, *, steps=None, mode=None, progress=None, recorder=None, keep=False, b
     att = attach(model, data, mode=mode) if mode != "builtin" and not s.kinematic else None
     with att if att else contextlib.nullcontext():  # attached before the loop's timer: attaching compiles
         loop.run(data, steps, step, every=record_every(s), progress=progress)
-    frames = FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
+    frames = FrameCounts.concatenate(chunks)
     kept_frames = None
     if keep:
         centers, state = (np.concatenate(parts) for parts in zip(*kept))

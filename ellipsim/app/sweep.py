@@ -99,17 +99,13 @@ COLUMNS = {
     "deepest_penetration": "mode pass: deepest penetration of a pair ellipsim judges, metres (exact signed distance, recorded frames)",
     "error": "why the variant failed (empty when it ran)",
 }
+#: the plain-MuJoCo pass's columns: comparison.COUNTERS but the agreement and the undetermined
+_COMPARED = ("pairs", "mujoco_contacts", "ellipsim_contacts", *KINDS)
 _METRICS = (
     "steps",
     "wall_seconds",
     "steps_per_second",
-    "pairs",
-    "mujoco_contacts",
-    "ellipsim_contacts",
-    "mujoco_extra",
-    "mujoco_missed",
-    "near_tangent",
-    "normal_off",
+    *_COMPARED,
     "fallbacks",
     "mujoco_warnings",
     "deepest_penetration",
@@ -371,7 +367,7 @@ def _measure(variant):
     s = scenarios.from_table(variant.table, variant.path)
     validation, _ = simulate.validation(s, variant.steps)
     c = counters(validation)
-    out = {key: c[key] for key in ("pairs", "mujoco_contacts", "ellipsim_contacts", *KINDS)}
+    out = {key: c[key] for key in _COMPARED}
     if variant.record is None:
         return out | _mode_pass(s, variant, None)
     from .record import Recorder

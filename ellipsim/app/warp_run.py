@@ -229,18 +229,7 @@ def run(
     chunks, counts, overflowed, why = [], [], 0, ""
 
     def on_chunk(chunk):
-        f = chunk.frames
-        chunks.append(
-            (
-                f.times,
-                f.builtin_counts,
-                f.ellipsim_counts,
-                f.touching_counts,
-                f.contact_counts,
-                f.builtin_by_type,
-                f.ellipsim_by_type,
-            )
-        )
+        chunks.append(simulate.FrameCounts.of(chunk.frames))
 
     put = setup(s, nworld, device, nconmax=nconmax, njmax=njmax)
     if started is not None:
@@ -291,5 +280,5 @@ def run(
         counters = att.counters if att else {}
         if att:
             att.detach()
-    frames = simulate.FrameCounts(*(np.concatenate(parts) for parts in zip(*chunks)))
+    frames = simulate.FrameCounts.concatenate(chunks)
     return WarpRun(s, mode, steps, nworld, device, seconds, np.array(counts), frames, counters, overflowed, seeds, why)

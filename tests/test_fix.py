@@ -272,3 +272,18 @@ def test_motions_shorter_than_the_smoothing_window(frames):
     model = _facing()
     result = fix_motion(model, _reaching_motion(model, frames=frames, amplitude=0.8), smooth=4)
     assert result.motion.shape == (frames, model.nq) and result.unfreed == []
+
+
+def test_side_by_side_takes_a_model_with_keyframes_and_several_roots(tmp_path):
+    """The copy's keyframes were attached once per root body and clashed ("repeated name 'fixed/hug'"):
+    the recording's model has none (it does not need them)."""
+    path = tmp_path / "keyed.xml"
+    path.write_text(
+        "<mujoco><worldbody>"
+        '<body name="a"><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>'
+        '<body name="b" pos="1 0 0"><freejoint/><geom type="ellipsoid" size=".1 .2 .3"/></body>'
+        '</worldbody><keyframe><key name="hug" qpos="0 0 0 1 0 0 0 1 0 0 1 0 0 0"/></keyframe></mujoco>'
+    )
+    motion = np.tile(mujoco.MjModel.from_xml_path(str(path)).key_qpos[0], (3, 1))
+    both, joined, offset = side_by_side(str(path), motion, motion)
+    assert both.nkey == 0 and joined.shape == (3, 28) and offset.max() > 0

@@ -778,3 +778,26 @@ def test_view_with_display_runs_the_rerun_executable(saved, monkeypatch):
     (command,) = calls
     assert command[-1] == os.fspath(path)
     assert command[0].endswith("rerun") or command[-2:-1] == ["rerun"]
+
+
+def test_a_chunk_with_more_contacts_than_the_sample_keeps_a_uniform_sample(tmp_path, monkeypatch):
+    """The camera's contact sample (CONTACT_SAMPLES at most) takes a first chunk with many more contacts than
+    it holds (a long run's first chunk once made sampling without replacement fail), and later chunks too."""
+    monkeypatch.setattr(record, "CONTACT_SAMPLES", 5)
+    rng = np.random.default_rng(7)
+    g = make_geometry(rng)
+    recorder = record.Recorder(tmp_path / "r.rrd")
+    recorder.begin(g)
+    chunk = make_frames(rng, 0, SPLIT)
+    chunk.contact_pos = np.repeat(chunk.contact_pos, 7, axis=0)[: len(chunk.contact_pos)]  # as recorded
+    recorder._keep_contacts(chunk)
+    bigger = type("F", (), {})()
+    bigger.contact_pos = rng.normal(size=(40, 3))
+    bigger.contact_ellipsoids = np.zeros(40, dtype=bool)
+    bigger.contact_dist = np.ones(40)
+    bigger.contact_geoms = np.zeros((40, 2), dtype=np.int64)
+    bigger.contact_frame = np.zeros(40, dtype=np.int64)
+    for _ in range(3):
+        recorder._keep_contacts(bigger)
+    assert len(recorder._contact_sample) == 5 and recorder._contacts_seen == len(chunk.contact_pos) + 120
+    recorder.abort()

@@ -570,20 +570,18 @@ class Recorder:
         """Keep a uniform sample (CONTACT_SAMPLES at most) of MuJoCo's contact positions, and the depth of
         the pairs ellipsim judges that penetrate (each pair once a frame, its deepest contact)."""
         pos = np.asarray(frames.contact_pos, dtype=np.float64).reshape(-1, 3)
-        n = len(pos)
-        if n:
-            seen = self._contacts_seen + n
-            room = CONTACT_SAMPLES - len(self._contact_sample)
-            if room >= n:
-                self._contact_sample = np.concatenate([self._contact_sample, pos])
-            else:  # reservoir sampling, a chunk at a time: every position kept with the same chance
-                keep = self._sampler.random(n) < CONTACT_SAMPLES / seen
-                take = pos[keep]
-                slots = self._sampler.choice(CONTACT_SAMPLES, size=len(take), replace=False) if len(take) else []
-                if room > 0:
-                    self._contact_sample = np.concatenate([self._contact_sample, pos[:room]])
-                self._contact_sample[np.asarray(slots, dtype=np.int64)] = take
-            self._contacts_seen = seen
+        room = CONTACT_SAMPLES - len(self._contact_sample)
+        if room > 0:  # the sample not yet full: kept as they come
+            self._contact_sample = np.concatenate([self._contact_sample, pos[:room]])
+            self._contacts_seen += min(room, len(pos))
+            pos = pos[room:]
+        if len(pos):  # reservoir sampling (Vitter's algorithm R), vectorised: the i-th position seen is kept
+            # with probability CONTACT_SAMPLES / i, in a slot drawn uniformly (a later one overwrites)
+            seen = self._contacts_seen + np.arange(1, len(pos) + 1)
+            keep = self._sampler.random(len(pos)) < CONTACT_SAMPLES / seen
+            slots = self._sampler.integers(0, CONTACT_SAMPLES, size=int(keep.sum()))
+            self._contact_sample[slots] = pos[keep]
+            self._contacts_seen += len(pos)
         deep = np.flatnonzero(np.asarray(frames.contact_ellipsoids, bool) & (np.asarray(frames.contact_dist) < 0))
         if len(deep):
             geoms = np.sort(np.asarray(frames.contact_geoms)[deep], axis=1)

@@ -9,8 +9,9 @@ compare's too, app/warp_compare.py):
     mujoco_extra   the engine made a contact the exact test separates (signed distance >= margin)
     mujoco_missed  an exact contact (signed distance < margin) the engine did not make
     near_tangent   either of those within NEAR_TANGENT of the margin: the engine's ccd_tolerance allows it
-    normal_off     both make a contact, but the engine's normal is more than NORMAL_OFF_DEG from the exact
-                   one and its sigma falls short of the exact distance by more than its ccd_tolerance
+    normal_off     the engine's contact (both make one, or the engine alone within NEAR_TANGENT of the margin)
+                   has its normal more than NORMAL_OFF_DEG from the exact one, and its sigma falls short of
+                   the exact distance by more than its ccd_tolerance
 """
 
 import dataclasses
@@ -45,7 +46,8 @@ KIND_MEANINGS = {
 @dataclasses.dataclass
 class Disagreement:
     """A candidate pair on which MuJoCo's contact and ellipsim's verdict differ (`kind` mujoco_extra,
-    mujoco_missed, near_tangent), or on which both make a contact with MuJoCo's normal off (normal_off)."""
+    mujoco_missed, near_tangent), or whose MuJoCo contact has its normal off (normal_off: both make a
+    contact, or MuJoCo alone within NEAR_TANGENT of the margin)."""
 
     step: int
     geom1: int

@@ -55,6 +55,9 @@ def side_by_side(path, original, fixed):
     offset = np.zeros(3)
     offset[axis] = 1.25 * extent[axis] + 0.5
     parent, child = mujoco.MjSpec.from_file(path), mujoco.MjSpec.from_file(path)
+    for spec in (parent, child):  # keyframes: not needed to draw, and copied once per attached root they clash
+        for key in list(spec.keys):
+            spec.delete(key)
     frame = parent.worldbody.add_frame(pos=offset)
     for body in list(child.worldbody.bodies):
         frame.attach_body(body, "fixed/", "")

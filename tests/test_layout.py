@@ -12,9 +12,10 @@ import ellipsim
 PACKAGE = pathlib.Path(ellipsim.__file__).parent
 # What each layer may import of ellipsim (besides itself); `shipped` only locates data folders.
 ALLOWED = {
-    "core": {"core"},
-    "mujoco": {"core", "mujoco", "shipped"},
-    "warp": {"core", "warp", "shipped"},  # the MuJoCo Warp layer (issue 21): beside mujoco, not on it
+    "native": {"native"},  # the compiled core (issue 46): the C++ and its module, below everything
+    "core": {"core", "native"},
+    "mujoco": {"core", "mujoco", "native", "shipped"},
+    "warp": {"core", "warp", "native", "shipped"},  # the MuJoCo Warp layer (issue 21): beside mujoco, not on it
     "app": {"core", "mujoco", "warp", "app", "shipped"},
 }
 HEAVY = ("mujoco", "rerun", "trimesh")
@@ -262,19 +263,21 @@ def test_every_layer_folder_is_declared_and_the_warp_layer_may_import_only_the_c
     # MuJoCo C glue (whose compiled callbacks and process context it must not load) nor the app
     layers = {p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name not in ("__pycache__", "kernels")}
     assert layers <= set(ALLOWED), sorted(layers - set(ALLOWED))
-    assert ALLOWED["warp"] == {"core", "warp", "shipped"}
+    assert ALLOWED["warp"] == {"core", "warp", "native", "shipped"}
     assert "warp" not in ALLOWED["mujoco"] and "warp" in ALLOWED["app"]
 
 
 def test_every_package_folder_is_installed():
-    # pyproject lists the packages by name: a folder missing there imports from a checkout and is
-    # absent from `pip install .`
+    # the wheel takes the whole ellipsim/ folder (every file git does not ignore: modules, C++ sources,
+    # shipped kernels) and maps models/ and scenarios/ into it; tests/test_installed.py imports the result
     import tomllib
 
-    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    found = {
-        ".".join(p.parent.relative_to(PACKAGE.parent).parts)
-        for p in PACKAGE.rglob("__init__.py")
-        if "prebuilt" not in p.parts
+    skbuild = tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["tool"]["scikit-build"]
+    assert skbuild["wheel"]["packages"] == {
+        "ellipsim": "ellipsim",
+        "ellipsim/models": "models",
+        "ellipsim/scenarios": "scenarios",
     }
-    assert found <= listed, sorted(found - listed)
+    assert skbuild["cmake"]["source-dir"] == "ellipsim/native"
+    for folder in ("models", "scenarios"):
+        assert (PACKAGE.parent / folder / "__init__.py").is_file(), folder

@@ -1,0 +1,27 @@
+// The floating-point contract every ellipsim kernel is proved under, and the host/device marker.
+//
+// The error bounds of the certified filters (tolerances.hpp) count one rounding per +, -, *, / and
+// sqrt in IEEE double, round to nearest: no fused multiply-add, no reassociation, no flush to zero.
+// The build states it once (CMakeLists.txt: -ffp-contract=off, no -ffast-math); the pragma below
+// states it again to the compilers that honour it, and tests/test_native.py checks the built module.
+#pragma once
+
+#include <limits>
+
+#pragma STDC FP_CONTRACT OFF
+
+#if defined(__FAST_MATH__)
+#error "ellipsim's certified kernels assume IEEE arithmetic: build without -ffast-math"
+#endif
+
+static_assert(std::numeric_limits<double>::is_iec559, "ellipsim needs IEEE 754 double");
+
+// Every per-pair stage is inlined into its kernel (as numba's inline="always" stages were): a stage's
+// error magnitudes ("mags") that a caller does not read are then dropped by the compiler.
+#if defined(__CUDACC__)
+#define ELLIPSIM_HD __host__ __device__ __forceinline__
+#elif defined(__GNUC__)
+#define ELLIPSIM_HD inline __attribute__((always_inline))
+#else
+#define ELLIPSIM_HD inline
+#endif

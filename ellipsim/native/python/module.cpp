@@ -1,0 +1,139 @@
+// _ellipsim: the Python binding of the C++ core.  Thin by design: the Python layer (ellipsim/core)
+// checks every input and owns every error message; a kernel here takes C-contiguous arrays already
+// validated, writes pairs [lo, hi) of its output and releases the GIL while it runs, so that
+// ellipsim.core.threads.run can cut a batch into chunks on its own threads (the numba kernels' rule).
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include <ellipsim/exact/certified_filter.hpp>
+#include <ellipsim/exact/contact_scale.hpp>
+#include <ellipsim/tolerances.hpp>
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace {
+
+template <typename T, typename Shape>
+using In = nb::ndarray<const T, Shape, nb::c_contig, nb::device::cpu>;
+template <typename T>
+using Out = nb::ndarray<T, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Centers = In<double, nb::shape<-1, 3>>;
+using Rotations = In<double, nb::shape<-1, 3, 3>>;
+using Indices = In<std::int64_t, nb::ndim<1>>;
+
+// A batch of ellipsoids as the kernels read it: raw pointers, its length.
+struct Batch {
+  const double* C;
+  const double* R;
+  const double* r;
+  std::int64_t n;
+};
+
+Batch batch(const Centers& C, const Rotations& R, const Centers& r) {
+  const auto n = static_cast<std::int64_t>(C.shape(0));
+  if (static_cast<std::int64_t>(R.shape(0)) != n || static_cast<std::int64_t>(r.shape(0)) != n)
+    throw std::invalid_argument("centres, rotations and radii must have the same length");
+  return {C.data(), R.data(), r.data(), n};
+}
+
+// [lo, hi) must lie in the output; a batch of one broadcasts (stride 0), any other covers hi.
+void check_range(std::int64_t lo, std::int64_t hi, std::int64_t size, const Batch& a, const Batch& b) {
+  if (lo < 0 || hi < lo || hi > size) throw std::out_of_range("pair range outside the output");
+  if (hi > lo && ((a.n != 1 && a.n < hi) || (b.n != 1 && b.n < hi)))
+    throw std::out_of_range("pair range outside the batches");
+}
+
+// out[i] = f(a[i * sa], b[i * sb]) for i in [lo, hi), with the GIL released.
+template <typename T, typename F>
+void pairwise(const Batch& a, const Batch& b, T* out, std::int64_t lo, std::int64_t hi, F f) {
+  const std::int64_t sa = a.n > 1, sb = b.n > 1;  // stride 0 broadcasts a batch of one
+  nb::gil_scoped_release release;
+  for (std::int64_t i = lo; i < hi; ++i)
+    out[i] = f(ellipsim::load(a.C, a.R, a.r, i * sa), ellipsim::load(b.C, b.R, b.r, i * sb));
+}
+
+void certify(const Centers& Ca, const Rotations& Ra, const Centers& ra, const Centers& Cb, const Rotations& Rb,
+             const Centers& rb, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
+  const Batch a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  pairwise(a, b, out.data(), lo, hi,
+           [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::certify_pair(A, B); });
+}
+
+void certify_indexed(const Centers& C, const Rotations& R, const Centers& r, const Indices& first,
+                     const Indices& second, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
+  const Batch s = batch(C, R, r);
+  const auto k = static_cast<std::int64_t>(out.shape(0));
+  if (static_cast<std::int64_t>(first.shape(0)) != k || static_cast<std::int64_t>(second.shape(0)) != k)
+    throw std::invalid_argument("first, second and out must have the same length");
+  if (lo < 0 || hi < lo || hi > k) throw std::out_of_range("pair range outside the output");
+  const std::int64_t* f = first.data();
+  const std::int64_t* g = second.data();
+  for (std::int64_t i = lo; i < hi; ++i)  // indices are checked by the Python layer; a stray one is fatal
+    if (f[i] < 0 || f[i] >= s.n || g[i] < 0 || g[i] >= s.n) throw std::out_of_range("index outside the batch");
+  std::int8_t* o = out.data();
+  nb::gil_scoped_release release;
+  for (std::int64_t i = lo; i < hi; ++i)
+    o[i] = ellipsim::exact::certify_pair(ellipsim::load(s.C, s.R, s.r, f[i]), ellipsim::load(s.C, s.R, s.r, g[i]));
+}
+
+void contact_scales(const Centers& Ca, const Rotations& Ra, const Centers& ra, const Centers& Cb,
+                    const Rotations& Rb, const Centers& rb, Out<double> out, std::int64_t lo, std::int64_t hi) {
+  const Batch a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  pairwise(a, b, out.data(), lo, hi,
+           [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::contact_scale_pair(A, B); });
+}
+
+void separated_by_axes(const Centers& Ca, const Rotations& Ra, const Centers& ra, const Centers& Cb,
+                       const Rotations& Rb, const Centers& rb, Out<bool> out, std::int64_t lo, std::int64_t hi) {
+  const Batch a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  pairwise(a, b, out.data(), lo, hi,
+           [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::separated_by_axes(A, B); });
+}
+
+// a * b + c as written: two roundings under the build's contract, one where a compiler fuses it.
+double multiply_add(double a, double b, double c) { return a * b + c; }
+
+}  // namespace
+
+NB_MODULE(_ellipsim, m) {
+  m.doc() = "ellipsim's compiled core (private: use the ellipsim package).";
+  m.attr("SOURCE_DIGEST") = ELLIPSIM_SOURCE_DIGEST;
+  const auto in = [](const char* name) { return nb::arg(name).noconvert(); };
+  m.def("certify", &certify, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("out"), "lo"_a, "hi"_a,
+        "out[lo:hi]: SEPARATED / OVERLAPPING where the certified float path is sure, UNDECIDED elsewhere.");
+  m.def("certify_indexed", &certify_indexed, in("C"), in("R"), in("r"), in("first"), in("second"), in("out"),
+        "lo"_a, "hi"_a, "certify on the pairs (first[k], second[k]) of one batch.");
+  m.def("contact_scales", &contact_scales, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("out"),
+        "lo"_a, "hi"_a, "out[lo:hi]: the Perram-Wertheim contact scale of each pair.");
+
+  nb::module_ t = m.def_submodule("testing", "Internal functions the tests reach (not an API).");
+  t.def("separated_by_axes", &separated_by_axes, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
+        in("out"), "lo"_a, "hi"_a);
+  t.def("multiply_add", &multiply_add, "a"_a, "b"_a, "c"_a);
+  namespace tol = ellipsim::tol;
+  nb::dict constants;
+  constants["U"] = tol::U;
+  constants["BOUNDING_INFLATION"] = tol::BOUNDING_INFLATION;
+  constants["RATIO_MAX"] = tol::RATIO_MAX;
+  constants["SCALE_MIN"] = tol::SCALE_MIN;
+  constants["SCALE_MAX"] = tol::SCALE_MAX;
+  constants["TAU"] = tol::TAU;
+  constants["ERR_SHORT"] = tol::ERR_SHORT;
+  constants["ERR_POLY"] = tol::ERR_POLY;
+  constants["ERR_WITNESS"] = tol::ERR_WITNESS;
+  constants["MU_MIN"] = tol::MU_MIN;
+  constants["MU_MAX"] = tol::MU_MAX;
+  constants["SUPPORT_SLACK"] = tol::SUPPORT_SLACK;
+  constants["PW_MAX_ITER"] = tol::PW_MAX_ITER;
+  constants["PW_RTOL"] = tol::PW_RTOL;
+  constants["PW_TRY_SEPARATED"] = tol::PW_TRY_SEPARATED;
+  t.attr("TOLERANCES") = constants;
+}

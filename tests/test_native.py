@@ -1,0 +1,203 @@
+"""The compiled core (ellipsim/native, issue 46) against the numba kernels it replaces, bit for bit.
+
+While both exist, each C++ kernel must return exactly the bits of its numba twin on every input: the
+certified filter (certify, certify_indexed, separated_by_axes) and the Perram-Wertheim contact scale on
+random pairs, every stress category of ellipsim.core.samples, hypothesis's hard pairs and arbitrary finite
+floats (no validation: extreme exponents, rotations that are not rotations).  Also checked: the build's
+floating-point contract (no fused multiply-add), the tolerances (the same values as tolerances.py), the
+source digest that refuses a stale build, chunked and threaded calls, and the binding's refusals.
+"""
+
+import pathlib
+import shutil
+import threading
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from strategies import hard_pair, random_pair
+
+import ellipsim.native as native
+from ellipsim import Ellipsoids
+from ellipsim.core import samples, threads
+from ellipsim.core import tolerances as tol
+from ellipsim.core.exact.certified_filter import _certify, separated_by_axes
+from ellipsim.core.exact.classify import _certify_indexed
+from ellipsim.core.exact.contact_scale import _contact_scales
+from ellipsim.core.vec3 import load
+
+ext = native.ext
+
+
+@numba.njit(cache=False)
+def _separated_by_axes(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
+    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
+    for i in range(lo, hi):
+        out[i] = separated_by_axes(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb))
+
+
+# (C++ kernel, numba kernel, output dtype): the same signature (6 arrays, out, lo, hi).
+PAIRWISE = {
+    "certify": (ext.certify, _certify, np.int8),
+    "contact_scales": (ext.contact_scales, _contact_scales, np.float64),
+    "separated_by_axes": (ext.testing.separated_by_axes, _separated_by_axes, np.bool_),
+}
+
+
+def arrays(a, b):
+    return a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii
+
+
+def assert_same_bits(name, args, n, lo=0, hi=None):
+    """The C++ and numba kernels `name` write the same bits into out[lo:hi] (and nothing elsewhere); NaN for NaN."""
+    hi = n if hi is None else hi
+    cxx, nb, dtype = PAIRWISE[name]
+    got, want = np.full(n, 7, dtype=dtype), np.full(n, 7, dtype=dtype)
+    cxx(*args, got, lo, hi)
+    nb(*args, want, lo, hi)
+    differ = np.any(got.reshape(n, 1).view(np.uint8) != want.reshape(n, 1).view(np.uint8), axis=1)
+    if dtype == np.float64:  # a NaN is a NaN: its sign and payload are the compiler's choice
+        differ &= ~(np.isnan(got) & np.isnan(want))
+    bad = np.flatnonzero(differ)
+    assert not len(bad), f"{name}: pair {bad[0]} gives {got[bad[0]]!r} in C++, {want[bad[0]]!r} in numba"
+
+
+SETS = [
+    ("generic", lambda: samples.generic_pairs(4000, seed=3)),
+    ("near contact", lambda: samples.near_contact_pairs(4000, seed=4)),
+]
+SETS += [(c, lambda c=c: samples.stress_pairs(c, 1000, seed=5)) for c in samples.STRESS]
+
+
+@pytest.mark.parametrize("name", sorted(PAIRWISE))
+@pytest.mark.parametrize("label, make", SETS, ids=[s[0] for s in SETS])
+def test_each_kernel_gives_the_numba_bits_on_every_sample_set(name, label, make):
+    a, b = make()
+    assert_same_bits(name, arrays(a, b), len(a))
+
+
+@pytest.mark.parametrize("name", sorted(PAIRWISE))
+def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice(name):
+    a, b = samples.near_contact_pairs(300, seed=8)
+    assert_same_bits(name, arrays(a[0], b), len(b))
+    assert_same_bits(name, arrays(a, b[5]), len(a))
+    assert_same_bits(name, arrays(a, b), len(a), 17, 211)  # out[:17] and out[211:] keep their fill
+    cxx, _, dtype = PAIRWISE[name]
+    out = np.full(len(a), 7, dtype=dtype)
+    cxx(*arrays(a, b), out, 17, 211)
+    assert np.all(out[:17] == dtype(7)) and np.all(out[211:] == dtype(7))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(hard_pair, random_pair()))
+def test_hard_pairs_give_the_numba_bits(pair):
+    a, b = pair
+    for name in PAIRWISE:
+        assert_same_bits(name, arrays(a, b), 1)
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+positive = st.floats(min_value=5e-324, max_value=1.7e308, allow_nan=False, width=64)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.lists(finite, min_size=6, max_size=6),
+    st.lists(st.one_of(finite, st.floats(-1, 1)), min_size=18, max_size=18),
+    st.lists(st.one_of(positive, st.floats(0.01, 10)), min_size=6, max_size=6),
+)
+def test_arbitrary_finite_floats_give_the_numba_bits(c, R, r):
+    """Any finite float the kernels may meet (the Python layer validates; the kernels must agree anyway):
+    extreme exponents, subnormal radii, rotations that are not rotations."""
+    C = np.array(c).reshape(2, 1, 3)
+    M = np.array(R).reshape(2, 1, 3, 3)
+    S = np.array(r).reshape(2, 1, 3)
+    args = (C[0], M[0], S[0], C[1], M[1], S[1])
+    with np.errstate(all="ignore"):
+        for name in PAIRWISE:
+            assert_same_bits(name, args, 1)
+
+
+def test_certify_indexed_gives_the_numba_bits():
+    a, b = samples.near_contact_pairs(500, seed=9)
+    batch = Ellipsoids(np.concatenate([a.centers, b.centers]), np.concatenate([a.rotations, b.rotations]),
+                       np.concatenate([a.radii, b.radii]))  # fmt: skip
+    rng = np.random.default_rng(0)
+    first, second = rng.integers(0, 1000, 3000), rng.integers(0, 1000, 3000)
+    got, want = np.empty(3000, np.int8), np.empty(3000, np.int8)
+    args = (batch.centers, batch.rotations, batch.radii, first, second)
+    ext.certify_indexed(*args, got, 0, 3000)
+    _certify_indexed(*args, want, 0, 3000)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_chunks_on_threads_and_concurrent_callers_get_the_serial_bits():
+    a, b = samples.near_contact_pairs(20000, seed=10)
+    args = arrays(a, b)
+    serial = np.empty(len(a))
+    ext.contact_scales(*args, serial, 0, len(a))
+    chunked = np.empty(len(a))
+    with threads.limit(2):
+        threads.run(ext.contact_scales, len(a), True, *args, chunked)
+    np.testing.assert_array_equal(chunked.view(np.int64), serial.view(np.int64))
+    outs = [np.empty(len(a)) for _ in range(4)]
+    workers = [threading.Thread(target=ext.contact_scales, args=(*args, out, 0, len(a))) for out in outs]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    for out in outs:
+        np.testing.assert_array_equal(out.view(np.int64), serial.view(np.int64))
+
+
+def test_no_fused_multiply_add():
+    """(1 + 2^-30)(1 - 2^-30) - 1 is -2^-60 exactly; rounded after the product (the proofs' model) it is 0.
+    A build that contracts a * b + c into one fused multiply-add returns -2^-60."""
+    a, b = 1.0 + 2.0**-30, 1.0 - 2.0**-30
+    assert a * b == 1.0  # Python rounds each operation
+    assert ext.testing.multiply_add(a, b, -1.0) == 0.0
+
+
+def test_the_tolerances_are_tolerances_py():
+    constants = ext.testing.TOLERANCES
+    assert constants  # one entry per constant the kernels use
+    for name, value in constants.items():
+        assert getattr(tol, name) == value and type(getattr(tol, name)) is type(value), name
+
+
+def test_the_module_is_built_from_these_sources_and_a_change_is_seen(tmp_path):
+    assert ext.SOURCE_DIGEST == native.source_digest()
+    copy = tmp_path / "native"
+    shutil.copytree(native.FOLDER, copy, ignore=shutil.ignore_patterns("__pycache__", "*.py"))
+    assert native.source_digest(copy) == ext.SOURCE_DIGEST
+    header = copy / "include" / "ellipsim" / "exact" / "certified_filter.hpp"
+    header.write_text(header.read_text() + "\n")
+    assert native.source_digest(copy) != ext.SOURCE_DIGEST
+    (copy / "include" / "ellipsim" / "exact" / "certified_filter.hpp").unlink()
+    assert native.source_digest(copy) != ext.SOURCE_DIGEST
+
+
+def test_a_stale_module_is_refused_with_the_rebuild_command(monkeypatch):
+    monkeypatch.setattr(native, "source_digest", lambda folder=None: "0" * 64)
+    with pytest.raises(ImportError, match=r"built from other sources than .*pip install"):
+        native._load()
+
+
+def test_the_binding_refuses_what_the_python_layer_never_passes():
+    a, b = samples.generic_pairs(10, seed=1)
+    out = np.empty(10, np.int8)
+    with pytest.raises(IndexError, match="range"):
+        ext.certify(*arrays(a, b), out, 0, 11)
+    with pytest.raises(IndexError, match="range"):
+        ext.certify(*arrays(a, b), out, 5, 4)
+    with pytest.raises(IndexError, match="batches"):
+        ext.certify(*arrays(a[:4], b), out, 0, 10)
+    with pytest.raises(TypeError):  # no silent copy: a strided or float32 array is not taken
+        ext.certify(a.centers[::-1], *arrays(a, b)[1:], out, 0, 10)
+    with pytest.raises(TypeError):
+        ext.certify(*arrays(a, b), np.empty(10, np.int16), 0, 10)
+    with pytest.raises(IndexError, match="index"):
+        ext.certify_indexed(a.centers, a.rotations, a.radii, np.arange(10), np.full(10, 10), out, 0, 10)
+    assert pathlib.Path(ext.__file__).name.startswith("_ellipsim")

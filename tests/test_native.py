@@ -8,6 +8,7 @@ floating-point contract (no fused multiply-add), the tolerances (the same values
 source digest that refuses a stale build, chunked and threaded calls, and the binding's refusals.
 """
 
+import itertools
 import pathlib
 import shutil
 import threading
@@ -24,7 +25,8 @@ from ellipsim import Ellipsoids
 from ellipsim.core import samples, threads
 from ellipsim.core import tolerances as tol
 from ellipsim.core.exact.certified_filter import _certify, separated_by_axes
-from ellipsim.core.exact.classify import _certify_indexed
+from ellipsim.core.exact.characteristic import _polynomials
+from ellipsim.core.exact.classify import _certify_indexed, _classify_float
 from ellipsim.core.exact.contact_scale import _contact_scales
 from ellipsim.core.vec3 import load
 
@@ -44,6 +46,12 @@ PAIRWISE = {
     "contact_scales": (ext.contact_scales, _contact_scales, np.float64),
     "separated_by_axes": (ext.testing.separated_by_axes, _separated_by_axes, np.bool_),
 }
+for _cofactor, _sturm in itertools.product((False, True), repeat=2):  # the thesis's tests, float64
+    PAIRWISE[f"{'cofactor' if _cofactor else 'rearranged'} {'sturm' if _sturm else 'descartes'}"] = (
+        lambda *a, c=_cofactor, s=_sturm: ext.classify_float(*a[:6], c, s, *a[6:]),
+        lambda *a, c=_cofactor, s=_sturm: _classify_float(*a[:6], c, s, *a[6:]),
+        np.int8,
+    )
 
 
 def arrays(a, b):
@@ -118,6 +126,29 @@ def test_arbitrary_finite_floats_give_the_numba_bits(c, R, r):
     with np.errstate(all="ignore"):
         for name in PAIRWISE:
             assert_same_bits(name, args, 1)
+
+
+@pytest.mark.parametrize("cofactor", [False, True])
+@pytest.mark.parametrize("sturm", [False, True])
+def test_the_thesis_tests_in_float32_give_the_numba_bits(cofactor, sturm):
+    for label, make in SETS[:6] + [s for s in SETS if s[0] in ("spheres", "coaxial spheroids", "exactly tangent")]:
+        a, b = make()
+        args = [x.astype(np.float32) for x in arrays(a, b)]
+        got, want = np.empty(len(a), np.int8), np.empty(len(a), np.int8)
+        ext.classify_float(*args, cofactor, sturm, got, 0, len(a))
+        _classify_float(*args, cofactor, sturm, want, 0, len(a))
+        np.testing.assert_array_equal(got, want, err_msg=label)
+
+
+@pytest.mark.parametrize("cofactor", [False, True])
+def test_characteristic_polynomials_give_the_numba_bits(cofactor):
+    for label, make in SETS:
+        a, b = make()
+        n = len(a)
+        got, want = np.empty((n, 5)), np.empty((n, 5))
+        ext.polynomials(*arrays(a, b), cofactor, got, 0, n)
+        _polynomials(*arrays(a, b), cofactor, want, 0, n)
+        np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64), err_msg=label)
 
 
 def test_certify_indexed_gives_the_numba_bits():

@@ -10,7 +10,9 @@
 #include <string>
 
 #include <ellipsim/exact/certified_filter.hpp>
+#include <ellipsim/exact/characteristic.hpp>
 #include <ellipsim/exact/contact_scale.hpp>
+#include <ellipsim/exact/root_tests.hpp>
 #include <ellipsim/tolerances.hpp>
 
 namespace nb = nanobind;
@@ -22,19 +24,23 @@ template <typename T, typename Shape>
 using In = nb::ndarray<const T, Shape, nb::c_contig, nb::device::cpu>;
 template <typename T>
 using Out = nb::ndarray<T, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
-using Centers = In<double, nb::shape<-1, 3>>;
-using Rotations = In<double, nb::shape<-1, 3, 3>>;
+template <typename T = double>
+using Centers = In<T, nb::shape<-1, 3>>;
+template <typename T = double>
+using Rotations = In<T, nb::shape<-1, 3, 3>>;
 using Indices = In<std::int64_t, nb::ndim<1>>;
 
 // A batch of ellipsoids as the kernels read it: raw pointers, its length.
+template <typename T = double>
 struct Batch {
-  const double* C;
-  const double* R;
-  const double* r;
+  const T* C;
+  const T* R;
+  const T* r;
   std::int64_t n;
 };
 
-Batch batch(const Centers& C, const Rotations& R, const Centers& r) {
+template <typename T>
+Batch<T> batch(const Centers<T>& C, const Rotations<T>& R, const Centers<T>& r) {
   const auto n = static_cast<std::int64_t>(C.shape(0));
   if (static_cast<std::int64_t>(R.shape(0)) != n || static_cast<std::int64_t>(r.shape(0)) != n)
     throw std::invalid_argument("centres, rotations and radii must have the same length");
@@ -42,32 +48,33 @@ Batch batch(const Centers& C, const Rotations& R, const Centers& r) {
 }
 
 // [lo, hi) must lie in the output; a batch of one broadcasts (stride 0), any other covers hi.
-void check_range(std::int64_t lo, std::int64_t hi, std::int64_t size, const Batch& a, const Batch& b) {
+template <typename T>
+void check_range(std::int64_t lo, std::int64_t hi, std::int64_t size, const Batch<T>& a, const Batch<T>& b) {
   if (lo < 0 || hi < lo || hi > size) throw std::out_of_range("pair range outside the output");
   if (hi > lo && ((a.n != 1 && a.n < hi) || (b.n != 1 && b.n < hi)))
     throw std::out_of_range("pair range outside the batches");
 }
 
 // out[i] = f(a[i * sa], b[i * sb]) for i in [lo, hi), with the GIL released.
-template <typename T, typename F>
-void pairwise(const Batch& a, const Batch& b, T* out, std::int64_t lo, std::int64_t hi, F f) {
+template <typename T, typename O, typename F>
+void pairwise(const Batch<T>& a, const Batch<T>& b, O* out, std::int64_t lo, std::int64_t hi, F f) {
   const std::int64_t sa = a.n > 1, sb = b.n > 1;  // stride 0 broadcasts a batch of one
   nb::gil_scoped_release release;
   for (std::int64_t i = lo; i < hi; ++i)
     out[i] = f(ellipsim::load(a.C, a.R, a.r, i * sa), ellipsim::load(b.C, b.R, b.r, i * sb));
 }
 
-void certify(const Centers& Ca, const Rotations& Ra, const Centers& ra, const Centers& Cb, const Rotations& Rb,
-             const Centers& rb, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
-  const Batch a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+void certify(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb, const Rotations<>& Rb,
+             const Centers<>& rb, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
   check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
   pairwise(a, b, out.data(), lo, hi,
            [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::certify_pair(A, B); });
 }
 
-void certify_indexed(const Centers& C, const Rotations& R, const Centers& r, const Indices& first,
+void certify_indexed(const Centers<>& C, const Rotations<>& R, const Centers<>& r, const Indices& first,
                      const Indices& second, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
-  const Batch s = batch(C, R, r);
+  const auto s = batch(C, R, r);
   const auto k = static_cast<std::int64_t>(out.shape(0));
   if (static_cast<std::int64_t>(first.shape(0)) != k || static_cast<std::int64_t>(second.shape(0)) != k)
     throw std::invalid_argument("first, second and out must have the same length");
@@ -82,20 +89,52 @@ void certify_indexed(const Centers& C, const Rotations& R, const Centers& r, con
     o[i] = ellipsim::exact::certify_pair(ellipsim::load(s.C, s.R, s.r, f[i]), ellipsim::load(s.C, s.R, s.r, g[i]));
 }
 
-void contact_scales(const Centers& Ca, const Rotations& Ra, const Centers& ra, const Centers& Cb,
-                    const Rotations& Rb, const Centers& rb, Out<double> out, std::int64_t lo, std::int64_t hi) {
-  const Batch a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+void contact_scales(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+                    const Rotations<>& Rb, const Centers<>& rb, Out<double> out, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
   check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
   pairwise(a, b, out.data(), lo, hi,
            [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::contact_scale_pair(A, B); });
 }
 
-void separated_by_axes(const Centers& Ca, const Rotations& Ra, const Centers& ra, const Centers& Cb,
-                       const Rotations& Rb, const Centers& rb, Out<bool> out, std::int64_t lo, std::int64_t hi) {
-  const Batch a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+void separated_by_axes(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+                       const Rotations<>& Rb, const Centers<>& rb, Out<bool> out, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
   check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
   pairwise(a, b, out.data(), lo, hi,
            [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::separated_by_axes(A, B); });
+}
+
+// The thesis's uncertified relation (sturm or descartes on either set-up) in the arrays' precision.
+template <typename T>
+void classify_float(const Centers<T>& Ca, const Rotations<T>& Ra, const Centers<T>& ra, const Centers<T>& Cb,
+                    const Rotations<T>& Rb, const Centers<T>& rb, bool cofactor, bool sturm, Out<std::int8_t> out,
+                    std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  pairwise(a, b, out.data(), lo, hi, [cofactor, sturm](const ellipsim::EllipsoidT<T>& A, const ellipsim::EllipsoidT<T>& B) {
+    using namespace ellipsim::exact;
+    const Quartic<T> c = cofactor ? cofactor_coefficients(A, B) : rearranged_frame_coefficients(A, B);
+    return sturm ? sturm_relation(c.c4, c.c3, c.c2, c.c1, c.c0) : descartes_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
+  });
+}
+
+// Coefficients of det(lambda A + B), (n, 5) rows lambda^4 ... 1.
+void polynomials(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+                 const Rotations<>& Rb, const Centers<>& rb, bool cofactor,
+                 nb::ndarray<double, nb::shape<-1, 5>, nb::c_contig, nb::device::cpu> out, std::int64_t lo,
+                 std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  const std::int64_t sa = a.n > 1, sb = b.n > 1;
+  double* o = out.data();
+  nb::gil_scoped_release release;
+  for (std::int64_t i = lo; i < hi; ++i) {
+    const ellipsim::Ellipsoid A = ellipsim::load(a.C, a.R, a.r, i * sa), B = ellipsim::load(b.C, b.R, b.r, i * sb);
+    const auto c = cofactor ? ellipsim::exact::cofactor_coefficients(A, B) : ellipsim::exact::rearranged_coefficients(A, B);
+    double* row = o + 5 * i;
+    row[0] = c.c4, row[1] = c.c3, row[2] = c.c2, row[3] = c.c1, row[4] = c.c0;
+  }
 }
 
 // a * b + c as written: two roundings under the build's contract, one where a compiler fuses it.
@@ -113,6 +152,14 @@ NB_MODULE(_ellipsim, m) {
         "lo"_a, "hi"_a, "certify on the pairs (first[k], second[k]) of one batch.");
   m.def("contact_scales", &contact_scales, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("out"),
         "lo"_a, "hi"_a, "out[lo:hi]: the Perram-Wertheim contact scale of each pair.");
+
+  m.def("classify_float", &classify_float<double>, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
+        "cofactor"_a, "sturm"_a, in("out"), "lo"_a, "hi"_a,
+        "out[lo:hi]: the thesis's uncertified relation (Sturm or Descartes, cofactor or rearranged set-up).");
+  m.def("classify_float", &classify_float<float>, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
+        "cofactor"_a, "sturm"_a, in("out"), "lo"_a, "hi"_a);
+  m.def("polynomials", &polynomials, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), "cofactor"_a,
+        in("out"), "lo"_a, "hi"_a, "out[lo:hi]: coefficients (lambda^4 ... 1) of det(lambda A + B).");
 
   nb::module_ t = m.def_submodule("testing", "Internal functions the tests reach (not an API).");
   t.def("separated_by_axes", &separated_by_axes, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),

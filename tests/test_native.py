@@ -12,6 +12,7 @@ import itertools
 import pathlib
 import shutil
 import threading
+from fractions import Fraction
 
 import numba
 import numpy as np
@@ -24,10 +25,12 @@ import ellipsim.native as native
 from ellipsim import Ellipsoids
 from ellipsim.core import samples, threads
 from ellipsim.core import tolerances as tol
+from ellipsim.core.exact import rational_fallback as rational
 from ellipsim.core.exact.certified_filter import _certify, separated_by_axes
 from ellipsim.core.exact.characteristic import _polynomials
 from ellipsim.core.exact.classify import _certify_indexed, _classify_float
 from ellipsim.core.exact.contact_scale import _contact_scales
+from ellipsim.core.relation import UNDECIDED
 from ellipsim.core.vec3 import load
 
 ext = native.ext
@@ -232,3 +235,100 @@ def test_the_binding_refuses_what_the_python_layer_never_passes():
     with pytest.raises(IndexError, match="index"):
         ext.certify_indexed(a.centers, a.rotations, a.radii, np.arange(10), np.full(10, 10), out, 0, 10)
     assert pathlib.Path(ext.__file__).name.startswith("_ellipsim")
+
+
+# --- the exact fallback: integer arithmetic against Python's int and Fraction ------------------------------
+
+big = st.integers(min_value=-(2**2000), max_value=2**2000)
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.one_of(big, st.integers(-(2**70), 2**70)), st.one_of(big, st.integers(-(2**70), 2**70)))
+def test_integer_arithmetic_is_pythons(a, b):
+    op = ext.testing.integer_op
+    assert op("+", a, b) == a + b and op("-", a, b) == a - b and op("*", a, b) == a * b
+    if b:
+        assert op("divexact", a * b, b) == a
+    assert op("<<", a, 131) == a << 131
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.lists(st.integers(-6, 6), min_size=1, max_size=6),
+    st.lists(st.integers(-9, 9), min_size=0, max_size=3),
+    st.sampled_from([1, -1, 2, -3]),
+)
+def test_distinct_positive_roots_is_the_fraction_sturm(roots, extra, lead):
+    """Polynomials with repeated, zero, negative and complex roots: the subresultant Sturm count is the
+    Fraction one (rational_fallback.py)."""
+    p = [lead]
+    for r in roots:
+        p = [x - r * y for x, y in zip(p + [0], [0] + p)]
+    q = [1, *extra]
+    prod = [sum(p[i] * q[k - i] for i in range(len(p)) if 0 <= k - i < len(q)) for k in range(len(p) + len(q) - 1)]
+    got = ext.testing.distinct_positive_roots(prod)
+    if prod[-1] == 0:
+        assert got == -1
+    else:
+        assert got == rational.distinct_positive_roots([Fraction(c) for c in prod])
+
+
+def assert_exact_relation_is_the_fraction_one(a, b):
+    n = len(a)
+    got = np.full(n, UNDECIDED, np.int8)
+    ext.resolve(*arrays(a, b), got, 0, n)
+    for i in range(n):
+        pair = (a.centers[i], a.rotations[i], a.radii[i], b.centers[i], b.rotations[i], b.radii[i])
+        assert got[i] == rational.relation(*pair), i
+        # the integer pencil h(nu) is c f(nu / s) for the Fraction pencil f, some c, s > 0
+        h = [Fraction(x) for x in ext.testing.pencil_polynomial(*(x[i : i + 1] for x in arrays(a, b)))]
+        f = rational.pencil_coefficients(*pair)
+        ratios = [hk / fk for hk, fk in zip(h, f) if fk]
+        assert all(r > 0 for r in ratios) and [k for k in range(5) if h[k]] == [k for k in range(5) if f[k]]
+        steps = [h[k + 1] * f[k] / (h[k] * f[k + 1]) for k in range(4) if f[k] and f[k + 1]]
+        assert len(set(steps)) <= 1 and all(s > 0 for s in steps)
+
+
+@pytest.mark.parametrize("category", samples.STRESS)
+def test_the_exact_relation_is_the_fraction_one_on_every_stress_category(category):
+    assert_exact_relation_is_the_fraction_one(*samples.stress_pairs(category, 12, seed=6))
+
+
+@settings(max_examples=60, deadline=None)
+@given(hard_pair)
+def test_the_exact_relation_is_the_fraction_one_on_hard_pairs(pair):
+    assert_exact_relation_is_the_fraction_one(*pair)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(finite, min_size=6, max_size=6),
+    st.lists(st.one_of(finite, st.floats(-1, 1)), min_size=18, max_size=18),
+    st.lists(st.one_of(positive, st.floats(0.01, 10)), min_size=6, max_size=6),
+)
+def test_the_exact_relation_is_the_fraction_one_on_any_floats(c, R, r):
+    """Extreme exponents (subnormal to 1e308 in one pair) and matrices that are not rotations: the
+    integer scaling keeps everything exact; a singular matrix is refused as the Fraction version does."""
+    C, M, S = np.array(c).reshape(2, 1, 3), np.array(R).reshape(2, 1, 3, 3), np.array(r).reshape(2, 1, 3)
+    pair = (C[0, 0], M[0, 0], S[0, 0], C[1, 0], M[1, 0], S[1, 0])
+    try:
+        want = rational.relation(*pair)
+    except ValueError:  # a singular rotation of A: the pencil's constant term is zero
+        got = np.full(1, UNDECIDED, np.int8)
+        with pytest.raises(ValueError, match="singular"):
+            ext.resolve(*(C[0], M[0], S[0], C[1], M[1], S[1]), got, 0, 1)
+        return
+    got = np.full(1, UNDECIDED, np.int8)
+    ext.resolve(*(C[0], M[0], S[0], C[1], M[1], S[1]), got, 0, 1)
+    assert got[0] == want
+
+
+def test_resolve_touches_only_undecided_entries():
+    a, b = samples.stress_pairs("spheres", 30, seed=1)
+    out = np.array([UNDECIDED, 5] * 15, np.int8)
+    ext.resolve(*arrays(a, b), out, 0, 30)
+    assert np.all(out[1::2] == 5)
+    for i in range(0, 30, 2):
+        assert out[i] == rational.relation(
+            a.centers[i], a.rotations[i], a.radii[i], b.centers[i], b.rotations[i], b.radii[i]
+        )

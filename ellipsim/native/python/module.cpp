@@ -5,13 +5,18 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <ellipsim/exact/certified_filter.hpp>
 #include <ellipsim/exact/characteristic.hpp>
 #include <ellipsim/exact/contact_scale.hpp>
+#include <ellipsim/exact/rational_fallback.hpp>
 #include <ellipsim/exact/root_tests.hpp>
 #include <ellipsim/tolerances.hpp>
 
@@ -137,6 +142,76 @@ void polynomials(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra
   }
 }
 
+// out[i] = the exact relation for every i in [lo, hi) where out[i] is UNDECIDED (classify's fallback).
+void resolve(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+             const Rotations<>& Rb, const Centers<>& rb, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  const std::int64_t sa = a.n > 1, sb = b.n > 1;
+  std::int8_t* o = out.data();
+  std::int64_t singular = -1;
+  {
+    nb::gil_scoped_release release;
+    for (std::int64_t i = lo; i < hi; ++i) {
+      if (o[i] != ellipsim::UNDECIDED) continue;
+      const int rel = ellipsim::exact::exact_relation(ellipsim::load(a.C, a.R, a.r, i * sa),
+                                                      ellipsim::load(b.C, b.R, b.r, i * sb));
+      if (rel < 0 && singular < 0) singular = i;
+      o[i] = static_cast<std::int8_t>(rel);
+    }
+  }
+  if (singular >= 0)
+    throw std::domain_error("pair " + std::to_string(singular) + ": the pencil has a zero constant term (a singular rotation)");
+}
+
+// Python ints <-> Integer, for the tests of the exact arithmetic.
+ellipsim::exact::Integer to_integer(nb::handle x) {
+  const bool negative = nb::cast<bool>(x.attr("__lt__")(0));
+  nb::object magnitude = x.attr("__abs__")();
+  const auto bits = nb::cast<std::size_t>(magnitude.attr("bit_length")());
+  const std::size_t words = (bits + 63) / 64;
+  nb::bytes raw = nb::cast<nb::bytes>(magnitude.attr("to_bytes")(words * 8, "little"));
+  std::vector<std::uint64_t> limbs(words);
+  const auto* bytes = static_cast<const unsigned char*>(raw.data());
+  for (std::size_t i = 0; i < words * 8; ++i) limbs[i / 8] |= std::uint64_t(bytes[i]) << (8 * (i % 8));
+  return ellipsim::exact::Integer::from_limbs(std::move(limbs), negative);
+}
+
+nb::object from_integer(const ellipsim::exact::Integer& v) {
+  std::string bytes;
+  for (std::uint64_t limb : v.magnitude())
+    for (int k = 0; k < 8; ++k) bytes.push_back(static_cast<char>((limb >> (8 * k)) & 0xff));
+  nb::object magnitude = nb::module_::import_("builtins").attr("int").attr("from_bytes")(
+      nb::bytes(bytes.data(), bytes.size()), "little");
+  return v.sign() < 0 ? magnitude.attr("__neg__")() : magnitude;
+}
+
+nb::object integer_op(const std::string& op, nb::handle a, nb::handle b) {
+  const ellipsim::exact::Integer x = to_integer(a), y = to_integer(b);
+  if (op == "+") return from_integer(x + y);
+  if (op == "-") return from_integer(x - y);
+  if (op == "*") return from_integer(x * y);
+  if (op == "divexact") return from_integer(divexact(x, y));
+  if (op == "<<") return from_integer(x.shifted_left(nb::cast<int>(b)));
+  throw std::invalid_argument("op must be +, -, *, divexact or <<");
+}
+
+int distinct_positive_roots(const std::vector<nb::object>& coefficients) {
+  ellipsim::exact::Polynomial p;
+  for (const nb::object& c : coefficients) p.push_back(to_integer(c));
+  return ellipsim::exact::distinct_positive_roots(std::move(p));
+}
+
+std::vector<nb::object> pencil_polynomial(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra,
+                                          const Centers<>& Cb, const Rotations<>& Rb, const Centers<>& rb) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  if (a.n != 1 || b.n != 1) throw std::invalid_argument("one pair");
+  std::vector<nb::object> out;
+  for (const auto& c : ellipsim::exact::pencil_polynomial(ellipsim::load(a.C, a.R, a.r, 0), ellipsim::load(b.C, b.R, b.r, 0)))
+    out.push_back(from_integer(c));
+  return out;
+}
+
 // a * b + c as written: two roundings under the build's contract, one where a compiler fuses it.
 double multiply_add(double a, double b, double c) { return a * b + c; }
 
@@ -161,7 +236,13 @@ NB_MODULE(_ellipsim, m) {
   m.def("polynomials", &polynomials, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), "cofactor"_a,
         in("out"), "lo"_a, "hi"_a, "out[lo:hi]: coefficients (lambda^4 ... 1) of det(lambda A + B).");
 
+  m.def("resolve", &resolve, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("out"), "lo"_a, "hi"_a,
+        "out[i] for the UNDECIDED entries of out[lo:hi]: the exact relation (integer arithmetic).");
+
   nb::module_ t = m.def_submodule("testing", "Internal functions the tests reach (not an API).");
+  t.def("integer_op", &integer_op, "op"_a, "a"_a, "b"_a);
+  t.def("distinct_positive_roots", &distinct_positive_roots, "coefficients"_a);
+  t.def("pencil_polynomial", &pencil_polynomial, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"));
   t.def("separated_by_axes", &separated_by_axes, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
         in("out"), "lo"_a, "hi"_a);
   t.def("multiply_add", &multiply_add, "a"_a, "b"_a, "c"_a);

@@ -1,0 +1,215 @@
+// The exact relation of two ellipsoids on their float64 inputs, always right: the fallback for the
+// pairs the certified float path leaves UNDECIDED (ellipsim/core/exact/rational_fallback.py is the
+// Fraction version it replaces and the tests' reference).
+//
+// Every float64 is an integer times a power of two.  Scaling a rotation by 2^-k together with its
+// radii leaves the ellipsoid {x : |D^-1 R^T (x - c)| <= 1} unchanged, and scaling every length by 2^-L
+// is a similarity, so the pair becomes one with integer entries and the same relation.  In A's frame
+// (pair_frame.hpp: C = cof(R_a), alpha = det(R_a)^2, M = R_b^T C, z = R_a^T (c_b - c_a)) the pencil is
+// f(mu) = mu N(mu) - (mu + alpha) P(mu); with P_b = (r_b0 r_b1 r_b2)^2 and G = P_b D_b^-2 (integers),
+//
+//     h(nu) = P_b^4 f(nu / P_b) = -nu^4 + (p1 - alpha P_b - T1) nu^3 + (T1 p1 - |u|^2 - alpha P_b T1 - T2) nu^2
+//             + (T3 E / S - alpha P_b T2 - T3) nu - alpha P_b T3
+//
+// where K = D_a M^T G M D_a (T1, T2, T3 its trace, principal 2x2 minors, determinant), p1 = |G^1/2 M z|^2,
+// u = D_a M^T G M z, S = (r_a0 r_a1 r_a2)^2 and E = sum_i z_i^2 S / r_ai^2: every coefficient an integer.
+// nu = P_b mu > 0 maps the positive roots of f onto those of h, so the theorem of Wang, Wang & Kim
+// (thesis ch. 4, Theorem 1) reads the relation off h's distinct positive roots: two separated, one (a
+// double root) touching, none overlapping.  They are counted by a Sturm sequence (thesis 4.2.1) built
+// as a subresultant sequence (Collins; Cohen, A Course in Computational Algebraic Number Theory,
+// algorithm 3.3.1), whose divisions are exact, with the sign of each term's scale tracked.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "../relation.hpp"
+#include "../vec3.hpp"
+#include "integer.hpp"
+
+namespace ellipsim::exact {
+
+// A polynomial with integer coefficients, highest degree first (as rational_fallback.py's lists).
+using Polynomial = std::vector<Integer>;
+
+inline Polynomial strip(Polynomial p) {
+  std::size_t i = 0;
+  while (i < p.size() && p[i].is_zero()) ++i;
+  p.erase(p.begin(), p.begin() + static_cast<std::ptrdiff_t>(i));
+  return p;
+}
+
+inline int degree(const Polynomial& p) { return static_cast<int>(p.size()) - 1; }
+
+// The pseudo-remainder lc(b)^(deg a - deg b + 1) (a mod b), b stripped and nonzero, deg a >= deg b.
+inline Polynomial pseudo_remainder(Polynomial a, const Polynomial& b) {
+  int e = degree(a) - degree(b) + 1;
+  const Integer& lead = b.front();
+  while (!a.empty() && degree(a) >= degree(b)) {
+    const Integer top = a.front();
+    for (std::size_t k = 0; k < a.size(); ++k) a[k] = a[k] * lead;  // lc(b) a - top x^(deg a - deg b) b
+    for (std::size_t k = 0; k < b.size(); ++k) a[k] = a[k] - top * b[k];
+    a.erase(a.begin());  // its leading term cancelled
+    a = strip(std::move(a));
+    --e;
+  }
+  Integer scale = 1;
+  for (int k = 0; k < e; ++k) scale = scale * lead;
+  if (e > 0)
+    for (Integer& c : a) c = c * scale;
+  return a;
+}
+
+// Sign changes in a sequence, zeros skipped.
+inline int sign_changes(const std::vector<int>& signs) {
+  int count = 0, last = 0;
+  for (int s : signs) {
+    if (s == 0) continue;
+    if (last != 0 && s != last) ++count;
+    last = s;
+  }
+  return count;
+}
+
+// Number of distinct roots in (0, inf) of a polynomial with a nonzero constant term (Sturm:
+// V(0) - V(+inf)).  The Sturm terms f_{i+1} = -rem(f_{i-1}, f_i) are the subresultant sequence's B_i up to
+// factors whose signs eps_i are tracked: rem(B_{i-1}, B_i) = B_{i+1} g h^delta / lc(B_i)^(delta + 1), so
+// eps_{i+1} = -eps_{i-1} sign(g) sign(h)^delta sign(lc(B_i))^(delta + 1).  Returns -1 for a zero constant term.
+inline int distinct_positive_roots(Polynomial p) {
+  p = strip(std::move(p));
+  if (p.empty() || p.back().is_zero()) return -1;
+  const int n = degree(p);
+  if (n == 0) return 0;
+  Polynomial dp;
+  for (int k = 0; k < n; ++k) dp.push_back(p[static_cast<std::size_t>(k)] * Integer(n - k));
+  std::vector<Polynomial> chain = {p, strip(dp)};
+  std::vector<int> eps = {1, 1};
+  Integer g = 1, h = 1;
+  while (degree(chain.back()) > 0) {
+    const Polynomial& a = chain[chain.size() - 2];
+    const Polynomial& b = chain.back();
+    const int delta = degree(a) - degree(b);
+    Polynomial r = pseudo_remainder(a, b);
+    if (r.empty()) break;  // b is the gcd: the chain ends (multiple roots share it; the count is unchanged)
+    Integer divisor = g;
+    for (int k = 0; k < delta; ++k) divisor = divisor * h;
+    for (Integer& c : r) c = divexact(c, divisor);
+    int sign = -eps[eps.size() - 2] * g.sign();
+    if (delta % 2 == 1) sign *= h.sign();
+    if ((delta + 1) % 2 == 1) sign *= b.front().sign();
+    const Integer lead = b.front();
+    chain.push_back(std::move(r));
+    eps.push_back(sign);
+    // g = lc(A) for the next step's A (today's b); h = g^delta / h^(delta - 1)
+    g = lead;
+    if (delta == 0) {
+      // h unchanged
+    } else if (delta == 1) {
+      h = g;
+    } else {
+      Integer num = 1, den = 1;
+      for (int k = 0; k < delta; ++k) num = num * g;
+      for (int k = 0; k < delta - 1; ++k) den = den * h;
+      h = divexact(num, den);
+    }
+  }
+  std::vector<int> at_zero, at_inf;
+  for (std::size_t i = 0; i < chain.size(); ++i) {
+    at_zero.push_back(eps[i] * chain[i].back().sign());
+    at_inf.push_back(eps[i] * chain[i].front().sign());
+  }
+  return sign_changes(at_zero) - sign_changes(at_inf);
+}
+
+// The pair with integer entries: R_a, R_b scaled by powers of two with their radii, every length by one
+// more (see the top of this file).
+struct IntegerPair {
+  Integer Ra[9], Rb[9], ra[3], rb[3], d[3];
+};
+
+inline int lowest_bit_of(const double* x, int n, int fallback) {
+  int k = fallback;
+  bool any = false;
+  for (int i = 0; i < n; ++i) {
+    if (x[i] == 0.0) continue;
+    const int b = Integer::lowest_bit(x[i]);
+    k = any ? std::min(k, b) : b;
+    any = true;
+  }
+  return k;
+}
+
+inline IntegerPair integer_pair(const Ellipsoid& A, const Ellipsoid& B) {
+  const int ka = lowest_bit_of(A.R.m, 9, 0), kb = lowest_bit_of(B.R.m, 9, 0);
+  const double lengths[6] = {A.c.x, A.c.y, A.c.z, B.c.x, B.c.y, B.c.z};
+  const double ra[3] = {A.r.x, A.r.y, A.r.z}, rb[3] = {B.r.x, B.r.y, B.r.z};
+  int L = std::min(lowest_bit_of(ra, 3, 0) - ka, lowest_bit_of(rb, 3, 0) - kb);  // radii are > 0
+  L = std::min(L, lowest_bit_of(lengths, 6, L));
+  IntegerPair out;
+  for (int k = 0; k < 9; ++k) {
+    out.Ra[k] = Integer::from_double(A.R.m[k], -ka);
+    out.Rb[k] = Integer::from_double(B.R.m[k], -kb);
+  }
+  for (int i = 0; i < 3; ++i) {
+    out.ra[i] = Integer::from_double(ra[i], -ka - L);
+    out.rb[i] = Integer::from_double(rb[i], -kb - L);
+    out.d[i] = Integer::from_double(lengths[3 + i], -L) - Integer::from_double(lengths[i], -L);
+  }
+  return out;
+}
+
+// h(nu), the integer pencil above, highest degree first.
+inline Polynomial pencil_polynomial(const Ellipsoid& A, const Ellipsoid& B) {
+  const IntegerPair x = integer_pair(A, B);
+  const Integer* R = x.Ra;
+  const Integer C[9] = {R[4] * R[8] - R[5] * R[7], R[5] * R[6] - R[3] * R[8], R[3] * R[7] - R[4] * R[6],
+                        R[2] * R[7] - R[1] * R[8], R[0] * R[8] - R[2] * R[6], R[1] * R[6] - R[0] * R[7],
+                        R[1] * R[5] - R[2] * R[4], R[2] * R[3] - R[0] * R[5], R[0] * R[4] - R[1] * R[3]};
+  const Integer det = R[0] * C[0] + R[1] * C[1] + R[2] * C[2];
+  const Integer alpha = det * det;
+  Integer M[9];  // M = R_b^T C
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M[3 * i + j] = x.Rb[i] * C[j] + x.Rb[3 + i] * C[3 + j] + x.Rb[6 + i] * C[6 + j];
+  const Integer b2[3] = {x.rb[0] * x.rb[0], x.rb[1] * x.rb[1], x.rb[2] * x.rb[2]};
+  const Integer a2[3] = {x.ra[0] * x.ra[0], x.ra[1] * x.ra[1], x.ra[2] * x.ra[2]};
+  const Integer G[3] = {b2[1] * b2[2], b2[0] * b2[2], b2[0] * b2[1]};
+  const Integer Pb = b2[0] * G[0];
+  const Integer S = a2[0] * a2[1] * a2[2];
+  Integer N[9];  // M^T G M (symmetric)
+  for (int j = 0; j < 3; ++j)
+    for (int l = j; l < 3; ++l)
+      N[3 * l + j] = N[3 * j + l] = M[j] * M[l] * G[0] + M[3 + j] * M[3 + l] * G[1] + M[6 + j] * M[6 + l] * G[2];
+  Integer K[9];  // D_a N D_a
+  for (int j = 0; j < 3; ++j)
+    for (int l = 0; l < 3; ++l) K[3 * j + l] = x.ra[j] * x.ra[l] * N[3 * j + l];
+  Integer z[3];  // R_a^T d
+  for (int i = 0; i < 3; ++i) z[i] = R[i] * x.d[0] + R[3 + i] * x.d[1] + R[6 + i] * x.d[2];
+  Integer Nz[3];
+  for (int j = 0; j < 3; ++j) Nz[j] = N[3 * j] * z[0] + N[3 * j + 1] * z[1] + N[3 * j + 2] * z[2];
+  const Integer p1 = z[0] * Nz[0] + z[1] * Nz[1] + z[2] * Nz[2];
+  const Integer u[3] = {x.ra[0] * Nz[0], x.ra[1] * Nz[1], x.ra[2] * Nz[2]};
+  const Integer T1 = K[0] + K[4] + K[8];
+  const Integer T2 = (K[0] * K[4] - K[1] * K[3]) + (K[0] * K[8] - K[2] * K[6]) + (K[4] * K[8] - K[5] * K[7]);
+  const Integer T3 = K[0] * (K[4] * K[8] - K[5] * K[7]) - K[1] * (K[3] * K[8] - K[5] * K[6]) +
+                     K[2] * (K[3] * K[7] - K[4] * K[6]);
+  // T3 E / S = det(M)^2 prod(G) sum_i z_i^2 S / r_ai^2, exactly: T3 = S det(M)^2 prod(G)
+  const Integer E = z[0] * z[0] * a2[1] * a2[2] + z[1] * z[1] * a2[0] * a2[2] + z[2] * z[2] * a2[0] * a2[1];
+  const Integer T3E = S.is_zero() ? Integer() : divexact(T3, S) * E;
+  const Integer aP = alpha * Pb;
+  return {Integer(-1), p1 - aP - T1, T1 * p1 - (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) - aP * T1 - T2,
+          T3E - aP * T2 - T3, -(aP * T3)};
+}
+
+// SEPARATED, TOUCHING or OVERLAPPING, exactly; -1 when the pencil's constant term is zero (a singular
+// rotation: never for a validated batch).
+inline int exact_relation(const Ellipsoid& A, const Ellipsoid& B) {
+  const int count = distinct_positive_roots(pencil_polynomial(A, B));
+  if (count == 2) return SEPARATED;
+  if (count == 1) return TOUCHING;
+  if (count == 0) return OVERLAPPING;
+  return -1;
+}
+
+}  // namespace ellipsim::exact

@@ -10,6 +10,7 @@ source digest that refuses a stale build, chunked and threaded calls, and the bi
 
 import itertools
 import pathlib
+import re
 import shutil
 import threading
 from fractions import Fraction
@@ -36,7 +37,7 @@ from ellipsim.core.vec3 import load
 ext = native.ext
 
 
-@numba.njit(cache=False)
+@numba.njit(cache=False, error_model="numpy")
 def _separated_by_axes(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
     sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
     for i in range(lo, hi):
@@ -195,8 +196,10 @@ def test_no_fused_multiply_add():
 
 
 def test_the_tolerances_are_tolerances_py():
+    header = (native.FOLDER / "include" / "ellipsim" / "tolerances.hpp").read_text()
+    declared = set(re.findall(r"^constexpr (?:double|int) ([A-Z][A-Z0-9_]*) =", header, re.M))
     constants = ext.testing.TOLERANCES
-    assert constants  # one entry per constant the kernels use
+    assert set(constants) == declared and len(declared) > 60  # every constant of the header, bound
     for name, value in constants.items():
         assert getattr(tol, name) == value and type(getattr(tol, name)) is type(value), name
 

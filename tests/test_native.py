@@ -9,6 +9,7 @@ source digest that refuses a stale build, chunked and threaded calls, and the bi
 """
 
 import itertools
+import math
 import pathlib
 import re
 import shutil
@@ -20,7 +21,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import hard_pair, random_pair
+from scipy.spatial.transform import Rotation as Rot
+from strategies import SIGNED_PERMUTATIONS, hard_pair, random_pair
 
 import ellipsim.native as native
 from ellipsim import Ellipsoids
@@ -31,6 +33,7 @@ from ellipsim.core.exact.certified_filter import _certify, separated_by_axes
 from ellipsim.core.exact.characteristic import _polynomials
 from ellipsim.core.exact.classify import _certify_indexed, _classify_float
 from ellipsim.core.exact.contact_scale import _contact_scales
+from ellipsim.core.exact.containment import _contains, contains_exact
 from ellipsim.core.relation import UNDECIDED
 from ellipsim.core.vec3 import load
 
@@ -252,7 +255,9 @@ def test_integer_arithmetic_is_pythons(a, b):
     assert op("+", a, b) == a + b and op("-", a, b) == a - b and op("*", a, b) == a * b
     if b:
         assert op("divexact", a * b, b) == a
+        assert op("//", a, b) == abs(a) // abs(b) and op("%", a, b) == abs(a) % abs(b)  # of the magnitudes
     assert op("<<", a, 131) == a << 131
+    assert op("gcd", a, b) == math.gcd(a, b) and op("gcd", a * b, b * 3) == math.gcd(a * b, b * 3)
 
 
 @settings(max_examples=400, deadline=None)
@@ -335,3 +340,88 @@ def test_resolve_touches_only_undecided_entries():
         assert out[i] == rational.relation(
             a.centers[i], a.rotations[i], a.radii[i], b.centers[i], b.rotations[i], b.radii[i]
         )
+
+
+# --- containment: the float filter bit for bit, the exact fallback against the Fraction one ----------------
+
+
+def containment_pairs(n, seed):
+    """B near A's inside: shrunk or grown about an interior point by 1 -+ 2^-k (k = 10 ... 40), rotated a
+    little or not, or small and centred inside; then exactly internally tangent dyadic pairs."""
+    rng = np.random.default_rng(seed)
+    ra = rng.uniform(0.5, 2, (n, 3))
+    Ra = Rot.random(n, random_state=rng).as_matrix()
+    ca = rng.uniform(-2, 2, (n, 3))
+    p = ca + np.einsum("nij,nj->ni", Ra, ra * rng.uniform(-0.3, 0.3, (n, 3)))
+    s = 1.0 + rng.choice([-1.0, 1.0], n) * 2.0 ** -rng.integers(10, 41, n)
+    turn = Rot.from_rotvec(rng.normal(size=(n, 3)) * rng.choice([0.0, 1e-6, 1e-3], n)[:, None]).as_matrix()
+    kind = np.arange(n) % 3
+    rb = np.where((kind == 2)[:, None], ra.min(1)[:, None] * rng.uniform(0.1, 1.0, (n, 3)), ra * s[:, None])
+    cb = np.where((kind == 2)[:, None], ca + np.einsum("nij,nj->ni", Ra, ra * rng.uniform(-0.6, 0.6, (n, 3))),
+                  p + s[:, None] * (ca - p))  # fmt: skip
+    Rb = np.where((kind == 1)[:, None, None], Ra @ turn, Ra)
+    a, b = Ellipsoids(ca, Ra, ra), Ellipsoids(cb, Rb, rb)
+    # exactly internally tangent (tests/test_containment.py): B touches A at (a0, 0, 0) from inside
+    C1, R1, r1, C2, R2, r2 = [], [], [], [], [], []
+    for _ in range(n // 4):
+        ax = rng.integers(4, 33, 3) / 8.0
+        b0 = rng.integers(1, int(ax[0] * 8) + 1) / 8.0
+        bk = [max(np.floor(min(ax[k] * np.sqrt(b0 / ax[0]), ax[k]) * 8) / 8.0, 1 / 16) for k in (1, 2)]
+        P = SIGNED_PERMUTATIONS[rng.integers(len(SIGNED_PERMUTATIONS))]
+        shift = rng.integers(-16, 17, 3) / 4.0
+        C1.append(shift), R1.append(P), r1.append(ax)
+        C2.append(shift + P @ np.array([ax[0] - b0 + rng.choice([0.0, 2.0**-30]), 0, 0])), R2.append(P)
+        r2.append([b0, *bk])
+    t1, t2 = Ellipsoids(np.array(C1), np.array(R1), np.array(r1)), Ellipsoids(np.array(C2), np.array(R2), np.array(r2))
+    return (
+        Ellipsoids(np.concatenate([a.centers, t1.centers]), np.concatenate([a.rotations, t1.rotations]),
+                   np.concatenate([a.radii, t1.radii])),
+        Ellipsoids(np.concatenate([b.centers, t2.centers]), np.concatenate([b.rotations, t2.rotations]),
+                   np.concatenate([b.radii, t2.radii])),
+    )  # fmt: skip
+
+
+CONTAIN_SETS = [("near containment", lambda: containment_pairs(4000, 11))] + SETS
+
+
+@pytest.mark.parametrize("label, make", CONTAIN_SETS, ids=[s[0] for s in CONTAIN_SETS])
+def test_the_containment_filter_gives_the_numba_bits(label, make):
+    a, b = make()
+    n = len(a)
+    got, want = np.full(n, 7, np.int8), np.full(n, 7, np.int8)
+    ext.contains(*arrays(a, b), got, 0, n)
+    _contains(*arrays(a, b), want, 0, n)
+    np.testing.assert_array_equal(got, want)
+    got[:] = 7
+    ext.contains(*arrays(b, a), got, 0, n)  # and the other way round
+    _contains(*arrays(b, a), want, 0, n)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_exact_containment_is_the_fraction_one():
+    """Every pair of a near-containment set decided exactly (not only those the filter leaves), both ways,
+    against containment.py's Fraction fallback; the filter's own decisions agree with it too."""
+    a, b = containment_pairs(60, 12)
+    for x, y in ((a, b), (b, a)):
+        n = len(x)
+        exact = np.full(n, UNDECIDED, np.int8)
+        ext.resolve_containment(*arrays(x, y), exact, 0, n)
+        want = [contains_exact(x.centers[i], x.rotations[i], x.radii[i], y.centers[i], y.rotations[i], y.radii[i])
+                for i in range(n)]  # fmt: skip
+        np.testing.assert_array_equal(exact, want)
+        filt = np.empty(n, np.int8)
+        ext.contains(*arrays(x, y), filt, 0, n)
+        decided = filt != UNDECIDED
+        np.testing.assert_array_equal(filt[decided], exact[decided])
+    assert 0 < np.count_nonzero(filt == UNDECIDED)  # the exactly tangent pairs reach the fallback
+
+
+@settings(max_examples=40, deadline=None)
+@given(hard_pair)
+def test_exact_containment_is_the_fraction_one_on_hard_pairs(pair):
+    a, b = pair
+    for x, y in ((a, b), (b, a)):
+        exact = np.full(1, UNDECIDED, np.int8)
+        ext.resolve_containment(*arrays(x, y), exact, 0, 1)
+        assert exact[0] == contains_exact(x.centers[0], x.rotations[0], x.radii[0], y.centers[0], y.rotations[0],
+                                          y.radii[0])  # fmt: skip

@@ -3,6 +3,8 @@
 #include <ellipsim/exact/certified_filter.hpp>
 #include <ellipsim/exact/characteristic.hpp>
 #include <ellipsim/exact/contact_scale.hpp>
+#include <ellipsim/exact/containment.hpp>
+#include <ellipsim/exact/containment_fallback.hpp>
 #include <ellipsim/exact/rational_fallback.hpp>
 #include <ellipsim/exact/root_tests.hpp>
 
@@ -108,6 +110,29 @@ void resolve(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, co
     throw std::domain_error("pair " + std::to_string(singular) + ": the pencil has a zero constant term (a singular rotation)");
 }
 
+// out[lo:hi]: INSIDE / NOT_INSIDE where the float filter is sure, UNDECIDED elsewhere (containment.py _contains).
+void contains(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+              const Rotations<>& Rb, const Centers<>& rb, Out<std::int8_t> out, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  pairwise(a, b, out.data(), lo, hi,
+           [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::contains_pair(A, B); });
+}
+
+// out[i] for the UNDECIDED entries of out[lo:hi]: containment decided exactly (containment_fallback.hpp).
+void resolve_containment(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+                         const Rotations<>& Rb, const Centers<>& rb, Out<std::int8_t> out, std::int64_t lo,
+                         std::int64_t hi) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
+  const std::int64_t sa = a.n > 1, sb = b.n > 1;
+  std::int8_t* o = out.data();
+  nb::gil_scoped_release release;
+  for (std::int64_t i = lo; i < hi; ++i)
+    if (o[i] == ellipsim::exact::CONTAIN_UNDECIDED)
+      o[i] = ellipsim::exact::contains_exact(ellipsim::load(a.C, a.R, a.r, i * sa), ellipsim::load(b.C, b.R, b.r, i * sb));
+}
+
 // Python ints <-> Integer, for the tests of the exact arithmetic.
 ellipsim::exact::Integer to_integer(nb::handle x) {
   const bool negative = nb::cast<bool>(x.attr("__lt__")(0));
@@ -137,7 +162,10 @@ nb::object integer_op(const std::string& op, nb::handle a, nb::handle b) {
   if (op == "*") return from_integer(x * y);
   if (op == "divexact") return from_integer(divexact(x, y));
   if (op == "<<") return from_integer(x.shifted_left(nb::cast<int>(b)));
-  throw std::invalid_argument("op must be +, -, *, divexact or <<");
+  if (op == "gcd") return from_integer(gcd(x, y));
+  if (op == "//") return from_integer(divmod_magnitude(x, y).first);
+  if (op == "%") return from_integer(divmod_magnitude(x, y).second);
+  throw std::invalid_argument("op must be +, -, *, divexact, <<, gcd, // or %");
 }
 
 int distinct_positive_roots(const std::vector<nb::object>& coefficients) {
@@ -159,6 +187,10 @@ std::vector<nb::object> pencil_polynomial(const Centers<>& Ca, const Rotations<>
 }  // namespace
 
 void bind_exact(nb::module_& m, nb::module_& t) {
+  m.def("contains", &contains, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("out"), "lo"_a, "hi"_a,
+        "out[lo:hi]: INSIDE (1) / NOT_INSIDE (0) where the float filter is sure that b lies in a, UNDECIDED elsewhere.");
+  m.def("resolve_containment", &resolve_containment, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
+        in("out"), "lo"_a, "hi"_a, "out[i] for the UNDECIDED entries of out[lo:hi]: containment decided exactly.");
   m.def("certify", &certify, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("out"), "lo"_a, "hi"_a,
         "out[lo:hi]: SEPARATED / OVERLAPPING where the certified float path is sure, UNDECIDED elsewhere.");
   m.def("certify_indexed", &certify_indexed, in("C"), in("R"), in("r"), in("first"), in("second"), in("out"),

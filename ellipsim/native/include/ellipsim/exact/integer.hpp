@@ -83,18 +83,7 @@ class Integer {
   friend Integer operator*(const Integer& a, const Integer& b) {
     Integer out;
     if (a.is_zero() || b.is_zero()) return out;
-    const std::size_t n = a.limbs_.size(), m = b.limbs_.size();
-    out.limbs_.assign(n + m, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      Limb carry = 0;
-      const Wide ai = a.limbs_[i];
-      for (std::size_t j = 0; j < m; ++j) {
-        const Wide t = ai * b.limbs_[j] + out.limbs_[i + j] + carry;
-        out.limbs_[i + j] = static_cast<Limb>(t);
-        carry = static_cast<Limb>(t >> 64);
-      }
-      out.limbs_[i + m] = carry;
-    }
+    out.limbs_ = multiply_magnitudes(a.limbs_.data(), a.limbs_.size(), b.limbs_.data(), b.limbs_.size());
     out.negative_ = a.negative_ != b.negative_;
     out.trim();
     return out;
@@ -109,7 +98,7 @@ class Integer {
   }
   friend bool operator!=(const Integer& a, const Integer& b) { return !(a == b); }
 
-  // a / b for b != 0 dividing a exactly (the subresultant sequence's divisions): Jebelean's method,
+  // a / b for b != 0 dividing a exactly (by a content, in a pseudo-quotient): Jebelean's method,
   // the quotient's limbs from the lowest up, each by one multiplication with 1 / b mod 2^64.
   friend Integer divexact(const Integer& a, const Integer& b) {
     if (b.is_zero()) throw std::domain_error("divexact: division by zero");
@@ -152,6 +141,60 @@ class Integer {
     q.negative_ = a.negative_ != b.negative_;
     q.trim();
     return q;
+  }
+
+  // The nonnegative greatest common divisor (gcd(0, 0) = 0): Lehmer's algorithm on 62-bit leading digits
+  // (Knuth, TAOCP vol. 2, 4.5.2, algorithm L), a long division where the leading digits cannot decide.
+  friend Integer gcd(const Integer& x, const Integer& y) {
+    std::vector<Limb> a = x.limbs_, b = y.limbs_;
+    while (true) {
+      if (compare_magnitude(a, b) < 0) std::swap(a, b);
+      if (b.empty()) break;
+      if (a.size() <= 2) {  // both fit in 128 bits: Euclid on machine words
+        Wide u = a[0] | (a.size() > 1 ? Wide(a[1]) << 64 : 0), v = b[0] | (b.size() > 1 ? Wide(b[1]) << 64 : 0);
+        while (v != 0) {
+          const Wide r = u % v;
+          u = v;
+          v = r;
+        }
+        a = {static_cast<Limb>(u), static_cast<Limb>(u >> 64)};
+        b.clear();
+        break;
+      }
+      const int k = bits(a) - 62;
+      const std::int64_t x0 = static_cast<std::int64_t>(leading(a, k)), y0 = static_cast<std::int64_t>(leading(b, k));
+      __int128 xx = x0, yy = y0, A = 1, B = 0, C = 0, D = 1;
+      while (yy + C != 0 && yy + D != 0) {
+        const __int128 q = (xx + A) / (yy + C);
+        if (q != (xx + B) / (yy + D)) break;
+        __int128 t = A - q * C;
+        A = C, C = t;
+        t = B - q * D;
+        B = D, D = t;
+        t = xx - q * yy;
+        xx = yy, yy = t;
+      }
+      if (B == 0) {  // the leading digits decided nothing: one division step
+        std::vector<Limb> r = divmod_magnitudes(a, b).second;
+        a = std::move(b);
+        b = std::move(r);
+        trim_magnitude(b);
+        continue;
+      }
+      const Integer ia = from_limbs(a, false), ib = from_limbs(b, false);
+      const Integer na = Integer(static_cast<std::int64_t>(A)) * ia + Integer(static_cast<std::int64_t>(B)) * ib;
+      const Integer nb = Integer(static_cast<std::int64_t>(C)) * ia + Integer(static_cast<std::int64_t>(D)) * ib;
+      a = na.limbs_;
+      b = nb.limbs_;
+    }
+    return from_limbs(std::move(a), false);
+  }
+
+  // Quotient and remainder of |x| / |y| (y != 0), both nonnegative (Knuth, TAOCP vol. 2, 4.3.1, algorithm D).
+  friend std::pair<Integer, Integer> divmod_magnitude(const Integer& x, const Integer& y) {
+    if (y.is_zero()) throw std::domain_error("divmod: division by zero");
+    auto [q, r] = divmod_magnitudes(x.limbs_, y.limbs_);
+    return {from_limbs(std::move(q), false), from_limbs(std::move(r), false)};
   }
 
   // This integer times 2^k (k >= 0).
@@ -201,6 +244,170 @@ class Integer {
  private:
   bool negative_ = false;
   std::vector<Limb> limbs_;
+
+  // Schoolbook below KARATSUBA_LIMBS limbs, Karatsuba above (the fallbacks' coefficients reach thousands of
+  // bits, their Sturm sequences tens of thousands).
+  static constexpr std::size_t KARATSUBA_LIMBS = 24;
+
+  static std::vector<Limb> schoolbook(const Limb* a, std::size_t n, const Limb* b, std::size_t m) {
+    std::vector<Limb> out(n + m, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      Limb carry = 0;
+      const Wide ai = a[i];
+      for (std::size_t j = 0; j < m; ++j) {
+        const Wide t = ai * b[j] + out[i + j] + carry;
+        out[i + j] = static_cast<Limb>(t);
+        carry = static_cast<Limb>(t >> 64);
+      }
+      out[i + m] = carry;
+    }
+    return out;
+  }
+
+  // out += x * 2^(64 shift), out long enough.
+  static void add_into(std::vector<Limb>& out, const std::vector<Limb>& x, std::size_t shift) {
+    Limb carry = 0;
+    std::size_t i = 0;
+    for (; i < x.size(); ++i) {
+      const Wide t = Wide(out[shift + i]) + x[i] + carry;
+      out[shift + i] = static_cast<Limb>(t);
+      carry = static_cast<Limb>(t >> 64);
+    }
+    for (std::size_t j = shift + i; carry && j < out.size(); ++j) {
+      const Wide t = Wide(out[j]) + carry;
+      out[j] = static_cast<Limb>(t);
+      carry = static_cast<Limb>(t >> 64);
+    }
+  }
+
+  // x -= y (x >= y as magnitudes, trailing zero limbs allowed).
+  static void sub_into(std::vector<Limb>& x, const std::vector<Limb>& y) {
+    Limb borrow = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const Limb yi = i < y.size() ? y[i] : 0;
+      const Limb d = x[i] - yi - borrow;
+      borrow = (x[i] < yi) || (x[i] - yi < borrow);
+      x[i] = d;
+    }
+  }
+
+  static std::vector<Limb> sum_of(const Limb* a, std::size_t n, const Limb* b, std::size_t m) {
+    std::vector<Limb> out(std::max(n, m) + 1, 0);
+    Limb carry = 0;
+    for (std::size_t i = 0; i + 1 < out.size(); ++i) {
+      const Wide t = Wide(i < n ? a[i] : 0) + (i < m ? b[i] : 0) + carry;
+      out[i] = static_cast<Limb>(t);
+      carry = static_cast<Limb>(t >> 64);
+    }
+    out.back() = carry;
+    return out;
+  }
+
+  static std::vector<Limb> multiply_magnitudes(const Limb* a, std::size_t n, const Limb* b, std::size_t m) {
+    if (n < m) return multiply_magnitudes(b, m, a, n);  // n >= m
+    if (m < KARATSUBA_LIMBS) return schoolbook(a, n, b, m);
+    const std::size_t h = n / 2;
+    std::vector<Limb> out(n + m, 0);
+    if (m <= h) {  // unbalanced: a = a1 B^h + a0, b whole
+      add_into(out, multiply_magnitudes(a, h, b, m), 0);
+      add_into(out, multiply_magnitudes(a + h, n - h, b, m), h);
+      return out;
+    }
+    // a = a1 B^h + a0, b = b1 B^h + b0: z1 = (a0 + a1)(b0 + b1) - z0 - z2
+    std::vector<Limb> z0 = multiply_magnitudes(a, h, b, h);
+    std::vector<Limb> z2 = multiply_magnitudes(a + h, n - h, b + h, m - h);
+    const std::vector<Limb> sa = sum_of(a, h, a + h, n - h), sb = sum_of(b, h, b + h, m - h);
+    std::vector<Limb> z1 = multiply_magnitudes(sa.data(), sa.size(), sb.data(), sb.size());
+    sub_into(z1, z0);
+    sub_into(z1, z2);
+    add_into(out, z0, 0);
+    add_into(out, z2, 2 * h);
+    while (!z1.empty() && z1.back() == 0) z1.pop_back();
+    add_into(out, z1, h);
+    return out;
+  }
+
+  static void trim_magnitude(std::vector<Limb>& x) {
+    while (!x.empty() && x.back() == 0) x.pop_back();
+  }
+
+  static int bits(const std::vector<Limb>& x) {
+    if (x.empty()) return 0;
+    return static_cast<int>(64 * (x.size() - 1)) + 64 - __builtin_clzll(x.back());
+  }
+
+  // The 62 bits of x at bit k upward (x >> k, x < 2^(k + 62)); k >= 0.
+  static Limb leading(const std::vector<Limb>& x, int k) {
+    const std::size_t i = static_cast<std::size_t>(k / 64);
+    const int s = k % 64;
+    const Limb lo = i < x.size() ? x[i] : 0, hi = i + 1 < x.size() ? x[i + 1] : 0;
+    return s ? (lo >> s) | (hi << (64 - s)) : lo;
+  }
+
+  // (u / v, u mod v) for magnitudes, v nonzero (Knuth's algorithm D, 64-bit limbs).
+  static std::pair<std::vector<Limb>, std::vector<Limb>> divmod_magnitudes(std::vector<Limb> u, std::vector<Limb> v) {
+    trim_magnitude(u);
+    trim_magnitude(v);
+    if (compare_magnitude(u, v) < 0) return {{}, u};
+    const std::size_t n = v.size(), m = u.size() - n;
+    std::vector<Limb> q(m + 1, 0);
+    if (n == 1) {
+      Wide r = 0;
+      for (std::size_t j = u.size(); j-- > 0;) {
+        const Wide cur = (r << 64) | u[j];
+        q[j] = static_cast<Limb>(cur / v[0]);
+        r = cur % v[0];
+      }
+      trim_magnitude(q);
+      std::vector<Limb> rem = {static_cast<Limb>(r)};
+      trim_magnitude(rem);
+      return {q, rem};
+    }
+    const int s = __builtin_clzll(v.back());  // normalise: the divisor's top bit set
+    std::vector<Limb> vn(n), un(u.size() + 1);
+    for (std::size_t i = n; i-- > 0;) vn[i] = (v[i] << s) | (s && i ? v[i - 1] >> (64 - s) : 0);
+    un[u.size()] = s ? u.back() >> (64 - s) : 0;
+    for (std::size_t i = u.size(); i-- > 0;) un[i] = (u[i] << s) | (s && i ? u[i - 1] >> (64 - s) : 0);
+    const Wide base = Wide(1) << 64;
+    for (std::size_t j = m + 1; j-- > 0;) {
+      const Wide num = (Wide(un[j + n]) << 64) | un[j + n - 1];
+      Wide qhat = num / vn[n - 1], rhat = num % vn[n - 1];
+      while (qhat >= base || qhat * vn[n - 2] > ((rhat << 64) | un[j + n - 2])) {
+        --qhat;
+        rhat += vn[n - 1];
+        if (rhat >= base) break;
+      }
+      // un[j .. j+n] -= qhat * vn
+      Limb borrow = 0, carry = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Wide p = qhat * vn[i] + carry;
+        carry = static_cast<Limb>(p >> 64);
+        const Limb lo = static_cast<Limb>(p);
+        const Limb x = un[i + j];
+        un[i + j] = x - lo - borrow;
+        borrow = (x < lo) || (x - lo < borrow);
+      }
+      const Limb x = un[j + n];
+      un[j + n] = x - carry - borrow;
+      const bool negative = (x < carry) || (x - carry < borrow);
+      if (negative) {  // qhat was one too large: add v back
+        --qhat;
+        Limb c = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+          const Wide t = Wide(un[i + j]) + vn[i] + c;
+          un[i + j] = static_cast<Limb>(t);
+          c = static_cast<Limb>(t >> 64);
+        }
+        un[j + n] += c;
+      }
+      q[j] = static_cast<Limb>(qhat);
+    }
+    std::vector<Limb> r(n);
+    for (std::size_t i = 0; i < n; ++i) r[i] = (un[i] >> s) | (s ? un[i + 1] << (64 - s) : 0);
+    trim_magnitude(q);
+    trim_magnitude(r);
+    return {q, r};
+  }
 
   void trim() {
     while (!limbs_.empty() && limbs_.back() == 0) limbs_.pop_back();

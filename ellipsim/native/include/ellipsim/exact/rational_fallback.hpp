@@ -15,9 +15,8 @@
 // u = D_a M^T G M z, S = (r_a0 r_a1 r_a2)^2 and E = sum_i z_i^2 S / r_ai^2: every coefficient an integer.
 // nu = P_b mu > 0 maps the positive roots of f onto those of h, so the theorem of Wang, Wang & Kim
 // (thesis ch. 4, Theorem 1) reads the relation off h's distinct positive roots: two separated, one (a
-// double root) touching, none overlapping.  They are counted by a Sturm sequence (thesis 4.2.1) built
-// as a subresultant sequence (Collins; Cohen, A Course in Computational Algebraic Number Theory,
-// algorithm 3.3.1), whose divisions are exact, with the sign of each term's scale tracked.
+// double root) touching, none overlapping.  They are counted by a Sturm sequence (thesis 4.2.1) of
+// primitive pseudo-remainders (polynomial.hpp), the sign of each term's scale tracked.
 #pragma once
 
 #include <cstdint>
@@ -28,100 +27,9 @@
 #include "../relation.hpp"
 #include "../vec3.hpp"
 #include "integer.hpp"
+#include "polynomial.hpp"
 
 namespace ellipsim::exact {
-
-// A polynomial with integer coefficients, highest degree first (as rational_fallback.py's lists).
-using Polynomial = std::vector<Integer>;
-
-inline Polynomial strip(Polynomial p) {
-  std::size_t i = 0;
-  while (i < p.size() && p[i].is_zero()) ++i;
-  p.erase(p.begin(), p.begin() + static_cast<std::ptrdiff_t>(i));
-  return p;
-}
-
-inline int degree(const Polynomial& p) { return static_cast<int>(p.size()) - 1; }
-
-// The pseudo-remainder lc(b)^(deg a - deg b + 1) (a mod b), b stripped and nonzero, deg a >= deg b.
-inline Polynomial pseudo_remainder(Polynomial a, const Polynomial& b) {
-  int e = degree(a) - degree(b) + 1;
-  const Integer& lead = b.front();
-  while (!a.empty() && degree(a) >= degree(b)) {
-    const Integer top = a.front();
-    for (std::size_t k = 0; k < a.size(); ++k) a[k] = a[k] * lead;  // lc(b) a - top x^(deg a - deg b) b
-    for (std::size_t k = 0; k < b.size(); ++k) a[k] = a[k] - top * b[k];
-    a.erase(a.begin());  // its leading term cancelled
-    a = strip(std::move(a));
-    --e;
-  }
-  Integer scale = 1;
-  for (int k = 0; k < e; ++k) scale = scale * lead;
-  if (e > 0)
-    for (Integer& c : a) c = c * scale;
-  return a;
-}
-
-// Sign changes in a sequence, zeros skipped.
-inline int sign_changes(const std::vector<int>& signs) {
-  int count = 0, last = 0;
-  for (int s : signs) {
-    if (s == 0) continue;
-    if (last != 0 && s != last) ++count;
-    last = s;
-  }
-  return count;
-}
-
-// Number of distinct roots in (0, inf) of a polynomial with a nonzero constant term (Sturm:
-// V(0) - V(+inf)).  The Sturm terms f_{i+1} = -rem(f_{i-1}, f_i) are the subresultant sequence's B_i up to
-// factors whose signs eps_i are tracked: rem(B_{i-1}, B_i) = B_{i+1} g h^delta / lc(B_i)^(delta + 1), so
-// eps_{i+1} = -eps_{i-1} sign(g) sign(h)^delta sign(lc(B_i))^(delta + 1).  Returns -1 for a zero constant term.
-inline int distinct_positive_roots(Polynomial p) {
-  p = strip(std::move(p));
-  if (p.empty() || p.back().is_zero()) return -1;
-  const int n = degree(p);
-  if (n == 0) return 0;
-  Polynomial dp;
-  for (int k = 0; k < n; ++k) dp.push_back(p[static_cast<std::size_t>(k)] * Integer(n - k));
-  std::vector<Polynomial> chain = {p, strip(dp)};
-  std::vector<int> eps = {1, 1};
-  Integer g = 1, h = 1;
-  while (degree(chain.back()) > 0) {
-    const Polynomial& a = chain[chain.size() - 2];
-    const Polynomial& b = chain.back();
-    const int delta = degree(a) - degree(b);
-    Polynomial r = pseudo_remainder(a, b);
-    if (r.empty()) break;  // b is the gcd: the chain ends (multiple roots share it; the count is unchanged)
-    Integer divisor = g;
-    for (int k = 0; k < delta; ++k) divisor = divisor * h;
-    for (Integer& c : r) c = divexact(c, divisor);
-    int sign = -eps[eps.size() - 2] * g.sign();
-    if (delta % 2 == 1) sign *= h.sign();
-    if ((delta + 1) % 2 == 1) sign *= b.front().sign();
-    const Integer lead = b.front();
-    chain.push_back(std::move(r));
-    eps.push_back(sign);
-    // g = lc(A) for the next step's A (today's b); h = g^delta / h^(delta - 1)
-    g = lead;
-    if (delta == 0) {
-      // h unchanged
-    } else if (delta == 1) {
-      h = g;
-    } else {
-      Integer num = 1, den = 1;
-      for (int k = 0; k < delta; ++k) num = num * g;
-      for (int k = 0; k < delta - 1; ++k) den = den * h;
-      h = divexact(num, den);
-    }
-  }
-  std::vector<int> at_zero, at_inf;
-  for (std::size_t i = 0; i < chain.size(); ++i) {
-    at_zero.push_back(eps[i] * chain[i].back().sign());
-    at_inf.push_back(eps[i] * chain[i].front().sign());
-  }
-  return sign_changes(at_zero) - sign_changes(at_inf);
-}
 
 // The pair with integer entries: R_a, R_b scaled by powers of two with their radii, every length by one
 // more (see the top of this file).
@@ -205,7 +113,7 @@ inline Polynomial pencil_polynomial(const Ellipsoid& A, const Ellipsoid& B) {
 // SEPARATED, TOUCHING or OVERLAPPING, exactly; -1 when the pencil's constant term is zero (a singular
 // rotation: never for a validated batch).
 inline int exact_relation(const Ellipsoid& A, const Ellipsoid& B) {
-  const int count = distinct_positive_roots(pencil_polynomial(A, B));
+  const int count = distinct_positive_roots(primitive(pencil_polynomial(A, B)));
   if (count == 2) return SEPARATED;
   if (count == 1) return TOUCHING;
   if (count == 0) return OVERLAPPING;

@@ -13,7 +13,7 @@ import pathlib
 
 FOLDER = pathlib.Path(__file__).resolve().parent
 #: what `pip install` compiles the module from (CMakeLists.txt hashes the same files)
-PATTERNS = ("include/**/*.hpp", "python/**/*.cpp", "python/**/*.hpp", "**/CMakeLists.txt")
+PATTERNS = ("include/**/*.hpp", "mujoco/**/*.hpp", "python/**/*.cpp", "python/**/*.hpp", "**/CMakeLists.txt")
 REBUILD = "pip install . (or, in a checkout installed for development, pip install -e .)"
 
 

@@ -1,9 +1,10 @@
 """The C++ pairs/ folder (issue 46) against the numba kernels it replaces, bit for bit.
 
 point_ellipsoid (foot3, foot2, their certified bounds, support, secular_roots, pole_normal, project_ellipse,
-from_plane, circle_max_bound), tangent_cones (tangent_point, cone_below, arc_below), capsule and box (every
-stage: the frame, the local solve, sigma, both certificates, enumerate_max from the incumbent and from nothing,
-the centre-line bound, and the kernels' whole results): on the capsule and box tests' poses (separated,
+from_plane, circle_max_bound), tangent_cones (tangent_point, cone_below, arc_below), capsule and box (the
+kernels' whole results, which hold the local solve, and at the centre line's direction the frame, sigma, both
+certificates, enumerate_max from there and from nothing, the centre-line bound; the box's face normals, edge
+planes, face cosines and point-box distance): on the capsule and box tests' poses (separated,
 touching, shallow, deep, parallel, flush faces, inside, floors, coaxial spheroids), every sample set's pairs
 read as an ellipsoid and a capsule or box (needles, spheres, degenerate poles, extreme scales and offsets),
 hypothesis's random poses and arbitrary finite floats.

@@ -83,6 +83,10 @@ ELLIPSIM_HD TangentBasis tangent(const Vec3& n) {
 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
 
+ELLIPSIM_HD Vec3 cross(const Vec3& x, const Vec3& y) {
+  return {x.y * y.z - x.z * y.y, x.z * y.x - x.x * y.z, x.x * y.y - x.y * y.x};
+}
+
 // The reduced Hessian (h11, h12, h22).
 struct Reduced {
   double h11, h12, h22;
@@ -203,10 +207,10 @@ ELLIPSIM_HD int pair_derivatives(const Ellipsoid& A, const Ellipsoid& B, const V
       c0 = 1.0, c1 = u, c2 = 1.0;  // scales back to world units: dist, normal, pos
     } else if (kind == 1) {
       // rotation: d g / d omega = -[g]x + J [n]x, d h / d omega = g x n
-      const Vec3 nxg = cross3(n, g);
+      const Vec3 nxg = cross(n, g);
       dv = at(nxg, axis);
-      const Vec3 Jn = matvec(Jm, cross3(n, e));
-      const Vec3 gxe = cross3(g, e);
+      const Vec3 Jn = matvec(Jm, cross(n, e));
+      const Vec3 gxe = cross(g, e);
       b = {gxe.x - Jn.x, gxe.y - Jn.y, gxe.z - Jn.z};  // -d g / d omega
       q = {-0.5 * b.x * -sign, -0.5 * b.y * -sign, -0.5 * b.z * -sign};
       c0 = iu, c1 = 1.0, c2 = iu;

@@ -16,6 +16,7 @@ import shutil
 import threading
 from fractions import Fraction
 
+import mujoco
 import numba
 import numpy as np
 import pytest
@@ -221,8 +222,38 @@ def test_the_module_is_built_from_these_sources_and_a_change_is_seen(tmp_path):
 
 def test_a_stale_module_is_refused_with_the_rebuild_command(monkeypatch):
     monkeypatch.setattr(native, "source_digest", lambda folder=None: "0" * 64)
-    with pytest.raises(ImportError, match=r"built from other sources than .*pip install"):
+    with pytest.raises(native.NativeImportError, match=r"built from other sources than .*pip install"):
         native._load()
+
+
+def test_a_module_built_against_another_mujoco_is_refused_in_one_line(monkeypatch):
+    assert native.mujoco_mismatch(ext.mujoco.MUJOCO_VERSION, mujoco.mj_version()) is None  # this install's
+    assert native.version_text(4000001) == "4.0.1" and native.version_text(12034005) == "12.34.5"
+    monkeypatch.setattr(mujoco, "mj_version", lambda: 4001000)
+    with pytest.raises(native.NativeImportError) as caught:
+        native._load()
+    message = str(caught.value)
+    assert "\n" not in message and caught.value.one_line
+    assert message.startswith(
+        f"ellipsim's compiled core was built against MuJoCo {native.version_text(ext.mujoco.MUJOCO_VERSION)}, "
+    )
+    assert "this process runs mujoco 4.1.0" in message and "pip install" in message
+
+
+def test_the_command_line_says_an_unusable_core_in_one_line_without_a_traceback(monkeypatch, capsys):
+    from ellipsim.app import cli
+    from ellipsim.app.cli import scenarios
+
+    def unusable(args):
+        raise native.NativeImportError(native.mujoco_mismatch(4000001, 4001000))
+
+    monkeypatch.setattr(scenarios, "list_scenarios", unusable)
+    assert cli.main(["list"]) == 1
+    err = capsys.readouterr().err
+    assert err == f"ellipsim: error: {native.mujoco_mismatch(4000001, 4001000)}\n"
+    monkeypatch.setattr(scenarios, "list_scenarios", lambda args: __import__("no_such_module_here"))
+    with pytest.raises(ModuleNotFoundError):  # any other ImportError is a bug: its traceback stays
+        cli.main(["list"])
 
 
 def test_the_binding_refuses_what_the_python_layer_never_passes():

@@ -5,7 +5,8 @@ floating-point flags).
 _ellipsim is installed as a top-level module beside the package, so that a source checkout (``python -m
 pytest`` puts the checkout's ``ellipsim/`` first on sys.path) uses the module its own sources built.  It
 carries the digest of those sources; a module built from other sources (a checkout edited since its last
-install) is refused with the command that rebuilds it, never run silently.
+install) is refused with the command that rebuilds it, never run silently.  Its MuJoCo glue reads mjModel and
+mjData through the headers of the mujoco it was built against: under another mujoco it is refused too.
 """
 
 import hashlib
@@ -15,6 +16,29 @@ FOLDER = pathlib.Path(__file__).resolve().parent
 #: what `pip install` compiles the module from (CMakeLists.txt hashes the same files)
 PATTERNS = ("include/**/*.hpp", "mujoco/**/*.hpp", "python/**/*.cpp", "python/**/*.hpp", "**/CMakeLists.txt")
 REBUILD = "pip install . (or, in a checkout installed for development, pip install -e .)"
+
+
+class NativeImportError(ImportError):
+    """The compiled core cannot be used as installed (missing, stale, or built against another MuJoCo); its
+    message is one line saying what to run.  The command line prints it as an error, not a traceback (it tells
+    it by `one_line`, without importing this module, whose import is what failed)."""
+
+    one_line = True
+
+
+def version_text(number):
+    """MuJoCo's version number (mj_version(), mjVERSION_HEADER: 1000000 major + 1000 minor + patch) as text."""
+    return f"{number // 1000000}.{number // 1000 % 1000}.{number % 1000}"
+
+
+def mujoco_mismatch(built, running):
+    """None when the glue's headers (`built`) are the running MuJoCo's (`running`), else the one-line reason."""
+    if built == running:
+        return None
+    return (
+        f"ellipsim's compiled core was built against MuJoCo {version_text(built)}, but this process runs mujoco "
+        f"{version_text(running)} (its structs may differ): {REBUILD}, with the mujoco you run installed"
+    )
 
 
 def source_digest(folder=FOLDER):
@@ -30,13 +54,18 @@ def _load():
     try:
         import _ellipsim
     except ImportError as exc:
-        raise ImportError(
+        raise NativeImportError(
             f"ellipsim's compiled core (the _ellipsim module) is not installed ({exc}): {REBUILD}"
         ) from None
     if _ellipsim.SOURCE_DIGEST != source_digest():
-        raise ImportError(
+        raise NativeImportError(
             f"ellipsim's compiled core at {_ellipsim.__file__} was built from other sources than {FOLDER}: {REBUILD}"
         )
+    import mujoco
+
+    reason = mujoco_mismatch(_ellipsim.mujoco.MUJOCO_VERSION, mujoco.mj_version())
+    if reason:
+        raise NativeImportError(reason)
     return _ellipsim
 
 

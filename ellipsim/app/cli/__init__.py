@@ -74,6 +74,12 @@ def main(argv=None):
         end_lines()
         print(f"ellipsim: error: {exc.cli_prefix}{exc}", file=sys.stderr)
         return 2
+    except ImportError as exc:  # ellipsim.native.NativeImportError: the compiled core is unusable as installed
+        if not getattr(exc, "one_line", False):
+            raise
+        end_lines()
+        print(f"ellipsim: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         end_lines()
         print(" ".join(["ellipsim: interrupted", *stop_notes]), file=sys.stderr)

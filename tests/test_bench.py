@@ -1,6 +1,7 @@
 """The benchmark suite's building blocks, and one quick run of `ellipsim bench`."""
 
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -266,3 +267,49 @@ def test_pile_xml_thickness_draws_thin_third_semi_axes():
     for bad in ((0.0, 0.01), (0.01, 0.002), (0.01, 0.2), 0.01):
         with pytest.raises(ValueError, match="thickness"):
             scenes.pile_xml(3, thickness=bad)
+
+
+def test_baseline_must_be_an_interpreter_with_ellipsim(tmp_path, capsys):
+    assert (
+        main(["bench", "--quick", "--only", "baseline", "--baseline", str(tmp_path / "nope"), "--out", str(tmp_path)])
+        == 2
+    )
+    err = capsys.readouterr().err
+    assert (
+        err.startswith("ellipsim: error: --baseline: ") and "is not an executable file" in err and err.count("\n") == 1
+    )
+    assert main(["bench", "--quick", "--only", "baseline", "--baseline", "/bin/true", "--out", str(tmp_path)]) == 2
+    assert "/bin/true cannot import ellipsim: it printed no version" in capsys.readouterr().err
+    assert not (tmp_path / "report.md").exists()
+
+
+def test_baseline_section_without_a_baseline_says_so(tmp_path, monkeypatch):
+    from ellipsim.app.bench import baseline
+
+    monkeypatch.delenv(baseline.ENV, raising=False)
+    result = baseline.measure(dict(bench.SIZES["quick"], baseline=None))
+    lines = baseline.write(result, bench.SIZES["quick"], str(tmp_path), None)
+    assert any(line.startswith("Not run: no baseline interpreter given (--baseline PYTHON") for line in lines)
+
+
+@pytest.mark.slow
+def test_baseline_section_measures_every_public_function_on_both_sides(tmp_path, monkeypatch):
+    """This interpreter against itself: a row per public batch function, pair type and mj_step scene and mode."""
+    from ellipsim.app.bench import baseline
+
+    small = dict(bench.SIZES["quick"], baseline_pairs=40, baseline_steps=2, baseline_rounds=2, baseline_repeats=1)
+    monkeypatch.setitem(bench.SIZES, "quick", small)
+    monkeypatch.setattr(baseline, "STEP_SCENES", ("pile of 40 ellipsoids",))
+    monkeypatch.setitem(baseline.SCENES, "pile of 40 ellipsoids", (baseline.SCENES["pile of 40 ellipsoids"][0], 5))
+    assert main(["bench", "--quick", "--only", "baseline", "--baseline", sys.executable, "--out", str(tmp_path)]) == 0
+    report = (tmp_path / "report.md").read_text()
+    assert "## 13. This build against a baseline install" in report and "each side in 2 fresh processes" in report
+    rows = [line for line in report.splitlines() if line.startswith("| ") and "ns/pair" in line or "µs/step" in line]
+    names = {row.split(" | ")[0][2:] for row in rows}
+    for fn in ("classify method=exact", "classify_pairs", "characteristic_polynomial", "contact_scale", "contains"):
+        assert fn in names, fn
+    for kind in ("capsule", "box", "cylinder"):
+        assert {f"shape_distance {kind}", f"shape_distance {kind} derivatives=True"} <= names
+    assert {"signed_distance (near contact)", "signed_distance derivatives=True", "time_of_impact"} <= names
+    assert {f"mj_step pile of 40 ellipsoids, {mode}" for mode in ("builtin", "filter", "narrowphase")} <= names
+    assert "Slower than the baseline in every round: " in report

@@ -25,6 +25,8 @@ each:
    again: each cell's speed-up as median, lowest and highest over the runs
 12. validation: MuJoCo's contacts judged against the exact test on the shipped scenes and a scene of
    every pair type: disagreements by kind, MuJoCo's normals against the exact ones, the cost per step
+13. baseline: this build against another install (--baseline PYTHON): every public function per pair and
+   mj_step per scene and mode, side by side in alternating processes
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -35,6 +37,7 @@ import time
 
 from . import (
     accuracy,
+    baseline,
     gradients,
     inside_mujoco,
     motion,
@@ -62,12 +65,14 @@ SECTIONS = {
     "gradients": gradients,
     "pairs": pair_spread,
     "validation": validation,
+    "baseline": baseline,
 }
 
 
-def run(out_dir, *, quick=False, only=None):
+def run(out_dir, *, quick=False, only=None, baseline=None):
     """Run the suite (or the sections named in `only`) and write out_dir/report.md and its plots.
 
+    baseline: the interpreter of another install for section 13 (None: $ELLIPSIM_BASELINE_PYTHON, else skipped).
     Returns (path of the report, seconds).
     """
     pyplot = plt()
@@ -77,7 +82,7 @@ def run(out_dir, *, quick=False, only=None):
     if unknown:
         raise ValueError(f"only must name sections of {tuple(SECTIONS)}, got {unknown[0]!r}")
     os.makedirs(out_dir, exist_ok=True)
-    size = SIZES["quick" if quick else "full"]
+    size = dict(SIZES["quick" if quick else "full"], baseline=baseline)
     t_start = time.perf_counter()
     body = []
     for name in names:

@@ -50,6 +50,10 @@ SIZES = {
         motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024),
         motion_contains=10_000,
         speculative=60,
+        baseline_pairs=2_000,
+        baseline_steps=50,
+        baseline_rounds=2,
+        baseline_repeats=3,
     ),
     "full": dict(
         generic=1_000_000,
@@ -75,6 +79,10 @@ SIZES = {
         motion_samples=(2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096),
         motion_contains=200_000,
         speculative=400,
+        baseline_pairs=20_000,
+        baseline_steps=200,
+        baseline_rounds=5,
+        baseline_repeats=5,
     ),
 }
 FLOAT_METHODS = [

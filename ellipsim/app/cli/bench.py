@@ -21,6 +21,7 @@ SECTIONS = {
     "gradients": "exact derivatives against without; `ellipsim fix` on the replay dance",
     "pairs": "section mujoco's pair-type table measured ten times: median, lowest, highest",
     "validation": "MuJoCo's contacts judged against the exact test: disagreements by kind, normals, cost",
+    "baseline": "this build against another install (--baseline PYTHON), function by function, step by step",
 }
 
 
@@ -36,10 +37,16 @@ def bench(args):
         __import__("mpmath")
     except ImportError:
         raise UserError(f"ellipsim bench needs matplotlib and mpmath: {install_hint('bench')}") from None
+    if args.baseline is not None:
+        from ellipsim.app.bench.baseline import check_baseline
+
+        reason = check_baseline(args.baseline)
+        if reason:
+            raise UserError(f"--baseline: {reason}")
     from ellipsim.app import bench as suite
 
     print(f"ellipsim bench{' --quick' if args.quick else ''}: writing {args.out}/report.md and plots", flush=True)
-    path, seconds = suite.run(args.out, quick=args.quick, only=args.only)
+    path, seconds = suite.run(args.out, quick=args.quick, only=args.only, baseline=args.baseline)
     print(f"  done in {seconds:.0f} s: {path}")
     return 0
 
@@ -64,5 +71,10 @@ def add_parser(sub):
         choices=list(SECTIONS),
         metavar="SECTION",
         help="run only these sections of the suite (listed below)",
+    )
+    p.add_argument(
+        "--baseline",
+        metavar="PYTHON",
+        help="section baseline: the interpreter of another ellipsim install to measure against (a venv's python)",
     )
     p.set_defaults(run=bench)

@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..relation import OVERLAPPING, SEPARATED, UNDECIDED
@@ -269,5 +270,5 @@ def _certify(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
 def certify(a, b, n, parallel):
     """int8 (n,): SEPARATED / OVERLAPPING where the float path is certain, UNDECIDED (-1) elsewhere."""
     out = np.empty(n, dtype=np.int8)
-    threads.run(_certify, n, parallel, a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
+    threads.run(ext.certify, n, parallel, a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
     return out

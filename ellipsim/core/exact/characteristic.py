@@ -11,6 +11,7 @@ det(lambda A + B).  Both assume R^{-1} = R^T, as the thesis does.
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import check_choice, check_pair, check_parallel
@@ -145,5 +146,5 @@ def characteristic_polynomial(a, b, *, setup="rearranged", parallel=None):
     parallel = check_parallel(parallel, n)
     out = np.empty((n, 5))
     arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
-    threads.run(_polynomials, n, parallel, *arrays, setup == "cofactor", out)
+    threads.run(ext.polynomials, n, parallel, *arrays, setup == "cofactor", out)
     return out

@@ -9,14 +9,14 @@ path (certified_filter.py) and exact rationals where that path is unsure (ration
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel, indices_of
 from ..relation import UNDECIDED
 from ..tolerances import SMALL_BATCH_PAIRS
 from ..vec3 import load
-from . import rational_fallback as rational
-from .certified_filter import _certify, certify, certify_pair
+from .certified_filter import certify, certify_pair
 from .characteristic import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
 from .root_tests import descartes_relation, sturm_relation
 
@@ -43,16 +43,9 @@ def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out, lo, hi):
 
 
 def resolve_undecided(a, b, out):
-    """Replace every UNDECIDED entry of `out` by the exact relation (rational arithmetic)."""
-    undecided = indices_of(out, UNDECIDED)
-    if not len(undecided):
-        return out
-    sa, sb = int(len(a) > 1), int(len(b) > 1)
-    for i in undecided:
-        ia, ib = i * sa, i * sb
-        out[i] = rational.relation(
-            a.centers[ia], a.rotations[ia], a.radii[ia], b.centers[ib], b.rotations[ib], b.radii[ib]
-        )
+    """Replace every UNDECIDED entry of `out` by the exact relation (integer arithmetic,
+    include/ellipsim/exact/rational_fallback.hpp; rational_fallback.py is the same in Fractions)."""
+    ext.resolve(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out, 0, len(out))
     return out
 
 
@@ -82,13 +75,13 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
         if n > SMALL_BATCH_PAIRS:
             return resolve_undecided(a, b, certify(a, b, n, parallel))
         out = np.empty(n, dtype=np.int8)  # certify's kernel in one piece, as threads.run would run it
-        _certify(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out, 0, n)
+        ext.certify(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out, 0, n)
         return resolve_undecided(a, b, out)
     arrays = [a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii]
     if dtype == "float32":
         arrays = [x.astype(np.float32) for x in arrays]
     out = np.empty(n, dtype=np.int8)
-    threads.run(_classify_float, n, parallel, *arrays, setup == "cofactor", method == "sturm", out)
+    threads.run(ext.classify_float, n, parallel, *arrays, setup == "cofactor", method == "sturm", out)
     return out
 
 
@@ -127,7 +120,7 @@ def classify_pairs(batch, first, second, *, parallel=None):
     k = len(first)
     out = np.empty(k, dtype=np.int8)
     threads.run(
-        _certify_indexed,
+        ext.certify_indexed,
         k,
         check_parallel(parallel, k),
         batch.centers,
@@ -137,9 +130,8 @@ def classify_pairs(batch, first, second, *, parallel=None):
         second,
         out,
     )
-    for i in indices_of(out, UNDECIDED):
-        a, b = first[i], second[i]
-        out[i] = rational.relation(
-            batch.centers[a], batch.rotations[a], batch.radii[a], batch.centers[b], batch.rotations[b], batch.radii[b]
-        )
+    undecided = indices_of(out, UNDECIDED)
+    if len(undecided):
+        a, b = batch[first[undecided]], batch[second[undecided]]
+        out[undecided] = resolve_undecided(a, b, out[undecided])
     return out

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import check_pair, check_parallel
@@ -135,5 +136,5 @@ def contact_scale(a, b, *, parallel=None):
     n = check_pair(a, b)
     out = np.empty(n)
     arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
-    threads.run(_contact_scales, n, check_parallel(parallel, n), *arrays, out)
+    threads.run(ext.contact_scales, n, check_parallel(parallel, n), *arrays, out)
     return out

@@ -14,12 +14,12 @@ import math
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..tolerances import PARALLEL_MIN_PAIRS, U
 
 
-@jit
 def sweep_and_prune(centers, rho):
     """Pairs (frame, i, j), i < j, whose bounding spheres overlap in each frame: sort by c - rho along
     the frame's axis of widest spread (figures in a line along y must not be swept along x), sweep.
@@ -28,37 +28,9 @@ def sweep_and_prune(centers, rho):
     of these pairs may collide at all (MuJoCo's contype, parent and exclude rules) is the caller's
     filter: a (g, g) matrix here would be quadratic in memory.
     """
-    F, g = centers.shape[0], centers.shape[1]
-    cap = 1024
-    out = np.empty((cap, 3), dtype=np.int64)
-    n = 0
-    for f in range(F):
-        axis, widest = 0, -1.0
-        for k in range(3):
-            spread = centers[f, :, k].max() - centers[f, :, k].min() if g else 0.0
-            if spread > widest:
-                axis, widest = k, spread
-        lo = centers[f, :, axis] - rho
-        order = np.argsort(lo)
-        for a in range(g):
-            i = order[a]
-            hi = centers[f, i, axis] + rho[i]
-            for b in range(a + 1, g):
-                j = order[b]
-                if lo[j] > hi:
-                    break
-                dx = centers[f, i, 0] - centers[f, j, 0]
-                dy = centers[f, i, 1] - centers[f, j, 1]
-                dz = centers[f, i, 2] - centers[f, j, 2]
-                r = rho[i] + rho[j]
-                if dx * dx + dy * dy + dz * dz <= r * r:
-                    if n == cap:
-                        bigger = np.empty((2 * cap, 3), dtype=np.int64)
-                        bigger[:n] = out[:n]
-                        out, cap = bigger, 2 * cap
-                    out[n, 0], out[n, 1], out[n, 2] = f, min(i, j), max(i, j)
-                    n += 1
-    return out[:n]
+    return ext.sweep_and_prune(
+        np.ascontiguousarray(centers, dtype=np.float64), np.ascontiguousarray(rho, dtype=np.float64)
+    )
 
 
 # --- between two frames ---------------------------------------------------------------------------
@@ -372,21 +344,21 @@ def swept_pairs(centers, rotations, radii, rho, allowed=None):
     if len(matrix) and matrix.shape != (g, g):
         raise ValueError(f"allowed must be a ({g}, {g}) matrix or a callable, got shape {matrix.shape}")
     out, count = np.empty((nb, BLOCK_ROOM * g, 2), dtype=np.int32), np.zeros(nb, dtype=np.int64)
-    threads.run(_block_pairs, nb * g, parallel, centers, rho, SWEEP_BLOCK, g, matrix, out, count)
+    threads.run(ext.block_pairs, nb * g, parallel, centers, rho, SWEEP_BLOCK, g, matrix, out, count)
     if count.max() > out.shape[1]:  # a crowded block: all of them again with room for the most
         out = np.empty((nb, int(count.max()), 2), dtype=np.int32)
-        threads.run(_block_pairs, nb * g, parallel, centers, rho, SWEEP_BLOCK, g, matrix, out, count)
+        threads.run(ext.block_pairs, nb * g, parallel, centers, rho, SWEEP_BLOCK, g, matrix, out, count)
     blocks = np.empty((int(count.sum()), 3), dtype=np.int64)
-    _compact(out, count, blocks)
+    ext.compact(out, count, blocks)
     if callable(allowed):
         blocks = np.ascontiguousarray(blocks[allowed(blocks[:, 1], blocks[:, 2])])
     axis, half, cap = capsules(radii)
     big = np.asarray(radii, dtype=np.float64).max(axis=1)
     ends, bend = np.empty((F, g, 2, 3)), np.empty((F - 1, g))
-    _capsule_motion(centers, rotations, axis, half, ends, bend)
+    ext.capsule_motion(centers, rotations, axis, half, ends, bend)
     keep = np.empty((len(blocks), SWEEP_BLOCK), dtype=bool)
     threads.run(
-        _step_pairs,
+        ext.step_pairs,
         len(blocks),
         len(blocks) >= PARALLEL_MIN_PAIRS,
         blocks,

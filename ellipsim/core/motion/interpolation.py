@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from ...native import ext
 from .._jit import jit, stage
 from ..ellipsoids import Ellipsoids
 from ..tolerances import HALF_TURN_TOL, OMEGA_ZERO
@@ -117,7 +118,7 @@ def rotation_vectors(x0, x1, name0="x0", name1="x1"):
     shortest arc is not defined.
     """
     w, angle = np.empty((len(x0), 3)), np.empty(len(x0))
-    _rotation_vectors(x0.rotations, x1.rotations, w, angle)
+    ext.rotation_vectors(x0.rotations, x1.rotations, w, angle)
     half = np.flatnonzero(math.pi - angle < HALF_TURN_TOL)
     if len(half):
         i = int(half[0])
@@ -261,5 +262,5 @@ def poses_at(x0, x1, t):
     if len(out):
         raise ValueError(f"t[{int(out[0])}] must lie in [0, 1], got {float(t[out[0]])!r}")
     C, R = np.empty((len(x0), 3)), np.empty((len(x0), 3, 3))
-    _poses_at(x0.centers, x0.rotations, x1.centers, x1.rotations, rotation_vectors(x0, x1), t, C, R)
+    ext.poses_at(x0.centers, x0.rotations, x1.centers, x1.rotations, rotation_vectors(x0, x1), t, C, R)
     return Ellipsoids(C, R, x0.radii)

@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import check_pair, check_parallel
@@ -379,11 +380,11 @@ def signed_distance(a, b, *, max_iter=NEWTON_MAX_ITER, parallel=None, derivative
     arrays = (a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii)
     parallel = check_parallel(parallel, n)
     if n <= SMALL_BATCH_PAIRS:  # in one piece, as threads.run would run it, without its call (issue 20)
-        _distances(*arrays, int(max_iter), dist, normal, pos, status, 0, n)
+        ext.signed_distances(*arrays, int(max_iter), dist, normal, pos, status, 0, n)
     else:
-        threads.run(_distances, n, parallel, *arrays, int(max_iter), dist, normal, pos, status)
+        threads.run(ext.signed_distances, n, parallel, *arrays, int(max_iter), dist, normal, pos, status)
     if not derivatives:
         return dist, normal, pos, status
     out = dv.DistanceDerivatives(np.empty((n, 18)), np.empty((n, 3, 18)), np.empty((n, 3, 18)), np.empty(n, np.int8))
-    threads.run(dv._derivatives, n, parallel, *arrays, normal, status, *out)
+    threads.run(ext.derivatives, n, parallel, *arrays, normal, status, *out)
     return dist, normal, pos, status, out

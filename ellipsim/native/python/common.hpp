@@ -73,6 +73,7 @@ inline auto in(const char* name) { return nb::arg(name).noconvert(); }
 void bind_exact(nb::module_& m, nb::module_& testing);
 void bind_distance(nb::module_& m, nb::module_& testing);
 void bind_pairs(nb::module_& m, nb::module_& testing);
+void bind_pair_derivatives(nb::module_& m, nb::module_& testing);
 void bind_motion(nb::module_& m, nb::module_& testing);
 void bind_mujoco(nb::module_& m, nb::module_& testing);
 

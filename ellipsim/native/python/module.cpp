@@ -22,6 +22,7 @@ NB_MODULE(_ellipsim, m) {
   ellipsim::binding::bind_exact(m, t);
   ellipsim::binding::bind_distance(m, t);
   ellipsim::binding::bind_pairs(m, t);
+  ellipsim::binding::bind_pair_derivatives(m, t);
   ellipsim::binding::bind_motion(m, t);
   ellipsim::binding::bind_mujoco(m, t);
 

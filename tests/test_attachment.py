@@ -9,7 +9,7 @@ import pytest
 
 import ellipsim.mujoco as plugin
 from ellipsim.mujoco import attachment as attach_module
-from ellipsim.mujoco import nativecache, structs
+from ellipsim.native import ext
 
 PILE = """<mujoco><option timestep="0.002"/><worldbody>
   <geom type="plane" size="2 2 .1"/>
@@ -120,9 +120,7 @@ def test_other_geom_types_and_bitmasks_pass_through_unchanged():
 
 
 def call_filter(model, data, g1, g2):
-    fn = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int)(
-        nativecache.function("filter").address
-    )
+    fn = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int)(ext.mujoco.FILTER)
     return fn(model._address, data._address, g1, g2)
 
 
@@ -201,19 +199,6 @@ def test_misuse_is_a_clear_error():
                 pass
     finally:
         mujoco.set_mjcb_contactfilter(None)
-
-
-def test_attach_refuses_a_struct_layout_that_does_not_verify(monkeypatch):
-    """The offsets are checked on every attached (model, data) before anything is installed."""
-    model = mujoco.MjModel.from_xml_string(pile_xml(4))
-    data = mujoco.MjData(model)
-    lay = structs.layout()
-    wrong = {**lay, "data": {**lay["data"], "geom_xpos": lay["data"]["geom_xpos"] + 8}}
-    monkeypatch.setattr(structs, "layout", lambda: wrong)
-    with pytest.raises(structs.LayoutError, match="mjData.geom_xpos at offset .* ellipsim's struct layout is wrong"):
-        with plugin.attach(model, data, mode="narrowphase"):
-            pass
-    assert not attach_module._state["attached"] and attach_module._state["table"] is None
 
 
 def test_two_models_attached_at_once():

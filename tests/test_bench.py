@@ -169,10 +169,10 @@ def test_in_situ_noop_slots_are_restored_and_calls_counted():
     import mujoco
 
     from ellipsim.app.bench import inside_mujoco
-    from ellipsim.mujoco import structs
+    from ellipsim.mujoco import publish
     from ellipsim.mujoco.context import PAIR_TYPES
 
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     before = [table[row.type1 * n + row.type2] for row in PAIR_TYPES]
     with inside_mujoco._noop_installed():
         assert all(table[row.type1 * n + row.type2] == inside_mujoco._noop_address() for row in PAIR_TYPES)
@@ -191,9 +191,9 @@ def test_narrow_calls_counts_every_call_and_restores_the_table():
     import mujoco
 
     from ellipsim.app.bench import inside_mujoco
-    from ellipsim.mujoco import structs
+    from ellipsim.mujoco import publish
 
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     before = list(table)
     model, data, state = _small_pile()
     calls = inside_mujoco.narrow_calls(model, data, state, 5)

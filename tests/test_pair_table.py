@@ -68,7 +68,7 @@ def test_rows_are_in_mujocos_order_and_name_distinct_words():
 def test_context_holds_mujocos_function_of_every_row():
     publish.fill_context()
     assert attachment._state["table"] is None  # nothing attached: the table holds MuJoCo's own functions
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     for row in PAIR_TYPES:
         assert context.CONTEXT[row.fallback] == table[row.type1 * n + row.type2], row.name
 
@@ -84,12 +84,12 @@ def _model(types, spacing=1.0, extra=""):
 
 def test_every_row_and_no_other_entry_is_installed_and_restored():
     model = _model(["ellipsoid", "sphere", "capsule", "cylinder", "box", "ellipsoid"])
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     before = list(table)
     rows = {(row.type1, row.type2) for row in PAIR_TYPES}
     with em.attach(model, mujoco.MjData(model), mode="narrowphase") as att:
         assert att.installed
-        fn = nativecache.function("narrowphase").address
+        fn = ext.mujoco.NARROWPHASE
         for t1 in range(n):
             for t2 in range(n):
                 want = fn if (t1, t2) in rows else before[t1 * n + t2]
@@ -224,7 +224,7 @@ def test_the_narrow_phase_computes_and_counts_every_row():
     model, pairs = _row_model()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     theirs = {row: nativecache._CTYPES["narrowphase"](table[row.type1 * n + row.type2]) for row in PAIR_TYPES}
     fn = nativecache.function("narrowphase").ctypes
     with em.attach(model, data, mode="narrowphase") as att:

@@ -11,7 +11,7 @@ from test_capsule import capsule_pile_xml
 
 import ellipsim.mujoco as em
 from ellipsim.app import scenes
-from ellipsim.mujoco import structs
+from ellipsim.mujoco import publish
 
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 
@@ -85,7 +85,7 @@ def test_geom_distance_of_a_data_not_attached_is_mujocos_own_function():
     mujoco.mj_forward(model, mine)
     ell = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID)
     pairs = [(int(a), int(b)) for a in ell[:12] for b in ell[:12] if a < b]
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     convex = ctypes.CFUNCTYPE(
         ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
     )(table[ELL * n + ELL])

@@ -5,20 +5,22 @@
             mujoco.mj_step(model, data)
     att.counters
 
-The callbacks themselves are in callbacks.py, their machine code comes from nativecache.py (loaded
-without numba when cached; only the mode's callback, and none for a model without ellipsoid pairs).
-This module installs them in MuJoCo's process-global hooks (mjcb_contactfilter, the mjCOLLISIONFUNC
-table) while at least one data needs them, writes the registry rows they read (context.py), and puts
-MuJoCo's originals back when the last attachment ends.  An attachment covers one mjData by address:
+The callbacks themselves are C++, compiled with the package (ellipsim/native/mujoco/: contact_filter.hpp,
+narrowphase.hpp; their addresses are ext.mujoco.FILTER and ext.mujoco.NARROWPHASE).  This module installs
+them in MuJoCo's process-global hooks (mjcb_contactfilter, the mjCOLLISIONFUNC table) while at least one data
+needs them (only the mode's callback, and none for a model without ellipsoid pairs), writes the registry
+rows they read (context.py), and puts MuJoCo's originals back when the last attachment ends.  An attachment covers one mjData by address:
 after `spec.recompile(model, data)`, `att.reattach(new_model, new_data)` moves it to the new pair.
 """
 
+import ctypes
 import threading
 
 import mujoco
 import numpy as np
 
-from . import nativecache, structs
+from ..native import ext
+from . import publish
 from .context import (
     APART,
     CONTACTS,
@@ -38,6 +40,10 @@ from .context import (
 )
 
 MODES = ("filter", "narrowphase")
+#: mjfConFilt, int (*)(const mjModel*, mjData*, int geom1, int geom2): the filter as mujoco.set_mjcb_contactfilter takes it
+_FILTER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int)(
+    ext.mujoco.FILTER
+)
 _lock = threading.Lock()
 _state = {"previous": None, "filter_installed": False, "table": None, "attached": []}
 
@@ -133,15 +139,14 @@ def _install(attached_before, attachment):
             raise ValueError(
                 f"a contact filter callback is already installed ({current!r}); ellipsim's filter would replace it"
             )
-        mujoco.set_mjcb_contactfilter(nativecache.function("filter").ctypes)
+        mujoco.set_mjcb_contactfilter(_FILTER)
         _state["previous"], _state["filter_installed"] = current, True
     if attachment.mode == "narrowphase" and not any(a.mode == "narrowphase" for a in attached_before):
-        fn = nativecache.function("narrowphase")
-        table, ntypes = structs.collision_table()
+        table, ntypes = publish.collision_table()
         entries = tuple(row.type1 * ntypes + row.type2 for row in PAIR_TYPES)
         _state["table"] = {k: table[k] for k in entries}
         for k in entries:
-            table[k] = fn.address
+            table[k] = ext.mujoco.NARROWPHASE
 
 
 def _uninstall(attached_after):
@@ -150,7 +155,7 @@ def _uninstall(attached_after):
         mujoco.set_mjcb_contactfilter(_state["previous"])
         _state["previous"], _state["filter_installed"] = None, False
     if _state["table"] and not any(a.mode == "narrowphase" for a in attached_after):
-        table, _ = structs.collision_table()
+        table, _ = publish.collision_table()
         for k, original in _state["table"].items():
             table[k] = original
         _state["table"] = None
@@ -240,8 +245,7 @@ class Attachment:
         if self.mode != "record" and not ellipsoid_pair_possible(self.model, self.mode):
             self._open = True
             return self  # skip what the scene does not need: nothing is installed
-        structs.checked_layout()  # MuJoCo's version and struct layout, once per process (~8 ms)
-        structs.verify_fields(self.model, self.data)  # the offsets hold for this (model, data) (~0.3 ms)
+        publish.fill_context()  # the registry's address and MuJoCo's own functions, once per process
         with _lock:
             attached = _state["attached"]
             if any(a.data._address == self.data._address for a in attached):

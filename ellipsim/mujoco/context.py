@@ -1,22 +1,16 @@
 """What the compiled callbacks share with Python: the context words and the registry of attached datas.
 
-The callbacks (callbacks.py) are compiled once per machine and their machine code is cached across
-processes (nativecache.py), so they contain no per-process constant.  Everything that changes from
-one process to the next they read from CONTEXT, an int64 array whose address publish.py publishes to
-LLVM's symbol table under SYMBOL (`llvmlite.binding.add_symbol`); their code declares SYMBOL as an
-external global, which the JIT linker resolves each time the code is loaded:
+The callbacks (C++, ellipsim/native/mujoco/: context.hpp is this module's other half, with the same numbers)
+are MuJoCo's process-global hooks, so what changes from one process or one attached data to the next they
+read from CONTEXT, an int64 array whose address publish.fill_context hands them (ext.mujoco.set_context):
 
     CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS]       the registry below
     CONTEXT[FALLBACK_ELLIPSOID], CONTEXT[FALLBACK_SPHERE],  MuJoCo's own mjCOLLISIONFUNC entries for
     CONTEXT[FALLBACK_CAPSULE], CONTEXT[FALLBACK_BOX],       ellipsoid x ellipsoid, sphere x ellipsoid,
     CONTEXT[FALLBACK_CYLINDER]                             capsule x ellipsoid, ellipsoid x box,
                                                            ellipsoid x cylinder
-    CONTEXT[MODEL_WORDS[field]], CONTEXT[DATA_WORDS[field]] byte offsets of mjModel / mjData fields
-                                                           (structs.py)
 
-This module is the compiled code's ABI, so its text is part of the cache keys (nativecache.py hashes
-every module callbacks.py imports).  A change of the word layout must also change SYMBOL (`_v2`):
-an object built for the old layout then no longer links in a process with the new one.
+mjModel and mjData they read through MuJoCo's own structs (the headers the extension was built against).
 
 It also holds MuJoCo's geom type codes and PAIR_TYPES, the geom-type pairs ellipsim handles, for
 the whole glue: it imports nothing but mujoco and numpy.
@@ -27,27 +21,11 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-SYMBOL = "ellipsim_ctx_v5"  # v2: word 15 FALLBACK_CAPSULE; v3: registry columns 5, 6 (warm-start table); v4: words 16, 17 FALLBACK_BOX, _CYLINDER; v5: words 18, 19 (data time, opt.timestep), warm-start epochs
-
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
 FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER = 15, 16, 17
-#: pointer fields (the word at the offset holds the array's address) and, dotted, mjOption scalars
-MODEL_WORDS = {
-    "geom_type": 4,
-    "geom_contype": 5,
-    "geom_conaffinity": 6,
-    "geom_size": 7,
-    "geom_margin": 8,
-    "geom_gap": 9,
-    "opt.ccd_tolerance": 10,
-    "opt.o_margin": 11,
-    "opt.enableflags": 12,
-    "opt.timestep": 19,
-}
-#: pointer fields, and "time", a scalar (the word at the offset is the float64 itself)
-DATA_WORDS = {"geom_xpos": 13, "geom_xmat": 14, "time": 18}
+#: words 4-14 and 18-19 are unused (the numba callbacks' struct offsets, before the C++ glue)
 WORDS = 20
-CONTEXT = np.zeros(WORDS, dtype=np.int64)  # lives as long as the process: its address is published
+CONTEXT = np.zeros(WORDS, dtype=np.int64)  # lives as long as the process: the callbacks hold its address
 
 # Registry of attached datas.  Row 0: [highest slot ever used, ...]; slots 1..: [mjData address
 # (0: free), counters address, mode, pair buffer address, capacity, warm-start table address,
@@ -71,7 +49,7 @@ SEEN, DISCARDED, PASSED, RECORDED = 0, 1, 2, 3
 SEPARATED, CONTACTS, APART, FALLBACKS = 1, 2, 3, 4
 WARM_TIME, WARM_EPOCH = 0, 5
 
-# Warm-start table of a data attached in mode "narrowphase" (attachment.py owns it, callbacks.py reads
+# Warm-start table of a data attached in mode "narrowphase" (attachment.py owns it, the narrow phase reads
 # and writes it): WARM_SLOT_WORDS int64/float64 words per slot, [key << 1 | in contact, normal x, y, z,
 # the normal before it x, y, z, epoch] (the key g1 << 32 | g2 as int64, the normals of the pair's last
 # two calls, from g1 to g2 in the world frame, as float64, the table's epoch when written, int64);
@@ -81,7 +59,7 @@ WARM_TIME, WARM_EPOCH = 0, 5
 # then starts cold, as on a fresh data, so identical initial states give bit-identical trajectories.
 WARM_SLOT_WORDS = 8
 
-# MuJoCo's enum values, baked into the compiled code (the cache keys hold MuJoCo's version).
+# MuJoCo's geom type codes (the C++ glue uses MuJoCo's own enum, mjtGeom).
 SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
     int(mujoco.mjtGeom.mjGEOM_SPHERE),
     int(mujoco.mjtGeom.mjGEOM_CAPSULE),
@@ -106,13 +84,14 @@ class PairType(NamedTuple):
     filter: bool
     #: its geoms count towards the warm-start table's size (attachment.warm_slots)
     warm: bool
-    #: the kernel the narrow phase calls for it (callbacks.narrowphase)
+    #: the core's header the narrow phase calls for it (ellipsim/native/include/ellipsim/<kernel>.hpp)
     kernel: str
 
 
 #: Every geom-type pair ellipsim handles: the narrow phase replaces MuJoCo's table entry of each
 #: (attachment.py), the context holds MuJoCo's function for each (publish.py), the filter covers those
-#: marked `filter`, the recorder of candidate pairs (mode "record") and the validation (judge.py) all.  callbacks.py dispatches on geom types in compiled code, written out there;
+#: marked `filter`, the recorder of candidate pairs (mode "record") and the validation (judge.py) all.  The C++
+#: narrow phase (ellipsim/native/mujoco/narrowphase.hpp) dispatches on geom types, written out there;
 #: tests/test_pair_table.py checks that code against these rows.  Capsule geoms size the warm-start
 #: table though capsule pairs start cold: kept, as the table's size decides which pairs share a set,
 #: and so the trajectories.
@@ -125,7 +104,7 @@ PAIR_TYPES = (
         FALLBACK_ELLIPSOID,
         True,
         True,
-        "core.distance.ellipsoid_pair",
+        "distance/ellipsoid_pair",
     ),
     PairType(
         "sphere x ellipsoid",
@@ -135,7 +114,7 @@ PAIR_TYPES = (
         FALLBACK_SPHERE,
         True,
         True,
-        "core.distance.ellipsoid_pair",
+        "distance/ellipsoid_pair",
     ),
     PairType(
         "capsule x ellipsoid",
@@ -145,9 +124,9 @@ PAIR_TYPES = (
         FALLBACK_CAPSULE,
         False,
         True,
-        "core.pairs.capsule",
+        "pairs/capsule",
     ),
-    PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "core.pairs.box"),
+    PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "pairs/box"),
     PairType(
         "ellipsoid x cylinder",
         "ellipsoid-cylinder",
@@ -156,7 +135,7 @@ PAIR_TYPES = (
         FALLBACK_CYLINDER,
         False,
         False,
-        "core.pairs.cylinder",
+        "pairs/cylinder",
     ),
 )
 FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
@@ -165,5 +144,3 @@ OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 SPECULATIVE = int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE)
 #: a call this many timesteps after the table's last read starts a new epoch (RK4 moves by at most 1)
 WARM_JUMP = 1.5
-#: mjPreContact as the narrow phase writes it: float64 words dist, pos[3], normal[3], tangent[3]
-PRECONTACT_WORDS = {"dist": 0, "pos": 1, "normal": 4, "tangent": 7}

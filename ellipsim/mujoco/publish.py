@@ -1,50 +1,53 @@
-"""Publishing the context (context.py) to the callbacks' machine code, once per process.
+"""The context (context.py) handed to the compiled callbacks, once per process.
 
-publish_context makes SYMBOL resolve to context.CONTEXT in LLVM's JIT linker, before any object is
-linked (nativecache.load) or compiled (callbacks.compile_callback); fill_context writes the words the
-callbacks read: struct offsets (structs.checked_layout), the registry's address, and MuJoCo's own
-mjCOLLISIONFUNC entry of every row of context.PAIR_TYPES (the fallbacks).
+The callbacks are C++ (ellipsim/native/mujoco/: contact_filter.hpp, narrowphase.hpp), compiled against the
+headers of the mujoco the extension was built with (ellipsim.native refuses another at import); they read
+mjModel and mjData through MuJoCo's own structs.  What they cannot know at compile time they read from
+context.CONTEXT: the registry of attached datas and MuJoCo's own mjCOLLISIONFUNC entry of every row of
+context.PAIR_TYPES (the fallbacks).  `fill_context` writes those words and gives the callbacks CONTEXT's
+address (ext.mujoco.set_context) before the first callback is installed.
 """
 
+import ctypes
+import functools
+import glob
+import os
 import threading
 
-from . import structs
-from .context import CONTEXT, DATA_WORDS, MODEL_WORDS, PAIR_TYPES, REGISTRY, REGISTRY_ADDRESS, REGISTRY_ROWS, SYMBOL
+import mujoco
 
-_lock = threading.RLock()
-_state = {"published": False, "filled": False}
+from ..native import ext
+from .context import CONTEXT, PAIR_TYPES, REGISTRY, REGISTRY_ADDRESS, REGISTRY_ROWS
+
+_lock = threading.Lock()
+_state = {"filled": False}
 
 
-def publish_context():
-    """Make SYMBOL resolve to context.CONTEXT in this process's JIT linker (once; on first use, not
-    on import: it is process-wide)."""
-    with _lock:
-        if _state["published"]:
-            return
-        import llvmlite.binding as llb
+@functools.cache
+def mujoco_library():
+    """The libmujoco the bindings loaded (dlopen of the same path returns the same handle)."""
+    paths = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
+    if not paths:
+        raise RuntimeError(f"libmujoco not found next to {mujoco.__file__}")
+    return ctypes.CDLL(paths[0])
 
-        existing = llb.address_of_symbol(SYMBOL)
-        if existing is not None and existing != CONTEXT.ctypes.data:
-            raise RuntimeError(
-                f"{SYMBOL} is already defined in this process, at {existing:#x}: two copies of ellipsim?"
-            )
-        llb.add_symbol(SYMBOL, CONTEXT.ctypes.data)
-        _state["published"] = True
+
+def collision_table():
+    """MuJoCo's mjCOLLISIONFUNC[type1][type2] (exported by libmujoco, declared in engine_collision_driver.h) as a
+    flat ctypes array of function pointers, and mjNGEOMTYPES."""
+    n = int(mujoco.mjtGeom.mjNGEOMTYPES)
+    return (ctypes.c_void_p * (n * n)).in_dll(mujoco_library(), "mjCOLLISIONFUNC"), n
 
 
 def fill_context():
-    """Write the per-process values the callbacks read (once): struct offsets (verified layout),
-    the registry, MuJoCo's collision functions for the pairs ellipsim handles (the fallbacks)."""
+    """Write the per-process words the callbacks read (once): the registry, MuJoCo's collision functions for
+    the pairs ellipsim handles (read before ellipsim replaces any), and hand CONTEXT to the callbacks."""
     with _lock:
         if _state["filled"]:
             return
-        lay = structs.checked_layout()
-        table, ntypes = structs.collision_table()
-        for name, word in MODEL_WORDS.items():
-            CONTEXT[word] = lay["model"][name]
-        for name, word in DATA_WORDS.items():
-            CONTEXT[word] = lay["data"][name]
+        table, ntypes = collision_table()
         CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS] = REGISTRY.ctypes.data, REGISTRY.shape[0]
         for row in PAIR_TYPES:
             CONTEXT[row.fallback] = table[row.type1 * ntypes + row.type2]
+        ext.mujoco.set_context(CONTEXT.ctypes.data)
         _state["filled"] = True

@@ -24,17 +24,17 @@ import time
 from importlib import resources
 
 import mujoco
-import numba
 import numpy as np
 
 from ...core.distance.ellipsoid_pair import UNPROVEN, signed_distance
 from ...core.ellipsoids import Ellipsoids
 from ...core.exact.classify import classify
-from ...mujoco import nativecache, structs
+from ...mujoco import publish
 from ...mujoco.attachment import attach
 from ...mujoco.compare import compare_narrowphase
 from ...mujoco.context import PAIR_TYPES
 from ...mujoco.geoms import candidate_pairs
+from ...native import ext
 from .. import scenes
 from . import pair_types
 from .common import STEP_MODES, STEP_STATE, interleaved, relative, say, settled, step_segment, timed_steps
@@ -68,60 +68,27 @@ _NARROW_FN = ctypes.CFUNCTYPE(
 )
 
 
-_LOOPS = {}
-
-
-def _once(make):
-    """make(address) compiled once per process and address: the loops close over a ctypes function, and
-    compiling them anew per scene cost ~0.1 s each."""
-
-    def get(address):
-        if (make, address) not in _LOOPS:
-            _LOOPS[make, address] = make(address)
-        return _LOOPS[make, address]
-
-    return get
-
-
-@_once
 def _filter_loop(address):
-    fn = _FILTER_FN(address)
-
-    @numba.njit
-    def loop(m, d, pairs, reps):
-        total = 0
-        for _ in range(reps):
-            for k in range(pairs.shape[0]):
-                total += fn(m, d, pairs[k, 0], pairs[k, 1])
-        return total
-
-    return loop
+    """loop(m, d, pairs, reps): the filter at `address` over the pairs, reps times, in a compiled loop
+    (ext.bench.filter_loop): the time is the callback's own, not Python's."""
+    return lambda m, d, pairs, reps: ext.bench.filter_loop(address, m, d, pairs, reps)
 
 
-@_once
 def _narrow_loop(address):
-    fn = _NARROW_FN(address)
-
-    @numba.njit
-    def loop(m, d, con, pairs, margins, reps):
-        total = 0
-        for _ in range(reps):
-            for k in range(pairs.shape[0]):
-                total += fn(m, d, con, pairs[k, 0], pairs[k, 1], margins[k])
-        return total
-
-    return loop
+    """loop(m, d, con, pairs, margins, reps): the mjfCollision at `address` over the pairs, reps times, in a
+    compiled loop (ext.bench.collision_loop)."""
+    return lambda m, d, con, pairs, margins, reps: ext.bench.collision_loop(address, m, d, con, pairs, margins, reps)
 
 
 def per_pair(model, data, reps=100):
     """ns per call at data's state over the ellipsoid-ellipsoid candidate pairs, split by the exact
     relation: {"touching"|"separated": (ellipsim narrowphase, MuJoCo GJK/EPA, filter, pairs)}."""
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     theirs = _narrow_loop(table[ELL * n + ELL])
-    ours = _narrow_loop(nativecache.function("narrowphase").address)
-    filt = _filter_loop(nativecache.function("filter").address)
+    ours = _narrow_loop(ext.mujoco.NARROWPHASE)
+    filt = _filter_loop(ext.mujoco.FILTER)
     pairs = candidate_pairs(model, data)
-    pairs = np.ascontiguousarray(pairs[(model.geom_type[pairs] == ELL).all(axis=1)].astype(np.int64))
+    pairs = np.ascontiguousarray(pairs[(model.geom_type[pairs] == ELL).all(axis=1)].astype(np.int32))
     geoms = lambda g: Ellipsoids(data.geom_xpos[g], data.geom_xmat[g].reshape(-1, 3, 3), model.geom_size[g])  # noqa: E731
     touching = classify(geoms(pairs[:, 0]), geoms(pairs[:, 1])) != 0 if len(pairs) else np.zeros(0, bool)
     margins = model.geom_margin[pairs].sum(axis=1) + model.geom_gap[pairs].sum(axis=1)
@@ -337,27 +304,15 @@ def breakdown(runs, steps, rounds):
     return {name: {key: float(np.median([g[key] for g in rows])) for key in rows[0]} for name, rows in got.items()}
 
 
-_NOOP = {}
-
-
 def _noop_address():
-    """A compiled narrow-phase function that makes no contact (compiled once per process)."""
-    if not _NOOP:
-
-        @numba.cfunc(
-            numba.types.intc(*(numba.types.voidptr,) * 3, numba.types.intc, numba.types.intc, numba.types.float64)
-        )
-        def noop(m, d, con, g1, g2, margin):
-            return 0
-
-        _NOOP["fn"] = noop
-    return _NOOP["fn"].address
+    """A compiled narrow-phase function that makes no contact (ext.bench.NOOP)."""
+    return ext.bench.NOOP
 
 
 @contextlib.contextmanager
 def _noop_installed():
     """The no-op function in every collision-table slot ellipsim's narrow phase takes (context.PAIR_TYPES)."""
-    table, ntypes = structs.collision_table()
+    table, ntypes = publish.collision_table()
     slots = [row.type1 * ntypes + row.type2 for row in PAIR_TYPES]
     saved = [table[k] for k in slots]
     address = _noop_address()
@@ -410,7 +365,7 @@ def narrow_calls(model, data, state, steps):
     """Calls per step into MuJoCo's collision functions (every filled slot of mjCOLLISIONFUNC, whatever
     the pair type) over `steps` plain mj_step calls from `state`: each slot wrapped by a counting Python
     function that calls the one it replaces, restored after (a count: the wrapper's time is not measured)."""
-    table, ntypes = structs.collision_table()
+    table, ntypes = publish.collision_table()
     calls, keep, saved = [0], [], {}
 
     def counting(original):

@@ -11,16 +11,15 @@ ellipsim's on a data attached in mode "narrowphase", in interleaved rounds.  ell
 its fallbacks to MuJoCo's function (pairs whose maximum it could not prove), counted in the table.
 """
 
-import ctypes
-
 import mujoco
-import numba
 import numpy as np
 
-from ...core.pairs import box, capsule, cylinder
+from ...core.ellipsoids import Ellipsoids
+from ...core.pairs.shape_distance import shape_distance
 from ...core.rotations import quaternions_to_rotations
-from ...mujoco import nativecache, structs
+from ...mujoco import publish
 from ...mujoco.attachment import attach
+from ...native import ext
 from .common import interleaved
 
 KINDS = ("capsule", "box", "cylinder")
@@ -30,19 +29,11 @@ _TYPE = {
     "box": mujoco.mjtGeom.mjGEOM_BOX,
     "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
 }
-_KERNEL = {"capsule": capsule.capsule_ellipsoid, "box": box.box_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid}
-_FN = ctypes.CFUNCTYPE(
-    ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double
-)
 
 
-@numba.njit
 def _calls(fn, m, d, con, pairs, reps):
-    total = 0
-    for _ in range(reps):
-        for k in range(pairs.shape[0]):
-            total += fn(m, d, con, pairs[k, 0], pairs[k, 1], 0.0)
-    return total
+    """The mjfCollision at address fn over the pairs (margin 0), reps times, in a compiled loop."""
+    return ext.bench.collision_loop(fn, m, d, con, pairs, np.zeros(len(pairs)), reps)
 
 
 def _rotations(rng, n):
@@ -71,11 +62,8 @@ def poses(kind, category, n, rng):
         "touching": np.zeros(n),
         "penetrating": -rng.uniform(1e-6, 0.5, n) * small,
     }[category]
-    for i in range(n):
-        E = (tuple(cE[i]), tuple(RE[i].ravel()), tuple(rE[i]))
-        K = (tuple(cK[i]), tuple(RK[i].ravel()), tuple(sK[i]))
-        _, dist, normal, _, _ = _KERNEL[kind](E, K)
-        cK[i] = cK[i] - np.array(normal) * (dist - gap[i])
+    dist, normal, _, _ = shape_distance(Ellipsoids(cE, RE, rE), kind, cK, RK, sK, parallel=False)
+    cK = cK - normal * (dist - gap)[:, None]
     return cE, RE, rE, cK, RK, sK
 
 
@@ -96,19 +84,19 @@ def _model(kind, cE, RE, rE, cK, RK, sK):
     model = spec.compile()
     g = np.arange(len(cE), dtype=np.int64)
     pairs = np.stack([2 * g + 1, 2 * g], 1) if kind == "capsule" else np.stack([2 * g, 2 * g + 1], 1)
-    return model, np.ascontiguousarray(pairs)
+    return model, np.ascontiguousarray(pairs, dtype=np.int32)
 
 
 def measure(size, n=None, seed=0):
     """{kind: {category: (ellipsim ns, MuJoCo ns, fallbacks, pairs)}}."""
     n = n or size["pair_types"]
     rng = np.random.default_rng(seed)
-    table, ntypes = structs.collision_table()
-    ours = _FN(nativecache.function("narrowphase").address)
+    table, ntypes = publish.collision_table()
+    ours = ext.mujoco.NARROWPHASE
     out = {}
     for kind in KINDS:
         t1, t2 = sorted((int(_TYPE[kind]), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)))
-        theirs = _FN(table[t1 * ntypes + t2])
+        theirs = table[t1 * ntypes + t2]
         out[kind] = {}
         for category in CATEGORIES:
             model, pairs = _model(kind, *poses(kind, category, n, rng))

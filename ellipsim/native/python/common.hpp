@@ -76,5 +76,6 @@ void bind_pairs(nb::module_& m, nb::module_& testing);
 void bind_pair_derivatives(nb::module_& m, nb::module_& testing);
 void bind_motion(nb::module_& m, nb::module_& testing);
 void bind_mujoco(nb::module_& m, nb::module_& testing);
+void bind_bench(nb::module_& m, nb::module_& testing);
 
 }  // namespace ellipsim::binding

@@ -25,6 +25,7 @@ NB_MODULE(_ellipsim, m) {
   ellipsim::binding::bind_pair_derivatives(m, t);
   ellipsim::binding::bind_motion(m, t);
   ellipsim::binding::bind_mujoco(m, t);
+  ellipsim::binding::bind_bench(m, t);
 
   t.def("multiply_add", &multiply_add, "a"_a, "b"_a, "c"_a);
   nb::dict constants;  // every constant of tolerances.hpp (tests/test_native.py: the same as tolerances.py)

@@ -1,6 +1,7 @@
 // The binding of the MuJoCo glue (mujoco/*.hpp): the callbacks' addresses, for ellipsim.mujoco to install
 // in MuJoCo's hooks, the context they read, and the MuJoCo version the glue was compiled against.
 #include "../mujoco/contact_filter.hpp"
+#include "../mujoco/narrowphase.hpp"
 
 #include "common.hpp"
 
@@ -12,6 +13,7 @@ void bind_mujoco(nb::module_& m, nb::module_& t) {
   nb::module_ g = m.def_submodule("mujoco", "ellipsim's MuJoCo callbacks, compiled against MuJoCo's headers.");
   g.attr("MUJOCO_VERSION") = mjVERSION_HEADER;  // the headers the glue was built against
   g.attr("FILTER") = reinterpret_cast<std::uintptr_t>(&glue::ellipsim_contact_filter);
+  g.attr("NARROWPHASE") = reinterpret_cast<std::uintptr_t>(&glue::ellipsim_narrowphase);  // an mjfCollision
   g.def(
       "set_context",
       [](std::uintptr_t address) {

@@ -1,6 +1,5 @@
 """What the capsule, box and cylinder tests check alike inside MuJoCo: agreement with MuJoCo run
-tight on a pile, bit-identical plain datas, the table entry installed and restored, and the error
-path answering with MuJoCo's own function.  Each takes the pair's geom types (t1 <= t2, MuJoCo's
+tight on a pile, bit-identical plain datas, the table entry installed and restored.  Each takes the pair's geom types (t1 <= t2, MuJoCo's
 table order)."""
 
 import math
@@ -12,7 +11,8 @@ from scipy.spatial.transform import Rotation as Rot
 import ellipsim.mujoco as em
 from ellipsim.core.rotations import quaternions_to_rotations
 from ellipsim.core.tolerances import ANGLE_TOL, DIST_TOL, NEAR_TANGENT, POS_TOL
-from ellipsim.mujoco import callbacks, nativecache, structs
+from ellipsim.mujoco import publish
+from ellipsim.native import ext
 
 
 def random_rotations(rng, m):
@@ -89,25 +89,6 @@ def entry_installed_and_restored(xml, t1, t2):
     with em.attach(model, mujoco.MjData(model), mode="narrowphase") as att:
         assert att.installed and table[t1 * n + t2] == ext.mujoco.NARROWPHASE
     assert table[t1 * n + t2] == before
-
-
-def error_status_answers_as_mujoco(xml, t1, t2):
-    """The wrapper's error path (callbacks._wrapper_for) for geoms 0 and 1 of xml (types t1, t2):
-    MuJoCo's own contact, from the (t1, t2) entry."""
-    from test_startup import failing_narrowphase
-
-    nativecache.fill_context()
-    narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)
-    model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    table, n = publish.collision_table()
-    ours = nativecache._CTYPES["narrowphase"](narrow.address)
-    theirs = nativecache._CTYPES["narrowphase"](table[t1 * n + t2])
-    got, want = np.zeros(64), np.zeros(64)
-    assert ours(model._address, data._address, got.ctypes.data, 0, 1, 0.0) == 1
-    assert theirs(model._address, data._address, want.ctypes.data, 0, 1, 0.0) == 1
-    np.testing.assert_array_equal(got[:10], want[:10])
 
 
 # --- the kernels' poses and their check against the dense reference ------------------------------

@@ -10,7 +10,6 @@ import pytest
 from pair_types import (
     check_against_reference,
     entry_installed_and_restored,
-    error_status_answers_as_mujoco,
     far_poses,
     pile_agrees_with_tight_mujoco,
     place_gaps,
@@ -168,15 +167,6 @@ def test_box_entry_is_installed_and_restored():
     entry_installed_and_restored(
         '<mujoco><worldbody><body><freejoint/><geom type="box" size=".05 .1 .2"/></body>'
         '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>',
-        ELL,
-        BOX,
-    )
-
-
-def test_an_error_status_answers_with_mujocos_box_function():
-    error_status_answers_as_mujoco(
-        '<mujoco><worldbody><geom type="ellipsoid" size=".1 .2 .3" euler="30 0 0"/>'
-        '<geom type="box" size=".1 .2 .05" pos=".1 .02 .05"/></worldbody></mujoco>',
         ELL,
         BOX,
     )

@@ -12,7 +12,6 @@ from pair_types import (
     check_against_reference,
     coaxial_poses,
     entry_installed_and_restored,
-    error_status_answers_as_mujoco,
     far_poses,
     pile_agrees_with_tight_mujoco,
     place_gaps,
@@ -180,12 +179,3 @@ def test_capsule_entry_is_installed_and_restored():
     model = mujoco.MjModel.from_xml_string(xml)
     with em.attach(model, mujoco.MjData(model), mode="filter") as att:
         assert not att.installed  # the filter handles no capsule pair
-
-
-def test_an_error_status_answers_with_mujocos_capsule_function():
-    error_status_answers_as_mujoco(
-        '<mujoco><worldbody><geom type="capsule" size=".05 .1" euler="30 0 0"/>'
-        '<geom type="ellipsoid" size=".1 .2 .3" pos=".1 .02 .05"/></worldbody></mujoco>',
-        CAP,
-        ELL,
-    )

@@ -12,7 +12,6 @@ from pair_types import (
     check_against_reference,
     coaxial_poses,
     entry_installed_and_restored,
-    error_status_answers_as_mujoco,
     far_poses,
     pile_agrees_with_tight_mujoco,
     place_gaps,
@@ -523,15 +522,6 @@ def test_cylinder_entry_is_installed_and_restored():
     entry_installed_and_restored(
         '<mujoco><worldbody><body><freejoint/><geom type="cylinder" size=".05 .1"/></body>'
         '<body pos="0 0 .3"><freejoint/><geom type="ellipsoid" size=".1 .1 .2"/></body></worldbody></mujoco>',
-        ELL,
-        CYL,
-    )
-
-
-def test_an_error_status_answers_with_mujocos_cylinder_function():
-    error_status_answers_as_mujoco(
-        '<mujoco><worldbody><geom type="ellipsoid" size=".1 .2 .3" euler="30 0 0"/>'
-        '<geom type="cylinder" size=".1 .05" pos=".1 .02 .05"/></worldbody></mujoco>',
         ELL,
         CYL,
     )

@@ -1,7 +1,9 @@
-"""The glue's one table of pair types (context.PAIR_TYPES) against the code that uses it, and the
-Python-side glue modules load no callback code (no import cycle anywhere: tests/test_layout.py)."""
+"""The glue's one table of pair types (context.PAIR_TYPES) against the code that uses it (the C++ callbacks
+included), and the Python-side glue modules load no numba (no import cycle anywhere: tests/test_layout.py)."""
 
 import ctypes
+import pathlib
+import re
 import subprocess
 import sys
 
@@ -11,8 +13,9 @@ import pytest
 
 import ellipsim.mujoco as em
 from ellipsim.core.tolerances import DIST_TOL
-from ellipsim.mujoco import attachment, context, geoms, judge, nativecache, publish, structs
+from ellipsim.mujoco import attachment, context, geoms, judge, publish
 from ellipsim.mujoco.context import FILTER_PAIR_TYPES, PAIR_TYPES, RECORDED
+from ellipsim.native import ext
 
 TYPES = {
     "plane": int(mujoco.mjtGeom.mjGEOM_PLANE),
@@ -26,20 +29,15 @@ SIZES = {"sphere": ".12", "capsule": ".08 .15", "ellipsoid": ".1 .15 .2", "cylin
 NAMES = {v: k for k, v in TYPES.items()}
 
 
-@pytest.mark.parametrize("module", ["geoms", "compare", "validate"])
-def test_python_side_glue_loads_no_callback_code(module):
-    """geoms, compare and validate use core's kernels (numba, and so llvmlite) but not the cfuncs."""
-    code = (
-        f"import sys, ellipsim.mujoco.{module}\n"
-        "print(' '.join(m for m in ('ellipsim.mujoco.callbacks', 'numba.core.ccallback', 'ellipsim.core.pairs.box')"
-        " if m in sys.modules))\n"
-    )
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert proc.stdout.split() == []
+NATIVE = pathlib.Path(__file__).resolve().parents[1] / "ellipsim" / "native"
+NARROW_T = ctypes.CFUNCTYPE(
+    ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
+)
+FILTER_T = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int)
 
 
-@pytest.mark.parametrize("module", ["context", "publish"])
-def test_context_and_its_publishing_load_neither_numba_nor_llvmlite(module):
+@pytest.mark.parametrize("module", ["context", "publish", "attachment", "geoms", "compare", "validate"])
+def test_the_glue_loads_neither_numba_nor_llvmlite(module):
     code = (
         f"import sys, ellipsim.mujoco.{module}\n"
         "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite'))))\n"
@@ -52,17 +50,27 @@ def test_rows_are_in_mujocos_order_and_name_distinct_words():
     pairs = [(row.type1, row.type2) for row in PAIR_TYPES]
     assert all(t1 <= t2 for t1, t2 in pairs) and len(set(pairs)) == len(pairs)
     fallbacks = [row.fallback for row in PAIR_TYPES]
-    used = {
-        *context.MODEL_WORDS.values(),
-        *context.DATA_WORDS.values(),
-        context.REGISTRY_ADDRESS,
-        context.REGISTRY_ROWS,
-    }
+    used = {context.REGISTRY_ADDRESS, context.REGISTRY_ROWS}
     assert len(set(fallbacks)) == len(fallbacks) and not set(fallbacks) & used
     assert all(0 <= w < context.WORDS for w in fallbacks)
     assert [row.name for row in PAIR_TYPES] == [f"{NAMES[row.type1]} x {NAMES[row.type2]}" for row in PAIR_TYPES]
-    sources = nativecache.kernel_sources()  # the kernel of each row is compiled into the narrow phase
-    assert all(row.kernel.replace(".", "/") + ".py" in sources for row in PAIR_TYPES)
+    narrow = (NATIVE / "mujoco" / "narrowphase.hpp").read_text()
+    for row in PAIR_TYPES:  # the header of each row is compiled into the narrow phase
+        assert (NATIVE / "include" / "ellipsim" / f"{row.kernel}.hpp").is_file(), row.kernel
+        assert f"#include <ellipsim/{row.kernel}.hpp>" in narrow, row.kernel
+
+
+def test_the_cpp_context_has_pythons_numbers():
+    """ellipsim/native/mujoco/context.hpp and context.py: the same words, columns, modes and counters."""
+    header = (NATIVE / "mujoco" / "context.hpp").read_text()
+    declared = dict(re.findall(r"\b([A-Z_]+) = (-?[0-9.]+)", header))
+    for name in (
+        "REGISTRY_ADDRESS", "REGISTRY_ROWS", "FALLBACK_ELLIPSOID", "FALLBACK_SPHERE", "FALLBACK_CAPSULE",
+        "FALLBACK_BOX", "FALLBACK_CYLINDER", "REGISTRY_COLUMNS", "WARM_ADDRESS", "WARM_MASK", "FILTER", "RECORD",
+        "NARROW", "SEEN", "DISCARDED", "PASSED", "RECORDED", "SEPARATED", "CONTACTS", "APART", "FALLBACKS",
+        "WARM_TIME", "WARM_EPOCH", "WARM_SLOT_WORDS", "WARM_JUMP",
+    ):  # fmt: skip
+        assert float(declared[name]) == getattr(context, name), name
 
 
 def test_context_holds_mujocos_function_of_every_row():
@@ -130,7 +138,7 @@ def test_the_recorder_covers_every_row_and_the_filter_its_rows_in_either_order()
     mujoco.mj_forward(model, data)
     rows = {(r.type1, r.type2) for r in PAIR_TYPES}
     filtered = {(r.type1, r.type2) for r in FILTER_PAIR_TYPES}
-    fn = nativecache.function("filter").ctypes
+    fn = FILTER_T(ext.mujoco.FILTER)
     for mode, counter, want_rows in (("record", RECORDED, rows), ("filter", context.SEEN, filtered)):
         with attachment.Attachment(model, data, mode, capacity=64) as att:
             for g1 in range(len(names)):
@@ -166,7 +174,7 @@ class _Markers:
     1000 + k as the contact's dist; the words are put back on exit."""
 
     def __enter__(self):
-        proto = nativecache._CTYPES["narrowphase"]
+        proto = NARROW_T
         self._keep, self._saved = [], context.CONTEXT.copy()
         for k, row in enumerate(PAIR_TYPES):
 
@@ -193,25 +201,7 @@ def test_the_narrow_phase_falls_back_through_each_rows_word():
     model, pairs = _row_model()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    fn = nativecache.function("narrowphase").ctypes
-    with _Markers():
-        for k, (g1, g2) in enumerate(pairs):
-            made, con = _call(fn, model, data, g1, g2)
-            assert made == 1 and con[0] == 1000 + k, PAIR_TYPES[k].name
-
-
-def test_the_error_path_falls_back_through_each_rows_word():
-    """The wrapper's error status (callbacks._wrapper_for) answers with its row's context word."""
-    from test_startup import failing_narrowphase
-
-    from ellipsim.mujoco import callbacks
-
-    publish.fill_context()
-    narrow = callbacks.compile_callback("narrowphase", failing_narrowphase)
-    fn = nativecache._CTYPES["narrowphase"](narrow.address)
-    model, pairs = _row_model()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
+    fn = NARROW_T(ext.mujoco.NARROWPHASE)
     with _Markers():
         for k, (g1, g2) in enumerate(pairs):
             made, con = _call(fn, model, data, g1, g2)
@@ -225,8 +215,8 @@ def test_the_narrow_phase_computes_and_counts_every_row():
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     table, n = publish.collision_table()
-    theirs = {row: nativecache._CTYPES["narrowphase"](table[row.type1 * n + row.type2]) for row in PAIR_TYPES}
-    fn = nativecache.function("narrowphase").ctypes
+    theirs = {row: NARROW_T(table[row.type1 * n + row.type2]) for row in PAIR_TYPES}
+    fn = NARROW_T(ext.mujoco.NARROWPHASE)
     with em.attach(model, data, mode="narrowphase") as att:
         for row, (g1, g2) in zip(PAIR_TYPES, pairs):
             calls = att.counters["calls"]

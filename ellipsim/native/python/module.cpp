@@ -23,6 +23,7 @@ NB_MODULE(_ellipsim, m) {
   ellipsim::binding::bind_distance(m, t);
   ellipsim::binding::bind_pairs(m, t);
   ellipsim::binding::bind_motion(m, t);
+  ellipsim::binding::bind_time_of_impact(m, t);
   ellipsim::binding::bind_mujoco(m, t);
 
   t.def("multiply_add", &multiply_add, "a"_a, "b"_a, "c"_a);

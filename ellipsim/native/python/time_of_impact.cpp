@@ -179,19 +179,20 @@ std::tuple<double, int, double, std::int64_t> toi_pair(const Vec& ca0, const Mat
   return {r.toi, r.status, r.t_exact, r.steps};
 }
 
-constexpr int STAGE_COLUMNS = 48;
+constexpr int STAGE_COLUMNS = 32;
 
-// Per pair i (loaded as load_pair(i, i)) and its row args = (a, m, end, n (3), t, mu0, n_carry (3)): the stages of
-// the search, STAGE_COLUMNS numbers (tests/test_native_time_of_impact.py's _stages writes the same).
-void stages(const Ends& A0, const Ends& A1, const Ends& B0, const Ends& B1, const In<double, nb::shape<-1, 11>>& args,
+// Per pair i (loaded as load_pair(i, i)) and its row args = (a, m, end, n (3), t, mu0): the stages of the search
+// below _step, STAGE_COLUMNS numbers (tests/test_native_time_of_impact.py's _stages writes the same; _step itself
+// is left to the kernel's tests: numba takes minutes to compile a wrapper that inlines it).
+void stages(const Ends& A0, const Ends& A1, const Ends& B0, const Ends& B1, const In<double, nb::shape<-1, 8>>& args,
             Fixed<double, -1, STAGE_COLUMNS> out) {
   const toi::Motion A = motion_of(A0, A1, "a"), B = motion_of(B0, B1, "b");
   const std::int64_t n = len(out);
   require(len(args) == n && A.n >= n && B.n >= n, "args, out and the batches must have the same length");
   for (std::int64_t i = 0; i < n; ++i) {
-    const double* x = args.data() + 11 * i;
+    const double* x = args.data() + 8 * i;
     const double a = x[0], m = x[1], end = x[2], t = x[6], mu0 = x[7];
-    const Vec3 nv = {x[3], x[4], x[5]}, n_carry = {x[8], x[9], x[10]};
+    const Vec3 nv = {x[3], x[4], x[5]};
     const toi::PairData pd = toi::load_pair(A, B, i, i);
     const toi::Pair& pair = pd.pair;
     double* o = out.data() + STAGE_COLUMNS * i;
@@ -209,19 +210,13 @@ void stages(const Ends& A0, const Ends& A1, const Ends& B0, const Ends& B1, cons
     o[c++] = M0;
     o[c++] = toi::certified(M0, 0.01, S);
     o[c++] = toi::model_root(S, M0, end - m);
-    const toi::End e = toi::largest_end(a, m, end, S, false), q = toi::largest_end(a, m, end, S, true);
-    o[c++] = e.b, o[c++] = e.fail, o[c++] = q.b, o[c++] = q.fail;
+    const toi::End e = toi::largest_end(a, m, end, S, i % 2 == 1);  // quick on odd rows
+    o[c++] = e.b, o[c++] = e.fail;
     const toi::PosePair P = toi::pose_at(t, pair);
     o[c++] = toi::witness_relation(P.A.c, P.A.R, P.A.r, P.B.c, P.B.R, P.B.r, mu0, pair.ka, pair.kb);
     o[c++] = toi::probe(t, pair, mu0, nullptr, nullptr, 0);
     const toi::ContactNormal cn = toi::contact_normal(P.A.c, P.A.R, P.A.r, P.B.c, P.B.R, P.B.r, mu0);
     o[c++] = cn.n.x, o[c++] = cn.n.y, o[c++] = cn.n.z, o[c++] = cn.mu;
-    const toi::Step s1 = toi::step(a, piece, end, true, false, n_carry, true, mu0, pair);
-    const toi::Step s2 = toi::step(a, piece, end, false, true, n_carry, false, mu0, pair);
-    for (const toi::Step& s : {s1, s2}) {
-      o[c++] = s.b, o[c++] = s.fail, o[c++] = s.n_best.x, o[c++] = s.n_best.y, o[c++] = s.n_best.z;
-      o[c++] = s.pw_first, o[c++] = s.mu_last;
-    }
     o[c++] = toi::spheres_apart_on(nv, a, end, pd.swept.d0, pd.swept.d1, pd.swept.v, pd.swept.rho, pd.swept.ball);
   }
 }

@@ -356,6 +356,45 @@ def test_float_poses_give_the_numba_bits():
             assert_same(g, w, "float_poses")
 
 
+def check_small(a0, a1, b0, b1):
+    """ext.toi_small against T._toi_small: done, and where done the times and statuses."""
+    args = [a for x in (a0, a1, b0, b1) for a in (x.centers, x.rotations, x.radii)]
+    with np.errstate(all="ignore"):
+        want, got = T._toi_small(*args), ext.toi_small(*args)
+    assert got[0] == want[0] and got[1].shape == want[1].shape and got[2].shape == want[2].shape
+    if want[0]:
+        assert_same(got[1], want[1], "toi_small toi")
+        assert_same(got[2], want[2], "toi_small status")
+    return want[0]
+
+
+def test_toi_small_gives_the_numba_bits():
+    rng = np.random.default_rng(35)
+    a0, a1, b0, b1 = approaching(rng, 64)
+    done = [
+        check_small(a0[k : k + m], a1[k : k + m], b0[k : k + m], b1[k : k + m]) for k, m in ((0, 16), (16, 5), (21, 1))
+    ]
+    done += [check_small(a0[:1], a1[:1], b0[30:46], b1[30:46]), check_small(b0[50:60], b1[50:60], a0[:1], a1[:1])]
+    assert all(done)
+    assert not check_small(a0[:17], a1[:17], b0[:17], b1[:17])  # too many pairs
+    assert not check_small(a0[:3], a1[:3], b0[:2], b1[:2])  # lengths that do not broadcast
+    assert not check_small(a0[:2], a1[:3], b0[:2], b1[:2])
+    assert not check_small(a0[:0], a1[:0], b0[:2], b1[:2])
+    A = one([0, 0, 0], I, [1, 0.5, 0.25])
+    assert not check_small(A, A, one([1.5, 0, 0], I, [0.5] * 3), one([3, 0, 0], I, [0.5] * 3))  # needs rationals
+    wide = one([0, 0, 0], I, [1, 0.5, 0.3])
+    assert not check_small(A, wide, a0[:2], a1[:2])  # semi-axes that change
+    half = one([0, 0, 0], np.diag([1.0, -1.0, -1.0]), [1, 0.5, 0.25])
+    assert not check_small(a0[:2], a1[:2], A, half)  # a half turn
+    near = one([0, 0, 0], Rot.from_rotvec([0, 0, math.pi - 2e-6]).as_matrix(), [1, 0.5, 0.25])
+    assert (
+        check_small(a0[:2], a1[:2], A, near)
+        == T._toi_small(*[a for x in (a0[:2], a1[:2], A, near) for a in (x.centers, x.rotations, x.radii)])[0]
+    )
+    for case in (approaching(rng, 16), smallstep_motion(rng, 16), (*random_motion(rng, 16), *random_motion(rng, 16))):
+        check_small(*case)
+
+
 # --- toi_pair and the stages ------------------------------------------------------------------------------
 
 
@@ -580,3 +619,7 @@ def test_the_binding_refuses_what_numba_would_read_out_of_bounds():
         ext.float_poses(*arrays, idx, np.zeros(2), *T.float_poses(arrays, idx, np.zeros(n)))
     with pytest.raises(IndexError, match="ocount"):
         X.toi_pair(*pair_args(arrays, 0), np.zeros(2), np.zeros(2, np.int8), 3)
+    args = [a for x in (a0, a1, b0, b1) for a in (x.centers, x.rotations, x.radii)]
+    args[2] = args[2][:3].copy()
+    with pytest.raises(ValueError, match="same length"):  # the numba kernel would read past ra0
+        ext.toi_small(*args)

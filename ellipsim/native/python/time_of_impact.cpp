@@ -1,7 +1,7 @@
 // The bindings of the core's motion/time_of_impact.hpp: the batch kernel `toi` (a drop-in for
 // time_of_impact._toi: the same arguments, the bodies as _check's tuples, writing pairs idx[lo:hi] of the
-// caller's outputs and oracle), `float_poses` (for _float_poses), `resolve_exact` (time_of_impact._resolve_exact
-// with the C++ exact fallback in place of rational.relation), and for tests/test_native_time_of_impact.py
+// caller's outputs and oracle), `float_poses` (for _float_poses), `toi_small` (for _toi_small and _rigid_turns),
+// `resolve_exact` (time_of_impact._resolve_exact with the C++ exact fallback in place of rational.relation), and for tests/test_native_time_of_impact.py
 // toi_pair and the search's stages on rows of numbers.
 //
 // The oracle of exact relations (OT, OR, OC) stays caller-owned as in the Python: the kernel only reads it, and
@@ -13,6 +13,7 @@
 #include <ellipsim/motion/time_of_impact.hpp>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include "common.hpp"
 
@@ -20,7 +21,10 @@ namespace ellipsim::binding {
 namespace {
 
 using namespace nb::literals;
+namespace motion = ellipsim::motion;
 namespace toi = ellipsim::motion::time_of_impact;
+using toi::load3;
+using toi::load9;
 
 template <typename T, nb::ssize_t... N>
 using Fixed = nb::ndarray<T, nb::shape<N...>, nb::c_contig, nb::device::cpu>;
@@ -157,10 +161,65 @@ void float_poses(const Ends& A0, const Ends& A1, const Ends& B0, const Ends& B1,
     toi::float_pose(A, B, ix[k], t.data()[k], k, CA.data(), RA.data(), ra.data(), CB.data(), RB.data(), rb.data());
 }
 
-// --- test stages --------------------------------------------------------------------------------------------
+// _rigid_turns: body i's semi-axes equal at both poses and no turn within HALF_TURN_TOL of a half turn; w[i]
+// its rotation vector (0 below OMEGA_ZERO).
+bool rigid_turns(const double* r0, const double* r1, const double* R0, const double* R1, std::int64_t n, double* w) {
+  for (std::int64_t i = 0; i < n; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (r0[3 * i + j] != r1[3 * i + j]) return false;
+  constexpr double PI = 3.141592653589793;  // math.pi
+  bool ok = true;
+  for (std::int64_t i = 0; i < n; ++i) {  // every vector first, as _rotation_vectors, then the angles
+    const motion::RotationVector r = motion::flushed_rotation_vector(load9(R0, i), load9(R1, i));
+    w[3 * i] = r.w.x, w[3 * i + 1] = r.w.y, w[3 * i + 2] = r.w.z;
+    if (PI - r.theta < tol::HALF_TURN_TOL) ok = false;
+  }
+  return ok;
+}
 
-Vec3 vec3(const double* a) { return {a[0], a[1], a[2]}; }
-Mat3 mat3(const double* a) { return {{a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8]}}; }
+template <typename T>
+nb::ndarray<nb::numpy, T, nb::ndim<1>> owned(std::vector<T>* v) {
+  nb::capsule owner(v, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+  return {v->data(), {v->size()}, owner};
+}
+
+// _toi_small: time_of_impact of 1 to SMALL_BATCH_PAIRS pairs in one call, (done, toi, status); done is False (and
+// nothing computed) unless the lengths make such a batch, and False when a check fails or a pair needs the exact
+// relation (time_of_impact's general path then reports or resolves it).
+nb::tuple toi_small(const Centers<>& Ca0, const Rotations<>& Ra0, const Centers<>& ra0, const Centers<>& Ca1,
+                    const Rotations<>& Ra1, const Centers<>& ra1, const Centers<>& Cb0, const Rotations<>& Rb0,
+                    const Centers<>& rb0, const Centers<>& Cb1, const Rotations<>& Rb1, const Centers<>& rb1) {
+  const std::int64_t na = len(Ca0), nb = len(Cb0), n = std::max(na, nb);
+  require(len(Ra0) == na && len(ra0) == na && len(Ra1) == len(Ca1) && len(ra1) == len(Ca1) && len(Rb0) == nb &&
+              len(rb0) == nb && len(Rb1) == len(Cb1) && len(rb1) == len(Cb1),
+          "each pose's centres, rotations and radii must have the same length");
+  if (na != len(Ca1) || nb != len(Cb1) || std::min(na, nb) == 0 || n > tol::SMALL_BATCH_PAIRS ||
+      (na != nb && std::min(na, nb) != 1))
+    return nb::make_tuple(false, owned(new std::vector<double>()), owned(new std::vector<std::int8_t>()));
+  auto* out = new std::vector<double>(n);
+  auto* status = new std::vector<std::int8_t>(n);
+  bool done = false;
+  {
+    nb::gil_scoped_release release;
+    double wa[3 * tol::SMALL_BATCH_PAIRS], wb[3 * tol::SMALL_BATCH_PAIRS];
+    if (rigid_turns(ra0.data(), ra1.data(), Ra0.data(), Ra1.data(), na, wa) &&
+        rigid_turns(rb0.data(), rb1.data(), Rb0.data(), Rb1.data(), nb, wb)) {
+      double OT[tol::SMALL_BATCH_PAIRS * tol::TOI_MAX_ORACLE] = {}, t_exact[tol::SMALL_BATCH_PAIRS];
+      std::int8_t OR[tol::SMALL_BATCH_PAIRS * tol::TOI_MAX_ORACLE] = {};
+      std::int64_t OC[tol::SMALL_BATCH_PAIRS] = {}, steps[tol::SMALL_BATCH_PAIRS], idx[tol::SMALL_BATCH_PAIRS];
+      for (std::int64_t i = 0; i < n; ++i) idx[i] = i;
+      const toi::Motion A{Ca0.data(), Ra0.data(), ra0.data(), Ca1.data(), Ra1.data(), wa, na};
+      const toi::Motion B{Cb0.data(), Rb0.data(), rb0.data(), Cb1.data(), Rb1.data(), wb, nb};
+      toi::toi(A, B, idx, {OT, OR, OC, tol::TOI_MAX_ORACLE}, {out->data(), status->data(), t_exact, steps}, 0, n);
+      done = true;
+      for (std::int64_t i = 0; i < n; ++i)
+        if ((*status)[i] == toi::NEED_EXACT) done = false;
+    }
+  }
+  return nb::make_tuple(done, owned(out), owned(status));
+}
+
+// --- test stages --------------------------------------------------------------------------------------------
 
 using Vec = Fixed<const double, 3>;
 using Mat = Fixed<const double, 3, 3>;
@@ -173,9 +232,9 @@ std::tuple<double, int, double, std::int64_t> toi_pair(const Vec& ca0, const Mat
                                                        const In<std::int8_t, nb::ndim<1>>& orel, std::int64_t ocount) {
   if (ocount < 0 || ocount > len(ot) || ocount > len(orel)) throw std::out_of_range("ocount outside the oracle");
   const toi::Impact r =
-      toi::toi_pair(vec3(ca0.data()), mat3(Ra0.data()), vec3(ca1.data()), mat3(Ra1.data()), vec3(ra.data()),
-                    vec3(wa.data()), vec3(cb0.data()), mat3(Rb0.data()), vec3(cb1.data()), mat3(Rb1.data()),
-                    vec3(rb.data()), vec3(wb.data()), ot.data(), orel.data(), ocount);
+      toi::toi_pair(load3(ca0.data(), 0), load9(Ra0.data(), 0), load3(ca1.data(), 0), load9(Ra1.data(), 0), load3(ra.data(), 0),
+                    load3(wa.data(), 0), load3(cb0.data(), 0), load9(Rb0.data(), 0), load3(cb1.data(), 0), load9(Rb1.data(), 0),
+                    load3(rb.data(), 0), load3(wb.data(), 0), ot.data(), orel.data(), ocount);
   return {r.toi, r.status, r.t_exact, r.steps};
 }
 
@@ -230,6 +289,9 @@ void bind_time_of_impact(nb::module_& m, nb::module_& t) {
   m.def("resolve_exact", &resolve_exact, in("A0"), in("A1"), in("B0"), in("B1"), in("OT"), in("OR"), in("OC"),
         in("out"), in("status"), in("t_exact"), in("steps"), "lo"_a, "hi"_a,
         "time_of_impact._resolve_exact on pairs [lo, hi), with the exact fallback: every NEED_EXACT pair resolved.");
+  m.def("toi_small", &toi_small, in("Ca0"), in("Ra0"), in("ra0"), in("Ca1"), in("Ra1"), in("ra1"), in("Cb0"),
+        in("Rb0"), in("rb0"), in("Cb1"), in("Rb1"), in("rb1"),
+        "time_of_impact._toi_small: (done, toi, status) of a batch of 1 to SMALL_BATCH_PAIRS pairs in one call.");
   m.def("float_poses", &float_poses, in("A0"), in("A1"), in("B0"), in("B1"), in("idx"), in("t"), in("CA"), in("RA"),
         in("ra"), in("CB"), in("RB"), in("rb"), "time_of_impact._float_poses: the float poses classified at t[k].");
   t.def("toi_pair", &toi_pair, in("ca0"), in("Ra0"), in("ca1"), in("Ra1"), in("ra"), in("wa"), in("cb0"), in("Rb0"),

@@ -75,6 +75,7 @@ void bind_distance(nb::module_& m, nb::module_& testing);
 void bind_pairs(nb::module_& m, nb::module_& testing);
 void bind_pair_derivatives(nb::module_& m, nb::module_& testing);
 void bind_motion(nb::module_& m, nb::module_& testing);
+void bind_time_of_impact(nb::module_& m, nb::module_& testing);
 void bind_mujoco(nb::module_& m, nb::module_& testing);
 void bind_bench(nb::module_& m, nb::module_& testing);
 

@@ -24,6 +24,7 @@ NB_MODULE(_ellipsim, m) {
   ellipsim::binding::bind_pairs(m, t);
   ellipsim::binding::bind_pair_derivatives(m, t);
   ellipsim::binding::bind_motion(m, t);
+  ellipsim::binding::bind_time_of_impact(m, t);
   ellipsim::binding::bind_mujoco(m, t);
   ellipsim::binding::bind_bench(m, t);
 
@@ -84,6 +85,7 @@ NB_MODULE(_ellipsim, m) {
   constants["TOI_FALSI_STEPS"] = tol::TOI_FALSI_STEPS;
   constants["TOI_FALSI_RTOL"] = tol::TOI_FALSI_RTOL;
   constants["TOI_MAX_ORACLE"] = tol::TOI_MAX_ORACLE;
+  constants["SMALL_BATCH_PAIRS"] = tol::SMALL_BATCH_PAIRS;
   constants["AXIS_SLACK"] = tol::AXIS_SLACK;
   constants["JACOBI_SWEEPS"] = tol::JACOBI_SWEEPS;
   constants["CONTAIN_NEWTON_STEPS"] = tol::CONTAIN_NEWTON_STEPS;

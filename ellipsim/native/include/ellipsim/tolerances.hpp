@@ -176,6 +176,8 @@ constexpr int TOI_FALSI_STEPS = 6;
 constexpr double TOI_FALSI_RTOL = 0.05;
 // Exact relations a pair's search may ask for before it is declared UNRESOLVED.
 constexpr int TOI_MAX_ORACLE = 16;
+// Batches of at most this many pairs take time_of_impact's one compiled call (checks, set-up and kernel; issue 20).
+constexpr int SMALL_BATCH_PAIRS = 16;
 
 // --- Containment (exact/containment.hpp) -------------------------------------------------------------------
 

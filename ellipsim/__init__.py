@@ -2,14 +2,13 @@
 
 Three layers, each importing only the ones above it in this list:
 
-    ellipsim.core     the geometry (numpy and numba only): classify, contact_scale, signed_distance,
+    ellipsim.core     the geometry (numpy and the compiled core, ellipsim/native): classify, contact_scale, signed_distance,
                       shape_distance, time_of_impact, contains
     ellipsim.mujoco   the MuJoCo glue: attach to mj_step, validate and compare, scene builders
     ellipsim.app      scenarios, recording, the command line, sweeps, mesh fitting, the benchmark suite
 
 `import ellipsim` loads none of them: every public name is imported on first use (PEP 562), so that
-attaching to MuJoCo imports neither numba nor the core when the callbacks are cached
-(ellipsim/mujoco/nativecache.py).
+attaching to MuJoCo loads the compiled module and the glue, not the core's Python layer.
 """
 
 import importlib

@@ -30,7 +30,7 @@ end; a re-run of the same sweep skips the variants whose rows are there (resume 
 and runs again those whose row is an error.  A variant that fails is a row with its error.
 
 Backends: "local", a pool of processes on this machine (spawned: forking a process that runs
-numba's and MuJoCo's threads is unsafe), and "ray" (`import ray` only there), which connects to
+threads, ellipsim's pool or MuJoCo's, is unsafe), and "ray" (`import ray` only there), which connects to
 RAY_ADDRESS or starts a local Ray instance and runs the variants as streaming tasks of several
 variants each.  A variant's batch calls run on one thread (core.threads.limit): the workers share
 the cores.
@@ -453,9 +453,7 @@ def _run_local(todo, workers, emit, run=run_variant):
         for v in todo:
             emit(run(v))
         return
-    # spawn: fresh interpreters (forking a process that runs numba's or MuJoCo's threads is unsafe);
-    # numba then uses no interprocess lock (under forkserver it makes a semaphore that a stopped
-    # worker leaves to the resource tracker, which warns about it)
+    # spawn: fresh interpreters (forking a process that runs threads, ellipsim's pool or MuJoCo's, is unsafe)
     context = multiprocessing.get_context("spawn")
     queue, alone = collections.deque(todo), collections.deque()
     first = True

@@ -1,6 +1,6 @@
 """The relation of two ellipsoids, as every query reports it: one set of int8 codes for the package.
 
-Kernels return the plain ints (numba compiles them as constants); public functions return arrays of
+The C++ kernels return the plain ints (include/ellipsim/relation.hpp); public functions return arrays of
 them, which compare equal to the members of `Relation`.
 """
 

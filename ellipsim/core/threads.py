@@ -1,15 +1,14 @@
-"""Batch kernels on several cores with threads of our own, not numba's parallel layer.
+"""Batch kernels on several cores with threads of our own, no other library's parallel layer.
 
-Every batch kernel is one serial numba loop over pairs [lo, hi), compiled with nogil=True; `run`
-cuts a batch into chunks and runs them on a pool of Python threads, the calling thread taking the
-first chunk.  Each chunk writes a disjoint slice of its call's own output arrays, so any number of
-Python threads may call at once and get what one thread gets.
+Every batch kernel is one serial C++ loop over pairs [lo, hi) (ellipsim/native: each binding releases
+the GIL while it runs); `run` cuts a batch into chunks and runs them on a pool of Python threads, the
+calling thread taking the first chunk.  Each chunk writes a disjoint slice of its call's own output
+arrays, so any number of Python threads may call at once and get what one thread gets, to the bit.
 
-Why not numba's `parallel=True`: its threading layer is chosen once per process and shared by every
-library that uses numba; the default workqueue layer aborts the interpreter when two Python threads
-enter parallel code at once ("Concurrent access has been detected"), OpenMP cost ~8 ms per call on
-the 2-core benchmark machine and TBB is not always installed.  A pool we own changes nothing that
-other libraries share.  It holds no data: a call's arrays travel with its chunks.
+Why not OpenMP or a C++ pool: a process-wide pool is shared with every library that uses the same
+runtime (numba's workqueue layer aborted the interpreter when two Python threads entered parallel code
+at once; OpenMP cost ~8 ms per call on the 2-core benchmark machine).  A pool we own changes nothing
+that other libraries share.  It holds no data: a call's arrays travel with its chunks.
 """
 
 import contextlib

@@ -72,7 +72,7 @@ PARALLEL_MIN_PAIRS = 10_000
 
 #: A parallel call cuts its batch into at most CHUNKS_PER_THREAD chunks per thread (pairs differ in
 #: cost: a chunk of deep pairs must not hold up the call) of at least CHUNK_MIN_PAIRS pairs (a chunk
-#: costs a task submission and a numba dispatch, ~10 us).
+#: costs a task submission and a call into the compiled kernel, ~10 us).
 CHUNKS_PER_THREAD = 4
 CHUNK_MIN_PAIRS = 2_000
 

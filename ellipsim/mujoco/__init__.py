@@ -5,17 +5,15 @@
     ellipsim.mujoco.validate(model, data, 100)             # MuJoCo's contacts vs exact verdicts
     ellipsim.mujoco.compare_narrowphase(model, data, 100)  # contact by contact, refereed
 
-Modules: structs (mjModel/mjData field offsets from MuJoCo's introspection, verified), context (what
-the compiled callbacks read per process; geom type codes and PAIR_TYPES, the pair types ellipsim
-handles), publish (filling the context, publishing it to LLVM's linker), callbacks (the cfuncs),
-nativecache (their machine code, cached and loaded without numba), prebuild (CPU-generic objects shipped in prebuilt/), attachment
-(installing them for one data), geoms (ellipsoid geoms and candidate pairs), between (contacts that
+Modules: context (what the compiled callbacks read per process; geom type codes and PAIR_TYPES, the
+pair types ellipsim handles), publish (filling the context, handing it to the callbacks: C++, compiled
+with the package, ellipsim/native/mujoco/), attachment (installing them for one data), geoms (ellipsoid geoms and candidate pairs), between (contacts that
 begin and end between two frames or steps), validate, compare, jacobian (d dist / d qpos of ellipsoid
 pairs).  The scene builders live in
 ellipsim.app.scenes: they import nothing of this glue.
 
-`attach` is imported with the package; the rest on first use (PEP 562), so that attaching from a
-warm cache imports neither numba nor the geometry core.
+`attach` is imported with the package; the rest on first use (PEP 562), so that attaching imports
+the compiled callbacks and not the geometry core's Python layer.
 """
 
 import importlib

@@ -16,7 +16,7 @@ ALLOWED = {
     "core": {"core", "native"},
     "mujoco": {"core", "mujoco", "native", "shipped"},
     "warp": {"core", "warp", "native", "shipped"},  # the MuJoCo Warp layer (issue 21): beside mujoco, not on it
-    "app": {"core", "mujoco", "warp", "app", "shipped"},
+    "app": {"core", "mujoco", "warp", "app", "native", "shipped"},
 }
 HEAVY = ("mujoco", "rerun", "trimesh")
 
@@ -85,9 +85,9 @@ def test_glue_and_application_are_reached_from_the_top_package():
         ellipsim.plugin  # noqa: B018
 
 
-def test_import_ellipsim_and_its_glue_load_no_numba():
-    """`import ellipsim` + `ellipsim.mujoco.attach` import only the glue that attaching needs: with the
-    callbacks cached, a process attaches and steps without numba (tests/test_startup.py steps)."""
+def test_import_ellipsim_and_its_glue_load_only_what_attaching_needs():
+    """`import ellipsim` + `ellipsim.mujoco.attach` import only the glue that attaching needs and the compiled
+    module (its callbacks): no JIT compiler, no scipy, not the core's Python layer (tests/test_startup.py steps)."""
     code = (
         "import sys, ellipsim\n"
         "ellipsim.mujoco.attach\n"
@@ -96,14 +96,11 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.split() == [
         "ellipsim",
-        "ellipsim.core",
-        "ellipsim.core.cache_root",
         "ellipsim.mujoco",
         "ellipsim.mujoco.attachment",
         "ellipsim.mujoco.context",
-        "ellipsim.mujoco.nativecache",
         "ellipsim.mujoco.publish",
-        "ellipsim.mujoco.structs",
+        "ellipsim.native",
     ]
 
 
@@ -153,10 +150,7 @@ def test_importing_the_validate_module_keeps_the_validate_function():
 #: types, moving bodies.
 CORE_FOLDERS = ("exact", "distance", "pairs", "motion")
 CORE_FOUNDATION = {
-    "_jit",
-    "cache_root",
     "ellipsoids",
-    "kernel_cache",
     "relation",
     "rotations",
     "samples",
@@ -261,7 +255,7 @@ def test_the_foundation_imports_no_concept_folder_except_for_the_sample_sets():
 def test_every_layer_folder_is_declared_and_the_warp_layer_may_import_only_the_core():
     # ellipsim.warp (issue 21) sits beside ellipsim.mujoco: it may use the core's kernels, never the
     # MuJoCo C glue (whose compiled callbacks and process context it must not load) nor the app
-    layers = {p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name not in ("__pycache__", "kernels")}
+    layers = {p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__"}
     assert layers <= set(ALLOWED), sorted(layers - set(ALLOWED))
     assert ALLOWED["warp"] == {"core", "warp", "native", "shipped"}
     assert "warp" not in ALLOWED["mujoco"] and "warp" in ALLOWED["app"]

@@ -104,6 +104,7 @@ def test_import_ellipsim_and_its_glue_load_no_numba():
         "ellipsim.mujoco.nativecache",
         "ellipsim.mujoco.publish",
         "ellipsim.mujoco.structs",
+        "ellipsim.native",
     ]
 
 

@@ -20,7 +20,10 @@ import importlib
 import sys
 import types
 
+from ..native import check_mujoco
 from .attachment import MODES, Attachment, attach
+
+check_mujoco()  # the compiled glue reads MuJoCo's structs: only under the mujoco it was built against
 
 _LAZY = {
     "candidate_pairs": "geoms",

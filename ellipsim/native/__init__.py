@@ -6,7 +6,8 @@ _ellipsim is installed as a top-level module beside the package, so that a sourc
 pytest`` puts the checkout's ``ellipsim/`` first on sys.path) uses the module its own sources built.  It
 carries the digest of those sources; a module built from other sources (a checkout edited since its last
 install) is refused with the command that rebuilds it, never run silently.  Its MuJoCo glue reads mjModel and
-mjData through the headers of the mujoco it was built against: under another mujoco it is refused too.
+mjData through the headers of the mujoco it was built against: ellipsim.mujoco refuses to load under another
+mujoco (check_mujoco; the core, which never touches MuJoCo, does not import it).
 """
 
 import hashlib
@@ -61,12 +62,16 @@ def _load():
         raise NativeImportError(
             f"ellipsim's compiled core at {_ellipsim.__file__} was built from other sources than {FOLDER}: {REBUILD}"
         )
+    return _ellipsim
+
+
+def check_mujoco():
+    """NativeImportError (one line) unless the running mujoco is the one the MuJoCo glue was compiled against."""
     import mujoco
 
-    reason = mujoco_mismatch(_ellipsim.mujoco.MUJOCO_VERSION, mujoco.mj_version())
+    reason = mujoco_mismatch(ext.mujoco.MUJOCO_VERSION, mujoco.mj_version())
     if reason:
         raise NativeImportError(reason)
-    return _ellipsim
 
 
 ext = _load()

@@ -13,15 +13,11 @@ import threading
 import mujoco
 import numpy as np
 import pytest
+from distance_stages import pair_signed_distance, pair_signed_distance_from, sigma_lower_bound
 
 import ellipsim.mujoco as em
 from ellipsim.app import scenes
-from ellipsim.core.distance.ellipsoid_pair import (
-    GLOBAL,
-    pair_signed_distance,
-    pair_signed_distance_from,
-    sigma_lower_bound,
-)
+from ellipsim.core.distance.ellipsoid_pair import GLOBAL
 from ellipsim.mujoco import attachment
 
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS

@@ -18,7 +18,7 @@ import ellipsim.mujoco as plugin
 from ellipsim import DistanceStatus, Ellipsoids, signed_distance
 from ellipsim.app import scenes as figures
 from ellipsim.core.distance.ellipsoid_pair import GLOBAL, UNPROVEN
-from ellipsim.mujoco import structs as mjstruct
+from ellipsim.mujoco import publish
 
 mpmath.mp.dps = 40
 
@@ -208,7 +208,7 @@ def test_narrowphase_steps_stay_physical():
 
 
 def test_attach_detach_restores_the_collision_table():
-    table, n = mjstruct.collision_table()
+    table, n = publish.collision_table()
     before = list(table)
     model = mujoco.MjModel.from_xml_string(figures.pile_xml(6))
     d1, d2 = mujoco.MjData(model), mujoco.MjData(model)

@@ -13,6 +13,7 @@ the budget's UNPROVEN, flat maxima)."""
 
 import math
 
+import distance_stages as gm
 import leaves_poses
 import mpmath as mp
 import numpy as np
@@ -25,7 +26,6 @@ from scipy.spatial.transform import Rotation as Rot
 from test_distance import reference
 
 from ellipsim import Ellipsoids
-from ellipsim.core.distance import branch_and_bound as gm
 
 U64 = 2.0**-53
 DPS = 40

@@ -7,12 +7,12 @@ reference_max: dense directions and gradient ascent polished in 40 digits, nothi
 import leaves_poses
 import numpy as np
 import pytest
+from distance_stages import inner_sum_bound
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_global_max import Pair, deep_pair, local_maxima, reference_max, seeded_deep_pairs, thin_deep_pairs
 
 from ellipsim import Ellipsoids, signed_distance
-from ellipsim.core.distance.inner_sum import inner_sum_bound
 
 U64 = 2.0**-53
 

@@ -15,12 +15,13 @@ import mujoco
 import mujoco.rollout as rollout
 import numpy as np
 import pytest
+from distance_stages import contact_at
 from scipy.spatial.transform import Rotation as Rot
 
 import ellipsim.mujoco as em
 from ellipsim import Ellipsoids, signed_distance
 from ellipsim.app import scenes
-from ellipsim.core.distance.ellipsoid_pair import UNPROVEN, contact_at
+from ellipsim.core.distance.ellipsoid_pair import UNPROVEN
 
 FULL = mujoco.mjtState.mjSTATE_INTEGRATION  # FULLPHYSICS and MuJoCo's own solver warm start
 PHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS

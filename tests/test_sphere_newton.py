@@ -16,6 +16,7 @@ line leaves them."""
 
 import math
 
+import distance_stages as sn
 import mpmath as mp
 import numpy as np
 import pytest
@@ -24,7 +25,6 @@ from hypothesis import strategies as st
 from reference import fibonacci, sigma_stationary
 from scipy.spatial.transform import Rotation as Rot
 
-from ellipsim.core.distance import sphere_newton as sn
 from ellipsim.core.tolerances import NEWTON_MAX_ITER, NEWTON_STEP_TOL
 
 U64 = 2.0**-53

@@ -17,6 +17,7 @@ the maximum: reference <= sigma(n) + tol is necessary)."""
 
 import math
 
+import distance_stages as sp
 import mpmath as mp
 import numpy as np
 import pytest
@@ -25,7 +26,6 @@ from hypothesis import strategies as st
 from reference import fibonacci, sigma_stationary
 from scipy.spatial.transform import Rotation as Rot
 
-from ellipsim.core.distance import spheroids as sp
 from ellipsim.core.tolerances import COAXIAL_MAX_NODES, PARALLEL_CANDIDATE_TILT, TILTED_MAX_NODES
 
 U64 = 2.0**-53

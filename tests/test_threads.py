@@ -1,5 +1,6 @@
 """Python threads calling ellipsim at once get what one thread gets; ellipsim leaves numba's
-process-wide threading settings alone (issue 10, part 2)."""
+process-wide threading settings alone (issue 10, part 2): its kernels are C++ run on threads of its own
+(ellipsim.core.threads), so where numba is loaded at all (by another library) its settings are the user's."""
 
 import multiprocessing
 import os
@@ -99,7 +100,7 @@ def test_the_parallel_results_are_the_serial_ones(alone):
 
 
 SCRIPT = """
-import threading, numba, numpy as np
+import sys, threading, numpy as np
 import ellipsim as es
 from ellipsim.core.samples import generic_pairs
 a, b = generic_pairs(300_000, seed=3)
@@ -108,7 +109,8 @@ out = []
 ts = [threading.Thread(target=lambda: out.append(es.classify(a, b, parallel=True))) for _ in range(4)]
 [t.start() for t in ts]; [t.join() for t in ts]
 assert len(out) == 4 and all(np.array_equal(o, ref) for o in out)
-print(numba.config.THREADING_LAYER, numba.get_num_threads())
+nb = sys.modules.get("numba")  # loaded only if something imported it: its settings as ellipsim left them
+print(*((nb.config.THREADING_LAYER, nb.get_num_threads(), nb.config.NUMBA_NUM_THREADS) if nb else ("absent", 0, 0)))
 """
 
 
@@ -119,20 +121,19 @@ def run_script(extra_env):
 
 def test_four_threads_classifying_300000_pairs_under_numbas_workqueue_layer():
     """The issue's reproduction: with workqueue (which aborts on concurrent parallel calls) chosen by
-    the user, four threads classify at once and the process lives."""
+    the user, four threads classify at once and the process lives (numba, where loaded, keeps the
+    user's layer)."""
     proc = run_script({"NUMBA_THREADING_LAYER": "workqueue"})
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stdout.split()[0] == "workqueue"
+    assert proc.stdout.split()[0] in ("workqueue", "absent")
 
 
 def test_importing_and_calling_leaves_numbas_process_settings_alone():
-    import numba
-
     proc = run_script({})
     assert proc.returncode == 0, proc.stderr[-2000:]
-    layer, nthreads = proc.stdout.split()
-    assert layer == numba.config.THREADING_LAYER == "default"  # what numba sets when no one chose
-    assert int(nthreads) == numba.config.NUMBA_NUM_THREADS
+    layer, nthreads, default_threads = proc.stdout.split()
+    assert layer in ("default", "absent")  # "default": what numba sets when no one chose
+    assert int(nthreads) == int(default_threads)
 
 
 def test_chunks_cover_the_batch_once_and_limit_holds_the_caller_to_its_own_thread():

@@ -13,15 +13,11 @@ import threading
 import mujoco
 import numpy as np
 import pytest
+from distance_stages import pair_signed_distance, pair_signed_distance_from, sigma_lower_bound
 
 import ellipsim.mujoco as em
 from ellipsim.app import scenes
-from ellipsim.core.distance.ellipsoid_pair import (
-    GLOBAL,
-    pair_signed_distance,
-    pair_signed_distance_from,
-    sigma_lower_bound,
-)
+from ellipsim.core.distance.ellipsoid_pair import GLOBAL
 from ellipsim.mujoco import attachment
 
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -150,11 +146,11 @@ def test_mujocos_thread_pool_runs_one_datas_narrow_phase_on_several_threads():
     MuJoCo's own: it records the calling threads)."""
     import ctypes
 
-    from ellipsim.mujoco import structs
+    from ellipsim.mujoco import publish
 
     model, data = settled(scenes.pile_xml(60, seed=2), 300)
     mujoco.mju_threadpool(data, 2)
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     fn = ctypes.CFUNCTYPE(
         ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
     )

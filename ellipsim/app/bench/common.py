@@ -7,23 +7,17 @@ sequential timings lie).
 
 import contextlib
 import ctypes
-import math
 import os
 import platform
 import sys
 import time
 
 import mujoco
-import numba
 import numpy as np
 
-from ...core._jit import jit
-from ...core.distance.ellipsoid_pair import pair_signed_distance
-from ...core.distance.sphere_newton import a_frame, bisector_seed, newton, sigma
-from ...core.exact.classify import _classify_float
-from ...core.vec3 import load
-from ...mujoco import structs
+from ...mujoco import publish
 from ...mujoco.attachment import attach
+from ...native import ext
 
 SIZES = {
     "quick": dict(
@@ -144,7 +138,7 @@ def machine_description():
             cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numba {numba.__version__}, mujoco {mujoco.__version__}"
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, mujoco {mujoco.__version__}"
 
 
 def fmt_rate(x):
@@ -166,31 +160,22 @@ def float_runner(a, b, method, setup, dtype):
     out = np.empty(max(len(a), len(b)), dtype=np.int8)
 
     def run():
-        _classify_float(*arrays, setup == "cofactor", method == "sturm", out, 0, len(out))
+        ext.classify_float(*arrays, setup == "cofactor", method == "sturm", out, 0, len(out))
         return out
 
     return run
 
 
-@jit
 def distances_serial(Ca, Ra, ra, Cb, Rb, rb, max_iter, out):
-    """The narrow phase's signed distance of each pair, one thread, no input checks."""
-    for i in range(out.shape[0]):
-        out[i] = pair_signed_distance(load(Ca, Ra, ra, i), load(Cb, Rb, rb, i), max_iter)[1]
+    """The narrow phase's signed distance of each pair, one thread, no input checks (a compiled loop:
+    the time is the function's own, not Python's)."""
+    ext.testing.distances_serial(Ca, Ra, ra, Cb, Rb, rb, max_iter, out)
 
 
-@jit
 def newton_runs(Ca, Ra, ra, Cb, Rb, rb, max_iter, out):
     """sigma after one Newton run of at most max_iter steps from the bisector seed: the narrow
-    phase's first run alone, without its restart, multistart or proof."""
-    for i in range(out.shape[0]):
-        A, B = load(Ca, Ra, ra, i), load(Cb, Rb, rb, i)
-        e, a2, M, U = a_frame(A, B)
-        rb_ = B[2]
-        rb2 = (rb_[0] * rb_[0], rb_[1] * rb_[1], rb_[2] * rb_[2])
-        scale = max(A[2][0], A[2][1], A[2][2], rb_[0], rb_[1], rb_[2])
-        n = newton(bisector_seed(e, a2, U, rb2), e, a2, M, scale, -math.inf, max_iter)[0]
-        out[i] = sigma(n, e, a2, M)
+    phase's first run alone, without its restart, multistart or proof (a compiled loop)."""
+    ext.testing.newton_runs(Ca, Ra, ra, Cb, Rb, rb, max_iter, out)
 
 
 def pair_runner(kernel, a, b, max_iter):
@@ -211,11 +196,7 @@ def verdict(dist):
 
 class MujocoPairs:
     """MuJoCo's mj_geomDistance on given pairs: static world geoms whose poses are then set to the
-    pairs' exact float64 values, called through ctypes in a compiled loop."""
-
-    _FN = ctypes.CFUNCTYPE(
-        ctypes.c_double, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_int64
-    )
+    pairs' exact float64 values, called through its address in a compiled loop (ext.bench.geom_distance_loop)."""
 
     def __init__(self, a, b):
         n = len(a)
@@ -229,34 +210,15 @@ class MujocoPairs:
         mujoco.mj_forward(self.model, self.data)
         self.data.geom_xpos[:n], self.data.geom_xpos[n:] = a.centers, b.centers
         self.data.geom_xmat[:n], self.data.geom_xmat[n:] = a.rotations.reshape(n, 9), b.rotations.reshape(n, 9)
-        self.pairs = np.column_stack([np.arange(n), np.arange(n) + n]).astype(np.int64)
+        self.pairs = np.column_stack([np.arange(n), np.arange(n) + n]).astype(np.int32)
         self.distmax = 10.0 * float(max(a.radii.max(), b.radii.max()) + np.abs(b.centers - a.centers).max())
-        self._loop = _geom_distance_loop(ctypes.cast(structs.mujoco_library().mj_geomDistance, ctypes.c_void_p).value)
+        self._fn = ctypes.cast(publish.mujoco_library().mj_geomDistance, ctypes.c_void_p).value
 
     def run(self, tolerance, iterations):
         self.model.opt.ccd_tolerance, self.model.opt.ccd_iterations = tolerance, iterations
         out = np.empty(len(self.pairs))
-        self._loop(self.model._address, self.data._address, self.pairs, self.distmax, out)
+        ext.bench.geom_distance_loop(self._fn, self.model._address, self.data._address, self.pairs, self.distmax, out)
         return out
-
-
-_LOOPS = {}
-
-
-def _geom_distance_loop(address):
-    """The compiled loop calling mj_geomDistance (at `address`) over pairs, compiled once per process:
-    a fresh one per MujocoPairs cost ~0.2 s of compiling each, 19 times a run (section 2 builds one per
-    category)."""
-    if address not in _LOOPS:
-        fn = MujocoPairs._FN(address)
-
-        @numba.njit
-        def loop(m, d, pairs, distmax, out):
-            for k in range(pairs.shape[0]):
-                out[k] = fn(m, d, pairs[k, 0], pairs[k, 1], distmax, 0)
-
-        _LOOPS[address] = loop
-    return _LOOPS[address]
 
 
 # --- mj_step --------------------------------------------------------------------------------------

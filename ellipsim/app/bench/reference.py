@@ -8,8 +8,7 @@ own in tests/).
 
 import numpy as np
 
-from ...core.distance.ellipsoid_pair import pair_signed_distance
-from ...core.vec3 import load
+from ...core.distance.ellipsoid_pair import signed_distance
 
 
 def reference_distances(a, b, seeds):
@@ -63,10 +62,4 @@ def polish_sigma(d, Ma, Mb, n0, iterations=40):
 
 def normals(a, b):
     """ellipsim's converged normals as seeds for the reference polish."""
-    out = np.empty((len(a), 3))
-    for k in range(len(a)):
-        _, _, normal, _, _ = pair_signed_distance(
-            load(a.centers, a.rotations, a.radii, k), load(b.centers, b.rotations, b.radii, k)
-        )
-        out[k] = normal
-    return out
+    return signed_distance(a, b, parallel=False)[1]

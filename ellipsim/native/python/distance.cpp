@@ -1,6 +1,7 @@
 // The bindings of the core's distance/ folder: the narrow phase's batch kernels (signed_distances, derivatives:
-// drop-ins for ellipsoid_pair._distances and derivatives._derivatives) and, for tests/test_native_distance.py,
-// its stages on rows of numbers.
+// drop-ins for ellipsoid_pair._distances and derivatives._derivatives) and, for the tests (tests/distance_stages.py
+// calls them with the stages' own arguments), its stages on rows of numbers; the bench's timing loops
+// (distances_serial, newton_runs: bench/common.py).
 #include <ellipsim/distance/branch_and_bound.hpp>
 #include <ellipsim/distance/derivatives.hpp>
 #include <ellipsim/distance/ellipsoid_pair.hpp>
@@ -125,6 +126,37 @@ void sphere_newton_stages(const Centers<>& Ca, const Rotations<>& Ra, const Cent
   }
 }
 
+// --- the bench's timing loops (ellipsim/app/bench/common.py): one thread, no input checks beyond the lengths ---
+
+// out[i] = the narrow phase's signed distance of pair i (pair_signed_distance's dist), for every i of out.
+void distances_serial(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+                      const Rotations<>& Rb, const Centers<>& rb, std::int64_t max_iter, Out<double> out) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  const auto n = static_cast<std::int64_t>(out.shape(0));
+  check_range(0, n, n, a, b);
+  pairwise(a, b, out.data(), 0, n, [max_iter](const Ellipsoid& A, const Ellipsoid& B) {
+    return distance::pair_signed_distance(A, B, max_iter).dist;
+  });
+}
+
+// out[i] = sigma after one Newton run of at most max_iter steps from the bisector seed (scale: the largest
+// semi-axis): the narrow phase's first run alone, without its restart, multistart or proof.
+void newton_runs(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra, const Centers<>& Cb,
+                 const Rotations<>& Rb, const Centers<>& rb, std::int64_t max_iter, Out<double> out) {
+  const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
+  const auto n = static_cast<std::int64_t>(out.shape(0));
+  check_range(0, n, n, a, b);
+  const int steps = static_cast<int>(max_iter);
+  pairwise(a, b, out.data(), 0, n, [steps](const Ellipsoid& A, const Ellipsoid& B) {
+    using namespace ellipsim::distance;
+    const AFrame f = a_frame(A, B);
+    const Vec3 rb2 = {B.r.x * B.r.x, B.r.y * B.r.y, B.r.z * B.r.z};
+    const double scale = max2(max3(A.r), max3(B.r));
+    const Vec3 nn = newton(bisector_seed(f.e, f.a2, f.U, rb2), f.e, f.a2, f.M, scale, -INFINITY, steps).n;
+    return sigma(nn, f.e, f.a2, f.M);
+  });
+}
+
 // --- the stages on rows: out[i] = f(inp[i]) for i in [lo, hi), each a row of numbers (the test packs them) ------
 
 // What a row holds, read in order.
@@ -210,6 +242,46 @@ void write_pair(Writer& w, const distance::PairDistance& r) {
 
 void bind_stages(nb::module_& t) {
   using namespace ellipsim::distance;
+  // sphere_newton.hpp's stages, each on its own arguments (tests/test_sphere_newton.py)
+  // sphere_newton_a_frame: A (c, R (9), r), B (c, R (9), r) -> e, a2, M (9), U (9)
+  def_rows<30, 24>(t, "sphere_newton_a_frame", [](Reader r, Writer w) {
+    const Vec3 ca = r.v();
+    const Mat3 Ra = r.m();
+    const Vec3 ra = r.v(), cb = r.v();
+    const Mat3 Rb = r.m();
+    const AFrame f = a_frame({ca, Ra, ra}, {cb, Rb, r.v()});
+    w.v(f.e), w.v(f.a2);
+    for (int k = 0; k < 9; ++k) w.f(f.M.m[k]);
+    for (int k = 0; k < 9; ++k) w.f(f.U.m[k]);
+  });
+  // sphere_newton_sigma: n, e, a2, M (9) -> sigma
+  def_rows<18, 1>(t, "sphere_newton_sigma", [](Reader r, Writer w) {
+    const Vec3 n = r.v(), e = r.v(), a2 = r.v();
+    w.f(sigma(n, e, a2, r.m()));
+  });
+  // sphere_newton_unit: v -> unit(v)
+  def_rows<3, 3>(t, "sphere_newton_unit", [](Reader r, Writer w) { w.v(unit(r.v())); });
+  // sphere_newton_tangent_basis: n -> t1, t2
+  def_rows<3, 6>(t, "sphere_newton_tangent_basis", [](Reader r, Writer w) {
+    const TangentBasis b = tangent_basis(r.v());
+    w.v(b.t1), w.v(b.t2);
+  });
+  // sphere_newton_newton: n, e, a2, M (9), scale, target, max_iter -> n (3), value, status, steps
+  def_rows<21, 6>(t, "sphere_newton_newton", [](Reader r, Writer w) {
+    const Vec3 n = r.v(), e = r.v(), a2 = r.v();
+    const Mat3 M = r.m();
+    const double scale = r.f(), target = r.f();
+    const NewtonResult x = newton(n, e, a2, M, scale, target, r.i());
+    w.v(x.n), w.f(x.value), w.f(x.status), w.f(x.steps);
+  });
+  // sphere_newton_bisector_seed: e, a2, U (9), rb2 -> seed
+  def_rows<18, 3>(t, "sphere_newton_bisector_seed", [](Reader r, Writer w) {
+    const Vec3 e = r.v(), a2 = r.v();
+    const Mat3 U = r.m();
+    w.v(bisector_seed(e, a2, U, r.v()));
+  });
+  // sphere_newton_rolling_radius: r -> rolling_radius(r)
+  def_rows<3, 1>(t, "sphere_newton_rolling_radius", [](Reader r, Writer w) { w.f(rolling_radius(r.v())); });
   // inner_sum_bound: n, e, a, Ub (9), b, value -> bound
   def_rows<22, 1>(t, "inner_sum_bound", [](Reader r, Writer w) {
     const Vec3 n = r.v(), e = r.v(), a = r.v();
@@ -354,6 +426,13 @@ void bind_stages(nb::module_& t) {
   codes["derivatives.FLAT"] = derivatives::FLAT;
   codes["derivatives.UNPROVEN"] = derivatives::UNPROVEN;
   t.attr("DISTANCE_CODES") = codes;
+  nb::dict constants;  // the folder's own constants that the tests read (not in tolerances.hpp)
+  constants["sphere_newton.CONVERGED"] = CONVERGED;
+  constants["sphere_newton.NOT_CONVERGED"] = NOT_CONVERGED;
+  constants["sphere_newton.ABANDONED"] = ABANDONED;
+  constants["branch_and_bound.RHO_LEVELS"] = branch_and_bound::RHO_LEVELS;
+  constants["spheroids.ERR_C_ULPS"] = spheroids::ERR_C_ULPS;
+  t.attr("DISTANCE_CONSTANTS") = constants;
 }
 
 }  // namespace
@@ -363,6 +442,10 @@ void bind_distance(nb::module_& m, nb::module_& t) {
         in("dist"), in("normal"), in("pos"), in("status"), "lo"_a, "hi"_a);
   m.def("derivatives", &derivatives, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), in("normal"),
         in("dist_status"), in("grad"), in("jn"), in("jp"), in("status"), "lo"_a, "hi"_a);
+  t.def("distances_serial", &distances_serial, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
+        "max_iter"_a, in("out"));
+  t.def("newton_runs", &newton_runs, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"), "max_iter"_a,
+        in("out"));
   t.def("sphere_newton_stages", &sphere_newton_stages, in("Ca"), in("Ra"), in("ra"), in("Cb"), in("Rb"), in("rb"),
         in("out"), "lo"_a, "hi"_a);
   bind_stages(t);

@@ -35,8 +35,8 @@ bound is concave in b - a and every accepted b is checked).  Near a transversal 
 conservative advancement with an exact local model (~3 steps).  (4) When the certificate fails within
 TOI_PROBE of b, or the sweep stalls, the float pose at a + TOI_PROBE is classified exactly: not
 separated ends the search with toi there.  After TOI_STALL_LIMIT stalls the pair is UNRESOLVED.
-(5) Instants the certified filter cannot decide are settled in rationals (rational.relation) between
-batched kernel runs and fed back as an oracle; the search is deterministic and reruns.
+(5) Instants the certified filter cannot decide are settled exactly (the exact fallback: rational.relation
+in integer arithmetic) and fed back to the pair's search as an oracle; the search is deterministic and reruns.
 
 Literature: Choi, Wang, Liu, Tu, Kim, "Continuous collision detection for ellipsoids", IEEE TVCG 15
 (2009) answers the same question through the roots of a bivariate characteristic polynomial; the

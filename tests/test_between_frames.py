@@ -23,6 +23,7 @@ from ellipsim.core.motion.interpolation import poses_at
 from ellipsim.mujoco import validate
 from ellipsim.mujoco.between import BetweenFrames, Events, swept_pairs
 from ellipsim.mujoco.geoms import ellipsoid_geoms
+from ellipsim.native import ext
 
 # A thin plate and a small pellet, both free: the pellet's motion is set per frame (replay) or shot
 # at 50 m/s through the plate with a 10 ms step (compare): 0.5 m a step through a plate 1 cm thick.
@@ -262,6 +263,13 @@ def test_capsules_enclose_their_ellipsoids():
     assert half[-3:].tolist() == [0.0, 0.8, 1.7] and cap[-3:].tolist() == [1.0, 0.2, 0.3]
 
 
+def segment_distance(*args):
+    """The broad phase's _segment_distance(p0, p1, p2, q0, q1, q2, d10, d11, d12, d20, d21, d22) (broad_phase.hpp)."""
+    out = np.empty(1)
+    ext.testing.segment_distance(np.array([args], dtype=float), out)
+    return float(out[0])
+
+
 def test_segment_distance_against_dense_sampling():
     rng = np.random.default_rng(4)
     cases = [rng.normal(size=(4, 3)) for _ in range(300)]
@@ -274,7 +282,7 @@ def test_segment_distance_against_dense_sampling():
     ]  # a point
     u = np.linspace(0, 1, 401)
     for a0, a1, b0, b1 in cases:
-        got = broadphase._segment_distance(*a0, *b0, *(a1 - a0), *(b1 - b0))
+        got = segment_distance(*a0, *b0, *(a1 - a0), *(b1 - b0))
         A = a0 + u[:, None] * (a1 - a0)
         B = b0 + u[:, None] * (b1 - b0)
         dense = np.linalg.norm(A[:, None] - B[None], axis=2).min()

@@ -21,6 +21,7 @@ from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation as Rot
 
 from ellipsim.core.motion import broad_phase as bp
+from ellipsim.native import ext
 
 BOUNDARY = 1e-12  # relative room around |d| = rho_i + rho_j where rounding may decide either way
 
@@ -302,8 +303,15 @@ def random_segments(rng, n):
     return out
 
 
+def segment_distance(*args):
+    """The broad phase's _segment_distance(p0, p1, p2, q0, q1, q2, d10, d11, d12, d20, d21, d22) (broad_phase.hpp)."""
+    out = np.empty(1)
+    ext.testing.segment_distance(np.array([args], dtype=float), out)
+    return float(out[0])
+
+
 def seg(p, d1, q, d2, scale=1.0):
-    return bp._segment_distance(*(p * scale), *(q * scale), *(d1 * scale), *(d2 * scale)) / scale
+    return segment_distance(*(p * scale), *(q * scale), *(d1 * scale), *(d2 * scale)) / scale
 
 
 def test_segment_distance_against_a_minimisation():

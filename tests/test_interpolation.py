@@ -19,9 +19,9 @@ import pytest
 from scipy.spatial.transform import Rotation as Rot
 
 from ellipsim import Ellipsoids
-from ellipsim.core._jit import jit
 from ellipsim.core.motion import interpolation as ip
 from ellipsim.core.tolerances import DELTA_R, HALF_TURN_TOL, OMEGA_ZERO
+from ellipsim.native import ext
 
 U = 2.0**-53
 DPS = 40
@@ -74,7 +74,7 @@ def test_rotation_vector_is_the_logarithm(angle):
     worst = 0.0
     with mp.workdps(DPS):
         for a, b in zip(R0, R1):
-            w0, w1, w2, theta = ip.rotation_vector(a, b)
+            w0, w1, w2, theta = ext.rotation_vector(a, b)
             w = np.array([w0, w1, w2])
             ref = Rot.from_matrix(a.T @ b).as_rotvec()
             assert np.abs(w - ref).max() <= 1e-12 * max(1.0, angle) + 4 * U * angle, (angle, w, ref)
@@ -88,12 +88,12 @@ def test_rotation_vector_identity_and_negligible_turns():
     that R0 Rz is exact): w = (0, 0, 1e-140) to rounding, kept by rotation_vectors; 1e-160 rad, below
     OMEGA_ZERO = 2^-500: flushed to exactly 0."""
     R0 = Rot.random(3, random_state=np.random.default_rng(1)).as_matrix()
-    assert ip.rotation_vector(R0[0], R0[0]) == (0.0, 0.0, 0.0, 0.0)
+    assert ext.rotation_vector(R0[0], R0[0]) == (0.0, 0.0, 0.0, 0.0)
     R0[0] = [[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]]  # a signed permutation: R0 Rz is exact
     rows = []
     for a in (1e-140, 1e-160):
         Rz = np.array([[1.0, -a, 0.0], [a, 1.0, 0.0], [0.0, 0.0, 1.0]])
-        w0, w1, w2, theta = ip.rotation_vector(R0[0], R0[0] @ Rz)
+        w0, w1, w2, theta = ext.rotation_vector(R0[0], R0[0] @ Rz)
         assert abs(w2 - a) <= 1e-12 * a and abs(w0) <= 1e-15 * a + 1e-300 and abs(w1) <= 1e-15 * a + 1e-300
         rows.append(R0[0] @ Rz)
     x0 = batch(np.zeros((3, 3)), R0[[0, 0, 0]])
@@ -128,14 +128,22 @@ def test_rotation_vectors_refuse_a_half_turn_naming_the_arguments():
 # --- rodrigues -------------------------------------------------------------------------------------
 
 
-@jit
+def _rod_stages(w, phi):
+    """The motion's Rodrigues stages (interpolation.hpp) on one row: columns 0-6 rodrigues(w, phi) flattened,
+    10-18 its rodrigues_matrix."""
+    out = np.empty((1, 28))
+    ext.testing.rodrigues_stages(np.array([w], float), np.array([phi], float), np.zeros((1, 3)), np.eye(3)[None], out)
+    return out[0].tolist()
+
+
 def _rod(w, phi):
-    return ip.rodrigues(w, phi)
+    """rodrigues(w, phi): (cos alpha, sin alpha, 1 - cos alpha, unit axis k, |alpha|)."""
+    c, s, om, k0, k1, k2, al = _rod_stages(w, phi)[:7]
+    return c, s, om, (k0, k1, k2), al
 
 
-@jit
 def _rod_matrix(w, phi):
-    return ip.rodrigues_matrix(ip.rodrigues(w, phi))
+    return tuple(_rod_stages(w, phi)[10:19])
 
 
 def test_rodrigues_exact_cases_and_unit_axis_down_to_omega_zero():

@@ -18,11 +18,11 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation as Rot
 
 from ellipsim import Ellipsoids, classify, contact_scale
-from ellipsim.core._jit import jit
 from ellipsim.core.motion import interpolation as motion
 from ellipsim.core.motion import time_of_impact as T
 from ellipsim.core.motion.time_of_impact import Impact, time_of_impact
 from ellipsim.core.tolerances import DELTA_R, RODRIGUES_ERR, SINCOS_ERR, TOI_TOL, U
+from ellipsim.native import ext
 
 I = np.eye(3)
 SEP = 0
@@ -408,7 +408,7 @@ def test_rational_fallback_runs_batched():
     arrays, n = T._check(A, A, B0, B1)
     out, status, t_exact = np.empty(1), np.empty(1, np.int8), np.empty(1)
     OT, OR, OC = np.zeros((1, 16)), np.zeros((1, 16), np.int8), np.zeros(1, np.int64)
-    T._toi(*arrays, np.arange(1), OT, OR, OC, out, status, t_exact, np.empty(1, np.int64), 0, 1)
+    ext.toi(*arrays, np.arange(1), OT, OR, OC, out, status, t_exact, np.empty(1, np.int64), 0, 1)
     assert status[0] == T.NEED_EXACT and t_exact[0] == 0.0
     far = one([5, 0, 0], I, [0.5] * 3)
     toi, st = time_of_impact(
@@ -471,19 +471,25 @@ def test_motion_reaches_the_end_pose_and_its_halves_meet():
 
 def test_sincos_within_its_proven_bound():
     xs = np.concatenate([np.linspace(-1.6, 1.6, 4001), 10.0 ** np.random.default_rng(19).uniform(-17, 0.2, 1000)])
+    sc = np.empty((len(xs), 2))
+    ext.testing.sincos(xs, sc)  # the motion's sincos (interpolation.hpp), one row per x
     worst = 0.0
     with mp.workdps(40):
-        for x in xs:
-            s, c = motion.sincos(float(x))
+        for x, (s, c) in zip(xs, sc.tolist()):
             worst = max(worst, float(abs(s - mp.sin(mp.mpf(float(x))))), float(abs(c - mp.cos(mp.mpf(float(x))))))
     assert worst <= SINCOS_ERR
     assert worst <= 2 * U  # in practice far inside the proven bound
 
 
-@jit
 def _rodrigues_pair(w, phi, p, Rp):
-    rod = motion.rodrigues(w, phi)
-    return motion.rodrigues_apply(rod, p), motion.matmul(Rp, motion.rodrigues_matrix(rod)), rod[4]
+    """rodrigues(w, phi)'s rodrigues_apply(., p), matmul(Rp, rodrigues_matrix(.)) and |alpha|, as the motion
+    computes them (interpolation.hpp's stages: columns 0-6 the rod, 7-9 the applied E^T p, 19-27 Rp E)."""
+    out = np.empty((1, 28))
+    ext.testing.rodrigues_stages(
+        np.array([w], float), np.array([phi], float), np.array([p], float), np.reshape(Rp, (1, 3, 3)).astype(float), out
+    )
+    o = out[0].tolist()
+    return o[7:10], o[19:28], o[6]
 
 
 def test_rodrigues_error_bounds_against_mpmath():

@@ -12,17 +12,15 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ...core._jit import jit
 from ...core.ellipsoids import Ellipsoids
-from ...core.exact import rational_fallback as rational
-from ...core.exact.certified_filter import certify_pair
 from ...core.exact.classify import classify
 from ...core.exact.contact_scale import contact_scale
 from ...core.exact.containment import UNDECIDED as CONTAIN_UNDECIDED
 from ...core.exact.containment import certify_containment, contains
-from ...core.motion.time_of_impact import UNRESOLVED, _check, _pose_at, float_poses, load_pair, time_of_impact
+from ...core.motion.time_of_impact import UNRESOLVED, _check, float_poses, time_of_impact
 from ...core.relation import SEPARATED, UNDECIDED
 from ...core.samples import random_ellipsoids
+from ...native import ext
 from .common import interleaved, relative, say
 
 
@@ -106,44 +104,25 @@ SET_NOTES = {
 # --- the sampling checker -------------------------------------------------------------------------
 
 
-@jit
-def _first_hits(A0, A1, B0, B1, N, out, undecided):
-    """Per pair the index of the first of N uniform instants whose float pose is not separated (N when
-    none), one thread.  Instants the certified filter cannot decide are recorded as (pair, k) in
-    `undecided` (their count is returned) and end that pair's scan, to be finished in rationals."""
-    sa, sb = int(A0[0].shape[0] > 1), int(B0[0].shape[0] > 1)
-    count = 0
-    for i in range(out.shape[0]):
-        ia, ib = i * sa, i * sb
-        pair = load_pair(A0, A1, B0, B1, ia, ib)[0]
-        out[i] = N
-        for k in range(N):
-            ca, Ra, ra, cb, Rb, rb = _pose_at(k / (N - 1), pair)
-            rel = certify_pair((ca, Ra, ra), (cb, Rb, rb))
-            if rel == UNDECIDED:
-                if count < undecided.shape[0]:
-                    undecided[count, 0], undecided[count, 1] = i, k
-                count += 1
-                out[i] = k
-                break
-            if rel != SEPARATED:
-                out[i] = k
-                break
-    return count
-
-
 def first_hits(a0, a1, b0, b1, N):
     """(n,) index of the first of N uniform instants at which the pair is not separated (N if none):
-    the exact classify on time_of_impact's float poses, rationals where the float filter is unsure."""
+    the exact classify on time_of_impact's float poses, rationals where the float filter is unsure.
+
+    The scan is compiled (ext.first_hits, one thread): per pair the certified filter on the float pose at
+    each instant k / (N - 1) until one is not proven separated; an instant the filter cannot decide ends
+    that scan, and the pair is finished here with the exact relation from that instant on."""
     arrays, n = _check(a0, a1, b0, b1)
     out = np.empty(n, dtype=np.int64)
     undecided = np.empty((n, 2), dtype=np.int64)
-    count = _first_hits(*arrays, N, out, undecided)
+    count = ext.first_hits(*arrays, N, out, undecided)
+    rel = np.empty(1, dtype=np.int8)
     for i, k in undecided[:count]:
         out[i] = N
         for kk in range(k, N):
             ca, Ra, ra, cb, Rb, rb = float_poses(arrays, [i], [kk / (N - 1)])
-            if rational.relation(ca[0], Ra[0], ra[0], cb[0], Rb[0], rb[0]) != SEPARATED:
+            rel[0] = UNDECIDED
+            ext.resolve(ca, Ra, ra, cb, Rb, rb, rel, 0, 1)  # the exact relation (integer arithmetic)
+            if rel[0] != SEPARATED:
                 out[i] = kk
                 break
     return out

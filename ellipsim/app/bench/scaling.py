@@ -7,14 +7,14 @@ import time
 import mujoco
 import numpy as np
 
-from ...core.distance.ellipsoid_pair import _distances, signed_distance
+from ...core.distance.ellipsoid_pair import signed_distance
 from ...core.ellipsoids import Ellipsoids
-from ...core.exact.certified_filter import _certify
 from ...core.exact.classify import classify, classify_pairs
 from ...core.motion import time_of_impact as toi
 from ...core.samples import generic_pairs
 from ...core.tolerances import NEWTON_MAX_ITER
 from ...mujoco.geoms import ellipsoid_geoms, frame_pairs
+from ...native import ext
 from .. import scenario, simulate
 from .common import float_runner, interleaved, relative, say
 
@@ -73,8 +73,9 @@ ONE_PAIR_CALLS = 2_000
 def one_pair_calls(rounds):
     """{function: (kernel µs, public call µs)} for one generic pair per call: classify, signed_distance
     and time_of_impact from Python with pre-built Ellipsoids, against their batch kernel called
-    directly on the pair with its outputs allocated and its checks done beforehand (numba's dispatch
-    of the arrays included: what any call from Python pays).  Minimum over interleaved rounds."""
+    directly on the pair with its outputs allocated and its checks done beforehand (the compiled
+    module's dispatch of the arrays included: what any call from Python pays).  Minimum over
+    interleaved rounds."""
     a, b = generic_pairs(2, seed=3)
     x, y = a[:1], b[:1]
     x1 = Ellipsoids(x.centers + 0.3, x.rotations, x.radii)
@@ -90,13 +91,13 @@ def one_pair_calls(rounds):
     )
     t, st, t_exact, steps, idx = np.empty(1), np.empty(1, np.int8), np.empty(1), np.empty(1, np.int64), np.arange(1)
     one = {
-        "classify": (lambda: _certify(*arrays, code, 0, 1), lambda: classify(x, y)),
+        "classify": (lambda: ext.certify(*arrays, code, 0, 1), lambda: classify(x, y)),
         "signed_distance": (
-            lambda: _distances(*arrays, NEWTON_MAX_ITER, dist, normal, pos, status, 0, 1),
+            lambda: ext.signed_distances(*arrays, NEWTON_MAX_ITER, dist, normal, pos, status, 0, 1),
             lambda: signed_distance(x, y),
         ),
         "time_of_impact": (
-            lambda: toi._toi(*motion, idx, *oracle, t, st, t_exact, steps, 0, 1),
+            lambda: ext.toi(*motion, idx, *oracle, t, st, t_exact, steps, 0, 1),
             lambda: toi.time_of_impact(x, x1, y, y1),
         ),
     }
@@ -180,7 +181,7 @@ def write(result, size, out, plt):
         "![scaling](scaling.png)",
         "",
         "Batches of generic pairs; the three functions timed in the same interleaved rounds.  Below ~10 pairs a "
-        "call's Python overhead (input checks, numba's dispatch) dominates: batch your pairs.",
+        "call's Python overhead (input checks, the compiled module's dispatch) dominates: batch your pairs.",
         "",
         "| pairs per call | exact, ns/pair | exact, 2 threads | plain descartes, ns/pair |",
         "|---:|---:|---:|---:|",
@@ -189,9 +190,9 @@ def write(result, size, out, plt):
     L += [
         "",
         "One generic pair per call from Python, pre-built Ellipsoids: each public function against its batch kernel "
-        "called directly on the pair (outputs allocated and checks done beforehand; numba's dispatch of the arrays "
-        f"included), loops of {ONE_PAIR_CALLS} calls in interleaved rounds, the fastest round.  Issue 20's goal: a "
-        "call within 1.5 µs of its kernel.",
+        "called directly on the pair (outputs allocated and checks done beforehand; the compiled module's dispatch "
+        f"of the arrays included), loops of {ONE_PAIR_CALLS} calls in interleaved rounds, the fastest round.  "
+        "Issue 20's goal: a call within 1.5 µs of its kernel.",
         "",
         "| one pair per call | kernel, µs | public call, µs | overhead, µs | goal: <= 1.5 |",
         "|---|---:|---:|---:|---|",

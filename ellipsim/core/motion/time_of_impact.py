@@ -35,8 +35,8 @@ bound is concave in b - a and every accepted b is checked).  Near a transversal 
 conservative advancement with an exact local model (~3 steps).  (4) When the certificate fails within
 TOI_PROBE of b, or the sweep stalls, the float pose at a + TOI_PROBE is classified exactly: not
 separated ends the search with toi there.  After TOI_STALL_LIMIT stalls the pair is UNRESOLVED.
-(5) Instants the certified filter cannot decide are settled in rationals (rational.relation) between
-batched kernel runs and fed back as an oracle; the search is deterministic and reruns.
+(5) Instants the certified filter cannot decide are settled exactly (the exact fallback: rational.relation
+in integer arithmetic) and fed back to the pair's search as an oracle; the search is deterministic and reruns.
 
 Literature: Choi, Wang, Liu, Tu, Kim, "Continuous collision detection for ellipsoids", IEEE TVCG 15
 (2009) answers the same question through the roots of a bivariate characteristic polynomial; the
@@ -48,10 +48,10 @@ from enum import IntEnum
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit, stage
 from ..ellipsoids import Ellipsoids, check_parallel
-from ..exact import rational_fallback as rational
 from ..exact.certified_filter import (
     _in_float_range,
     _positive,
@@ -825,7 +825,7 @@ def float_poses(arrays, idx, t):
         np.empty((k, 3, 3)),
         np.empty((k, 3)),
     )
-    _float_poses(*arrays, np.asarray(idx, dtype=np.int64), np.asarray(t, dtype=np.float64), *out)
+    ext.float_poses(*arrays, np.asarray(idx, dtype=np.int64), np.asarray(t, dtype=np.float64), *out)
     return out
 
 
@@ -956,7 +956,7 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False, deriva
         and type(b0) is Ellipsoids
         and type(b1) is Ellipsoids
     ):
-        done, out, status = _toi_small(
+        done, out, status = ext.toi_small(
             a0.centers,
             a0.rotations,
             a0.radii,
@@ -979,7 +979,7 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False, deriva
     OT = np.zeros((n, TOI_MAX_ORACLE))
     OR = np.zeros((n, TOI_MAX_ORACLE), dtype=np.int8)
     OC = np.zeros(n, dtype=np.int64)
-    threads.run(_toi, n, parallel, *arrays, np.arange(n), OT, OR, OC, out, status, t_exact, steps)
+    threads.run(ext.toi, n, parallel, *arrays, np.arange(n), OT, OR, OC, out, status, t_exact, steps)
     _resolve_exact(arrays, OT, OR, OC, out, status, t_exact, steps)
     if return_status:
         return out, status
@@ -987,21 +987,7 @@ def time_of_impact(a0, a1, b0, b1, *, parallel=None, return_status=False, deriva
 
 
 def _resolve_exact(arrays, OT, OR, OC, out, status, t_exact, steps):
-    """Pairs whose search asked for the exact relation at an instant: compute it in rationals, add it
-    to the pair's oracle, and rerun the (deterministic) search of all of them in one batched kernel call,
-    until none asks.  Python per pair only for the rationals."""
-    while True:
-        idx = np.flatnonzero(status == NEED_EXACT)
-        if not len(idx):
-            return
-        full = idx[OC[idx] >= TOI_MAX_ORACLE]
-        status[full] = UNRESOLVED  # out holds the proven end
-        idx = idx[OC[idx] < TOI_MAX_ORACLE]
-        if not len(idx):
-            return
-        ca, Ra, ra, cb, Rb, rb = float_poses(arrays, idx, t_exact[idx])
-        for k, i in enumerate(idx):
-            OT[i, OC[i]] = t_exact[i]
-            OR[i, OC[i]] = rational.relation(ca[k], Ra[k], ra[k], cb[k], Rb[k], rb[k])
-            OC[i] += 1
-        _toi(*arrays, idx, OT, OR, OC, out, status, t_exact, steps, 0, len(idx))
+    """Pairs whose search asked for the exact relation at an instant: compute it exactly (the C++ exact
+    fallback, rational_fallback.py's relation) at the float pose, add it to the pair's oracle, and rerun
+    the (deterministic) search of the pair until it asks no more (UNRESOLVED once its oracle is full)."""
+    ext.resolve_exact(*arrays, OT, OR, OC, out, status, t_exact, steps, 0, len(status))

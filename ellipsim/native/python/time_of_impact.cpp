@@ -1,7 +1,8 @@
 // The bindings of the core's motion/time_of_impact.hpp: the batch kernel `toi` (a drop-in for
 // time_of_impact._toi: the same arguments, the bodies as _check's tuples, writing pairs idx[lo:hi] of the
 // caller's outputs and oracle), `float_poses` (for _float_poses), `toi_small` (for _toi_small and _rigid_turns),
-// `resolve_exact` (time_of_impact._resolve_exact with the C++ exact fallback in place of rational.relation), and for tests/test_native_time_of_impact.py
+// `resolve_exact` (time_of_impact._resolve_exact with the C++ exact fallback in place of rational.relation),
+// `first_hits` (the bench's sampling checker, app/bench/motion.py), and for tests/test_native_time_of_impact.py
 // toi_pair and the search's stages on rows of numbers.
 //
 // The oracle of exact relations (OT, OR, OC) stays caller-owned as in the Python: the kernel only reads it, and
@@ -219,6 +220,43 @@ nb::tuple toi_small(const Centers<>& Ca0, const Rotations<>& Ra0, const Centers<
   return nb::make_tuple(done, owned(out), owned(status));
 }
 
+// The bench's sampling checker (app/bench/motion.py's first_hits, in place of its numba loop): per pair i the first
+// of N uniform instants k / (N - 1) whose float pose (pose_at, the pose the search classifies) the certified filter
+// does not prove separated, N when none.  An instant the filter cannot decide ends the pair's scan there and is
+// recorded as (i, k) in `undecided` while it has rows; the count of such pairs is returned (the caller finishes
+// them exactly).  One thread, the bench's timing.
+std::int64_t first_hits(const Ends& A0, const Ends& A1, const Ends& B0, const Ends& B1, std::int64_t N,
+                        Out<std::int64_t> out, Fixed<std::int64_t, -1, 2> undecided) {
+  const toi::Motion A = motion_of(A0, A1, "a"), B = motion_of(B0, B1, "b");
+  const std::int64_t n = len(out), room = len(undecided);
+  require(N >= 2, "N must be at least 2");
+  require(n == 0 || ((A.n == 1 || A.n >= n) && (B.n == 1 || B.n >= n)), "out has more rows than the batches' pairs");
+  const std::int64_t sa = A.n > 1, sb = B.n > 1;
+  std::int64_t* o = out.data();
+  std::int64_t* u = undecided.data();
+  std::int64_t count = 0;
+  nb::gil_scoped_release release;
+  for (std::int64_t i = 0; i < n; ++i) {
+    const toi::Pair pair = toi::load_pair(A, B, i * sa, i * sb).pair;
+    o[i] = N;
+    for (std::int64_t k = 0; k < N; ++k) {
+      const toi::PosePair P = toi::pose_at(static_cast<double>(k) / static_cast<double>(N - 1), pair);
+      const std::int8_t rel = exact::certify_pair(P.A, P.B);
+      if (rel == UNDECIDED) {
+        if (count < room) u[2 * count] = i, u[2 * count + 1] = k;
+        ++count;
+        o[i] = k;
+        break;
+      }
+      if (rel != SEPARATED) {
+        o[i] = k;
+        break;
+      }
+    }
+  }
+  return count;
+}
+
 // --- test stages --------------------------------------------------------------------------------------------
 
 using Vec = Fixed<const double, 3>;
@@ -294,6 +332,9 @@ void bind_time_of_impact(nb::module_& m, nb::module_& t) {
         "time_of_impact._toi_small: (done, toi, status) of a batch of 1 to SMALL_BATCH_PAIRS pairs in one call.");
   m.def("float_poses", &float_poses, in("A0"), in("A1"), in("B0"), in("B1"), in("idx"), in("t"), in("CA"), in("RA"),
         in("ra"), in("CB"), in("RB"), in("rb"), "time_of_impact._float_poses: the float poses classified at t[k].");
+  m.def("first_hits", &first_hits, in("A0"), in("A1"), in("B0"), in("B1"), "N"_a, in("out"), in("undecided"),
+        "The bench's sampling checker: per pair the first of N uniform instants not proven separated (N if none); "
+        "returns how many stopped undecided, those (pair, k) in undecided.");
   t.def("toi_pair", &toi_pair, in("ca0"), in("Ra0"), in("ca1"), in("Ra1"), in("ra"), in("wa"), in("cb0"), in("Rb0"),
         in("cb1"), in("Rb1"), in("rb"), in("wb"), in("ot"), in("orel"), "ocount"_a);
   t.def("toi_stages", &stages, in("A0"), in("A1"), in("B0"), in("B1"), in("args"), in("out"));

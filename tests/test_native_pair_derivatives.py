@@ -114,14 +114,16 @@ def shape_poses(kind, n, seed, spread=1.5):
 
 def kind_poses(kind):
     """The kind's test poses (test_capsule, test_box, test_cylinder: every category), coaxial spheroids (capsule,
-    cylinder: circles of maxima) and test_shape_derivatives' random poses."""
+    cylinder: circles of maxima), test_shape_derivatives' random poses, and for boxes float32 rotations."""
     from pair_types import coaxial_poses
 
     module = {"capsule": "test_capsule", "box": "test_box", "cylinder": "test_cylinder"}[kind]
     make_poses = __import__(module).make_poses
     P = make_poses(seed=0, per=40)[0]
     sets = [P, shape_poses(kind, 600, seed=sum(map(ord, kind)))]
-    if kind != "box":
+    if kind == "box":
+        sets.append({k: (v.astype(np.float32).astype(float) if k in ("RE", "RK") else v) for k, v in P.items()})
+    else:
         sets += [coaxial_poses(0, 100), coaxial_poses(1, 100)]
     return sets
 

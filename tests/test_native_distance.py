@@ -1,24 +1,19 @@
-"""The C++ distance/ folder (issue 46) against the numba stages it replaces, bit for bit.
+"""The C++ distance/ folder's drop-in kernels (issue 46): signed_distances and derivatives.
 
-sphere_newton: the bisector seed, sigma, a whole Newton run (its point, value, status and step count), the
-rolling radius, the tangent basis and unit() on random, near-contact and every stress category's pairs and
-on arbitrary finite floats.
-
-The narrow phase: the drop-in kernels signed_distances and derivatives (ellipsoid_pair._distances and
-derivatives._derivatives) on every sample set, on the deep, thin, spheroid, concentric and UNPROVEN pairs of
-the Python module's own tests, with every max_iter, on hypothesis's hard and random pairs and on arbitrary finite
-floats; their broadcasting, ranges, threads and refusals.  Their stages through the testing submodule, each
-on rows of its own arguments (so that the special inputs of test_global_max, test_inner_sum, test_spheroids
-reach them directly): inner_sum_bound, sigma_grad, patch_point, certify_region, in_region, climb, global_max
-(seeded or not, small budgets, flat maxima, separated pairs), parallel_max, tilted_max, axis_bb (spheroids
-and cylinders, refusals), pair_signed_distance(_from), contact_at and sigma_lower_bound.
+signed_distances and derivatives (the kernels under signed_distance) on every sample set, on the deep, thin,
+spheroid, concentric and UNPROVEN pairs of the Python module's own tests, with every max_iter, on hypothesis's
+hard and random pairs: statuses in range, the same bits twice, and the sign of every proven distance the exact
+relation's (ext.resolve: separated pairs never below 0, overlapping ones never above); every path reached on the
+special pairs (GLOBAL and UNPROVEN; SMOOTH, BRANCH, FLAT, UNPROVEN), UNPROVEN rows NaN; arbitrary finite floats
+do not fail.  The per-pair functions pair_signed_distance(_from), contact_at and sigma_lower_bound (testing
+submodule) against the batch kernel and at the warm start's scale limits.  Broadcasting, ranges, threads and
+refusals; the status codes against the public enums.  (The stages against references: tests/test_distance.py,
+test_global_max.py, test_inner_sum.py, test_spheroids.py, test_sphere_newton.py.)
 """
 
-import math
 import threading
 
 import leaves_poses
-import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -26,54 +21,21 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation as Rot
 from strategies import hard_pair, random_pair
 from test_native import arrays, finite, positive
-from test_spheroids import model_pair, spheroid_pair
 
 import ellipsim.native as native
 from ellipsim import ContactFeature, DerivativeStatus, DistanceStatus, Ellipsoids
 from ellipsim.core import samples, threads
-from ellipsim.core.distance import branch_and_bound as bb
-from ellipsim.core.distance import derivatives as dv
-from ellipsim.core.distance import ellipsoid_pair as ep
-from ellipsim.core.distance.branch_and_bound import (
-    certify_region_call,
-    climb,
-    global_max,
-    in_region,
-    patch_cap,
-    patch_point,
-    sigma_grad,
-    sigma_only,
-)
-from ellipsim.core.distance.ellipsoid_pair import (
-    _deep_tolerance,
-    _distances,
-    contact_at,
-    pair_signed_distance,
-    pair_signed_distance_from,
-    sigma_lower_bound,
-)
-from ellipsim.core.distance.inner_sum import inner_sum_bound
-from ellipsim.core.distance.sphere_newton import (
-    CONVERGED,
-    a_frame,
-    bisector_seed,
-    newton,
-    rolling_radius,
-    sigma,
-    tangent_basis,
-    unit,
-)
-from ellipsim.core.distance.spheroids import axis_bb, parallel_max, tilted_max
+from ellipsim.core.relation import OVERLAPPING, SEPARATED, UNDECIDED
 from ellipsim.core.samples import random_ellipsoids
-from ellipsim.core.tolerances import BB_ERR_SIGMA_ULPS, BB_MAX_PATCHES, FIRST_RUN_ITER, NEWTON_MAX_ITER, U
-from ellipsim.core.vec3 import load, norm2, scaled, unit_scale
+from ellipsim.core.tolerances import NEWTON_MAX_ITER, WARM_SCALE_MAX, WARM_SCALE_MIN
 
 ext = native.ext
 T = ext.testing
+GLOBAL, UNPROVEN = int(DistanceStatus.GLOBAL), int(DistanceStatus.UNPROVEN)
 
 
 def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN (its sign and payload are the compiler's choice); any dtype."""
+    """Equal bits, NaN for NaN; any dtype."""
     got, want = np.asarray(got), np.asarray(want)
     assert got.shape == want.shape and got.dtype == want.dtype
     if got.dtype == np.float64:
@@ -81,36 +43,7 @@ def assert_same_bits(got, want, what=""):
     else:
         differ = got != want
     bad = np.argwhere(differ)
-    assert not len(bad), f"{what} at {tuple(bad[0])}: {got[tuple(bad[0])]!r} in C++, {want[tuple(bad[0])]!r} in numba"
-
-
-# --- sphere_newton -------------------------------------------------------------------------------------------
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _sphere_newton_stages(Ca, Ra, ra, Cb, Rb, rb, out, lo, hi):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
-    for i in range(lo, hi):
-        A, B = load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb)
-        e, a2, M, U = a_frame(A, B)
-        rB = B[2]
-        n0 = bisector_seed(e, a2, U, (rB[0] * rB[0], rB[1] * rB[1], rB[2] * rB[2]))
-        rA = A[2]
-        scale = math.sqrt(norm2(e)) + max(rA[0], rA[1], rA[2]) + max(rB[0], rB[1], rB[2])
-        n, value, status, steps = newton(n0, e, a2, M, scale, -math.inf, NEWTON_MAX_ITER)
-        t1, t2 = tangent_basis(n0)
-        u = unit(e)
-        row = (n0[0], n0[1], n0[2], sigma(n0, e, a2, M), n[0], n[1], n[2], value, float(status), float(steps),
-               rolling_radius(rA), t1[0], t1[1], t1[2], t2[0], t2[1], t2[2], u[0], u[1])  # fmt: skip
-        for k in range(19):
-            out[i, k] = row[k]
-
-
-def assert_sphere_newton_bits(args, n):
-    got, want = np.full((n, 19), 7.0), np.full((n, 19), 7.0)
-    T.sphere_newton_stages(*args, got, 0, n)
-    _sphere_newton_stages(*args, want, 0, n)
-    assert_same_bits(got, want, "sphere_newton_stages")
+    assert not len(bad), f"{what} at {tuple(bad[0])}: {got[tuple(bad[0])]!r}, expected {want[tuple(bad[0])]!r}"
 
 
 SETS = [
@@ -118,13 +51,6 @@ SETS = [
     ("near contact", lambda: samples.near_contact_pairs(3000, seed=4)),
 ]
 SETS += [(c, lambda c=c: samples.stress_pairs(c, 600 if c != "aspect 1e4" else 100, seed=5)) for c in samples.STRESS]
-
-
-@pytest.mark.parametrize("label, make", SETS, ids=[s[0] for s in SETS])
-def test_sphere_newton_gives_the_numba_bits(label, make):
-    a, b = make()
-    assert_sphere_newton_bits(arrays(a, b), len(a))
-
 
 any_pair = (
     st.lists(finite, min_size=6, max_size=6),
@@ -136,13 +62,6 @@ any_pair = (
 def one_pair(c, R, r):
     C, M, S = np.array(c).reshape(2, 1, 3), np.array(R).reshape(2, 1, 3, 3), np.array(r).reshape(2, 1, 3)
     return C[0], M[0], S[0], C[1], M[1], S[1]
-
-
-@settings(max_examples=300, deadline=None)
-@given(*any_pair)
-def test_sphere_newton_gives_the_numba_bits_on_any_floats(c, R, r):
-    with np.errstate(all="ignore"):
-        assert_sphere_newton_bits(one_pair(c, R, r), 1)
 
 
 # --- the drop-in kernels: signed_distances and derivatives -----------------------------------------------------
@@ -160,26 +79,42 @@ def derivatives(kernel, args, normal, status, n, lo=0, hi=None):
     return out
 
 
-def assert_kernels_agree(args, n, max_iter=NEWTON_MAX_ITER, lo=0, hi=None):
-    """signed_distances and derivatives (at numba's normals and statuses) give numba's bits in [lo, hi) and
-    leave the rest of their outputs alone; returns numba's (dist, normal, pos, status)."""
-    got = distances(ext.signed_distances, args, n, max_iter, lo, hi)
-    want = distances(_distances, args, n, max_iter, lo, hi)
-    for g, w, name in zip(got, want, ("dist", "normal", "pos", "status")):
-        assert_same_bits(g, w, f"signed_distances {name}")
-    normal, status = want[1], want[3]
-    if lo == 0 and (hi is None or hi == n):  # derivatives read every row of normal and status
-        got = derivatives(ext.derivatives, args, normal, status, n)
-        want_d = derivatives(dv._derivatives, args, normal, status, n)
-        for g, w, name in zip(got, want_d, ("grad", "jn", "jp", "status")):
-            assert_same_bits(g, w, f"derivatives {name}")
-    return want
+def check_kernels(args, n, max_iter=NEWTON_MAX_ITER, lo=0, hi=None, exact=True):
+    """signed_distances and derivatives (at its normals and statuses) in [lo, hi): statuses in range, the same
+    bits twice, the rest of their outputs left alone; with `exact`, every GLOBAL distance on the exact
+    relation's side of 0.  Returns signed_distances' (dist, normal, pos, status)."""
+    hi = n if hi is None else hi
+    with np.errstate(all="ignore"):
+        got = distances(ext.signed_distances, args, n, max_iter, lo, hi)
+        again = distances(ext.signed_distances, args, n, max_iter, lo, hi)
+    for g, w, name in zip(got, again, ("dist", "normal", "pos", "status")):
+        assert_same_bits(g, w, f"signed_distances {name} twice")
+        fill = np.full_like(g, 7)
+        assert_same_bits(g[:lo], fill[:lo], name)
+        assert_same_bits(g[hi:], fill[hi:], name)
+    dist, normal, pos, status = got
+    assert set(status[lo:hi].tolist()) <= {GLOBAL, UNPROVEN}
+    if exact:
+        rel = np.full(n, UNDECIDED, np.int8)
+        ext.resolve(*args, rel, lo, hi)
+        proven = status == GLOBAL
+        assert not np.any(proven & (rel == SEPARATED) & (dist < 0)), "a separated pair below 0"
+        assert not np.any(proven & (rel == OVERLAPPING) & (dist > 0)), "an overlapping pair above 0"
+    if lo == 0 and hi == n:  # derivatives read every row of normal and status
+        with np.errstate(all="ignore"):
+            d = derivatives(ext.derivatives, args, normal, status, n)
+            d2 = derivatives(ext.derivatives, args, normal, status, n)
+        for g, w, name in zip(d, d2, ("grad", "jn", "jp", "status")):
+            assert_same_bits(g, w, f"derivatives {name} twice")
+        assert set(d[3].tolist()) <= {int(s) for s in DerivativeStatus}
+        assert np.isnan(d[0][status != GLOBAL]).all() and (d[3][status != GLOBAL] == DerivativeStatus.UNPROVEN).all()
+    return got
 
 
 @pytest.mark.parametrize("label, make", SETS, ids=[s[0] for s in SETS])
-def test_signed_distances_and_derivatives_give_the_numba_bits(label, make):
+def test_signed_distances_take_the_exact_relations_side(label, make):
     a, b = make()
-    assert_kernels_agree(arrays(a, b), len(a))
+    check_kernels(arrays(a, b), len(a))
 
 
 def deep_elongated(n, seed):
@@ -294,38 +229,37 @@ DEEP = [
 
 
 @pytest.mark.parametrize("label, make", DEEP, ids=[s[0] for s in DEEP])
-def test_deep_and_special_pairs_give_the_numba_bits(label, make):
+def test_deep_and_special_pairs(label, make):
     """The pairs that reach inner_sum, spheroids and branch_and_bound (most of them deep), and the special cases
-    of the Python module's tests: the same bits, every path taken (GLOBAL and UNPROVEN, SMOOTH, BRANCH, FLAT)."""
+    of the Python module's tests: every path taken (GLOBAL and UNPROVEN, SMOOTH, BRANCH, FLAT)."""
     a, b = make()
-    dist, normal, pos, status = assert_kernels_agree(arrays(a, b), len(a))
+    dist, normal, pos, status = check_kernels(arrays(a, b), len(a))
     if label == "special":
-        assert (status == ep.UNPROVEN).any() and (status == ep.GLOBAL).any()
-        out = derivatives(dv._derivatives, arrays(a, b), normal, status, len(a))
-        assert {dv.SMOOTH, dv.BRANCH, dv.FLAT, dv.UNPROVEN} <= set(out[3].tolist())
+        assert (status == UNPROVEN).any() and (status == GLOBAL).any()
+        out = derivatives(ext.derivatives, arrays(a, b), normal, status, len(a))
+        S = DerivativeStatus
+        assert {S.SMOOTH, S.BRANCH, S.FLAT, S.UNPROVEN} <= set(out[3].tolist())
 
 
 @pytest.mark.parametrize("max_iter", [1, 2, 3, 5, 9, 10, 11, 40, 1000, 1_000_000])
-def test_every_max_iter_gives_the_numba_bits(max_iter):
+def test_every_max_iter(max_iter):
     a, b = samples.generic_pairs(400, seed=7)
     c, d = deep_elongated(100, 8)
     a, b = Ellipsoids.concatenate([a, c]), Ellipsoids.concatenate([b, d])
-    assert_kernels_agree(arrays(a, b), len(a), max_iter)
+    check_kernels(arrays(a, b), len(a), max_iter)
 
 
-def test_derivatives_of_unproven_pairs_and_any_status_give_the_numba_bits():
+def test_derivatives_of_unproven_pairs_and_any_status():
     """dist_status as the caller gives it (test_derivatives: UNPROVEN rows are NaN, any nonzero code is)."""
     a, b = samples.generic_pairs(40, seed=2)
-    dist, normal, pos, status = distances(_distances, arrays(a, b), 40)
+    dist, normal, pos, status = distances(ext.signed_distances, arrays(a, b), 40)
     status = np.array([0, 1, 0, 2, -1, 0, 127, 0] * 5, dtype=np.int8)
     got = derivatives(ext.derivatives, arrays(a, b), normal, status, 40)
-    want = derivatives(dv._derivatives, arrays(a, b), normal, status, 40)
-    for g, w in zip(got, want):
-        assert_same_bits(g, w, "derivatives")
-    assert np.isnan(got[0][status != 0]).all() and (got[3][status != 0] == dv.UNPROVEN).all()
+    assert np.isnan(got[0][status != 0]).all() and (got[3][status != 0] == DerivativeStatus.UNPROVEN).all()
+    assert np.isfinite(got[0][status == 0]).all() and not (got[3][status == 0] == DerivativeStatus.UNPROVEN).any()
 
 
-def test_derivatives_at_any_normal_give_the_numba_bits():
+def test_derivatives_at_any_normal_give_statuses_in_range():
     """Any direction (unit or not, zero included) as the normal: the polish and the status follow it."""
     a, b = samples.generic_pairs(300, seed=12)
     rng = np.random.default_rng(3)
@@ -334,9 +268,10 @@ def test_derivatives_at_any_normal_give_the_numba_bits():
     status = np.zeros(300, np.int8)
     with np.errstate(all="ignore"):
         got = derivatives(ext.derivatives, arrays(a, b), normal, status, 300)
-        want = derivatives(dv._derivatives, arrays(a, b), normal, status, 300)
-    for g, w in zip(got, want):
-        assert_same_bits(g, w, "derivatives")
+        again = derivatives(ext.derivatives, arrays(a, b), normal, status, 300)
+    for g, w in zip(got, again):
+        assert_same_bits(g, w, "derivatives twice")
+    assert set(got[3].tolist()) <= {int(s) for s in DerivativeStatus}
 
 
 def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice():
@@ -344,16 +279,22 @@ def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice():
     c, d = deep_elongated(20, 3)
     a, b = Ellipsoids.concatenate([a, c]), Ellipsoids.concatenate([b, d])
     n = len(a)
-    assert_kernels_agree(arrays(a[0], b), n)
-    assert_kernels_agree(arrays(a, b[n - 1]), n)
-    assert_kernels_agree(arrays(a, b), n, NEWTON_MAX_ITER, 17, 311)  # the rest keeps its fill (compared too)
-    out = distances(ext.signed_distances, arrays(a, b), n, NEWTON_MAX_ITER, 17, 311)
-    assert np.all(out[0][:17] == 7.0) and np.all(out[0][311:] == 7.0) and np.all(out[3][311:] == 7)
-    dist, normal, pos, status = distances(_distances, arrays(a, b), n)
+    for once, tiled in ((arrays(a[0], b), arrays(a[[0] * n], b)), (arrays(a, b[n - 1]), arrays(a, b[[n - 1] * n]))):
+        got, want = check_kernels(once, n), check_kernels(tiled, n)
+        for g, w in zip(got, want):
+            assert_same_bits(g, w, "broadcast")
+        got = derivatives(ext.derivatives, once, want[1], want[3], n)
+        for g, w in zip(got, derivatives(ext.derivatives, tiled, want[1], want[3], n)):
+            assert_same_bits(g, w, "broadcast derivatives")
+    full = check_kernels(arrays(a, b), n)
+    part = check_kernels(arrays(a, b), n, NEWTON_MAX_ITER, 17, 311)  # the rest keeps its fill (checked there)
+    for g, w in zip(part, full):
+        assert_same_bits(g[17:311], w[17:311], "range")
+    dist, normal, pos, status = full
     got = derivatives(ext.derivatives, arrays(a, b), normal, status, n, 17, 311)
-    want = derivatives(dv._derivatives, arrays(a, b), normal, status, n, 17, 311)
+    want = derivatives(ext.derivatives, arrays(a, b), normal, status, n)
     for g, w in zip(got, want):
-        assert_same_bits(g, w, "derivatives")
+        assert_same_bits(g[17:311], w[17:311], "derivatives range")
     assert np.all(got[1][:17] == 7.0) and np.all(got[3][311:] == 7)
 
 
@@ -410,17 +351,16 @@ def test_the_kernels_refuse_bad_ranges_and_arrays():
 
 @settings(max_examples=150, deadline=None)
 @given(st.one_of(hard_pair, random_pair()))
-def test_hard_pairs_give_the_numba_bits(pair):
-    assert_kernels_agree(arrays(*pair), 1)
+def test_hard_pairs_take_the_exact_relations_side(pair):
+    check_kernels(arrays(*pair), 1)
 
 
 @settings(max_examples=150, deadline=None)
 @given(*any_pair)
-def test_arbitrary_finite_floats_give_the_numba_bits(c, R, r):
-    """Any finite float the kernels may meet (the Python layer validates; the kernels must agree anyway):
+def test_arbitrary_finite_floats_give_statuses_in_range(c, R, r):
+    """Any finite float the kernels may meet (the Python layer validates; the kernels must not fail):
     extreme exponents, subnormal radii, rotations that are not rotations."""
-    with np.errstate(all="ignore"):
-        assert_kernels_agree(one_pair(c, R, r), 1)
+    check_kernels(one_pair(c, R, r), 1, exact=False)
 
 
 def test_the_status_codes_are_status_py():
@@ -430,424 +370,50 @@ def test_the_status_codes_are_status_py():
             assert codes[f"{enum.__name__}.{m.name}"] == int(m)
     assert len([k for k in codes if "." in k and k.split(".")[0] in ("DistanceStatus", "DerivativeStatus",
                                                                      "ContactFeature")]) == 14  # fmt: skip
-    assert (codes["ellipsoid_pair.GLOBAL"], codes["ellipsoid_pair.UNPROVEN"]) == (ep.GLOBAL, ep.UNPROVEN)
-    assert [codes[f"branch_and_bound.{k}"] for k in ("GLOBAL", "UNPROVEN", "SEPARATED_MAX")] == [
-        bb.GLOBAL,
-        bb.UNPROVEN,
-        bb.SEPARATED_MAX,
-    ]
-    assert [codes[f"derivatives.{k}"] for k in ("SMOOTH", "BRANCH", "FLAT", "UNPROVEN")] == [
-        dv.SMOOTH,
-        dv.BRANCH,
-        dv.FLAT,
-        dv.UNPROVEN,
-    ]
+    assert (codes["ellipsoid_pair.GLOBAL"], codes["ellipsoid_pair.UNPROVEN"]) == (GLOBAL, UNPROVEN)
+    for k in ("SMOOTH", "BRANCH", "FLAT", "UNPROVEN"):
+        assert codes[f"derivatives.{k}"] == DerivativeStatus[k]
 
 
-def test_the_rho_table_is_branch_and_bounds():
-    assert_same_bits(np.array(T.rho_table()), bb.RHO_TABLE, "RHO_TABLE")
+# --- the per-pair functions: pair_signed_distance(_from), contact_at, sigma_lower_bound ---------------------------
 
 
-# --- the stages, on rows of their arguments --------------------------------------------------------------------
-
-
-@numba.njit(inline="always")
-def _v(r, k):
-    return (r[k], r[k + 1], r[k + 2])
-
-
-@numba.njit(inline="always")
-def _m(r, k):
-    return (r[k], r[k + 1], r[k + 2], r[k + 3], r[k + 4], r[k + 5], r[k + 6], r[k + 7], r[k + 8])
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_inner_sum_bound(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        out[i, 0] = inner_sum_bound(_v(r, 0), _v(r, 3), _v(r, 6), _m(r, 9), _v(r, 18), r[21])
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_sigma_grad(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        c, e, a, U, b = _v(r, 0), _v(r, 3), _v(r, 6), _m(r, 9), _v(r, 18)
-        s, G, ha, hb = sigma_grad(c, e, a, U, b)
-        row = (s, G[0], G[1], G[2], ha, hb, sigma_only(c, e, a, U, b))
-        for k in range(7):
-            out[i, k] = row[k]
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_patch_point(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        face, level, pi, pj, Q = int(r[0]), int(r[1]), int(r[2]), int(r[3]), _m(r, 4)
-        p, inv, pc, rho = patch_point(face, level, pi, pj, Q)
-        c, rc = patch_cap(face, level, pi, pj, Q)
-        row = (p[0], p[1], p[2], inv, pc, rho, c[0], c[1], c[2], rc)
-        for k in range(10):
-            out[i, k] = row[k]
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_certify_region(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        ok, m, v, reg = certify_region_call(
-            _v(r, 0), _v(r, 3), _v(r, 6), _m(r, 9), _v(r, 18), r[21], r[22], r[23], r[24], r[25]
-        )
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = (1.0 if ok else 0.0), m[0], m[1], m[2], v
-        for k in range(22):
-            out[i, 5 + k] = reg[k]
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_in_region(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        reg = (r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15], r[16], r[17], r[18],
-               r[19], r[20], r[21], r[22], r[23], r[24], r[25])  # fmt: skip
-        out[i, 0] = 1.0 if in_region(_v(r, 0), r[3], reg) else 0.0
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_climb(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        conv, m, v = climb(_v(r, 0), _v(r, 3), _v(r, 6), _m(r, 9), r[18])
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = (1.0 if conv else 0.0), m[0], m[1], m[2], v
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_global_max(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        status, n, v, count, runs = global_max(
-            _v(r, 0), r[3], r[4] != 0.0, _v(r, 5), _v(r, 8), _m(r, 11), _v(r, 20), _m(r, 23), r[32], r[33], int(r[34])
-        )
-        row = (float(status), n[0], n[1], n[2], v, float(count), float(runs))
-        for k in range(7):
-            out[i, k] = row[k]
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_parallel_max(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        ok, n, nodes = parallel_max(_v(r, 0), _v(r, 3), _m(r, 6), _v(r, 15), r[18], r[19])
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = (1.0 if ok else 0.0), n[0], n[1], n[2], float(nodes)
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_tilted_max(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        ok, n, nodes = tilted_max(_v(r, 0), _v(r, 3), _m(r, 6), _v(r, 15), r[18], r[19], _v(r, 20))
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = (1.0 if ok else 0.0), n[0], n[1], n[2], float(nodes)
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_axis_bb(inp, out, lo, hi):
-    for i in range(lo, hi):
-        r = inp[i]
-        ok, t, p, moved, nodes = axis_bb(r[0], r[1], r[2], int(r[3]), r[4], r[5], r[6], r[7], r[8], r[9], r[10],
-                                         r[11], r[12], r[13], r[14], r[15])  # fmt: skip
-        row = (1.0 if ok else 0.0, t, p, 1.0 if moved else 0.0, float(nodes))
-        for k in range(5):
-            out[i, k] = row[k]
-
-
-STAGES = {  # name: (C++, numba, input columns, output columns)
-    "inner_sum_bound": (T.inner_sum_bound, _nb_inner_sum_bound, 22, 1),
-    "sigma_grad": (T.sigma_grad, _nb_sigma_grad, 21, 7),
-    "patch_point": (T.patch_point, _nb_patch_point, 13, 10),
-    "certify_region": (T.certify_region, _nb_certify_region, 26, 27),
-    "in_region": (T.in_region, _nb_in_region, 26, 1),
-    "climb": (T.climb, _nb_climb, 19, 5),
-    "global_max": (T.global_max, _nb_global_max, 35, 7),
-    "parallel_max": (T.parallel_max, _nb_parallel_max, 20, 5),
-    "tilted_max": (T.tilted_max, _nb_tilted_max, 23, 5),
-    "axis_bb": (T.axis_bb, _nb_axis_bb, 16, 5),
-}
-
-
-def assert_stage(name, inp):
-    """The C++ stage and its numba twin give the same bits on every row; returns numba's rows."""
-    cxx, nb, k_in, k_out = STAGES[name]
-    inp = np.ascontiguousarray(inp, dtype=np.float64)
-    assert inp.shape[1] == k_in, (name, inp.shape)
-    n = len(inp)
-    got, want = np.full((n, k_out), 7.0), np.full((n, k_out), 7.0)
-    with np.errstate(all="ignore"):
-        cxx(inp, got, 0, n)
-        nb(inp, want, 0, n)
-    assert_same_bits(got, want, name)
-    return want
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _frames(Ca, Ra, ra, Cb, Rb, rb, out):
-    """Per pair, what the narrow phase hands its stages (ellipsoid_pair._pair): e (3), a (3), U (9), b (3), M (9),
-    scale, S, tol_bb, err_sigma, the first run's n (3), value, converged: 36 columns."""
-    for i in range(len(out)):
-        (ca, R_a, r_a), (cb, R_b, r_b) = load(Ca, Ra, ra, i), load(Cb, Rb, rb, i)
-        u = unit_scale(r_a, r_b)
-        r_a, r_b = scaled(r_a, u), scaled(r_b, u)
-        d = ((cb[0] - ca[0]) * u, (cb[1] - ca[1]) * u, (cb[2] - ca[2]) * u)
-        e, a2, M, Ub = a_frame(((0.0, 0.0, 0.0), R_a, r_a), (d, R_b, r_b))
-        rb2 = (r_b[0] * r_b[0], r_b[1] * r_b[1], r_b[2] * r_b[2])
-        scale = max(r_a[0], r_a[1], r_a[2], r_b[0], r_b[1], r_b[2])
-        n, value, run, _ = newton(bisector_seed(e, a2, Ub, rb2), e, a2, M, scale, -math.inf, FIRST_RUN_ITER)
-        _, S, _, tol_bb = _deep_tolerance(e, R_a, r_a, r_b)
-        tail = (scale, S, tol_bb, BB_ERR_SIGMA_ULPS * U * S) + n + (value, 1.0 if run == CONVERGED else 0.0)
-        row = e + r_a + Ub + r_b + M + tail
-        for k in range(36):
-            out[i, k] = row[k]
-
-
-def frames(a, b):
-    out = np.empty((len(a), 36))
-    with np.errstate(all="ignore"):
-        _frames(a.centers, a.rotations, a.radii, b.centers, b.rotations, b.radii, out)
-    return out
-
-
-# column slices of frames()
-E, A, UB, B, M, SCALE, S_, TOL, ERR, N, VALUE, CONV = (
-    slice(0, 3), slice(3, 6), slice(6, 15), slice(15, 18), slice(18, 27), slice(27, 28), slice(28, 29),
-    slice(29, 30), slice(30, 31), slice(31, 34), slice(34, 35), slice(35, 36),
-)  # fmt: skip
-
-
-def stage_pairs():
-    """Frames of pairs for the stages: deep, deep elongated, thin, random and near-contact, leaves."""
-    parts = [
-        (random_ellipsoids(np.random.default_rng(5), 150, box=0.05, radii=(0.15, 1.0)),
-         random_ellipsoids(np.random.default_rng(6), 150, box=0.05, radii=(0.15, 1.0))),
-        deep_elongated(150, 9),
-        thin_pairs(16, 21),
-        samples.generic_pairs(100, seed=11),
-        samples.near_contact_pairs(100, seed=12),
-        special_pairs(),
-    ]  # fmt: skip
-    a = Ellipsoids.concatenate([p[0] for p in parts])
-    b = Ellipsoids.concatenate([p[1] for p in parts])
-    return frames(a, b)
-
-
-@pytest.fixture(scope="module")
-def F():
-    return stage_pairs()
-
-
-def unit_rows(rng, n):
-    v = rng.normal(size=(n, 3))
-    return v / np.linalg.norm(v, axis=1)[:, None]
-
-
-def test_inner_sum_bound_gives_the_numba_bits(F):
-    """At the first run's maximum (the narrow phase's call), at random directions (any n: the bound holds from
-    any), at sigma(n) >= 0 (inf) and at a few axes (aligned ellipsoids: the exact depth)."""
-    rng = np.random.default_rng(1)
-    n = len(F)
-    dirs = [F[:, N], unit_rows(rng, n), np.tile(np.eye(3), (n // 3 + 1, 1))[:n]]
-    rows = []
-    for d in dirs:
-        with np.errstate(all="ignore"):
-            v = [sigma_only(tuple(x), tuple(f[E]), tuple(f[A]), tuple(f[UB]), tuple(f[B])) for x, f in zip(d, F)]
-        rows.append(np.c_[d, F[:, E], F[:, A], F[:, UB], F[:, B], v])
-    rows.append(np.c_[F[:, N], F[:, E], F[:, A], F[:, UB], F[:, B], np.abs(F[:, VALUE])])  # value >= 0: inf
-    out = assert_stage("inner_sum_bound", np.concatenate(rows))
-    assert np.isfinite(out).any() and np.isinf(out).any()
-
-
-def test_sigma_grad_and_patches_give_the_numba_bits(F):
-    rng = np.random.default_rng(2)
-    n = len(F)
-    c = unit_rows(rng, n) * rng.uniform(0.1, 3.0, (n, 1))  # any nonzero c: sigma is homogeneous
-    assert_stage("sigma_grad", np.c_[c, F[:, E], F[:, A], F[:, UB], F[:, B]])
-    rows = []
-    for level in range(1, 31):
-        m = 40 if level <= 12 else 10
-        k = 1 << level
-        Q = Rot.random(m, random_state=rng).as_matrix().reshape(m, 9)
-        Q[: m // 4] = np.eye(3).ravel()
-        ij = rng.integers(0, k, (m, 2))
-        ij[0], ij[1] = (0, 0), (k - 1, k - 1)
-        rows.append(np.c_[rng.integers(0, 6, m), np.full(m, level), ij, Q])
-    assert_stage("patch_point", np.concatenate(rows))
-
-
-@pytest.fixture(scope="module")
-def certified(F):
-    """certify_region at the climbs' maxima from the first run's point and from 2 random directions, and at
-    unpolished random directions: the rows (compared) and numba's outputs."""
-    rng = np.random.default_rng(3)
-    n = len(F)
-    starts = np.concatenate([F[:, N], unit_rows(rng, n), unit_rows(rng, n)])
-    G = np.tile(F, (3, 1))
-    climbs = assert_stage("climb", np.c_[starts, G[:, E], G[:, A], G[:, M], G[:, SCALE]])
-    m = np.concatenate([climbs[:, 1:4], unit_rows(rng, n)])
-    G = np.tile(F, (4, 1))
-    amax, bmax = G[:, A].max(1, keepdims=True), G[:, B].max(1, keepdims=True)
-    rows = np.c_[m, G[:, E], G[:, A], G[:, UB], G[:, B], amax, bmax, G[:, S_], G[:, ERR], G[:, TOL]]
-    return rows, assert_stage("certify_region", rows)
-
-
-def test_climb_and_certify_region_give_the_numba_bits(certified):
-    rows, out = certified
-    assert out[:, 0].sum() > 100 and (out[:, 0] == 0).sum() > 100  # regions certified, and refused
-
-
-def test_in_region_gives_the_numba_bits(certified):
-    """Caps of every size around and beyond each certified region's maximum (test_global_max's sampling)."""
-    _, out = certified
-    regions = out[out[:, 0] == 1.0][:, 5:27]
-    rng = np.random.default_rng(4)
-    rows = []
-    for _ in range(12):
-        m, R_out = regions[:, 0:3], regions[:, 19:20]
-        rho = R_out * 10.0 ** rng.uniform(-3, 0, (len(regions), 1))
-        off = unit_rows(rng, len(regions))
-        c = m + off * R_out * rng.uniform(0, 1.2, (len(regions), 1))
-        c /= np.linalg.norm(c, axis=1)[:, None]
-        rows.append(np.c_[c, rho, regions])
-    rows.append(np.c_[regions[:, 0:3], np.full(len(regions), 1.5), regions])  # rho > 1
-    inside = assert_stage("in_region", np.concatenate(rows))
-    assert inside.sum() > 100 and (inside == 0).sum() > 100
-
-
-def global_rows(F, have, budget):
-    n = len(F)
-    return np.c_[F[:, N], F[:, VALUE], float(have) * F[:, CONV], F[:, E], F[:, A], F[:, UB], F[:, B],
-                 F[:, M], F[:, SCALE], F[:, TOL], np.full(n, float(budget))]  # fmt: skip
-
-
-def test_global_max_gives_the_numba_bits(F):
-    """Seeded with the first run's maximum (the narrow phase's call) and unseeded, with the full budget and
-    budgets that run out (UNPROVEN after budget + 1 nodes); SEPARATED_MAX for separated pairs."""
-    deep = F[F[:, VALUE].ravel() < 0.0]
-    rows = [global_rows(deep, True, BB_MAX_PATCHES), global_rows(deep[::3], False, BB_MAX_PATCHES)]
-    rows += [global_rows(deep[::5], True, k) for k in (0, 1, 10, 100)]
-    rows.append(global_rows(F[F[:, VALUE].ravel() > 0.0][::10], False, BB_MAX_PATCHES))
-    out = assert_stage("global_max", np.concatenate(rows))
-    assert {bb.GLOBAL, bb.UNPROVEN, bb.SEPARATED_MAX} <= set(out[:, 0].astype(int).tolist())
-
-
-def test_global_max_on_flat_maxima_gives_the_numba_bits():
-    """test_global_max's concentric spheres (sigma constant) and concentric coaxial spheroids (circles of
-    maxima), with its budget of 2000 and the full one."""
-    rows = []
-    for ra, rb in [((0.5,) * 3, (0.3,) * 3), ((0.5, 0.5, 0.2), (0.3, 0.3, 0.7))]:
-        e, I9 = (0.0, 0.0, 0.0), np.eye(3).ravel()
-        Mm = (np.diag(np.array(rb) ** 2)).ravel()
-        S = max(ra) + max(rb)
-        tol = max(1e-12 * min(min(ra), min(rb)), 96 * U * S) - 16 * U * S
-        for budget in (2000, BB_MAX_PATCHES):
-            rows.append([1.0, 0.0, 0.0, -math.inf, 0.0, *e, *ra, *I9, *rb, *Mm, max(max(ra), max(rb)), tol, budget])
-    assert_stage("global_max", np.array(rows))
-
-
-def spheroid_frames(rng, k):
-    """test_spheroids' pairs in A's frame (e, a, U, b, tol, S): parallel (every placement, spheres, elongated,
-    exact signed permutations), tilted by 1e-12 .. 1.5 rad, not spheroids at all."""
-    pairs = []
-    for where in ("axis", "concentric", "anywhere", "deep", "near axis"):
-        for b_kind in ("spheroid", "sphere", "prolate", "oblate"):
-            pairs += [spheroid_pair(rng, where, b_kind=b_kind) for _ in range(k)]
-            pairs += [spheroid_pair(rng, where, b_kind=b_kind, aspect_max=1000.0, turn=False) for _ in range(k // 2)]
-        for tilt in (1e-12, 1e-9, 1e-6, 1e-4, 1e-3, 1e-2, 1e-1, 0.4, 1.0, 1.5):
-            pairs += [spheroid_pair(rng, where, tilt=tilt) for _ in range(k // 2)]
-    rows = [[*P.e, *P.a, *P.U, *P.b, P.tol, P.S] for P in pairs]
-    U9 = (0.0009933943657067068, -0.9999994499282266, -0.00033661681204483684, -0.6547255352311844,
-          -0.000904838413277805, 0.7558661619517604, -0.7558660507549425, -0.0005304815640773613,
-          -0.6547260739465298)  # fmt: skip
-    e = (11.321365599734023, -1.4005662552673624e-08, -5.985947511310058e-09)
-    a = (18.17368773339926, 0.8968984351937361, 0.8968984351937361)
-    b = (0.5302268314547841, 0.3208842764971259, 0.5302268314547841)
-    S = float(np.linalg.norm(e) + max(a) + max(b))
-    rows.append([*e, *a, *U9, *b, max(1e-12 * 0.32, 96 * U * S) - 16 * U * S, S])  # the sharp peak
-    rows.append([2.0, 0.0, 0.0, 2.0, 1.0, 1.0, *np.eye(3).ravel(), 2.0, 1.0, 1.0, 5e-14, 6.0])  # coaxial closed form
-    rows.append([0.0, 0.0, 0.0, 0.5, 0.5, 0.2, *np.eye(3).ravel(), 0.3, 0.3, 0.7, 5e-14, 1.2])
-    rows.append([0.1, 0.2, 0.3, 1.0, 0.5, 0.4, *np.eye(3).ravel(), 0.6, 0.3, 0.3, 5e-14, 2.0])  # not spheroids
-    return np.array(rows)
-
-
-def test_parallel_and_tilted_max_give_the_numba_bits(F):
-    """parallel_max on test_spheroids' pairs and on the narrow phase's; tilted_max from a random incumbent, from
-    parallel_max's candidate and from the first run's maximum."""
-    rng = np.random.default_rng(5)
-    R = spheroid_frames(rng, 4)
-    R = np.concatenate([R, np.c_[F[:, E], F[:, A], F[:, UB], F[:, B], F[:, TOL], F[:, S_]]])
-    par = assert_stage("parallel_max", R)
-    assert par[:, 0].sum() > 50 and (par[:, 0] == 0).sum() > 50
-    cand = par[:, 1:4]
-    n0 = np.concatenate([unit_rows(rng, len(R)), cand])
-    out = assert_stage("tilted_max", np.c_[np.tile(R, (2, 1)), n0])
-    assert out[:, 0].sum() > 50 and (out[:, 0] == 0).sum() > 50
-    assert_stage("tilted_max", np.c_[F[:, E], F[:, A], F[:, UB], F[:, B], F[:, TOL], F[:, S_], F[:, N]])
-
-
-def test_axis_bb_gives_the_numba_bits():
-    """test_spheroids' model pairs at every angle between the axes, as a cylinder (hk = 1, curv 0) too, and the
-    refusals (tol1 <= 0, B's model not positive)."""
-    rng = np.random.default_rng(6)
-    rows = []
-    for angle in (0.0, 1e-7, 0.3, 0.9, 1.5):
-        for _ in range(6):
-            P = model_pair(rng, angle)
-            qa, pa, qb, pb = P.a[0], P.a[1], P.b[0], P.b[1]
-            w = P.Um[:, 0]
-            t0, p0 = rng.uniform(0, np.pi), rng.uniform(-np.pi, np.pi)
-            tol1 = P.tol - 64 * U * P.S
-            rows.append([*P.e, 0, qa * qa, pa * pa, qb * qb - pb * pb, pb * pb, *w, tol1, P.S, max(P.a) ** 2, t0, p0])
-            rows.append([*P.e, 1, qa, pa, qb * qb - pb * pb, pb * pb, *w, tol1, P.S, 0.0, t0, p0])  # a cylinder
-    base = [0.1, 0.2, 0.0, 0, 1.0, 0.25, 0.5, 0.25, 1.0, 0.0, 0.0]
-    rows += [base + [0.0, 2.0, 1.0, 0.4, 0.5], base + [-1e-9, 2.0, 1.0, 0.4, 0.5]]
-    bad = [0.1, 0.2, 0.0, 0, 1.0, 0.25, -0.5, 0.25, 1.0, 0.0, 0.0]
-    rows.append(bad + [1e-9, 2.0, 1.0, 0.4, 0.5])
-    out = assert_stage("axis_bb", np.array(rows))
-    assert out[:, 0].sum() >= 40 and (out[:-3, 3] == 1).any() and (out[-3:, 4] == 0).all()
-
-
-# --- the pair-level stages: pair_signed_distance(_from), contact_at, sigma_lower_bound ----------------------------
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _nb_pair_stages(Ca, Ra, ra, Cb, Rb, rb, x, max_iter, out, lo, hi):
+def pair_stages(args, x, max_iter=NEWTON_MAX_ITER):
     """Per pair: pair_signed_distance (max_iter), pair_signed_distance_from (x), contact_at (x) and
-    sigma_lower_bound (x): 9 + 9 + 7 + 1 columns."""
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)
-    for i in range(lo, hi):
-        A, B = load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb)
-        v = (x[i, 0], x[i, 1], x[i, 2])
-        st1, d1, n1, p1, w1 = pair_signed_distance(A, B, max_iter)
-        st2, d2, n2, p2, w2 = pair_signed_distance_from(A, B, v)
-        row = (float(st1), d1, n1[0], n1[1], n1[2], p1[0], p1[1], p1[2], float(w1),
-               float(st2), d2, n2[0], n2[1], n2[2], p2[0], p2[1], p2[2], float(w2))  # fmt: skip
-        for j in range(18):
-            out[i, j] = row[j]
-        s, nrm, p = contact_at(A, B, v)
-        row = (s, nrm[0], nrm[1], nrm[2], p[0], p[1], p[2], sigma_lower_bound(A, B, v))
-        for j in range(8):
-            out[i, 18 + j] = row[j]
-
-
-def assert_pair_stages(args, x, max_iter=NEWTON_MAX_ITER):
+    sigma_lower_bound (x): 9 + 9 + 7 + 1 columns; the same bits twice."""
     n = len(x)
-    want = np.full((n, 26), 7.0)
-    with np.errstate(all="ignore"):
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    runs = []
+    for _ in range(2):
         parts = (np.full((n, 9), 7.0), np.full((n, 9), 7.0), np.full((n, 7), 7.0), np.full((n, 1), 7.0))
-        T.pair_signed_distance(*args, max_iter, parts[0], 0, n)
-        T.pair_signed_distance_from(*args, x, parts[1], 0, n)
-        T.contact_at(*args, x, parts[2], 0, n)
-        T.sigma_lower_bound(*args, x, parts[3], 0, n)
-        got = np.concatenate(parts, axis=1)
-        _nb_pair_stages(*args, np.ascontiguousarray(x, dtype=np.float64), max_iter, want, 0, n)
-    assert_same_bits(got, want, "pair stages")
-    return want
+        with np.errstate(all="ignore"):
+            T.pair_signed_distance(*args, max_iter, parts[0], 0, n)
+            T.pair_signed_distance_from(*args, x, parts[1], 0, n)
+            T.contact_at(*args, x, parts[2], 0, n)
+            T.sigma_lower_bound(*args, x, parts[3], 0, n)
+        runs.append(np.concatenate(parts, axis=1))
+    assert_same_bits(runs[0], runs[1], "pair stages twice")
+    assert set(runs[0][:, 0].tolist()) <= {GLOBAL, UNPROVEN} and set(runs[0][:, 9].tolist()) <= {GLOBAL, UNPROVEN}
+    return runs[0]
+
+
+@pytest.mark.parametrize("label, make", SETS[:2] + DEEP, ids=[s[0] for s in SETS[:2] + DEEP])
+def test_pair_signed_distance_is_a_row_of_the_batch_kernel(label, make):
+    """pair_signed_distance's (status, dist, normal, pos) are signed_distances' row; from x (the previous
+    step's normal, perturbed, random, zero, NaN) the status is in range."""
+    a, b = make()
+    a, b = a[:300], b[:300]
+    n = len(a)
+    rng = np.random.default_rng(7)
+    max_iter = 3 if label == "generic" else NEWTON_MAX_ITER
+    dist, normal, pos, status = distances(ext.signed_distances, arrays(a, b), n, max_iter)
+    out = pair_stages(arrays(a, b), normal, max_iter)
+    assert_same_bits(out[:, 0].astype(np.int8), status, "status")
+    assert_same_bits(out[:, 1], dist, "dist")
+    assert_same_bits(out[:, 2:5], normal, "normal")
+    assert_same_bits(out[:, 5:8], pos, "pos")
+    x = seeds(rng, n, normal)
+    pair_stages(arrays(Ellipsoids.concatenate([a] * 3), Ellipsoids.concatenate([b] * 3)), x)
 
 
 def seeds(rng, n, normal):
@@ -862,44 +428,25 @@ def seeds(rng, n, normal):
     return x
 
 
-@pytest.mark.parametrize("label, make", SETS[:2] + DEEP, ids=[s[0] for s in SETS[:2] + DEEP])
-def test_pair_stages_give_the_numba_bits(label, make):
-    a, b = make()
-    a, b = a[:300], b[:300]
-    n = len(a)
-    rng = np.random.default_rng(7)
-    dist, normal, pos, status = distances(_distances, arrays(a, b), n)
-    x = seeds(rng, n, normal)
-    args = arrays(Ellipsoids.concatenate([a] * 3), Ellipsoids.concatenate([b] * 3))
-    assert_pair_stages(args, x, 3 if label == "generic" else NEWTON_MAX_ITER)
-
-
-def test_sigma_lower_bound_at_the_scale_limits_gives_the_numba_bits():
-    """Semi-axes and offsets around WARM_SCALE_MIN and WARM_SCALE_MAX (-inf beyond them)."""
+def test_sigma_lower_bound_at_the_scale_limits():
+    """Semi-axes and offsets around WARM_SCALE_MIN and WARM_SCALE_MAX: -inf exactly where the smallest semi-axis
+    is below WARM_SCALE_MIN or |d|_1 + max r_A + max r_B above WARM_SCALE_MAX, finite elsewhere."""
     a, b = samples.generic_pairs(60, seed=13)
     rng = np.random.default_rng(8)
+    seen = set()
     for s in (2.0**-401, 2.0**-400, 2.0**-399, 2.0**380, 2.0**398, 2.0**399, 2.0**400):
         A = Ellipsoids(a.centers * s, a.rotations, a.radii * s)
         B = Ellipsoids(b.centers * s, b.rotations, b.radii * s)
-        assert_pair_stages(arrays(A, B), rng.normal(size=(60, 3)))
-
-
-@settings(max_examples=120, deadline=None)
-@given(st.one_of(hard_pair, random_pair()), st.tuples(*[st.one_of(finite, st.floats(-1, 1))] * 3))
-def test_pair_stages_on_hard_pairs_give_the_numba_bits(pair, x):
-    assert_pair_stages(arrays(*pair), np.array([x]))
+        bound = pair_stages(arrays(A, B), rng.normal(size=(60, 3)))[:, 25]
+        lo = np.minimum(A.radii.min(1), B.radii.min(1))
+        S = np.abs(B.centers - A.centers).sum(1) + A.radii.max(1) + B.radii.max(1)
+        beyond = ~((lo >= WARM_SCALE_MIN) & (S <= WARM_SCALE_MAX))
+        assert np.array_equal(np.isneginf(bound), beyond) and np.isfinite(bound[~beyond]).all(), s
+        seen |= set(beyond.tolist())
+    assert seen == {False, True}
 
 
 @settings(max_examples=120, deadline=None)
 @given(*any_pair, st.tuples(*[st.one_of(finite, st.floats(-1, 1))] * 3), st.integers(1, 50))
-def test_pair_stages_on_any_floats_give_the_numba_bits(c, R, r, x, max_iter):
-    assert_pair_stages(one_pair(c, R, r), np.array([x]), max_iter)
-
-
-@settings(max_examples=150, deadline=None)
-@given(st.lists(st.one_of(finite, st.floats(-2, 2)), min_size=22, max_size=22))
-def test_inner_sum_bound_and_sigma_grad_on_any_floats_give_the_numba_bits(r):
-    """The stages that take any numbers (no loop, no budget) on arbitrary finite floats."""
-    r = np.array([r])
-    assert_stage("inner_sum_bound", r)
-    assert_stage("sigma_grad", r[:, :21])
+def test_pair_stages_on_any_floats_give_statuses_in_range(c, R, r, x, max_iter):
+    pair_stages(one_pair(c, R, r), np.array([x]), max_iter)

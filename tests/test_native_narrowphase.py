@@ -1,13 +1,15 @@
-"""The C++ narrow phase (ellipsim/native/mujoco/narrowphase.hpp, issue 46) against the numba one it replaces.
+"""The C++ narrow phase (ellipsim/native/mujoco/narrowphase.hpp, issue 46), installed by ellipsim.mujoco.attach.
 
-Installed in MuJoCo's collision table the way ellipsim.mujoco.attach installs numba's (nativecache.function
-answers with its address), it must give the same counters and bit-identical trajectories and contacts: on
-mixed piles of every pair type, with margins and gaps, speculative contacts, explicit `<pair>` elements, the
-warm-start table across mj_resetData and mj_setState, two datas attached at once, a data not attached beside
-them, MuJoCo's threads (rollouts, a thread pool) and the fallback to MuJoCo's function for an unproven pair.
+Each scene runs twice from fresh datas and must give the same counters and bit-identical trajectories and
+contacts: mixed piles of every pair type, with margins and gaps, speculative contacts, explicit `<pair>` elements,
+cold (no warm-start table); the warm-start table across mj_resetData and mj_setState (each rerun the first
+run's, the warm start acting), two datas attached at once (each as if alone) and a data not attached beside them
+(MuJoCo alone), MuJoCo's threads (rollouts on 1 and 3 threads alike, a thread pool), a fast ellipsoid stopped
+by a thin plate under speculative contacts, and the fallback to MuJoCo's function for an unproven pair.
+Called for a data not attached, the C++ function is MuJoCo's original for every pair type.
 """
 
-import types
+import ctypes
 
 import mujoco
 import mujoco.rollout as rollout
@@ -20,34 +22,18 @@ import ellipsim.mujoco as em
 import ellipsim.native as native
 from ellipsim.app import scenes
 from ellipsim.app.bench.validation import mixed_pile_xml
-from ellipsim.mujoco import context, nativecache, publish, structs
+from ellipsim.mujoco import context, publish
 
 ext = native.ext
-NARROW_T = nativecache._CTYPES["narrowphase"]
+NARROW_T = ctypes.CFUNCTYPE(
+    ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
+)
 FULL = mujoco.mjtState.mjSTATE_INTEGRATION
-INSTALLED = []
 
 
-def native_function(kind):
-    """nativecache.function's answer, for the C++ callback of `kind`."""
-    INSTALLED.append(kind)
-    publish.publish_context()
-    publish.fill_context()
-    ext.mujoco.set_context(context.CONTEXT.ctypes.data)
-    assert kind == "narrowphase"
-    return types.SimpleNamespace(address=ext.mujoco.NARROWPHASE, ctypes=NARROW_T(ext.mujoco.NARROWPHASE))
-
-
-def both(procedure, monkeypatch):
-    """procedure() run with numba's narrow phase, then with the C++ one installed: (numba's, C++'s) results."""
-    nativecache.function("narrowphase")  # numba's, loaded (and the context filled) before any table is patched
-    want = procedure()
-    INSTALLED.clear()
-    with monkeypatch.context() as patch:
-        patch.setattr(nativecache, "function", native_function)
-        got = procedure()
-    assert INSTALLED == ["narrowphase"]  # the C++ callback ran
-    return want, got
+def both(procedure):
+    """procedure() run twice (fresh models and datas inside): (first, second) results."""
+    return procedure(), procedure()
 
 
 def snapshot(data):
@@ -112,33 +98,33 @@ def test_compiled_against_the_running_mujoco():
 
 @pytest.mark.parametrize("seed", [0, 1])
 @pytest.mark.parametrize("variant", ["plain", "margins", "speculative", "override"])
-def test_mixed_piles(seed, variant, monkeypatch):
+def test_mixed_piles(seed, variant):
     xml = mixed_pile(seed, variant)
-    (want, wc), (got, gc) = both(lambda: attached_run(xml, 400), monkeypatch)
+    (want, wc), (got, gc) = both(lambda: attached_run(xml, 400))
     assert gc == wc and wc["contacts"] > 100 and wc["separated"] > 100
     if variant in ("margins", "override"):
         assert wc["apart"] > 0  # contacts measured apart beyond the margin
     assert_identical(got, want)
 
 
-def test_mixed_pile_cold(monkeypatch):
+def test_mixed_pile_cold():
     """warm_start=False: no table (mask 0), every pair from the bisector seed."""
     xml = mixed_pile(2, "margins")
-    (want, wc), (got, gc) = both(lambda: attached_run(xml, 300, warm_start=False), monkeypatch)
+    (want, wc), (got, gc) = both(lambda: attached_run(xml, 300, warm_start=False))
     assert gc == wc and wc["contacts"] > 100
     assert_identical(got, want)
 
 
 @pytest.mark.parametrize("n_dynamic, override", [(0, None), (4, (0, 3))])
-def test_explicit_pairs(n_dynamic, override, monkeypatch):
+def test_explicit_pairs(n_dynamic, override):
     """`<pair>` elements: their own margin and gap reach the narrow phase, their geoms never the filter."""
     xml = column_xml(n_dynamic=n_dynamic, override=override)
-    (want, wc), (got, gc) = both(lambda: attached_run(xml, 500), monkeypatch)
+    (want, wc), (got, gc) = both(lambda: attached_run(xml, 500))
     assert gc == wc and wc["contacts"] > 100
     assert_identical(got, want)
 
 
-def test_speculative_fast_ellipsoid(monkeypatch):
+def test_speculative_fast_ellipsoid():
     """A 0.05 m ellipsoid at 50 m/s at a thin ellipsoid plate, speculative contacts on (issue 18)."""
     xml = """<mujoco><option timestep="0.002" gravity="0 0 0"><flag speculative="enable"/></option>
       <worldbody><geom type="ellipsoid" size=".3 .3 .004" pos=".5 0 0" euler="0 90 0"/>
@@ -153,15 +139,15 @@ def test_speculative_fast_ellipsoid(monkeypatch):
             out = steps(model, data, 40)
         return out, att.counters
 
-    (want, wc), (got, gc) = both(run, monkeypatch)
+    (want, wc), (got, gc) = both(run)
     assert gc == wc and wc["calls"] > 0
     assert_identical(got, want)
     assert want[-6][0] < 0.58  # stopped at the plate, as in plain MuJoCo
 
 
-def test_reset_and_set_state_rerun(monkeypatch):
+def test_reset_and_set_state_rerun():
     """The warm-start table's epochs: a pile stepped, reset, stepped again, set back (time goes back) and
-    forward (time jumps ahead) to a saved state: the same bits as numba, and each rerun the first run's."""
+    forward (time jumps ahead) to a saved state: each rerun the first run's, and the same bits from a fresh data."""
     model = mujoco.MjModel.from_xml_string(scenes.pile_xml(30, seed=5))
 
     def run():
@@ -181,7 +167,7 @@ def test_reset_and_set_state_rerun(monkeypatch):
             ahead = steps(model, data, 50)
         return first, again + after, back, ahead, att.counters
 
-    want, got = both(run, monkeypatch)
+    want, got = both(run)
     assert got[-1] == want[-1] and want[-1]["contacts"] > 1000
     for g, w in zip(got[:-1], want[:-1]):
         assert_identical(g, w)
@@ -191,9 +177,10 @@ def test_reset_and_set_state_rerun(monkeypatch):
     assert not all(np.array_equal(g, w) for g, w in zip(back, first[6 * 100 : 6 * 150]))  # warm start acts
 
 
-def test_two_datas_attached_at_once_and_one_not(monkeypatch):
+def test_two_datas_attached_at_once_and_one_not():
     """Two datas of one model attached together, stepped in turn from different velocities, each with its own
-    table and counters; a third, not attached, steps as MuJoCo alone (MuJoCo's original functions)."""
+    table and counters (each as if attached alone); a third, not attached, steps as MuJoCo alone (MuJoCo's original
+    functions)."""
     model = mujoco.MjModel.from_xml_string(mixed_pile(3, "margins"))
     plain = mujoco.MjData(model)
     alone = steps(model, plain, 200)
@@ -209,16 +196,22 @@ def test_two_datas_attached_at_once_and_one_not(monkeypatch):
                 out3 += steps(model, other, 1)
         return out1, out2, out3, a1.counters, a2.counters
 
-    want, got = both(run, monkeypatch)
+    want, got = both(run)
     assert got[3:] == want[3:] and want[3] != want[4] and want[4]["contacts"] > 100
     for g, w in zip(got[:3], want[:3]):
         assert_identical(g, w)
     assert_identical(got[2], alone)
+    for k, qvel in ((0, None), (1, np.random.default_rng(0).normal(0, 0.3, model.nv))):
+        d = mujoco.MjData(model)
+        if qvel is not None:
+            d.qvel[:] = qvel
+        with em.attach(model, d, mode="narrowphase") as att:
+            assert_identical(got[k], steps(model, d, 200))
+        assert att.counters == got[3 + k]
 
 
-@pytest.mark.parametrize("nthread", [1, 3])
-def test_rollouts_on_threads(nthread, monkeypatch):
-    """mujoco.rollout on attached datas (one per thread), from 6 initial states: numba's bits."""
+def test_rollouts_on_threads():
+    """mujoco.rollout on attached datas (one per thread), from 6 initial states: on 3 threads as on 1, twice."""
     model = mujoco.MjModel.from_xml_string(scenes.pile_xml(20, seed=7))
     base = mujoco.MjData(model)
     s0 = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
@@ -226,7 +219,7 @@ def test_rollouts_on_threads(nthread, monkeypatch):
     states = np.tile(s0, (6, 1))
     states[:, 1 + model.nq : 1 + model.nq + model.nv] = np.random.default_rng(0).normal(0, 0.5, (6, model.nv))
 
-    def run():
+    def run(nthread):
         datas = [mujoco.MjData(model) for _ in range(nthread)]
         atts = [em.attach(model, d, mode="narrowphase") for d in datas]
         for a in atts:
@@ -238,14 +231,17 @@ def test_rollouts_on_threads(nthread, monkeypatch):
                 a.__exit__(None, None, None)
         return state, sum(a.counters["contacts"] for a in atts)
 
-    (want, wn), (got, gn) = both(run, monkeypatch)
+    (want, wn), (got, gn) = run(1), run(3)
     assert gn == wn > 0
     np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+    again, an = run(3)
+    assert an == wn
+    np.testing.assert_array_equal(again.view(np.int64), want.view(np.int64))
 
 
-def test_mujocos_thread_pool(monkeypatch):
+def test_mujocos_thread_pool():
     """One data's narrow phase on MuJoCo's thread pool (mju_threadpool: several threads call the table for
-    one data).  Cold, so that no two threads share a table set: numba's bits."""
+    one data).  Cold, so that no two threads share a table set: the same bits twice."""
     xml = scenes.pile_xml(40, seed=2)
 
     def run():
@@ -256,14 +252,14 @@ def test_mujocos_thread_pool(monkeypatch):
             out = steps(model, data, 300)
         return out, att.counters
 
-    (want, wc), (got, gc) = both(run, monkeypatch)
+    (want, wc), (got, gc) = both(run)
     assert gc == wc and wc["contacts"] > 1000
     assert_identical(got, want)
 
 
-def test_unproven_pair_falls_back_as_numba(monkeypatch):
+def test_unproven_pair_falls_back():
     """A pair the branch and bound cannot prove: MuJoCo's function runs (a fallback), and the contact
-    carries the better of its normal and ellipsim's, as numba's does."""
+    carries the better of its normal and ellipsim's; the same bits twice."""
     a, b = _unprovable_pair()
     from scipy.spatial.transform import Rotation as Rot
 
@@ -284,21 +280,20 @@ def test_unproven_pair_falls_back_as_numba(monkeypatch):
             mujoco.mj_forward(model, data)
         return snapshot(data), att.counters
 
-    (want, wc), (got, gc) = both(run, monkeypatch)
+    (want, wc), (got, gc) = both(run)
     assert gc == wc and wc["fallbacks"] == 1 and len(want[2]) == 1
     assert_identical(got, want)
 
 
-def test_unattached_call_is_mujocos_function(monkeypatch):
+def test_unattached_call_is_mujocos_function():
     """Called directly for a data not attached, the C++ function answers with MuJoCo's original for each row
     of context.PAIR_TYPES (through the context's fallback words)."""
-    nativecache.function("narrowphase")
-    native_function("narrowphase")
+    publish.fill_context()
     model = mujoco.MjModel.from_xml_string(mixed_pile_xml(seed=0))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     ours = NARROW_T(ext.mujoco.NARROWPHASE)
-    table, n = structs.collision_table()
+    table, n = publish.collision_table()
     tried = 0
     for row in context.PAIR_TYPES:
         g1 = int(np.flatnonzero(model.geom_type == row.type1)[0])

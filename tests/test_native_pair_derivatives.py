@@ -1,14 +1,14 @@
-"""The C++ pairs/derivatives.hpp (issue 46) against the numba kernel it replaces, bit for bit.
+"""The C++ pairs/derivatives.hpp (issue 46): shape_derivatives' behaviour, broadcasting, ranges and refusals.
 
-shape_derivatives, the drop-in for ellipsim.core.pairs.derivatives.shape_derivatives, at the normals and statuses
-of the numba narrow phase (shape_distance._distances) on capsules, boxes and cylinders: the capsule, box and
-cylinder tests' poses (separated, touching, shallow, deep, parallel, flush faces and caps, inside), coaxial
-spheroids (FLAT), test_shape_derivatives' random poses, every sample set read as an ellipsoid and a capsule, box
-or cylinder, the hand-picked cases of test_shape_derivatives (a ball over a cube's edge: ONE_SIDED; a circle of
-maxima: FLAT; unproven maxima: UNPROVEN), normals on the kinks themselves and anywhere, hypothesis's random poses
-and arbitrary finite floats; every feature (face, edge, vertex, side, end, cap, rim) and every status is reached.
-Its broadcasting, ranges, chunks on threads and refusals; the codes.  The stages (_stratum, _local with _entry,
-_top, _reduced_solve, _pnorm, _unit, _axpy) through the testing submodule on rows of their own arguments.
+shape_derivatives (ext.shape_derivatives, the kernel under shape_distance(..., derivatives=True)) at the normals
+and statuses of the narrow phase (the public shape_distance) on capsules, boxes and cylinders: on the capsule,
+box and cylinder tests' poses, coaxial spheroids and test_shape_derivatives' random poses every feature (face,
+edge, vertex, side, end, cap, rim) is reached; the hand-picked cases of test_shape_derivatives (a ball over a
+cube's edge: ONE_SIDED on a face; a circle of maxima: FLAT; a ball at a cylinder's cap edge: ONE_SIDED;
+unproven maxima: UNPROVEN and NaN) give their statuses; every sample set, normals on the kinks and anywhere,
+hypothesis's random poses and arbitrary finite floats give statuses and features in range (the same bits
+twice).  A batch of one broadcasts, a range writes only its slice, chunks on threads give the serial bits; the
+refusals; the codes against the public enums.  (Against references: tests/test_shape_derivatives.py.)
 """
 
 import numpy as np
@@ -19,10 +19,8 @@ from scipy.spatial.transform import Rotation as Rot
 from test_native import finite, positive
 
 import ellipsim.native as native
-from ellipsim import ContactFeature, DerivativeStatus
+from ellipsim import ContactFeature, DerivativeStatus, Ellipsoids
 from ellipsim.core import samples, threads
-from ellipsim.core._jit import jit
-from ellipsim.core.pairs import derivatives as pdv
 from ellipsim.core.pairs import shape_distance as sd
 from ellipsim.core.rotations import quaternions_to_rotations
 from ellipsim.core.samples import random_ellipsoids
@@ -34,7 +32,7 @@ FEATURES = {"capsule": ("SIDE", "END"), "box": ("FACE", "EDGE", "VERTEX"), "cyli
 
 
 def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN (its sign and payload are the compiler's choice); any dtype."""
+    """Equal bits, NaN for NaN; any dtype."""
     got, want = np.asarray(got), np.asarray(want)
     assert got.shape == want.shape and got.dtype == want.dtype
     if got.dtype == np.float64:
@@ -42,9 +40,7 @@ def assert_same_bits(got, want, what=""):
     else:
         differ = got != want
     bad = np.argwhere(differ)
-    assert not len(bad), (
-        f"{what} at {tuple(bad[0])}: {got[tuple(bad[0])]!r} in C++, {want[tuple(bad[0])]!r} in numba ({len(bad)} differ)"
-    )
+    assert not len(bad), f"{what} at {tuple(bad[0])}: {got[tuple(bad[0])]!r}, expected {want[tuple(bad[0])]!r}"
 
 
 def pose_args(P):
@@ -53,12 +49,10 @@ def pose_args(P):
 
 
 def narrow_phase(args, kind):
-    """The numba narrow phase's normals and proven flags (shape_distance's own kernel, any kind)."""
-    n = max(len(args[0]), len(args[3]))
-    dist, normal, pos, status = np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int8)
+    """The narrow phase's normals and proven flags (the public shape_distance)."""
     with np.errstate(all="ignore"):
-        sd._distances(*args, KINDS.index(kind), dist, normal, pos, status, 0, n)
-    return normal, status == 0
+        dist, normal, pos, status = sd.shape_distance(Ellipsoids(*args[:3]), kind, *args[3:])
+    return np.ascontiguousarray(normal), status == 0
 
 
 def derivatives(kernel, args, code, normal, proven, lo=0, hi=None):
@@ -78,18 +72,23 @@ def derivatives(kernel, args, code, normal, proven, lo=0, hi=None):
 NAMES = ("grad", "jn", "jp", "status", "feature")
 
 
-def assert_kernels_agree(args, kind, normal=None, proven=None, lo=0, hi=None):
-    """shape_derivatives gives numba's bits at the narrow phase's normals (or those given) in [lo, hi), and leaves
-    the rest of its outputs alone; returns numba's outputs."""
+def shape_derivatives(args, kind, normal=None, proven=None, lo=0, hi=None):
+    """ext.shape_derivatives at the narrow phase's normals (or those given) in [lo, hi): statuses and features in
+    range there, the same bits twice, the rest of the outputs left alone; returns the outputs."""
     if normal is None:
         normal, p = narrow_phase(args, kind)
         proven = p if proven is None else proven
     code = KINDS.index(kind)
     got = derivatives(ext.shape_derivatives, args, code, normal, proven, lo, hi)
-    want = derivatives(pdv.shape_derivatives, args, code, normal, proven, lo, hi)
-    for g, w, name in zip(got, want, NAMES):
-        assert_same_bits(g, w, f"{kind} {name}")
-    return want
+    for g, w, name in zip(got, derivatives(ext.shape_derivatives, args, code, normal, proven, lo, hi), NAMES):
+        assert_same_bits(g, w, f"{kind} {name} twice")
+    hi = len(normal) if hi is None else hi
+    assert set(got[3][lo:hi].tolist()) <= {int(s) for s in DerivativeStatus}, kind
+    assert set(got[4][lo:hi].tolist()) <= {int(ContactFeature[f]) for f in FEATURES[kind]}, kind
+    for x, fill in zip(got, derivatives(lambda *a: None, args, code, normal, proven)):
+        assert_same_bits(x[:lo], fill[:lo], "before lo")
+        assert_same_bits(x[hi:], fill[hi:], "after hi")
+    return got
 
 
 def reached(outs, kind):
@@ -130,8 +129,8 @@ def kind_poses(kind):
 
 
 @pytest.mark.parametrize("kind", KINDS)
-def test_the_narrow_phase_test_poses_give_the_numba_bits(kind):
-    outs = [assert_kernels_agree(pose_args(P), kind) for P in kind_poses(kind)]
+def test_the_narrow_phase_test_poses_reach_every_feature(kind):
+    outs = [shape_derivatives(pose_args(P), kind) for P in kind_poses(kind)]
     features, statuses = reached(outs, kind)
     assert features == set(FEATURES[kind]), features
     assert {"SMOOTH", "BRANCH"} <= statuses, statuses
@@ -156,7 +155,7 @@ def test_every_sample_set_as_capsules_boxes_and_cylinders(label, make):
     offsets to 1e7 and scales from 1e-6 to 1e6 (unit_scale's powers of two)."""
     P = as_shapes(*make())
     for kind in KINDS:
-        assert_kernels_agree(pose_args(P), kind)
+        shape_derivatives(pose_args(P), kind)
 
 
 # --- hand-picked cases: every status ---------------------------------------------------------------------
@@ -208,23 +207,25 @@ def hand_picked():
     return [("box", stack(*box, d)), ("capsule", stack(*capsule, d)), ("cylinder", stack(*cylinder, d))]
 
 
-def test_hand_picked_cases_give_the_numba_bits_and_every_status():
-    outs = {kind: assert_kernels_agree(pose_args(P), kind) for kind, P in hand_picked()}
+def test_hand_picked_cases_give_every_status():
+    S, F = DerivativeStatus, ContactFeature
+    outs = {kind: shape_derivatives(pose_args(P), kind) for kind, P in hand_picked()}
     box, cylinder = outs["box"], outs["cylinder"]
-    assert box[3][0] == pdv.ONE_SIDED and box[4][0] == pdv.FACE  # test_shape_derivatives' ball at the edge
-    assert cylinder[3][0] == pdv.FLAT and cylinder[4][0] == pdv.SIDE  # its circle of maxima
+    assert box[3][0] == S.ONE_SIDED and box[4][0] == F.FACE  # test_shape_derivatives' ball at the edge
+    assert cylinder[3][0] == S.FLAT and cylinder[4][0] == F.SIDE  # its circle of maxima
     statuses = set(np.concatenate([o[3] for o in outs.values()]).tolist())
-    assert {pdv.SMOOTH, pdv.BRANCH, pdv.ONE_SIDED, pdv.FLAT} <= statuses, statuses
-    assert (cylinder[3] == pdv.ONE_SIDED).any()  # a ball at the cap's edge
+    assert {S.SMOOTH, S.BRANCH, S.ONE_SIDED, S.FLAT} <= statuses, statuses
+    assert (cylinder[3] == S.ONE_SIDED).any()  # a ball at the cap's edge
     for kind, P in hand_picked():  # UNPROVEN: the narrow phase's proven flag, false on every other pair
         args = pose_args(P)
         normal, proven = narrow_phase(args, kind)
         proven[::2] = False
-        out = assert_kernels_agree(args, kind, normal, proven)
-        assert (out[3][::2] == pdv.UNPROVEN).all() and np.isnan(out[0][::2]).all()
+        out = shape_derivatives(args, kind, normal, proven)
+        assert (out[3][::2] == S.UNPROVEN).all() and np.isnan(out[0][::2]).all()
+        assert not (out[3][1::2] == S.UNPROVEN).any()
 
 
-def test_normals_on_the_kinks_and_anywhere_give_the_numba_bits():
+def test_normals_on_the_kinks_and_anywhere_give_statuses_in_range():
     """Not maximisers: the stratum of any direction, on the kinks themselves (K's axes and their bisectors, exactly
     and within DERIV_KINK_COS), zero, unnormalised and random normals, proven or not."""
     rng = np.random.default_rng(11)
@@ -244,7 +245,7 @@ def test_normals_on_the_kinks_and_anywhere_give_the_numba_bits():
         for normal in picks:
             normal = np.ascontiguousarray(normal)
             proven = rng.random(400) < 0.9
-            assert_kernels_agree(args, kind, normal, proven)
+            shape_derivatives(args, kind, normal, proven)
 
 
 # --- random poses and arbitrary floats ----------------------------------------------------------------------
@@ -269,9 +270,9 @@ size = st.one_of(st.floats(0.01, 1.0), st.sampled_from([1e-4, 1e-3, 10.0]))
     st.tuples(*[size] * 3),
     st.sampled_from(KINDS),
 )
-def test_random_poses_give_the_numba_bits(cE, qE, rE, cK, qK, sK, kind):
+def test_random_poses_give_statuses_in_range(cE, qE, rE, cK, qK, sK, kind):
     P = dict(cE=[cE], RE=[_rotation(qE)], rE=[rE], cK=[cK], RK=[_rotation(qK)], sK=[sK])
-    assert_kernels_agree(pose_args(P), kind)
+    shape_derivatives(pose_args(P), kind)
 
 
 @settings(max_examples=400, deadline=None)
@@ -283,12 +284,12 @@ def test_random_poses_give_the_numba_bits(cE, qE, rE, cK, qK, sK, kind):
     st.booleans(),
     st.sampled_from(KINDS),
 )
-def test_arbitrary_finite_floats_give_the_numba_bits(c, R, r, normal, proven, kind):
-    """Any finite float (the Python layer validates; the kernels agree anyway): extreme exponents, subnormal
+def test_arbitrary_finite_floats_give_statuses_in_range(c, R, r, normal, proven, kind):
+    """Any finite float (the Python layer validates; the kernel must not fail): extreme exponents, subnormal
     sizes, rotations that are not rotations, normals that are not unit."""
     C, M, S = np.array(c).reshape(2, 1, 3), np.array(R).reshape(2, 1, 3, 3), np.array(r).reshape(2, 1, 3)
     args = (C[0], M[0], S[0], C[1], M[1], S[1])
-    assert_kernels_agree(args, kind, np.array([normal], float), np.array([proven]))
+    shape_derivatives(args, kind, np.array([normal], float), np.array([proven]))
 
 
 # --- broadcasting, ranges, threads, refusals, codes ---------------------------------------------------------
@@ -297,12 +298,20 @@ def test_arbitrary_finite_floats_give_the_numba_bits(c, R, r, normal, proven, ki
 @pytest.mark.parametrize("kind", KINDS)
 def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice(kind):
     P = pose_args(shape_poses(kind, 120, seed=8))
-    assert_kernels_agree(tuple(x[:1].copy() for x in P[:3]) + P[3:], kind)
-    assert_kernels_agree(P[:3] + tuple(x[5:6].copy() for x in P[3:]), kind)
     normal, proven = narrow_phase(P, kind)
-    out = assert_kernels_agree(P, kind, normal, proven, 17, 101)  # the rest keeps its fill (compared too)
-    assert np.all(out[0][:17] == 7.0) and np.all(out[1][101:] == 7.0) and np.all(out[4][101:] == 7)
+    full = shape_derivatives(P, kind, normal, proven)
+    for once, tiled in (
+        (tuple(x[:1].copy() for x in P[:3]) + P[3:], tuple(x[[0] * 120] for x in P[:3]) + P[3:]),
+        (P[:3] + tuple(x[5:6].copy() for x in P[3:]), P[:3] + tuple(x[[5] * 120] for x in P[3:])),
+    ):
+        for g, w, name in zip(
+            shape_derivatives(once, kind, normal, proven), shape_derivatives(tiled, kind, normal, proven), NAMES
+        ):
+            assert_same_bits(g, w, f"broadcast {name}")
+    out = shape_derivatives(P, kind, normal, proven, 17, 101)  # the rest keeps its fill (checked there)
     assert not np.any(out[3][17:101] == 7)
+    for g, w, name in zip(out, full, NAMES):
+        assert_same_bits(g[17:101], w[17:101], f"range {name}")
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -358,92 +367,18 @@ def test_the_kernel_refuses_bad_ranges_kinds_and_arrays():
     f(*P, 1, normal, proven, *out, 3, 3)  # an empty range is no error
 
 
-def test_the_codes_are_the_kernels():
+def test_the_codes_are_the_public_ones():
     codes = T.PAIR_DERIVATIVE_CODES
-    for name in ("ONE_SIDED", "FACE", "EDGE", "VERTEX", "SIDE", "END", "CAP", "RIM", "CAPSULE", "BOX", "CYLINDER"):
-        assert codes[name] == getattr(pdv, name), name
     assert codes["ONE_SIDED"] == DerivativeStatus.ONE_SIDED
     assert [codes[f.name] for f in ContactFeature] == [f.value for f in ContactFeature]
     assert [codes[k.upper()] for k in KINDS] == list(range(3)) == [sd.KINDS.index(k) for k in KINDS]
 
 
-# --- the stages on rows --------------------------------------------------------------------------------------
-
-IN, OUT = 33, 69
-
-
-@jit
-def _stages(x, out, lo, hi):
-    """The numba twin of testing.pair_derivative_stages (python/pair_derivatives.cpp), column for column."""
-    for i in range(lo, hi):
-        kind = int(x[i, 0])
-        n = (x[i, 1], x[i, 2], x[i, 3])
-        V = ((x[i, 4], x[i, 5], x[i, 6]), (x[i, 7], x[i, 8], x[i, 9]), (x[i, 10], x[i, 11], x[i, 12]))
-        sk, dw = (x[i, 13], x[i, 14], x[i, 15]), (x[i, 16], x[i, 17], x[i, 18])
-        Re = (x[i, 19], x[i, 20], x[i, 21], x[i, 22], x[i, 23], x[i, 24], x[i, 25], x[i, 26], x[i, 27])
-        re, r1, r2 = (x[i, 28], x[i, 29], x[i, 30]), x[i, 31], x[i, 32]
-        f, k, g0, g1, w, rho, pt, u, b0, b1 = pdv._stratum(kind, n, V, sk)
-        s, grad, h, g, z, J, H, t1, t2, R = pdv._local(n, dw, Re, re, rho, pt, u, g0, k)
-        a1, a2 = pdv._reduced_solve(R, k, r1, r2)
-        npn, Pn = pdv._pnorm(n, pt, u)
-        row = (
-            (float(f), float(k)) + g0 + g1 + w + (rho, float(pt)) + u + (b0, b1)
-            + (s,) + grad + (h,) + g + z + J + H + t1 + t2 + R
-            + (pdv._top(R, k), a1, a2, npn) + Pn + pdv._unit(dw) + pdv._axpy(r1, n, dw)
-        )  # fmt: skip
-        for c in range(69):
-            out[i, c] = row[c]
-
-
-def assert_stages_agree(x):
-    x = np.ascontiguousarray(x, dtype=float)
-    n = len(x)
-    got, want = np.full((n, OUT), 7.0), np.full((n, OUT), 7.0)
-    with np.errstate(all="ignore"):
-        T.pair_derivative_stages(x, got, 0, n)
-        _stages(x, want, 0, n)
-    assert_same_bits(got, want, "pair_derivative_stages")
-    return want
-
-
-def stage_rows(kind, normal, P):
-    """Rows (kind, n, V, sk, dw, Re, re, r1, r2) from poses P and normals: V K's axes (a capsule's or cylinder's
-    third one unit, as _pair makes it), dw the centre offset, r1 and r2 random."""
-    m = len(normal)
-    rng = np.random.default_rng(0)
-    V = P["RK"].transpose(0, 2, 1).reshape(m, 9)
-    dw = P["cK"] - P["cE"]
-    cols = (np.full((m, 1), KINDS.index(kind)), normal, V, P["sK"], dw, P["RE"].reshape(m, 9), P["rE"])
-    return np.concatenate([*cols, rng.normal(size=(m, 2))], 1)
-
-
-def test_the_stages_give_the_numba_bits_on_every_stratum():
-    """At the narrow phase's normals and on the kinks: every feature of every kind, k = 0, 1, 2."""
-    seen = set()
-    for kind in KINDS:
-        P = {k: np.asarray(v, float) for k, v in shape_poses(kind, 300, seed=5).items()}
-        normal, _ = narrow_phase(pose_args(P), kind)
-        V = P["RK"].transpose(0, 2, 1)
-        for nr in (normal, V[:, 0], -V[:, 2], (V[:, 0] + V[:, 1]) / np.sqrt(2.0), np.cross(V[:, 2], normal)):
-            out = assert_stages_agree(stage_rows(kind, np.ascontiguousarray(nr), P))
-            seen |= set(out[:, 0].astype(int).tolist())
-    assert seen == set(range(7)), seen
-
-
-@settings(max_examples=400, deadline=None)
-@given(
-    st.lists(st.one_of(finite, st.floats(-2, 2), st.sampled_from([0.0, 1.0, -1.0, 1e-11])), min_size=32, max_size=32),
-    st.sampled_from([0.0, 1.0, 2.0]),
-)
-def test_the_stages_on_arbitrary_floats_give_the_numba_bits(x, kind):
-    assert_stages_agree(np.array([[kind] + x]))
-
-
 def test_the_stages_refuse_bad_ranges():
-    x = np.zeros((4, IN))
+    x = np.zeros((4, 33))
     with pytest.raises(IndexError, match="range"):
-        T.pair_derivative_stages(x, np.empty((4, OUT)), 0, 5)
+        T.pair_derivative_stages(x, np.empty((4, 69)), 0, 5)
     with pytest.raises(IndexError, match="range"):
-        T.pair_derivative_stages(x[:3].copy(), np.empty((4, OUT)), 0, 4)
+        T.pair_derivative_stages(x[:3].copy(), np.empty((4, 69)), 0, 4)
     with pytest.raises(TypeError):
-        T.pair_derivative_stages(x, np.empty((4, OUT + 1)), 0, 4)
+        T.pair_derivative_stages(x, np.empty((4, 70)), 0, 4)

@@ -1,17 +1,18 @@
-"""The C++ motion/time_of_impact.hpp (issue 46) against the numba kernels it replaces, bit for bit.
+"""The C++ motion/time_of_impact.hpp (issue 46): the batch kernel, its exact fallback and its drop-ins.
 
-The batch kernel (toi against _toi: times, statuses, t_exact, step counts) on the scenes and hard cases of
-test_toi.py (spheres on straight paths, random and small-step pairs, tunnelling plates, grazing and near misses,
-a spinning needle, identical, concentric and touching at t = 0 or 1, at rest, reversed, elongated, tiny, huge,
-far off and far apart, rotations orthonormal to 1e-7, slow approaches, half turns, tiny motions), broadcasting,
-chunked [lo, hi) calls and threads; resolve_exact (the C++ exact fallback) against _resolve_exact (rationals), and
-the C++ exact relation against rational.relation at the float poses; float_poses, toi_pair with an oracle, and the
-search's stages on rows; hypothesis and arbitrary floats; the binding's refusals.
+The batch kernel (ext.toi) on the scenes and hard cases of test_toi.py (spheres on straight paths, random and
+small-step pairs, tunnelling plates, grazing and near misses, a spinning needle, identical, concentric and
+touching at t = 0 or 1, at rest, reversed, elongated, tiny, huge, far off and far apart, rotations orthonormal
+to 1e-7, slow approaches, half turns, tiny motions), hypothesis and arbitrary floats: statuses in range, chunked
+[lo, hi) calls, scattered indices and threads give the serial call's bits, a batch of one broadcasts, power-of-two
+scales scale the times exactly.  The C++ exact fallback (ext.resolve_exact) against the same search run with
+rational_fallback.py's Fraction relation (the loop time_of_impact ran before the C++ one), and the C++ exact
+relation against rational.relation at the float poses.  toi_small and toi_pair (the single-pair search) give
+ext.toi's results; the pipeline (time_of_impact) is ext.toi + ext.resolve_exact; the binding's refusals.
 """
 
 import math
 
-import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -25,12 +26,13 @@ import ellipsim.native as native
 from ellipsim import Ellipsoids
 from ellipsim.core import threads
 from ellipsim.core.exact import rational_fallback as rational
-from ellipsim.core.motion import interpolation as ip
 from ellipsim.core.motion import time_of_impact as T
 from ellipsim.core.tolerances import TOI_MAX_ORACLE
 
 ext = native.ext
 X = ext.testing
+STATUSES = {T.NO_CONTACT, T.CONTACT, T.CONTACT_AT_FLOAT_POSE, T.UNRESOLVED, T.NEED_EXACT}
+NAMES = ("toi", "status", "t_exact", "steps")
 
 
 def oracle(n, width=TOI_MAX_ORACLE):
@@ -43,41 +45,65 @@ def outputs(n):
 
 
 def check_kernel(arrays, n, idx=None, chunks=(), OT=None, OR=None, OC=None):
-    """ext.toi against T._toi on pairs idx (all), in one call and in the chunks given; returns numba's outputs."""
+    """ext.toi on pairs idx (all): statuses in range, rows outside idx untouched, and the same bits again in
+    the chunks given; returns the outputs."""
     idx = np.arange(n) if idx is None else np.asarray(idx, np.int64)
     if OT is None:
         OT, OR, OC = oracle(n)
-    want, got = outputs(n), outputs(n)
+    want = outputs(n)
     with np.errstate(all="ignore"):
-        T._toi(*arrays, idx, OT, OR, OC, *want, 0, len(idx))
-        ext.toi(*arrays, idx, OT, OR, OC, *got, 0, len(idx))
-    for name, g, w in zip(("toi", "status", "t_exact", "steps"), got, want):
-        assert_same(g, w, name)
+        ext.toi(*arrays, idx, OT, OR, OC, *want, 0, len(idx))
+    assert set(want[1][idx].tolist()) <= STATUSES
+    rest = np.setdiff1d(np.arange(n), idx)
+    for x, fill in zip(want, outputs(n)):
+        assert_same(x[rest], fill[rest], "rows outside idx")
     bounds = [0, *chunks, len(idx)]
     got = outputs(n)
-    for lo, hi in zip(bounds[:-1], bounds[1:]):
-        ext.toi(*arrays, idx, OT, OR, OC, *got, lo, hi)
-    for name, g, w in zip(("toi", "status", "t_exact", "steps"), got, want):
+    with np.errstate(all="ignore"):
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            ext.toi(*arrays, idx, OT, OR, OC, *got, lo, hi)
+    for name, g, w in zip(NAMES, got, want):
         assert_same(g, w, f"chunked {name}")
     return want
 
 
+def resolve_with_rationals(arrays, OT, OR, OC, out, status, t_exact, steps):
+    """The exact fallback in rationals: pairs whose search asked for the exact relation at an instant get
+    rational.relation at the float pose there in their oracle, and the search reruns, until none asks (a full
+    oracle: UNRESOLVED, out the proven end)."""
+    while True:
+        idx = np.flatnonzero(status == T.NEED_EXACT)
+        full = idx[OC[idx] >= TOI_MAX_ORACLE]
+        status[full] = T.UNRESOLVED
+        idx = idx[OC[idx] < TOI_MAX_ORACLE]
+        if not len(idx):
+            return
+        ca, Ra, ra, cb, Rb, rb = T.float_poses(arrays, idx, t_exact[idx])
+        for k, i in enumerate(idx):
+            OT[i, OC[i]] = t_exact[i]
+            OR[i, OC[i]] = rational.relation(ca[k], Ra[k], ra[k], cb[k], Rb[k], rb[k])
+            OC[i] += 1
+        with np.errstate(all="ignore"):
+            ext.toi(*arrays, idx, OT, OR, OC, out, status, t_exact, steps, 0, len(idx))
+
+
 def check_resolved(arrays, n):
-    """The whole search with the exact fallback: T._toi + T._resolve_exact (rationals) against ext.toi +
-    ext.resolve_exact (the C++ exact fallback), every output and the oracles bit for bit."""
+    """The whole search with the exact fallback: ext.toi + ext.resolve_exact (the C++ exact fallback) against
+    ext.toi + resolve_with_rationals, every output and the oracles bit for bit."""
     runs = []
-    for kernel, resolve in ((T._toi, T._resolve_exact), (ext.toi, None)):
+    for rationals in (True, False):
         OT, OR, OC = oracle(n)
         out = outputs(n)
         with np.errstate(all="ignore"):
-            kernel(*arrays, np.arange(n), OT, OR, OC, *out, 0, n)
-            if resolve is not None:
-                resolve(arrays, OT, OR, OC, *out)
+            ext.toi(*arrays, np.arange(n), OT, OR, OC, *out, 0, n)
+            if rationals:
+                resolve_with_rationals(arrays, OT, OR, OC, *out)
             else:
                 ext.resolve_exact(*arrays, OT, OR, OC, *out, 0, n)
         runs.append((*out, OT, OR, OC))
-    for name, g, w in zip(("toi", "status", "t_exact", "steps", "OT", "OR", "OC"), *runs):
+    for name, w, g in zip((*NAMES, "OT", "OR", "OC"), *runs):
         assert_same(g, w, f"resolved {name}")
+    assert T.NEED_EXACT not in runs[1][1]
     return runs[1]
 
 
@@ -99,7 +125,7 @@ def motion(c0, R0, c1, R1, r):
 # --- the scenes of test_toi.py ----------------------------------------------------------------------------
 
 
-def test_spheres_on_straight_paths_give_the_numba_bits():
+def test_spheres_on_straight_paths():
     rng = np.random.default_rng(11)
     n = 2000
     ca0, ca1, cb0, cb1 = (rng.uniform(-2, 2, (n, 3)) for _ in range(4))
@@ -111,7 +137,7 @@ def test_spheres_on_straight_paths_give_the_numba_bits():
     assert np.count_nonzero(want[1] == T.CONTACT) > 300 and np.count_nonzero(want[3] > 3) > 30
 
 
-def test_random_pairs_and_small_steps_give_the_numba_bits():
+def test_random_pairs_and_small_steps():
     rng = np.random.default_rng(12)
     a0, a1 = random_motion(rng, 400)
     b0, b1 = random_motion(rng, 400)
@@ -135,14 +161,14 @@ def approaching(rng, n, gap=(0.01, 1.0), radii=(0.1, 1.0), turn=1.0):
     return a0, a1, Ellipsoids(start, b.rotations, b.radii), Ellipsoids(end, b1.rotations, b.radii)
 
 
-def test_approaching_pairs_give_the_numba_bits():
+def test_approaching_pairs():
     rng = np.random.default_rng(31)
     want, _ = check(*approaching(rng, 1500))
     assert np.mean(want[3]) > 3 and np.count_nonzero(want[1] == T.CONTACT) > 300
     check(*approaching(rng, 500, radii=(0.001, 1.0), turn=3.0))  # elongated, fast turns
 
 
-def test_tunnelling_plates_give_the_numba_bits():
+def test_tunnelling_plates():
     rng = np.random.default_rng(14)
     n = 200
     R = Rot.random(n, random_state=rng).as_matrix()
@@ -154,7 +180,7 @@ def test_tunnelling_plates_give_the_numba_bits():
     assert np.all(want[1] == T.CONTACT)
 
 
-def test_grazing_near_misses_and_slow_approaches_give_the_numba_bits():
+def test_grazing_near_misses_and_slow_approaches():
     A = one([0, 0, 0], I, [1, 1, 1])
     ends = []
     for g in (1e-3, 1e-6, 1e-9, 1e-12, 1e-14, 0.0):
@@ -171,7 +197,7 @@ def test_grazing_near_misses_and_slow_approaches_give_the_numba_bits():
     assert {int(s) for s in resolved[1]} >= {T.NO_CONTACT, T.CONTACT, T.UNRESOLVED}
 
 
-def test_spinning_needles_give_the_numba_bits():
+def test_spinning_needles():
     rng = np.random.default_rng(15)
     n = 300
     axis = rng.normal(size=(n, 3))
@@ -189,7 +215,7 @@ def test_spinning_needles_give_the_numba_bits():
     assert np.count_nonzero(want[1] == T.CONTACT) > 100
 
 
-def test_touching_concentric_at_rest_and_reversed_give_the_numba_bits():
+def test_touching_concentric_at_rest_and_reversed():
     rng = np.random.default_rng(16)
     a0, a1 = random_motion(rng, 20)
     check(a0, a1, a0, a1)  # identical
@@ -211,7 +237,7 @@ def test_touching_concentric_at_rest_and_reversed_give_the_numba_bits():
     check(A, A, c1, c0)
 
 
-def test_elongated_tiny_huge_far_off_and_noisy_rotations_give_the_numba_bits():
+def test_elongated_tiny_huge_far_off_and_noisy_rotations():
     rng = np.random.default_rng(22)
     n = 300
     a0, a1 = random_motion(rng, n, radii=(0.001, 1.0))
@@ -232,7 +258,7 @@ def test_elongated_tiny_huge_far_off_and_noisy_rotations_give_the_numba_bits():
     assert np.all(want[1] == T.NO_CONTACT) and np.all(want[3] == 0)
 
 
-def test_tiny_motions_and_turns_give_the_numba_bits():
+def test_tiny_motions_and_turns():
     rng = np.random.default_rng(25)
     a0, _ = random_motion(rng, 400, box=0.6)
     b0, _ = random_motion(rng, 400, box=0.6)
@@ -254,7 +280,7 @@ def raw(c0, R0, r, c1, R1, w):
     )
 
 
-def test_half_turns_give_the_numba_bits():
+def test_half_turns():
     """Turns within 2e-6 of a half turn (time_of_impact refuses them; the kernels take any w)."""
     rng = np.random.default_rng(26)
     n = 300
@@ -265,22 +291,31 @@ def test_half_turns_give_the_numba_bits():
         v *= ((math.pi - rng.choice([1e-3, 1e-5, 2e-6], n)) / np.linalg.norm(v, axis=1))[:, None]
         R1 = (R0 * Rot.from_rotvec(v)).as_matrix()
         w, angle = np.empty((n, 3)), np.empty(n)
-        ip._rotation_vectors(R0.as_matrix(), R1, w, angle)
+        ext.rotation_vectors(np.ascontiguousarray(R0.as_matrix()), R1, w, angle)
         c0 = rng.uniform(-1, 1, (n, 3))
         arrays.extend(raw(c0, R0.as_matrix(), rng.uniform(0.1, 1, (n, 3)), c0 + rng.normal(size=(n, 3)), R1, w))
     want = check_kernel(tuple(arrays), n, chunks=(100,))
     assert np.count_nonzero(want[3] > 3) > 20
 
 
-def test_broadcasting_and_scattered_indices_give_the_numba_bits():
+def test_broadcasting_and_scattered_indices():
+    """A body given once is the body repeated; a scattered idx gives the full call's rows and leaves the others."""
     rng = np.random.default_rng(24)
     b0, b1 = random_motion(rng, 30)
     A = one([0, 0, 0], I, [0.5, 0.4, 0.3])
-    check(A, A, b0, b1)
-    check(b0, b1, A, A)
+    AA = A[[0] * 30]
+    for scene, tiled in (((A, A, b0, b1), (AA, AA, b0, b1)), ((b0, b1, A, A), (b0, b1, AA, AA))):
+        got, got_resolved = check(*scene)
+        want, want_resolved = check(*tiled)
+        for name, g, w in zip(NAMES, got + got_resolved[:4], want + want_resolved[:4]):
+            assert_same(g, w, f"broadcast {name}")
     check(A, A, A, A)
     arrays, n = T._check(A, A, b0, b1)
-    check_kernel(arrays, n, idx=rng.permutation(n)[:17], chunks=(5,))  # rows the kernel skips keep their sentinels
+    full = check_kernel(arrays, n)
+    idx = rng.permutation(n)[:17]
+    some = check_kernel(arrays, n, idx=idx, chunks=(5,))  # rows the kernel skips keep their sentinels
+    for name, g, w in zip(NAMES, some, full):
+        assert_same(g[idx], w[idx], f"scattered {name}")
     check_kernel(arrays, n, idx=np.zeros(0, np.int64))
 
 
@@ -308,7 +343,7 @@ def test_the_exact_fallback_gives_the_rational_relation_at_the_float_poses():
     arrays, n = T._check(a0, a1, b0, b1)
     OT, OR, OC = oracle(n)
     out = outputs(n)
-    T._toi(*arrays, np.arange(n), OT, OR, OC, *out, 0, n)
+    ext.toi(*arrays, np.arange(n), OT, OR, OC, *out, 0, n)
     idx = np.flatnonzero(np.isfinite(out[0]))
     t = np.concatenate([out[0][idx], out[0][idx] - 1e-9, np.full(len(idx), 0.5)])
     idx = np.concatenate([idx] * 3)
@@ -330,45 +365,34 @@ def test_resolve_exact_runs_every_pair_to_the_end_as_the_rationals_do():
     arrays, n = T._check(A, A, Ellipsoids.concatenate([B0, far, B0, B1]), Ellipsoids.concatenate([B1, far, B1, B0]))
     resolved = check_resolved(arrays, n)
     assert resolved[1].tolist() == [T.CONTACT, T.NO_CONTACT, T.CONTACT, T.CONTACT]
-    # a full oracle: UNRESOLVED with the proven end, as _resolve_exact
+    # a full oracle: UNRESOLVED with the proven end, as in rationals
     OT, OR, OC = oracle(n)
     OC[:] = TOI_MAX_ORACLE
     got, want = outputs(n), outputs(n)
     for out in (got, want):
-        T._toi(*arrays, np.arange(n), OT, OR, OC, *out, 0, n)
-    T._resolve_exact(arrays, OT.copy(), OR.copy(), OC.copy(), *want)
+        ext.toi(*arrays, np.arange(n), OT, OR, OC, *out, 0, n)
+    resolve_with_rationals(arrays, OT.copy(), OR.copy(), OC.copy(), *want)
     ext.resolve_exact(*arrays, OT, OR, OC, *got, 0, n)
     for g, w in zip(got, want):
         assert_same(g, w, "full oracle")
     assert want[1][0] == T.UNRESOLVED
 
 
-def test_float_poses_give_the_numba_bits():
-    rng = np.random.default_rng(28)
-    a0, a1 = random_motion(rng, 200)
-    b0, b1 = random_motion(rng, 200)
-    for arrays, n in (T._check(a0, a1, b0, b1), T._check(a0[:1], a1[:1], b0, b1)):
-        idx = rng.integers(0, n, 600)
-        t = rng.choice([0.0, 1.0, 0.5, np.nextafter(0.5, 1), 1e-300, 1 - 2**-40, *rng.uniform(0, 1, 20)], 600)
-        want, got = T.float_poses(arrays, idx, t), [np.full_like(x, 7.0) for x in T.float_poses(arrays, idx, t)]
-        ext.float_poses(*arrays, idx, t, *got)
-        for g, w in zip(got, want):
-            assert_same(g, w, "float_poses")
-
-
 def check_small(a0, a1, b0, b1):
-    """ext.toi_small against T._toi_small: done, and where done the times and statuses."""
+    """ext.toi_small: done, and where done ext.toi's times and statuses (no exact relation asked)."""
     args = [a for x in (a0, a1, b0, b1) for a in (x.centers, x.rotations, x.radii)]
     with np.errstate(all="ignore"):
-        want, got = T._toi_small(*args), ext.toi_small(*args)
-    assert got[0] == want[0] and got[1].shape == want[1].shape and got[2].shape == want[2].shape
-    if want[0]:
-        assert_same(got[1], want[1], "toi_small toi")
-        assert_same(got[2], want[2], "toi_small status")
-    return want[0]
+        done, toi, status = ext.toi_small(*args)
+    if done:
+        arrays, n = T._check(a0, a1, b0, b1)
+        want = check_kernel(arrays, n)
+        assert T.NEED_EXACT not in want[1]
+        assert_same(toi, want[0], "toi_small toi")
+        assert_same(status, want[1], "toi_small status")
+    return done
 
 
-def test_toi_small_gives_the_numba_bits():
+def test_toi_small_is_the_batch_search():
     rng = np.random.default_rng(35)
     a0, a1, b0, b1 = approaching(rng, 64)
     done = [
@@ -387,15 +411,12 @@ def test_toi_small_gives_the_numba_bits():
     half = one([0, 0, 0], np.diag([1.0, -1.0, -1.0]), [1, 0.5, 0.25])
     assert not check_small(a0[:2], a1[:2], A, half)  # a half turn
     near = one([0, 0, 0], Rot.from_rotvec([0, 0, math.pi - 2e-6]).as_matrix(), [1, 0.5, 0.25])
-    assert (
-        check_small(a0[:2], a1[:2], A, near)
-        == T._toi_small(*[a for x in (a0[:2], a1[:2], A, near) for a in (x.centers, x.rotations, x.radii)])[0]
-    )
+    check_small(a0[:2], a1[:2], A, near)
     for case in (approaching(rng, 16), smallstep_motion(rng, 16), (*random_motion(rng, 16), *random_motion(rng, 16))):
         check_small(*case)
 
 
-# --- toi_pair and the stages ------------------------------------------------------------------------------
+# --- toi_pair ---------------------------------------------------------------------------------------------
 
 
 def pair_args(arrays, i):
@@ -405,104 +426,33 @@ def pair_args(arrays, i):
     return [Ca0[ia], Ra0[ia], Ca1[ia], Ra1[ia], ra[ia], Wa[ia], Cb0[ib], Rb0[ib], Cb1[ib], Rb1[ib], rb[ib], Wb[ib]]
 
 
-def test_toi_pair_gives_the_numba_bits():
+def test_toi_pair_is_a_row_of_the_batch_search():
+    """The single-pair search with an oracle (empty, or relations at two times) gives ext.toi's row."""
     rng = np.random.default_rng(29)
     arrays, n = T._check(*approaching(rng, 40))
     A = one([0, 0, 0], I, [1, 0.5, 0.25])
     touch, _ = T._check(A, A, one([1.5, 0, 0], I, [0.5] * 3), one([3, 0, 0], I, [0.5] * 3))
     for arr, m in ((arrays, n), (touch, 1)):
-        for i in range(m):
-            x = pair_args(arr, i)
-            for ot, orel, oc in (
-                (np.zeros(16), np.zeros(16, np.int8), 0),
-                (np.array([0.0, 0.3]), np.array([1, 0], np.int8), 2),
-            ):
-                want = T.toi_pair(*(tuple(v.ravel()) for v in x), ot, orel, oc)
-                got = X.toi_pair(*x, ot, orel, oc)
-                assert got == tuple(want) and math.copysign(1, got[0]) == math.copysign(1, want[0]), (i, got, want)
-
-
-@numba.njit(cache=False, error_model="numpy")
-def _stages(A0, A1, B0, B1, args, out):
-    ot, orel = np.zeros(1), np.zeros(1, np.int8)
-    for i in range(out.shape[0]):
-        x = args[i]
-        a, m, end, t, mu0 = x[0], x[1], x[2], x[6], x[7]
-        nv = (x[3], x[4], x[5])
-        pair, swept = T.load_pair(A0, A1, B0, B1, i, i)
-        whole, t_in, t_out = T._swept_spheres(swept)
-        half0, half1 = pair[13]
-        head = (1.0 if whole else 0.0, t_in, t_out, pair[14][0], pair[14][1], pair[12], half0[14], half1[14])
-        piece = 0 if a < 0.5 else 1
-        ctx = T._ctx_at(m, piece, half0 if piece == 0 else half1)
-        S = T._setup(nv, m, ctx)
-        M0 = T._margin_lower(0.0, S)
-        e = T._largest_end(a, m, end, S, i % 2 == 1)
-        ca, Ra, ra, cb, Rb, rb = T._pose_at(t, pair)
-        wr = T._witness_relation(ca, Ra, ra, cb, Rb, rb, mu0, pair[14][0], pair[14][1])
-        pr = T._probe(t, pair, mu0, ot, orel, 0)
-        cn, mu = T._contact_normal(ca, Ra, ra, cb, Rb, rb, mu0)
-        A, B = S[4], S[5]
-        mid = (swept[3], swept[4], S[0], S[1], S[2], S[3], A[4], A[5], A[6], B[4], B[5], B[6], M0)
-        tail = (T._certified(M0, 0.01, S), T._model_root(S, M0, end - m), e[0], e[1], float(wr), float(pr))
-        c = 0
-        for v in head:
-            out[i, c] = v
-            c += 1
-        for v in mid:
-            out[i, c] = v
-            c += 1
-        for v in tail:
-            out[i, c] = v
-            c += 1
-        for v in (cn[0], cn[1], cn[2], mu):
-            out[i, c] = v
-            c += 1
-        apart = T._spheres_apart_on(nv, a, end, swept[0], swept[1], swept[2], swept[3], swept[4])
-        out[i, c] = 1.0 if apart else 0.0
-
-
-def stage_args(rng, arrays, n):
-    """Per pair (a, m, end, n, t, mu0): proven ends and expansion times on either half, normals from
-    the centre line and at random, poses at random times and the ends."""
-    a = rng.choice([0.0, 0.1, 0.4999, 0.5, 0.7, 1 - 1e-6], n) * rng.uniform(0.9, 1.0, n)
-    end = np.where(a < 0.5, 0.5, 1.0)
-    m = a + (end - a) * rng.choice([0.0, 0.5, 1.0], n)
-    (Ca0, _, _), (Ca1, _, _), (Cb0, _, _), (Cb1, _, _) = arrays
-    d = (Cb0 - Ca0) + (m[:, None] * ((Cb1 - Cb0) - (Ca1 - Ca0)))
-    nv = np.where(rng.uniform(size=(n, 1)) < 0.6, d, rng.normal(size=(n, 3)))
-    t = rng.choice([0.0, 1.0, 0.5, *rng.uniform(0, 1, 10)], n)
-    mu0 = rng.choice([0.0, 0.5, 1.0, 3.0], n)
-    return np.ascontiguousarray(np.column_stack([a, m, end, nv, t, mu0]))
-
-
-def check_stages(arrays, args):
-    n = len(args)
-    got, want = np.full((n, X.TOI_STAGE_COLUMNS), 7.0), np.full((n, X.TOI_STAGE_COLUMNS), 7.0)
-    with np.errstate(all="ignore"):
-        _stages(*arrays, args, want)
-        X.toi_stages(*arrays, args, got)
-    assert_same(got, want, "stages")
-
-
-def test_the_search_stages_give_the_numba_bits():
-    rng = np.random.default_rng(30)
-    for scene in (approaching(rng, 600), (*random_motion(rng, 300), *random_motion(rng, 300))):
-        arrays, n = T._check(*scene)
-        check_stages(arrays, stage_args(rng, arrays, n))
-    n = 400
-    arrays = tuple(
-        (floats(3 * n, rng).reshape(n, 3), floats(9 * n, rng).reshape(n, 3, 3), floats(3 * n, rng).reshape(n, 3))
-        for _ in range(4)
-    )
-    args = np.column_stack([floats(3 * n, rng).reshape(n, 3), floats(5 * n, rng).reshape(n, 5)])
-    check_stages(arrays, np.ascontiguousarray(args))
+        for ot, orel, oc in (
+            (np.zeros(TOI_MAX_ORACLE), np.zeros(TOI_MAX_ORACLE, np.int8), 0),
+            (
+                np.r_[0.0, 0.3, np.zeros(TOI_MAX_ORACLE - 2)],
+                np.r_[1, 0, np.zeros(TOI_MAX_ORACLE - 2)].astype(np.int8),
+                2,
+            ),
+        ):
+            OT, OR, OC = np.tile(ot, (m, 1)), np.tile(orel, (m, 1)), np.full(m, oc, np.int64)
+            want = check_kernel(arr, m, OT=OT, OR=OR, OC=OC)
+            for i in range(m):
+                got = X.toi_pair(*pair_args(arr, i), ot, orel, oc)
+                row = (float(want[0][i]), int(want[1][i]), float(want[2][i]), int(want[3][i]))
+                assert got == row and math.copysign(1, got[0]) == math.copysign(1, row[0]), (i, got, row)
 
 
 # --- arbitrary floats -------------------------------------------------------------------------------------
 
 
-def test_arbitrary_floats_give_the_numba_bits():
+def test_arbitrary_floats():
     rng = np.random.default_rng(32)
     n = 500
     arrays = tuple(
@@ -526,7 +476,7 @@ def test_arbitrary_floats_give_the_numba_bits():
 @given(
     st.lists(st.one_of(finite, st.floats(-2, 2), st.sampled_from([0.0, 0.5, 1.0])), min_size=60, max_size=60), st.data()
 )
-def test_any_floats_give_the_numba_bits(x, data):
+def test_any_floats(x, data):
     x = np.array(x)
     r = np.array(data.draw(st.lists(st.one_of(positive, st.floats(0.01, 1)), min_size=6, max_size=6)))
     bodies = []
@@ -549,7 +499,7 @@ def test_any_floats_give_the_numba_bits(x, data):
     st.lists(st.floats(-3, 3), min_size=6, max_size=6),
     st.sampled_from([1.0, 2.0**-300, 2.0**300, 1e-9]),
 )
-def test_any_plausible_motion_gives_the_numba_bits(c, r, rv, scale):
+def test_any_plausible_motion(c, r, rv, scale):
     """Hypothesis's centres, semi-axes and turns (rotations from rotation vectors) at several scales."""
     c, r, rv = np.array(c) * scale, np.array(r) * scale, np.array(rv).reshape(2, 3)
     R0 = Rot.from_rotvec(rv).as_matrix()
@@ -568,7 +518,7 @@ def test_threads_run_the_cpp_kernel_as_a_drop_in():
     arrays, n = T._check(a0, a1, b0, b1)
     OT, OR, OC = oracle(n)
     want = outputs(n)
-    T._toi(*arrays, np.arange(n), OT, OR, OC, *want, 0, n)
+    ext.toi(*arrays, np.arange(n), OT, OR, OC, *want, 0, n)
     got = outputs(n)
     with threads.limit(2):
         threads.run(ext.toi, n, True, *arrays, np.arange(n), OT, OR, OC, *got)
@@ -583,7 +533,7 @@ def test_threads_run_the_cpp_kernel_as_a_drop_in():
 # --- the binding's refusals --------------------------------------------------------------------------------
 
 
-def test_the_binding_refuses_what_numba_would_read_out_of_bounds():
+def test_the_binding_refuses_what_it_would_read_out_of_bounds():
     rng = np.random.default_rng(34)
     a0, a1 = random_motion(rng, 4)
     b0, b1 = random_motion(rng, 4)
@@ -594,7 +544,7 @@ def test_the_binding_refuses_what_numba_would_read_out_of_bounds():
     with pytest.raises(IndexError, match="outside the outputs"):
         ext.toi(*arrays, np.array([0, 4]), OT, OR, OC, *outputs(n), 0, 2)
     with pytest.raises(IndexError, match="outside the outputs"):
-        ext.toi(*arrays, np.array([-1]), OT, OR, OC, *outputs(n), 0, 1)  # numba would wrap around
+        ext.toi(*arrays, np.array([-1]), OT, OR, OC, *outputs(n), 0, 1)  # no wrap-around
     with pytest.raises(IndexError, match="outside the batches"):
         short, _ = T._check(a0[:3], a1[:3], b0[:3], b1[:3])
         ext.toi(*short, idx, OT, OR, OC, *outputs(n), 0, n)
@@ -621,5 +571,5 @@ def test_the_binding_refuses_what_numba_would_read_out_of_bounds():
         X.toi_pair(*pair_args(arrays, 0), np.zeros(2), np.zeros(2, np.int8), 3)
     args = [a for x in (a0, a1, b0, b1) for a in (x.centers, x.rotations, x.radii)]
     args[2] = args[2][:3].copy()
-    with pytest.raises(ValueError, match="same length"):  # the numba kernel would read past ra0
+    with pytest.raises(ValueError, match="same length"):  # the kernel would read past ra0
         ext.toi_small(*args)

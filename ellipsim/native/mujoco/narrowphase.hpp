@@ -23,6 +23,7 @@
 #include <ellipsim/exact/certified_filter.hpp>
 #include <ellipsim/pairs/box.hpp>
 #include <ellipsim/pairs/capsule.hpp>
+#include <ellipsim/pairs/cylinder.hpp>
 #include <ellipsim/vec3.hpp>
 
 #include "contact_filter.hpp"
@@ -167,9 +168,17 @@ __attribute__((noinline)) inline int narrow_pair(const mjModel* m, mjData* d, mj
     normal = r.normal;
     pos = r.pos;
     proven = std::isfinite(dist);
-  } else if (t2 == mjGEOM_CYLINDER) {  // g1 the ellipsoid, g2 the cylinder: pairs/cylinder.hpp not merged yet
-    count(counters, FALLBACKS);
-    return original(m, d, con, g1, g2, margin);
+  } else if (t2 == mjGEOM_CYLINDER) {  // g1 the ellipsoid, g2 the cylinder
+    const Ellipsoid E = geom_ellipsoid(m, d, t1, g1, 0.0), K = geom_pose(m, d, g2);
+    if (pairs::cylinder::centre_line_bound(E, K) >= margin) {
+      count(counters, SEPARATED);
+      return 0;
+    }
+    const pairs::cylinder::Result r = pairs::cylinder::cylinder_ellipsoid(E, K);  // a deep rim maximum: UNPROVEN
+    dist = r.dist;
+    normal = r.normal;
+    pos = r.pos;
+    proven = r.status != pairs::cylinder::UNPROVEN && std::isfinite(dist);
   } else {  // two ellipsoids, or a sphere (g1) and an ellipsoid
     const Ellipsoid A = geom_ellipsoid(m, d, t1, g1, 0.0), B = geom_ellipsoid(m, d, t2, g2, 0.0);
     const double grow = 0.5 * max2(margin, 0.0);

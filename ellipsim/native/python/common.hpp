@@ -75,5 +75,6 @@ void bind_distance(nb::module_& m, nb::module_& testing);
 void bind_pairs(nb::module_& m, nb::module_& testing);
 void bind_motion(nb::module_& m, nb::module_& testing);
 void bind_mujoco(nb::module_& m, nb::module_& testing);
+void bind_cylinder(nb::module_& m, nb::module_& testing);
 
 }  // namespace ellipsim::binding

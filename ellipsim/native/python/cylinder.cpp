@@ -20,6 +20,22 @@ using InRows = In<double, nb::shape<-1, K>>;
 // shape_distance.py's kind codes (derivatives.py CAPSULE, BOX, CYLINDER).
 constexpr std::int64_t CAPSULE = 0, BOX = 1, CYLINDER = 2;
 
+// dist, normal, pos and status of the pairs [lo, hi) by one kernel (its kind chosen once per call, so that each
+// kind's loop is its own function): status 0 when proven and finite, 1 otherwise.
+template <typename F>
+void distances_by(const Batch<>& a, const Batch<>& b, double* d, double* nr, double* p, std::int8_t* s, std::int64_t lo,
+                  std::int64_t hi, F kernel) {
+  const std::int64_t sa = a.n > 1, sb = b.n > 1;  // stride 0 broadcasts a batch of one
+  for (std::int64_t i = lo; i < hi; ++i) {
+    bool ok = true;
+    const auto r = kernel(load(a.C, a.R, a.r, i * sa), load(b.C, b.R, b.r, i * sb), ok);
+    d[i] = r.dist;
+    s[i] = ok && std::isfinite(r.dist) ? 0 : 1;
+    nr[3 * i] = r.normal.x, nr[3 * i + 1] = r.normal.y, nr[3 * i + 2] = r.normal.z;
+    p[3 * i] = r.pos.x, p[3 * i + 1] = r.pos.y, p[3 * i + 2] = r.pos.z;
+  }
+}
+
 // Signed distance, normal, contact point and status of the ellipsoid x capsule, box or cylinder pairs [lo, hi)
 // (shape_distance._distances): status 0 when proven and finite, 1 otherwise (a cylinder's UNPROVEN rim, a
 // non-finite distance).
@@ -34,32 +50,23 @@ void shape_distances(const Centers<>& Ce, const Rotations<>& Re, const Centers<>
       static_cast<std::int64_t>(status.shape(0)) != n)
     throw std::invalid_argument("the output arrays must have the same length");
   check_range(lo, hi, n, a, b);
-  const std::int64_t sa = a.n > 1, sb = b.n > 1;  // stride 0 broadcasts a batch of one
   double* d = dist.data();
   double* nr = normal.data();
   double* p = pos.data();
   std::int8_t* s = status.data();
   nb::gil_scoped_release release;
-  for (std::int64_t i = lo; i < hi; ++i) {
-    const Ellipsoid E = load(a.C, a.R, a.r, i * sa), K = load(b.C, b.R, b.r, i * sb);
-    double di;
-    Vec3 ni, pi;
-    bool ok = true;
-    if (kind == CAPSULE) {
-      const pairs::capsule::Result r = pairs::capsule::capsule_ellipsoid(E, K);
-      di = r.dist, ni = r.normal, pi = r.pos;
-    } else if (kind == BOX) {
-      const pairs::box::Result r = pairs::box::box_ellipsoid(E, K);
-      di = r.dist, ni = r.normal, pi = r.pos;
-    } else {
+  if (kind == CAPSULE) {
+    distances_by(a, b, d, nr, p, s, lo, hi,
+                 [](const Ellipsoid& E, const Ellipsoid& K, bool&) { return pairs::capsule::capsule_ellipsoid(E, K); });
+  } else if (kind == BOX) {
+    distances_by(a, b, d, nr, p, s, lo, hi,
+                 [](const Ellipsoid& E, const Ellipsoid& K, bool&) { return pairs::box::box_ellipsoid(E, K); });
+  } else {
+    distances_by(a, b, d, nr, p, s, lo, hi, [](const Ellipsoid& E, const Ellipsoid& K, bool& ok) {
       const pairs::cylinder::Result r = pairs::cylinder::cylinder_ellipsoid(E, K);
-      di = r.dist, ni = r.normal, pi = r.pos;
       ok = r.status != pairs::cylinder::UNPROVEN;
-    }
-    d[i] = di;
-    s[i] = ok && std::isfinite(di) ? 0 : 1;
-    nr[3 * i] = ni.x, nr[3 * i + 1] = ni.y, nr[3 * i + 2] = ni.z;
-    p[3 * i] = pi.x, p[3 * i + 1] = pi.y, p[3 * i + 2] = pi.z;
+      return r;
+    });
   }
 }
 

@@ -77,5 +77,6 @@ void bind_pair_derivatives(nb::module_& m, nb::module_& testing);
 void bind_motion(nb::module_& m, nb::module_& testing);
 void bind_time_of_impact(nb::module_& m, nb::module_& testing);
 void bind_mujoco(nb::module_& m, nb::module_& testing);
+void bind_cylinder(nb::module_& m, nb::module_& testing);
 
 }  // namespace ellipsim::binding

@@ -160,7 +160,7 @@ struct RimNewton {
 
 // Newton for max of f_rim (the rim sg = +-1) from the unit n, in polar coordinates about the cap sg u
 // (cylinder.py _rim_newton): CONVERGED, AT_CAP (b reached 0) or STALLED.
-ELLIPSIM_HD RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double sg, Vec3 n) {
+ELLIPSIM_HD_CALL RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double sg, Vec3 n) {
   const Vec3 q = {e.x - sg * L * u.x, e.y - sg * L * u.y, e.z - sg * L * u.z};
   const TangentBasis w = tangent_basis(u);
   const Vec3 &w1 = w.t1, &w2 = w.t2;
@@ -395,7 +395,7 @@ ELLIPSIM_HD double sweep_bound(const Vec3& a2, const Vec3& e, const Vec3& u, dou
 
 // ub4 (side contacts): the maximum of the capsule inside K with K's support at n, proven by capsule.hpp; inf
 // when its radius is at most CAPSULE_MIN_FIT r (cylinder.py _capsule_bound).
-ELLIPSIM_HD double capsule_bound(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double rho,
+ELLIPSIM_HD_CALL double capsule_bound(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double rho,
                                  const Vec3& n, double value, double tol, double slack) {
   (void)slack;
   const double ya = dot(witness(a2, e, n, value), u);
@@ -505,7 +505,7 @@ ELLIPSIM_HD double envelope(const V2& g0, const V2& gm, const V2& g2, double cs,
 
 // (bound, m): the maximum of f_p over the arc {cos t v1 + sin t v2 : t in [0, span]} and where it is attained,
 // or the tangent planes' bound when that is below floor, or an end above stop (cylinder.py _arc_max).
-ELLIPSIM_HD Top arc_max(const Vec3& a2, const Vec3& p, const Vec3& v1, const Vec3& v2, double cs, double sn,
+ELLIPSIM_HD_CALL Top arc_max(const Vec3& a2, const Vec3& p, const Vec3& v1, const Vec3& v2, double cs, double sn,
                         const Vec3& end, double slack, double floor, double stop) {
   const double p1 = dot(p, v1), p2 = dot(p, v2);
   // tangent planes at the arc's ends and middle: f_p(m) <= m.(p - s_E(m_k)) everywhere (weak duality)
@@ -574,7 +574,7 @@ ELLIPSIM_HD bool inside4(const Vec3& m, const Vec3& k0, const Vec3& k1, const Ve
 
 // (bound, m): the maximum of f_p over the convex spherical quadrilateral v0 v1 v2 v3 and where it is attained
 // (cylinder.py _poly_bound).
-ELLIPSIM_HD Top poly_bound(const Vec3& a2, const Vec3& p, const Vec3& v0, const Vec3& v1, const Vec3& v2,
+ELLIPSIM_HD_CALL Top poly_bound(const Vec3& a2, const Vec3& p, const Vec3& v0, const Vec3& v1, const Vec3& v2,
                            const Vec3& v3, double slack, double floor, double stop, double edge12) {
   const Vec3 cen = {v0.x + v1.x + v2.x + v3.x, v0.y + v1.y + v2.y + v3.y, v0.z + v1.z + v2.z + v3.z};
   const Vec3 k0 = edge_normal(v0, v1, cen), k1 = edge_normal(v1, v2, cen);
@@ -796,7 +796,7 @@ struct RimBB {
 // Branch and bound over the azimuth of the rim piece sg (cylinder.py _rim_bb): RIM_LUNES lunes from the
 // incumbent's azimuth, each split in two depth first (a node is its level and index) until its bound is within
 // tol of the incumbent; proven false when RIM_BB_NODES lunes or RIM_BB_LEVELS levels did not settle it.
-ELLIPSIM_HD RimBB rim_bb(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double sg, double best,
+ELLIPSIM_HD_CALL RimBB rim_bb(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double sg, double best,
                          Vec3 bn, double tol, double slack, double side_ub) {
   const Vec3 q = {e.x - sg * L * u.x, e.y - sg * L * u.y, e.z - sg * L * u.z};
   const Vec3 su = times(sg, u);
@@ -918,7 +918,7 @@ struct DeepSearch {
 
 // Caps and side exactly, then each rim piece by its azimuth branch and bound, the rim facing E's centre first;
 // the other skipped once that one is proven when E lies on its side of K's mid-plane (cylinder.py deep_search).
-ELLIPSIM_HD DeepSearch deep_search(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double best,
+ELLIPSIM_HD_CALL DeepSearch deep_search(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, double best,
                                    Vec3 bn, double tol, double slack) {
   for (int k = 0; k < 2; ++k) {
     const Vec3 m = times(k == 0 ? 1.0 : -1.0, u);
@@ -948,7 +948,7 @@ struct AxisMax {
 
 // A second chance for a rim left unproven when E is a spheroid whose axis is (nearly) along the cylinder's:
 // spheroids' axis_bb about u in the frame (u, w1, w2) (cylinder.py axis_max).
-ELLIPSIM_HD AxisMax axis_max(const Vec3& a2, const Vec3& e, Vec3 u, double L, double r, double tol, double scale,
+ELLIPSIM_HD_CALL AxisMax axis_max(const Vec3& a2, const Vec3& e, Vec3 u, double L, double r, double tol, double scale,
                              const Vec3& n0) {
   using distance::spheroids::at;
   const Vec3 ra = {std::sqrt(a2.x), std::sqrt(a2.y), std::sqrt(a2.z)};

@@ -15,6 +15,7 @@ import mujoco
 import mujoco.rollout as rollout
 import numpy as np
 import pytest
+from test_cylinder import cylinder_pile_xml
 from test_explicit_pairs import column_xml
 from test_reproducible import _unprovable_pair
 
@@ -69,14 +70,8 @@ def attached_run(xml, n, warm_start=True):
     return out, att.counters
 
 
-#: pairs/cylinder.hpp is not merged yet: until it is, the piles' cylinders are capsules
-CYLINDERS = False
-
-
 def mixed_pile(seed, variant):
     xml = mixed_pile_xml(seed=seed)
-    if not CYLINDERS:
-        xml = xml.replace('type="cylinder"', 'type="capsule"')
     if variant == "margins":  # every geom (the per-geom 2 mm margins of the pile stay)
         xml = xml.replace("<worldbody>", '<default><geom margin="0.003" gap="0.001"/></default><worldbody>', 1)
     if variant == "speculative":
@@ -104,6 +99,15 @@ def test_mixed_piles(seed, variant):
     assert gc == wc and wc["contacts"] > 100 and wc["separated"] > 100
     if variant in ("margins", "override"):
         assert wc["apart"] > 0  # contacts measured apart beyond the margin
+    assert_identical(got, want)
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.01])
+def test_cylinder_piles(margin):
+    """Ellipsoids and cylinders (test_cylinder's pile): deep rim contacts, the rim's branch and bound."""
+    xml = cylinder_pile_xml(margin=margin)
+    (want, wc), (got, gc) = both(lambda: attached_run(xml, 400))
+    assert gc == wc and wc["contacts"] > 500
     assert_identical(got, want)
 
 

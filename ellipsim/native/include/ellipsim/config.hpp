@@ -25,3 +25,13 @@ static_assert(std::numeric_limits<double>::is_iec559, "ellipsim needs IEEE 754 d
 #else
 #define ELLIPSIM_HD inline
 #endif
+
+// The few large searches numba kept as calls of their own (its @jit functions, not inlined stages): inlined
+// into every caller they bloat it and cost 10-20% (the cylinder's rim searches, measured), so they stay calls.
+#if defined(__CUDACC__)
+#define ELLIPSIM_HD_CALL __host__ __device__ __noinline__
+#elif defined(__GNUC__)
+#define ELLIPSIM_HD_CALL inline __attribute__((noinline))
+#else
+#define ELLIPSIM_HD_CALL inline
+#endif

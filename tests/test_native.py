@@ -240,7 +240,8 @@ def test_a_module_built_against_another_mujoco_is_refused_in_one_line(monkeypatc
     assert message.startswith(
         f"ellipsim's compiled core was built against MuJoCo {native.version_text(ext.mujoco.MUJOCO_VERSION)}, "
     )
-    assert "this process runs mujoco 4.1.0" in message and "pip install" in message
+    assert "this process runs mujoco 4.1.0" in message and "pip install --no-build-isolation ." in message
+    assert message.endswith(f"mujoco=={native.version_text(ext.mujoco.MUJOCO_VERSION)}")
 
 
 def test_the_command_line_says_an_unusable_core_in_one_line_without_a_traceback(monkeypatch, capsys):

@@ -94,6 +94,23 @@ def entry_installed_and_restored(xml, t1, t2):
 # --- the kernels' poses and their check against the dense reference ------------------------------
 
 
+def pair_row(kernel, E, K, columns):
+    """The row of an ext.testing pose kernel (arguments Ce, Re, re, Ck, Rk, sk, out, lo, hi; `columns` wide)
+    on one pair: E and K each (centre (3,), rotation row-major (9,), sizes (3,))."""
+    shapes = ((1, 3), (1, 3, 3), (1, 3))
+    args = [np.array(x, dtype=float).reshape(shape) for body in (E, K) for x, shape in zip(body, shapes)]
+    out = np.empty((1, columns))
+    kernel(*args, out, 0, 1)
+    return out[0]
+
+
+def kernel_result(kernel, E, K):
+    """ext.testing's capsule_ellipsoid, box_ellipsoid or cylinder_ellipsoid on one pair (E, K as pair_row's):
+    (status, dist, normal, pos, ub), normal and pos 3-tuples."""
+    r = pair_row(kernel, E, K, 9).tolist()
+    return int(r[0]), r[1], tuple(r[2:5]), tuple(r[5:8]), r[8]
+
+
 def far_poses(rng, rE, sK):
     """Pose dict (cE, RE, rE, cK, RK, sK) of m pairs with random rotations, E's centre in [-1, 1]^3
     and K's far from it in a random direction."""

@@ -1,6 +1,6 @@
-"""Ellipsoid x box: the kernel (core/pairs/box.py) against an independent reference, and the narrow phase
-inside MuJoCo against MuJoCo's own GJK/EPA run tight; a data not attached stays plain MuJoCo to the
-bit on a box-walled pile."""
+"""Ellipsoid x box: the kernel (the C++ core's pairs/box.hpp, through ext.testing) against an independent
+reference, and the narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight; a data not attached
+stays plain MuJoCo to the bit on a box-walled pile."""
 
 import math
 
@@ -11,6 +11,8 @@ from pair_types import (
     check_against_reference,
     entry_installed_and_restored,
     far_poses,
+    kernel_result,
+    pair_row,
     pile_agrees_with_tight_mujoco,
     place_gaps,
     unattached_is_plain_mujoco,
@@ -18,9 +20,21 @@ from pair_types import (
 from reference import dense_maximum
 
 from ellipsim.app import scenes
-from ellipsim.core.pairs import box
+from ellipsim.native import ext
 
 ELL, BOX = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID), int(mujoco.mjtGeom.mjGEOM_BOX)
+CERTIFIED, ENUMERATED = ext.testing.BOX_CONSTANTS["CERTIFIED"], ext.testing.BOX_CONSTANTS["ENUMERATED"]
+
+
+def box_ellipsoid(E, K):
+    """The kernel (ext.testing.box_ellipsoid) on one pair: (status, dist, normal, pos, ub)."""
+    return kernel_result(ext.testing.box_ellipsoid, E, K)
+
+
+def centre_line_bound(E, K):
+    """box.hpp's centre_line_bound (a column of ext.testing.box_stages)."""
+    return pair_row(ext.testing.box_stages, E, K, 61)[60]
+
 
 # --- an independent reference (reference.dense_maximum) ------------------------------------------
 # sigma(n) = n.(cK - cE) - |rE (RE^T n)| - sum_j s_j |n.RK_j| in world coordinates with numpy; its
@@ -43,7 +57,7 @@ def reference(P):
 def _kernel(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
     K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
-    return box.box_ellipsoid(E, K)
+    return box_ellipsoid(E, K)
 
 
 def make_poses(seed=0, per=60):
@@ -105,29 +119,29 @@ def test_kernel_matches_the_reference_within_1e12_of_the_smaller_half_size(poses
     P, cat, names, out, normals, ref = poses
     status, dist = out[:, 0], out[:, 1]
     s_min = np.minimum(P["rE"].min(1), P["sK"].min(1))
-    proofs = (box.CERTIFIED, box.ENUMERATED)
-    check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, proofs, box.CERTIFIED)
+    proofs = (CERTIFIED, ENUMERATED)
+    check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, proofs, CERTIFIED)
     assert (dist[cat == 3] < 0).all() and (dist[cat == 5] < 0).all() and (dist[cat == 0] > 0).all()
-    assert (status[cat == 3] == box.ENUMERATED).any()  # the enumeration is exercised
+    assert (status[cat == 3] == ENUMERATED).any()  # the enumeration is exercised
 
 
 def test_kernel_hand_picked_cases():
     I = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     E = ((0.0, 0.0, 0.0), I, (0.3, 0.2, 0.1))
     # face on: a cube above E's shortest axis
-    st, dist, normal, pos, _ = box.box_ellipsoid(E, ((0.0, 0.0, 0.5), I, (0.05, 0.1, 0.15)))
+    st, dist, normal, pos, _ = box_ellipsoid(E, ((0.0, 0.0, 0.5), I, (0.05, 0.1, 0.15)))
     assert dist == pytest.approx(0.5 - 0.15 - 0.1, abs=1e-15) and normal == pytest.approx((0, 0, 1), abs=1e-15)
     assert pos == pytest.approx((0.0, 0.0, 0.1 + 0.125), abs=1e-15)
     # a thin slab through E's centre, normal along y: the shortest way out is along z (E's short axis)
-    st, dist, normal, _, _ = box.box_ellipsoid(E, ((0.0, 0.0, 0.0), I, (1.0, 1.0, 0.01)))
+    st, dist, normal, _, _ = box_ellipsoid(E, ((0.0, 0.0, 0.0), I, (1.0, 1.0, 0.01)))
     assert dist == pytest.approx(-0.11, abs=1e-15) and abs(normal[2]) == pytest.approx(1.0, abs=1e-15)
     # vertex on: the box's corner (0.4, 0, 0) + ... pointing at E's long axis tip
     c = 0.4 + 0.05 * math.sqrt(3.0)
     Rv = tuple(np.array(_corner_rotation()).ravel())
-    st, dist, normal, _, _ = box.box_ellipsoid(E, ((c, 0.0, 0.0), Rv, (0.05, 0.05, 0.05)))
+    st, dist, normal, _, _ = box_ellipsoid(E, ((c, 0.0, 0.0), Rv, (0.05, 0.05, 0.05)))
     assert dist == pytest.approx(0.1, abs=1e-12) and normal == pytest.approx((1, 0, 0), abs=1e-9)
     K = ((0.3, 0.4, 0.2), Rv, (0.05, 0.2, 0.1))
-    assert box.centre_line_bound(E, K) <= box.box_ellipsoid(E, K)[1]
+    assert centre_line_bound(E, K) <= box_ellipsoid(E, K)[1]
 
 
 def _corner_rotation():

@@ -1,6 +1,7 @@
-"""Ellipsoid x capsule: the kernel (core/pairs/capsule.py) against an independent reference, and the
-narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight.  That a data not attached stays
-plain MuJoCo to the bit on a capsule pile is tested with the other scope tests (test_scope.py)."""
+"""Ellipsoid x capsule: the kernel (the C++ core's pairs/capsule.hpp, through ext.testing) against an
+independent reference, and the narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight.  That a
+data not attached stays plain MuJoCo to the bit on a capsule pile is tested with the other scope tests
+(test_scope.py)."""
 
 import itertools
 import re
@@ -13,6 +14,8 @@ from pair_types import (
     coaxial_poses,
     entry_installed_and_restored,
     far_poses,
+    kernel_result,
+    pair_row,
     pile_agrees_with_tight_mujoco,
     place_gaps,
 )
@@ -20,9 +23,21 @@ from reference import dense_maximum
 
 import ellipsim.mujoco as em
 from ellipsim.app import scenes
-from ellipsim.core.pairs import capsule
+from ellipsim.native import ext
 
 CAP, ELL = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+CERTIFIED, ENUMERATED = ext.testing.CAPSULE_CONSTANTS["CERTIFIED"], ext.testing.CAPSULE_CONSTANTS["ENUMERATED"]
+
+
+def capsule_ellipsoid(E, K):
+    """The kernel (ext.testing.capsule_ellipsoid) on one pair: (status, dist, normal, pos, ub)."""
+    return kernel_result(ext.testing.capsule_ellipsoid, E, K)
+
+
+def centre_line_bound(E, K):
+    """capsule.hpp's centre_line_bound (a column of ext.testing.capsule_stages)."""
+    return pair_row(ext.testing.capsule_stages, E, K, 24)[23]
+
 
 # --- an independent reference (reference.dense_maximum) ------------------------------------------
 # sigma(n) = n.(cK - cE) - |rE (RE^T n)| - L |n.z| - r written out in world coordinates with numpy,
@@ -48,7 +63,7 @@ def reference(P):
 def _kernel(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
     K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
-    return capsule.capsule_ellipsoid(E, K)
+    return capsule_ellipsoid(E, K)
 
 
 def make_poses(seed=0, per=60):
@@ -108,8 +123,8 @@ def test_kernel_matches_the_reference_within_1e12_of_the_smaller_half_size(poses
     P, cat, names, out, normals, ref = poses
     dist = out[:, 1]
     s_min = np.minimum(P["rE"].min(1), P["sK"][:, 0])
-    proofs = (capsule.CERTIFIED, capsule.ENUMERATED)
-    check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, proofs, capsule.CERTIFIED)
+    proofs = (CERTIFIED, ENUMERATED)
+    check_against_reference(P, cat, names, out, normals, ref, ref_sigma, s_min, proofs, CERTIFIED)
     assert (dist[cat == 3] < 0).all() and (dist[cat == 5] < 0).all() and (dist[cat == 0] > 0).all()
 
 
@@ -133,16 +148,16 @@ def test_kernel_hand_picked_cases():
     I = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     E = ((0.0, 0.0, 0.0), I, (0.3, 0.2, 0.1))
     # end on: the capsule along z above E's shortest axis, 0.25 m apart
-    st, dist, normal, pos, _ = capsule.capsule_ellipsoid(E, ((0.0, 0.0, 0.5), I, (0.05, 0.15, 0.0)))
+    st, dist, normal, pos, _ = capsule_ellipsoid(E, ((0.0, 0.0, 0.5), I, (0.05, 0.15, 0.0)))
     assert dist == pytest.approx(0.5 - 0.15 - 0.05 - 0.1, abs=1e-15) and normal == pytest.approx((0, 0, 1), abs=1e-15)
     assert pos == pytest.approx((0.0, 0.0, 0.1 + 0.1), abs=1e-15)
     # side on, axis along y through E's centre: the shortest way out is along z
     Ry = (1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0)
-    st, dist, normal, _, _ = capsule.capsule_ellipsoid(E, ((0.0, 0.0, 0.0), Ry, (0.05, 0.2, 0.0)))
+    st, dist, normal, _, _ = capsule_ellipsoid(E, ((0.0, 0.0, 0.0), Ry, (0.05, 0.2, 0.0)))
     assert dist == pytest.approx(-0.15, abs=1e-15) and abs(normal[2]) == pytest.approx(1.0, abs=1e-15)
     # the centre-line bound never exceeds the distance
     K = ((0.3, 0.4, 0.2), Ry, (0.05, 0.2, 0.0))
-    assert capsule.centre_line_bound(E, K) <= capsule.capsule_ellipsoid(E, K)[1]
+    assert centre_line_bound(E, K) <= capsule_ellipsoid(E, K)[1]
 
 
 # --- inside MuJoCo ------------------------------------------------------------------------------

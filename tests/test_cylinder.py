@@ -1,9 +1,10 @@
-"""Ellipsoid x cylinder: the kernel (core/pairs/cylinder.py) against an independent reference, and the
-narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight; a data not attached stays plain
-MuJoCo to the bit on a cylinder pile."""
+"""Ellipsoid x cylinder: the kernel (the C++ core's pairs/cylinder.hpp, through ext.testing) against an
+independent reference, and the narrow phase inside MuJoCo against MuJoCo's own GJK/EPA run tight; a data
+not attached stays plain MuJoCo to the bit on a cylinder pile."""
 
 import itertools
 import re
+import types
 
 import mujoco
 import numpy as np
@@ -13,6 +14,8 @@ from pair_types import (
     coaxial_poses,
     entry_installed_and_restored,
     far_poses,
+    kernel_result,
+    pair_row,
     pile_agrees_with_tight_mujoco,
     place_gaps,
     unattached_is_plain_mujoco,
@@ -20,9 +23,106 @@ from pair_types import (
 from reference import dense_maximum
 
 from ellipsim.app import scenes
-from ellipsim.core.pairs import cylinder
+from ellipsim.native import ext
 
 ELL, CYL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID), int(mujoco.mjtGeom.mjGEOM_CYLINDER)
+
+
+# --- the kernel and its stages (cylinder.hpp), reached through ext.testing ----------------------------
+# (each stage as cylinder.py's took and returned it: tuples in, a float, a tuple or a (value, point) out)
+
+cylinder = types.SimpleNamespace(**ext.testing.CYLINDER_CONSTANTS)
+STAGES = 47  # ext.testing.cylinder_stages' columns
+
+
+def _row(kernel, x, columns):
+    """kernel(x, out, 0, 1) on the one row x (the numbers in order, tuples flattened): out's row."""
+    flat = np.concatenate([np.ravel(np.asarray(v, dtype=float)) for v in x])
+    out = np.empty((1, columns))
+    kernel(flat[None, :], out, 0, 1)
+    return out[0]
+
+
+def cylinder_ellipsoid(E, K):
+    return kernel_result(ext.testing.cylinder_ellipsoid, E, K)
+
+
+def centre_line_bound(E, K):
+    return pair_row(ext.testing.cylinder_stages, E, K, STAGES)[46]
+
+
+def to_frame(E, K):
+    """(e, a2, u): K's centre in E's principal frame, E's squared semi-axes, K's axis in E's frame."""
+    r = pair_row(ext.testing.cylinder_stages, E, K, STAGES).tolist()
+    return tuple(r[0:3]), tuple(r[3:6]), tuple(r[6:9])
+
+
+def sigma_cylinder(a2, e, u, L, r, n):
+    return _row(ext.testing.sigma_cylinder, (a2, e, u, L, r, n), 1)[0]
+
+
+def _mirrored(E, K):
+    """cylinder.hpp's mirrored at the pair's frame (to_frame's e, a2, u)."""
+    return bool(pair_row(ext.testing.cylinder_stages, E, K, STAGES)[39])
+
+
+def _rim_newton(a2, e, u, L, r, sg, n):
+    """(maximiser, value, code)."""
+    o = _row(ext.testing.rim_newton, (a2, e, u, L, r, sg, n), 5).tolist()
+    return tuple(o[:3]), o[3], int(o[4])
+
+
+def _polygon(a2, p, v0, v1, v2, v3, slack, floor, stop, edge12):
+    """poly_bound(a2, p, v0..v3, slack, floor, stop, edge12), edge_max(a2, p, v0, v1, slack, floor, stop):
+    ((bound, m), (bound, m))."""
+    o = _row(ext.testing.polygon_stages, (a2, p, v0, v1, v2, v3, slack, floor, stop, edge12), 12).tolist()
+    return (o[0], tuple(o[1:4])), (o[4], tuple(o[5:8]))
+
+
+def _poly_bound(a2, p, v0, v1, v2, v3, slack, floor, stop, edge12):
+    return _polygon(a2, p, v0, v1, v2, v3, slack, floor, stop, edge12)[0]
+
+
+def _edge_max(a2, p, a, b, slack, floor, stop):
+    return _polygon(a2, p, a, b, b, a, slack, floor, stop, np.inf)[1]
+
+
+def _envelope(g0, gm, g2, cs, sn):
+    return _row(ext.testing.small_stages, (g0, gm, g2, cs, sn), 8)[0]
+
+
+def _cert_model(a2, q, su, r, n):
+    """(ok, (t1, t2), g, H, value, h, ss, bt, eg, eh, reach), g (2) and H (H11, H12, H22) tuples."""
+    o = _row(ext.testing.cert_stages, (a2, q, su, r, n, n, n, n, n, 0.0), 20).tolist()
+    return (bool(o[0]), (tuple(o[1:4]), tuple(o[4:7])), tuple(o[7:9]), tuple(o[9:12]), *o[12:19])
+
+
+def _cert_region(a2, q, su, r, n, v0, v1, v2, v3, room):
+    """cert_region(cert_model(a2, q, su, r, n), n, r, v0..v3, room)."""
+    return bool(_row(ext.testing.cert_stages, (a2, q, su, r, n, v0, v1, v2, v3, room), 20)[19])
+
+
+def _split_settles(a2, q, p, su, ca, cb, b, n, theta, r, room, floor, slack, equator):
+    """split_settles(a2, p, su, ca, cb, b, cert_model(a2, q, su, r, n), n, theta, r, room, floor, slack, equator)."""
+    x = (a2, q, p, su, ca, cb, n, b, theta, r, room, floor, slack, equator)
+    return bool(_row(ext.testing.split_settles, x, 1)[0])
+
+
+def _equator_bound(side_ub, r, ca, cb, c, slack):
+    return _row(ext.testing.equator_bound, (side_ub, r, ca, cb, c, slack), 1)[0]
+
+
+def tangent_basis(u):
+    """sphere_newton's tangent_basis: (w1, w2)."""
+    o = _row(ext.testing.sphere_newton_tangent_basis, (u,), 6).tolist()
+    return tuple(o[:3]), tuple(o[3:])
+
+
+def circle_max_bound(a2, q, w1, w2):
+    """point_ellipsoid's circle_max_bound: (n, ub)."""
+    o = _row(ext.testing.point_ellipsoid_stages, (a2, q, w1, w2, 0.0), 56).tolist()
+    return tuple(o[52:55]), o[55]
+
 
 # --- an independent reference (reference.dense_maximum) ------------------------------------------
 # sigma(n) = n.(cK - cE) - |rE (RE^T n)| - L |n.z| - r |n x z| in world coordinates with numpy; its
@@ -47,7 +147,7 @@ def reference(P):
 def _kernel(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
     K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
-    return cylinder.cylinder_ellipsoid(E, K)
+    return cylinder_ellipsoid(E, K)
 
 
 def make_poses(seed=0, per=60):
@@ -173,7 +273,7 @@ def test_polygon_bound_is_the_maximum_over_the_polygon(seed):
         V = _quad(rng, _unit(rng.normal(size=3)), rng.choice([0.05, 0.3, 1.0]))
         if rng.random() < 0.3:
             V[3] = V[0]  # a triangle
-        bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf, np.inf)
+        bound, m = _poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf, np.inf)
         dense = _f(a2, p, _in_quad(rng, V, 4000)).max()
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
         assert bound >= dense - 1e-13 * scale
@@ -204,11 +304,11 @@ def test_polygon_bound_stopping_early_still_answers_the_question(seed):
         a2 = tuple(rng.uniform(0.02, 0.3, 3) ** 2)
         p = rng.normal(size=3) * rng.choice([0.05, 0.3])
         V = _quad(rng, _unit(rng.normal(size=3)), rng.choice([0.05, 0.3, 1.0]))
-        exact, _ = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf, np.inf)
+        exact, _ = _poly_bound(a2, tuple(p), *map(tuple, V), 0.0, -np.inf, np.inf, np.inf)
         dense = _f(a2, p, _in_quad(rng, V, 4000)).max()
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
         for level in (dense - 0.3 * scale, dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale):
-            bound, m = cylinder._poly_bound(a2, tuple(p), *map(tuple, V), 0.0, level, level, np.inf)
+            bound, m = _poly_bound(a2, tuple(p), *map(tuple, V), 0.0, level, level, np.inf)
             _answers_the_level(a2, p, bound, m, level, dense, scale)
             stopped += bound < exact - 1e-9 * scale
     assert stopped > 0
@@ -232,11 +332,11 @@ def test_arc_bound_asked_about_a_level_never_answers_below_wrongly(seed):
         pts = _unit((1.0 - t) * a + t * b)
         dense = _f(a2, p, pts).max()
         scale = np.linalg.norm(p) + np.sqrt(max(a2))
-        exact, m = cylinder._edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, -np.inf, np.inf)
+        exact, m = _edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, -np.inf, np.inf)
         assert exact >= dense - 1e-13 * scale
         assert abs(_f(a2, p, np.asarray(m)) - exact) <= 1e-12 * scale
         for level in (dense - 1e-3 * scale, dense - 1e-9 * scale, dense + 1e-9 * scale, dense + 1e-2 * scale):
-            bound, m = cylinder._edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, level, level)
+            bound, m = _edge_max(a2, tuple(p), tuple(a), tuple(b), 0.0, level, level)
             _answers_the_level(a2, p, bound, m, level, dense, scale)
             below += bound <= level
     assert below > 0
@@ -258,7 +358,7 @@ def test_tangent_plane_envelope_bounds_the_arc_and_is_tight(seed):
         cs, sn = np.cos(span), np.sin(span)
         ends = (v1, _unit(v1 + (cs * v1 + sn * v2)) if span < np.pi else v2, cs * v1 + sn * v2)
         g = [(p @ v1 - s @ v1, p @ v2 - s @ v2) for s in (a2 * n / np.sqrt(a2 @ (n * n)) for n in ends)]
-        bound = cylinder._envelope(*map(tuple, g), cs, sn)
+        bound = _envelope(*map(tuple, g), cs, sn)
         t = np.linspace(0.0, span, 4000)[:, None]
         pts = np.cos(t) * v1 + np.sin(t) * v2
         scale = np.linalg.norm(p) + np.sqrt(a2.max())
@@ -278,7 +378,7 @@ def _random_rim(rng):
     L, r = rng.uniform(0.01, 0.3), rng.uniform(0.01, 0.15)
     e = rng.normal(size=3) * 0.1
     n0 = _unit(u + rng.normal(size=3))
-    m, _, code = cylinder._rim_newton(a2, tuple(e), tuple(u), L, r, 1.0, tuple(n0))
+    m, _, code = _rim_newton(a2, tuple(e), tuple(u), L, r, 1.0, tuple(n0))
     return a2, u, r, e - L * u, n0, (m, code)
 
 
@@ -293,13 +393,13 @@ def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
         a2, u, r, q, n0, (m, code) = _random_rim(rng)
         if code == cylinder.CONVERGED and rng.random() < 0.8:
             n0 = np.asarray(m)
-        cm = cylinder._cert_model(a2, tuple(q), tuple(u), r, tuple(n0))
+        cm = _cert_model(a2, tuple(q), tuple(u), r, tuple(n0))
         scale = np.linalg.norm(q) + np.sqrt(max(a2)) + r
         slack = 64 * 2.0**-53 * scale
         for size in (1e-3, 1e-2, 0.05, 0.2):
             V = _quad(rng, n0, size)
             for room in (1e-13, 1e-6, 1e-3):
-                if cylinder._cert_region(cm, tuple(n0), r, *map(tuple, V), room):
+                if _cert_region(a2, tuple(q), tuple(u), r, tuple(n0), *map(tuple, V), room):
                     passed += room == 1e-13
                     n = _in_quad(rng, V, 4000)
                     G = n @ q - np.sqrt((n * n) @ np.asarray(a2)) - r * np.linalg.norm(np.cross(n, u), axis=1)
@@ -307,10 +407,14 @@ def test_second_order_certificate_never_passes_a_region_above_its_level(seed):
     assert passed > 20
 
 
-def _frame(P, i):
+def _bodies(P, i):
     E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
     K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
-    return tuple(tuple(float(c) for c in x) for x in cylinder.to_frame(E, K))
+    return E, K
+
+
+def _frame(P, i):
+    return tuple(tuple(float(c) for c in x) for x in to_frame(*_bodies(P, i)))
 
 
 def _above_mirror(P, i, rng, k):
@@ -323,9 +427,7 @@ def _above_mirror(P, i, rng, k):
     n *= np.where((n @ u_) * (e_ @ u_) > 0.0, -1.0, 1.0)[:, None]
     mirror = n - 2.0 * (n @ u_)[:, None] * u_ / (u_ @ u_)
     args = (a2, e, u, P["sK"][i, 1], P["sK"][i, 0])
-    return max(
-        cylinder.sigma_cylinder(*args, tuple(x)) - cylinder.sigma_cylinder(*args, tuple(y)) for x, y in zip(n, mirror)
-    )
+    return max(sigma_cylinder(*args, tuple(x)) - sigma_cylinder(*args, tuple(y)) for x, y in zip(n, mirror))
 
 
 @pytest.mark.parametrize("seed", range(2))
@@ -340,8 +442,7 @@ def test_mirrored_rim_is_nowhere_above_its_mirror_image(seed):
     rng = np.random.default_rng(seed)
     cE, RE, rE, cK, RK, sK = bench_poses.poses("cylinder", "penetrating", 400, rng)
     P = dict(cE=cE, RE=RE, rE=rE, cK=cK, RK=RK, sK=sK)
-    frames = [_frame(P, i) for i in range(400)]
-    mirrored = np.array([cylinder._mirrored(a2, e, u) for e, a2, u in frames])
+    mirrored = np.array([_mirrored(*_bodies(P, i)) for i in range(400)])
     out = [_kernel(P, i) for i in range(400)]
     status = np.array([o[0] for o in out])
     pick = np.flatnonzero(mirrored & (status == cylinder.ENUMERATED))
@@ -367,7 +468,7 @@ def test_reach_keeps_the_cubic_term_within_half_the_concavity_margin(seed):
         a2, u, r, q, _, (m, code) = _random_rim(rng)
         if code != cylinder.CONVERGED:
             continue
-        ok, t, g, H, value, h, ss, bt, _, _, reach = cylinder._cert_model(a2, tuple(q), tuple(u), r, tuple(m))
+        ok, t, g, H, value, h, ss, bt, _, _, reach = _cert_model(a2, tuple(q), tuple(u), r, tuple(m))
         s = np.array([u @ t[0], u @ t[1]])
         s /= np.linalg.norm(s)
         a = np.array([-s[1], s[0]])
@@ -405,8 +506,8 @@ def test_split_settles_never_passes_a_lune_above_its_floor(seed):
             continue
         n0 = np.asarray(m)
         su = tuple(u)
-        cm = cylinder._cert_model(a2, tuple(q), su, r, tuple(n0))
-        w1, w2 = (np.asarray(w) for w in cylinder.tangent_basis(su))
+        cm = _cert_model(a2, tuple(q), su, r, tuple(n0))
+        w1, w2 = (np.asarray(w) for w in tangent_basis(su))
         phi = np.arctan2(n0 @ w2, n0 @ w1)
         theta = np.arctan2(np.linalg.norm(np.cross(n0, u)), n0 @ u)
         scale = np.linalg.norm(q) + np.sqrt(max(a2)) + r
@@ -425,8 +526,8 @@ def test_split_settles_never_passes_a_lune_above_its_floor(seed):
                 if room <= 0.0:
                     assert tol < 0  # only the floor below the maximum leaves no room: never passes
                     continue
-                if not cylinder._split_settles(
-                    a2, p, su, ca, cb, reach, cm, tuple(n0), theta, r, room, floor, slack, np.inf
+                if not _split_settles(
+                    a2, tuple(q), p, su, ca, cb, reach, tuple(n0), theta, r, room, floor, slack, np.inf
                 ):
                     continue
                 assert tol > 0
@@ -456,9 +557,9 @@ def test_equator_bound_is_above_the_lune_bound_on_its_equator_arc(seed):
         e = rng.normal(size=3) * 0.1
         sg = rng.choice([1.0, -1.0])
         su, q = tuple(sg * u), e - sg * L * u
-        w1, w2 = cylinder.tangent_basis(tuple(u))
-        _, side_ub = cylinder.circle_max_bound(a2, tuple(e), w1, w2)
-        v1, v2 = (np.asarray(w) for w in cylinder.tangent_basis(su))
+        w1, w2 = tangent_basis(tuple(u))
+        _, side_ub = circle_max_bound(a2, tuple(e), w1, w2)
+        v1, v2 = (np.asarray(w) for w in tangent_basis(su))
         a, width = rng.uniform(0.0, 2.0 * np.pi), rng.uniform(1e-3, 0.5 * np.pi)
         ca, cb = (np.cos(t) * v1 + np.sin(t) * v2 for t in (a, a + width))
         tc = a + rng.choice([0.0, width, rng.uniform(0.0, width)])
@@ -466,11 +567,11 @@ def test_equator_bound_is_above_the_lune_bound_on_its_equator_arc(seed):
         p = q - r * c
         scale = np.linalg.norm(e) + np.sqrt(max(a2)) + r + L
         slack = 64 * 2.0**-53 * scale
-        bound = cylinder._equator_bound(side_ub - r, r, tuple(ca), tuple(cb), tuple(c), slack)
+        bound = _equator_bound(side_ub - r, r, tuple(ca), tuple(cb), tuple(c), slack)
         t = np.linspace(a, a + width, 2000)
         arc = np.cos(t)[:, None] * v1 + np.sin(t)[:, None] * v2
         assert _f(a2, p, arc).max() <= bound
-        lune, _ = cylinder._poly_bound(a2, tuple(p), su, tuple(ca), tuple(cb), su, 0.0, -np.inf, np.inf, np.inf)
+        lune, _ = _poly_bound(a2, tuple(p), su, tuple(ca), tuple(cb), su, 0.0, -np.inf, np.inf, np.inf)
         below_lune += bound < lune - 1e-9 * scale
     assert below_lune > 3
 
@@ -479,15 +580,15 @@ def test_kernel_hand_picked_cases():
     I = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     E = ((0.0, 0.0, 0.0), I, (0.3, 0.2, 0.1))
     # cap on: the cylinder along z above E's shortest axis
-    st, dist, normal, pos, _ = cylinder.cylinder_ellipsoid(E, ((0.0, 0.0, 0.5), I, (0.05, 0.15, 0.0)))
+    st, dist, normal, pos, _ = cylinder_ellipsoid(E, ((0.0, 0.0, 0.5), I, (0.05, 0.15, 0.0)))
     assert dist == pytest.approx(0.5 - 0.15 - 0.1, abs=1e-15) and normal == pytest.approx((0, 0, 1), abs=1e-15)
     assert pos == pytest.approx((0.0, 0.0, 0.1 + 0.125), abs=1e-15)
     # side on: the axis along y, above E's shortest axis
     Ry = (1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0)
-    st, dist, normal, _, _ = cylinder.cylinder_ellipsoid(E, ((0.0, 0.0, 0.4), Ry, (0.05, 0.2, 0.0)))
+    st, dist, normal, _, _ = cylinder_ellipsoid(E, ((0.0, 0.0, 0.4), Ry, (0.05, 0.2, 0.0)))
     assert dist == pytest.approx(0.4 - 0.05 - 0.1, abs=1e-15) and normal == pytest.approx((0, 0, 1), abs=1e-15)
     K = ((0.3, 0.4, 0.2), Ry, (0.05, 0.2, 0.0))
-    assert cylinder.centre_line_bound(E, K) <= cylinder.cylinder_ellipsoid(E, K)[1]
+    assert centre_line_bound(E, K) <= cylinder_ellipsoid(E, K)[1]
 
 
 # --- inside MuJoCo ------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
-"""core/pairs/point_ellipsoid.py on its own: the point-ellipsoid and point-ellipse problems (foot3, foot2),
-their certified bounds (sd_upper, sd_upper2), every critical point (secular_roots, pole_normal) and the
-plane-restricted maximum (circle_max_bound), each against an independent reference.
+"""The C++ core's pairs/point_ellipsoid.hpp on its own (through ext.testing.point_ellipsoid_stages): the
+point-ellipsoid and point-ellipse problems (foot3, foot2), their certified bounds (sd_upper, sd_upper2),
+every critical point (secular_roots, pole_normal) and the plane-restricted maximum (circle_max_bound), each
+against an independent reference.
 
 The reference (`critical_points`) enumerates every critical point of |x - q|^2 on the boundary of
 E = {x : sum x_i^2 / a2_i <= 1} in 40-digit mpmath, by bracketing instead of Newton: between
@@ -19,10 +20,64 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ellipsim.core.pairs import point_ellipsoid as pe
+from ellipsim.native import ext
 
 U = 2.0**-53
 DPS = 40
+
+
+# --- the stages (point_ellipsoid.hpp), each as point_ellipsoid.py's took and returned it ----------------
+
+
+def _stages(a2, q, w1=(1.0, 0.0, 0.0), w2=(0.0, 1.0, 0.0), t=0.0):
+    """ext.testing.point_ellipsoid_stages on the one row (a2, q, w1, w2, t): its 56 columns as floats."""
+    x = np.array([[*a2, *q, *w1, *w2, t]], dtype=float)
+    out = np.empty((1, 56))
+    ext.testing.point_ellipsoid_stages(x, out, 0, 1)
+    return out[0].tolist()
+
+
+def _plane(a2, q):
+    """The ellipse's (a2, q) as a row's 3-vectors (the third coordinate unused by the planar stages)."""
+    return (a2[0], a2[1], a2[0]), (q[0], q[1], 0.0)
+
+
+def foot3(a2, q):
+    o = _stages(a2, q)
+    return o[0], tuple(o[1:4])
+
+
+def sd_upper(a2, q, t):
+    return _stages(a2, q, t=t)[5]
+
+
+def foot2(a0, a1, q0, q1):
+    o = _stages(*_plane((a0, a1), (q0, q1)))
+    return o[40], o[41], o[42]
+
+
+def sd_upper2(a0, a1, q0, q1, t):
+    return _stages(*_plane((a0, a1), (q0, q1)), t=t)[44]
+
+
+def support(a2, n):
+    o = _stages(a2, (0.0, 0.0, 0.0), w1=n)
+    return o[6], tuple(o[7:10])
+
+
+def secular_roots(a2, q, largest):
+    o = _stages(a2, q)
+    return tuple(o[10:13] if largest else o[13:16])
+
+
+def pole_normal(a2, q, i, sign):
+    o = _stages(a2, q)[16 + 8 * i + (0 if sign > 0 else 4) :][:4]
+    return o[0] == 1.0, tuple(o[1:4])
+
+
+def circle_max_bound(a2, q, w1, w2):
+    o = _stages(a2, q, w1, w2)
+    return tuple(o[52:55]), o[55]
 
 
 # --- the reference -------------------------------------------------------------------------------
@@ -194,7 +249,7 @@ def ellipsoid_point(draw, d=3):
 
 
 def floats(v):
-    return tuple(float(x) for x in v)  # one numba signature for every call
+    return tuple(float(x) for x in v)
 
 
 def scale_of(a2, q):
@@ -227,7 +282,7 @@ def test_reference_finds_the_nearest_boundary_point(case):
 def check_foot3(a2, q):
     a2, q = floats(a2), floats(q)
     sd, _ = signed_distance_ref(a2, q)
-    t, n = pe.foot3(a2, q)
+    t, n = foot3(a2, q)
     S = scale_of(a2, q)
     assert abs(math.sqrt(sum(x * x for x in n)) - 1.0) <= 4 * U
     # n maximises f_q over the sphere, and that maximum is the signed distance (f_q is stationary at
@@ -235,7 +290,7 @@ def check_foot3(a2, q):
     assert abs(float(f_q(a2, q, n) - sd)) <= 1e-18 * S, (float(f_q(a2, q, n)), float(sd))
     # the certified bound from foot3's own t: above the signed distance (to the rounding of the bound
     # itself, 8 u S) and tight
-    ub = pe.sd_upper(a2, q, t)
+    ub = sd_upper(a2, q, t)
     assert ub >= float(sd) - 8 * U * S
     assert ub <= float(sd) + 1e-12 * S
     return sd, t, n
@@ -318,7 +373,7 @@ def test_sd_upper_bounds_for_any_secular_value(case, frac, logt):
     sd, _ = signed_distance_ref(a2, q)
     amin = min(a2)
     t = -amin * (1 - 1e-14) * frac + (10.0**logt) * (1 - frac)
-    assert pe.sd_upper(a2, q, t) >= float(sd) - 8 * U * scale_of(a2, q)
+    assert sd_upper(a2, q, t) >= float(sd) - 8 * U * scale_of(a2, q)
 
 
 # --- foot2 and sd_upper2 ---------------------------------------------------------------------------
@@ -333,11 +388,11 @@ def test_foot2_is_the_nearest_point_of_the_ellipse(case):
 def check_foot2(a2, q):
     a2, q = floats(a2), floats(q)
     sd, _ = signed_distance_ref(a2, q)
-    t, n0, n1 = pe.foot2(a2[0], a2[1], q[0], q[1])
+    t, n0, n1 = foot2(a2[0], a2[1], q[0], q[1])
     S = scale_of(a2, q)
     assert abs(math.hypot(n0, n1) - 1.0) <= 4 * U
     assert abs(float(f_q(a2, q, (n0, n1)) - sd)) <= 1e-18 * S
-    ub = pe.sd_upper2(a2[0], a2[1], q[0], q[1], t)
+    ub = sd_upper2(a2[0], a2[1], q[0], q[1], t)
     assert float(sd) - 8 * U * S <= ub <= float(sd) + 1e-12 * S
 
 
@@ -349,7 +404,7 @@ def check_foot2(a2, q):
 def test_support_point_is_the_support(case, n):
     """s(n) lies on the boundary and maximises n.x over E (checked on 40 000 boundary points), h = n.s."""
     a2, _ = case
-    h, s = pe.support(a2, n)
+    h, s = support(a2, n)
     a = np.sqrt(np.array(a2))
     assert abs(np.sum(np.array(s) ** 2 / np.array(a2)) - 1) <= 1e-13
     assert h == pytest.approx(float(np.dot(n, s)), rel=1e-14)
@@ -408,7 +463,7 @@ def test_circle_max_bound_is_the_plane_maximum_and_bounds_it(case, alpha, beta, 
         @ np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
     )
     w1, w2 = tuple(R[:, 0]), tuple(R[:, 1])
-    n, ub = pe.circle_max_bound(a2, q, w1, w2)
+    n, ub = circle_max_bound(a2, q, w1, w2)
     S = scale_of(a2, q)
     assert abs(np.dot(n, R[:, 2])) <= 1e-14 and abs(np.linalg.norm(n) - 1) <= 4 * U
     ref = circle_reference(a2, q, np.array(w1), np.array(w2))
@@ -457,7 +512,7 @@ def test_secular_roots_are_every_candidate_maximum(case):
     none (S's minimum there above 1: no normal line through q touches that part)."""
     a2, q = case
     roots, gaps = secular_reference(a2, q)
-    r1, ra, rb = pe.secular_roots(a2, q, True)
+    r1, ra, rb = secular_roots(a2, q, True)
     ok, why = _root_ok(r1, roots[-1], a2, q)
     assert ok, why
     pl, pr, Smin = gaps[-1]  # between the two largest poles (-a2_mid, -a2_min)
@@ -472,7 +527,7 @@ def test_secular_roots_are_every_candidate_maximum(case):
         for t in (ra, rb):
             if not math.isnan(t):
                 assert float(pl) < t < float(pr)
-    assert math.isnan(pe.secular_roots(a2, q, False)[0])
+    assert math.isnan(secular_roots(a2, q, False)[0])
     # each root is a critical point of f_q: the normal n ~ q / (t + a2) has q - s(n) along n
     for t in (r1, ra, rb):
         if not math.isnan(t):
@@ -493,9 +548,9 @@ def test_secular_roots_are_every_candidate_maximum(case):
 )
 def test_secular_roots_hand_picked(a2, q, expect):
     roots, _ = secular_reference(a2, q)
-    r1, ra, rb = pe.secular_roots(a2, q, True)
+    r1, ra, rb = secular_roots(a2, q, True)
     if q[1] == q[2] == 0.0:  # every root left of the pole -a2_min: none there, foot3's is the pole limit
-        assert math.isnan(r1) and max(roots) < -min(a2) and pe.foot3(a2, q)[0] == -min(a2)
+        assert math.isnan(r1) and max(roots) < -min(a2) and foot3(a2, q)[0] == -min(a2)
     else:
         assert _root_ok(r1, roots[-1], a2, q)[0]
     assert (not math.isnan(ra)) + (not math.isnan(rb)) == expect
@@ -509,7 +564,7 @@ def test_secular_roots_resolve_roots_hugging_the_poles(q):
     the conditioning of S = 1, the largest and those between the two largest poles."""
     a2 = (1.0, 0.25, 0.04)
     roots, _ = secular_reference(a2, q)
-    found = [t for t in pe.secular_roots(a2, q, True) if not math.isnan(t)]
+    found = [t for t in secular_roots(a2, q, True) if not math.isnan(t)]
     assert len(found) >= 2
     for t in found:
         ref = min(roots, key=lambda r: abs(r - t))
@@ -530,7 +585,7 @@ def test_pole_normal_is_the_critical_point_at_the_pole(case):
         if q[i] != 0.0 or sum(1 for x in a2 if x == a2[i]) > 1:
             continue
         for sign in (1.0, -1.0):
-            ok, n = pe.pole_normal(a2, q, i, sign)
+            ok, n = pole_normal(a2, q, i, sign)
             x = [a2[j] * q[j] / (a2[j] - a2[i]) if j != i else 0.0 for j in range(3)]
             rest = 1 - sum(x[j] ** 2 / a2[j] for j in range(3))
             if rest < -1e-12:
@@ -539,7 +594,7 @@ def test_pole_normal_is_the_critical_point_at_the_pole(case):
             if rest < 1e-12:
                 continue  # the limit point meets the coordinate plane: either answer is right
             assert ok
-            h, s = pe.support(a2, n)
+            h, s = support(a2, n)
             r = np.array(q) - np.array(s)
             assert np.linalg.norm(np.cross(r, n)) <= 1e-12 * scale_of(a2, q)
             assert np.sign(s[i]) == sign

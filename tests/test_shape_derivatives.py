@@ -17,13 +17,14 @@ import pytest
 from reference import mp_body, perturbed, relative_errors, sd_point_shape_mp, shape_contact_mp, shape_feature_mp
 
 import ellipsim as es
-from ellipsim.core.pairs import derivatives as pdv
 from ellipsim.core.samples import random_ellipsoids
+from ellipsim.native import ext
 
 H = mp.mpf("1e-15")
 BOUND = 1e-8
 KINDS = {"box": ("face", "edge", "vertex"), "capsule": ("side", "end"), "cylinder": ("side", "cap", "rim")}
 FEATURE = {name: getattr(es.ContactFeature, name.upper()) for names in KINDS.values() for name in names}
+CODES = ext.testing.PAIR_DERIVATIVE_CODES  # the C++ kernel's codes (pairs/derivatives.hpp)
 
 
 def _poses(kind, n, seed, spread=1.5):
@@ -134,8 +135,8 @@ def test_an_unproven_maximum_gives_nan():
     _, normal, _, _ = es.shape_distance(E, "cylinder", c, R, s)
     out = (np.empty((3, 18)), np.empty((3, 3, 18)), np.empty((3, 3, 18)), np.empty(3, np.int8), np.empty(3, np.int8))
     proven = np.array([True, False, True])
-    arrays = (E.centers, E.rotations, E.radii, c, R, s, pdv.CYLINDER)
-    pdv.shape_derivatives(*arrays, normal, proven, *out, 0, 3)
+    arrays = (E.centers, E.rotations, E.radii, c, R, s, CODES["CYLINDER"])
+    ext.shape_derivatives(*arrays, normal, proven, *out, 0, 3)
     assert out[3][1] == es.DerivativeStatus.UNPROVEN and np.isnan(out[0][1]).all() and np.isnan(out[2][1]).all()
     assert np.isfinite(out[0][[0, 2]]).all()
 
@@ -154,14 +155,14 @@ def test_threads_and_broadcast_give_the_same_bits(kind):
 
 
 def test_agrees_with_the_narrow_phase_of_the_mujoco_glue():
-    """The box's distance, normal and point are the narrow phase's (box.box_ellipsoid) to the bit."""
-    from ellipsim.core.pairs import box
-    from ellipsim.core.vec3 import load
-
+    """The box's distance, normal and point are the narrow phase's (box.hpp's box_ellipsoid, through
+    ext.testing) to the bit."""
     E, c, R, s = _poses("box", 20, seed=3)
     dist, normal, pos, _ = es.shape_distance(E, "box", c, R, s)
+    out = np.empty((20, 9))  # status, dist, normal, pos, ub per pair
+    ext.testing.box_ellipsoid(E.centers, E.rotations, E.radii, c, R, s, out, 0, 20)
     for i in range(20):
-        _, d, n, p, _ = box.box_ellipsoid(load(E.centers, E.rotations, E.radii, i), load(c, R, s, i))
+        d, n, p = out[i, 1], tuple(out[i, 2:5]), tuple(out[i, 5:8])
         assert (d, n, p) == (dist[i], tuple(normal[i]), tuple(pos[i]))
 
 
@@ -185,9 +186,10 @@ def test_bad_input_is_named(call, message):
 
 
 def test_codes_are_the_kernels():
-    assert es.DerivativeStatus.ONE_SIDED == pdv.ONE_SIDED
-    assert [f.value for f in es.ContactFeature] == [pdv.FACE, pdv.EDGE, pdv.VERTEX, pdv.SIDE, pdv.END, pdv.CAP, pdv.RIM]
-    assert es.core.pairs.shape_distance.KINDS.index("box") == pdv.BOX
+    assert es.DerivativeStatus.ONE_SIDED == CODES["ONE_SIDED"]
+    names = ("FACE", "EDGE", "VERTEX", "SIDE", "END", "CAP", "RIM")
+    assert [f.value for f in es.ContactFeature] == [CODES[name] for name in names]
+    assert es.core.pairs.shape_distance.KINDS.index("box") == CODES["BOX"]
 
 
 @pytest.mark.parametrize("kind", ["capsule", "cylinder"])

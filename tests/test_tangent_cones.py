@@ -1,13 +1,54 @@
-"""The tangent-plane pruning of the box and cylinder branch and bounds (core/pairs/tangent_cones.py):
-never closes a cone or an arc on which f rises above the floor, and closes most of them when the
-floor leaves room."""
+"""The tangent-plane pruning of the box and cylinder branch and bounds (the C++ core's
+pairs/tangent_cones.hpp, through ext.testing): never closes a cone or an arc on which f rises above the
+floor, and closes most of them when the floor leaves room."""
 
 import math
 
 import numpy as np
 from test_box import make_poses
 
-from ellipsim.core.pairs import box, cylinder, tangent_cones
+from ellipsim.native import ext
+
+NO_AXIS = ext.testing.BOX_CONSTANTS["NO_AXIS"]
+
+
+def _row(kernel, x, columns):
+    """kernel(x, out, 0, 1) on the one row x (numbers and 3-vectors, flattened in order): out's row."""
+    flat = np.concatenate([np.ravel(np.asarray(v, dtype=float)) for v in x])
+    out = np.empty((1, columns))
+    kernel(flat[None, :], out, 0, 1)
+    return out[0].tolist()
+
+
+def cone_below(a2, q, u, r, bn, a, b, c, floor):
+    """tangent_cones.hpp's cone_below at xb = tangent_point(a2, u, r, bn)."""
+    return _row(ext.testing.tangent_cones_stages, (a2, q, u, r, bn, a, b, c, floor), 7)[3] == 1.0
+
+
+def arc_below(a2, q, u, r, bn, a, b, floor):
+    """tangent_cones.hpp's arc_below at xb = tangent_point(a2, u, r, bn)."""
+    return _row(ext.testing.tangent_cones_stages, (a2, q, u, r, bn, a, b, a, floor), 7)[4] == 1.0
+
+
+def box_frame(E, K):
+    """box.hpp's to_frame (e, a2, V) and face_normal of the three axes, from ext.testing.box_stages."""
+    shapes = ((1, 3), (1, 3, 3), (1, 3))
+    args = [np.array(x, dtype=float).reshape(shape) for body in (E, K) for x, shape in zip(body, shapes)]
+    out = np.empty((1, 61))
+    ext.testing.box_stages(*args, out, 0, 1)
+    o = out[0].tolist()
+    return tuple(o[0:3]), tuple(o[3:6]), tuple(tuple(o[6 + 3 * j : 9 + 3 * j]) for j in range(3)), o[15:24]
+
+
+def box_vertex(a2, e, V, r, s):
+    """box.hpp's local_max(a2, e, V, r) and vertex_q(e, V, r, *s)."""
+    o = _row(ext.testing.box_vertex_stages, (a2, e, *V, r, s), 6)
+    return tuple(o[:3]), tuple(o[3:])
+
+
+def cylinder_local_max(a2, e, u, L, r):
+    """cylinder.hpp's local_max: its n."""
+    return tuple(_row(ext.testing.cylinder_local_max, (a2, e, u, L, r), 5)[:3])
 
 
 def _f(n, q, a2, u, r):
@@ -29,12 +70,11 @@ def _cone_samples(rng, corners, m):
 def _check_cones(rng, a2, u, r, q, bn, corners, scale):
     """(cone closed at a roomy floor, arcs closed at a roomy floor) after asserting that neither closes
     below the sampled maximum."""
-    xb = tangent_cones.tangent_point(a2, tuple(u), r, tuple(bn))
     top = float(np.max(_f(_cone_samples(rng, corners, 3000), q, a2, u, r)))
     a, b, c = (tuple(x) for x in corners)
-    args = (a2, tuple(q), tuple(u), r, tuple(bn), xb)
-    assert not tangent_cones.cone_below(*args, a, b, c, top - 1e-9 * scale)
-    cone = tangent_cones.cone_below(*args, a, b, c, top + 0.02 * scale)
+    args = (a2, tuple(q), tuple(u), r, tuple(bn))  # (cone_below and arc_below take xb = tangent_point of these)
+    assert not cone_below(*args, a, b, c, top - 1e-9 * scale)
+    cone = cone_below(*args, a, b, c, top + 0.02 * scale)
     arcs = 0
     for j, k in ((0, 1), (1, 2), (2, 0)):
         t = rng.uniform(size=(400, 1))
@@ -43,8 +83,8 @@ def _check_cones(rng, a2, u, r, q, bn, corners, scale):
         n /= np.linalg.norm(n, axis=1, keepdims=True)
         top = float(np.max(_f(n, q, a2, u, r)))
         aj, ak = tuple(corners[j]), tuple(corners[k])
-        assert not tangent_cones.arc_below(*args, aj, ak, top - 1e-9 * scale)
-        arcs += tangent_cones.arc_below(*args, aj, ak, top + 0.02 * scale)
+        assert not arc_below(*args, aj, ak, top - 1e-9 * scale)
+        arcs += arc_below(*args, aj, ak, top + 0.02 * scale)
     return cone, arcs
 
 
@@ -56,14 +96,14 @@ def test_box_octants_never_close_above_their_floor():
     for i in np.flatnonzero(cat == 3):
         E = (tuple(P["cE"][i]), tuple(P["RE"][i].ravel()), tuple(P["rE"][i]))
         K = (tuple(P["cK"][i]), tuple(P["RK"][i].ravel()), tuple(P["sK"][i]))
-        e, a2, V = box.to_frame(E, K)
+        e, a2, V, faces = box_frame(E, K)
         r = K[2]
-        bn = np.array(box.local_max(a2, e, V, r))
-        f = np.array([box.face_normal(V, j) for j in range(3)])
+        bn = np.array(box_vertex(a2, e, V, r, (1.0, 1.0, 1.0))[0])
+        f = np.array(faces).reshape(3, 3)
         scale = float(np.linalg.norm(e) + max(r) + math.sqrt(max(a2)))
         for s in np.array(np.meshgrid([1.0, -1.0], [1.0, -1.0], [1.0, -1.0])).reshape(3, -1).T:
-            q = np.array(box._vertex_q(e, V, r, *s))
-            c, a = _check_cones(rng, a2, np.array(box.NO_AXIS), 0.0, q, bn, s[:, None] * f, scale)
+            q = np.array(box_vertex(a2, e, V, r, s)[1])
+            c, a = _check_cones(rng, a2, np.array(NO_AXIS), 0.0, q, bn, s[:, None] * f, scale)
             closed, arcs, tried = closed + c, arcs + a, tried + 1
     assert tried == 96 and closed > 0.8 * tried and arcs > 2.5 * tried
 
@@ -79,7 +119,7 @@ def test_cylinder_quarter_lunes_never_close_above_their_floor():
         u /= np.linalg.norm(u)
         r, L = rng.uniform(0.01, 0.15), rng.uniform(0.02, 0.3)
         e = rng.uniform(-0.1, 0.1, 3)
-        n0, _, _ = cylinder.local_max(a2, tuple(e), tuple(u), L, r)
+        n0 = cylinder_local_max(a2, tuple(e), tuple(u), L, r)
         w1 = np.cross(u, rng.normal(size=3))
         w1 /= np.linalg.norm(w1)
         w2 = np.cross(u, w1)

@@ -16,9 +16,9 @@ from scipy.spatial.transform import Rotation as Rot
 import ellipsim
 import ellipsim.warp as ew
 from ellipsim.core.ellipsoids import orthonormality_defect
-from ellipsim.core.pairs import box, capsule, cylinder
 from ellipsim.core.samples import generic_pairs
 from ellipsim.core.tolerances import BB_TOL_REL, BB_TOL_ULPS, U
+from ellipsim.native import ext
 from ellipsim.warp import kernels
 
 SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 2, 3, 4, 5, 6
@@ -111,14 +111,13 @@ def test_spheres_against_ellipsoids():
 
 
 def _cpu_pair(kind, ce, Re, ra, ck, Rk, rk):
-    """core/pairs/capsule.py, box.py or cylinder.py on float32 poses widened to float64, per pair: (dist,
-    normal, pos, status)."""
-    kernel = {"capsule": capsule.capsule_ellipsoid, "box": box.box_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid}[
-        kind
-    ]
-    w = lambda x, i: tuple(float(v) for v in np.asarray(x[i], np.float32).ravel())  # noqa: E731
-    out = [kernel((w(ce, i), w(Re, i), w(ra, i)), (w(ck, i), w(Rk, i), w(rk, i))) for i in range(len(ce))]
-    return tuple(np.array([o[k] for o in out]) for k in (1, 2, 3, 0))
+    """The C++ core's pairs/capsule.hpp, box.hpp or cylinder.hpp kernel (ext.testing's capsule_ellipsoid,
+    box_ellipsoid, cylinder_ellipsoid) on float32 poses widened to float64: (dist, normal, pos, status)."""
+    kernel = getattr(ext.testing, f"{kind}_ellipsoid")
+    w = lambda x, *shape: np.asarray(x, np.float32).astype(np.float64).reshape(-1, *shape)  # noqa: E731
+    out = np.empty((len(ce), 9))  # status, dist, normal, pos, ub per pair
+    kernel(w(ce, 3), w(Re, 3, 3), w(ra, 3), w(ck, 3), w(Rk, 3, 3), w(rk, 3), out, 0, len(ce))
+    return out[:, 1], out[:, 2:5], out[:, 5:8], out[:, 0].astype(int)
 
 
 @pytest.mark.parametrize("offset", [0.0, 100.0])

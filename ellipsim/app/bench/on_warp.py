@@ -7,7 +7,7 @@
    near the origin and 100 m away; every world's contact from plain Warp at its default and at tight
    settings (ccd_tolerance 1e-10, 1000 iterations) and from an attached model, against the exact
    answer: ellipsim's CPU narrow phase on the same float32 poses widened to float64 (proven global
-   maxima: signed_distance, core/pairs/capsule.py, cylinder.py, box.py).
+   maxima: signed_distance, shape_distance).
 2. Cost per pair, the CPU proxy for a GPU: mjw.collision over N worlds of one pair each, minus the same
    call on a model whose pair is excluded (broad phase and launches with nothing to do), over N;
    plain (Warp's GJK/EPA kernel) and attached (ellipsim's kernel), in interleaved rounds, for the
@@ -24,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from ...core.distance.ellipsoid_pair import signed_distance
 from ...core.ellipsoids import Ellipsoids
-from ...core.pairs import box, capsule, cylinder
+from ...core.pairs.shape_distance import shape_distance
 from .. import scenes
 from .common import SIZES, interleaved, say, settled
 
@@ -52,8 +52,6 @@ PAIR_NAMES = {
     "cylinder": "ellipsoid x cylinder",
     "box": "ellipsoid x box",
 }
-#: core/pairs' kernel of each kind that is not an ellipsoid pair (the ellipsoid is their first body).
-PAIR_KERNELS = {"capsule": capsule.capsule_ellipsoid, "cylinder": cylinder.cylinder_ellipsoid, "box": box.box_ellipsoid}
 
 _TWO = """<mujoco><worldbody>
 <body><freejoint/><geom type="{t}" size=".1 .1 .1"/></body>
@@ -120,17 +118,13 @@ def _smallest(kind, size):
 
 def _exact(kind, ca, Ra, ra, cb, Rb, rb):
     """(dist, normal from geom 0 to geom 1, pos, status) by ellipsim's CPU narrow phase on the float32 poses
-    widened to float64: signed_distance, or core/pairs' capsule / cylinder / box kernel (per pair; a
-    cylinder's status 1 where its kernel says UNPROVEN)."""
+    widened to float64: signed_distance, or shape_distance for a capsule, cylinder or box (status 1 where
+    a cylinder's kernel says UNPROVEN or a distance is not finite)."""
     w = lambda x: np.asarray(x, np.float32).astype(np.float64)  # noqa: E731
     if kind in ("ellipsoid", "sphere"):
         return signed_distance(Ellipsoids(w(ca), w(Ra), w(ra)), Ellipsoids(w(cb), w(Rb), w(rb)))
-    kernel = PAIR_KERNELS[kind]
-    t = lambda x, i: tuple(float(v) for v in w(x[i]).ravel())  # noqa: E731
-    out = [kernel((t(cb, i), t(Rb, i), t(rb, i)), (t(ca, i), t(Ra, i), t(ra, i))) for i in range(len(ca))]
-    st, dist, normal, pos = (np.array([o[k] for o in out]) for k in (0, 1, 2, 3))
-    unproven = ~np.isfinite(dist) | ((st == cylinder.UNPROVEN) if kind == "cylinder" else False)
-    return dist, -normal, pos, unproven.astype(int)  # (its normal is from the ellipsoid, geom 1)
+    dist, normal, pos, status = shape_distance(Ellipsoids(w(cb), w(Rb), w(rb)), kind, w(ca), w(Ra), w(ra))
+    return dist, -normal, pos, status.astype(int)  # (its normal is from the ellipsoid, geom 1)
 
 
 def pair_worlds(kind, poses, margin, *, exclude=False, tight=False, device="cpu"):

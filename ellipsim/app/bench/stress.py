@@ -11,8 +11,7 @@ from ...core.ellipsoids import Ellipsoids
 from ...core.exact.certified_filter import certify
 from ...core.exact.classify import classify
 from ...core.exact.contact_scale import contact_scale
-from ...core.pairs.cylinder import UNPROVEN as CYLINDER_UNPROVEN
-from ...core.pairs.cylinder import cylinder_ellipsoid
+from ...core.pairs.shape_distance import shape_distance
 from ...core.relation import UNDECIDED
 from ...core.samples import STRESS, stress_pairs
 from .common import FLOAT_METHODS, MujocoPairs, distances_serial, float_runner, pair_runner, say, verdict
@@ -109,22 +108,19 @@ def symmetric_fallbacks(n):
         c = u * (rng.uniform(0.0, 1.1, n) * (ra.max(1) + rb.max(1)))[:, None]
         dist, _, _, status = signed_distance(Ellipsoids(np.zeros((n, 3)), R, ra), Ellipsoids(c, Rb, rb), parallel=False)
         out[name] = (n, int(np.count_nonzero(status != GLOBAL)), int(np.count_nonzero(dist < 0)))
-    unproven = deep = 0
     rE = _spheroids(rng, n)
+    RE, cK, RK, sK = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3, 3)), np.zeros((n, 3))
     for i in range(n):
-        R = Rotation.random(random_state=rng).as_matrix()
+        RE[i] = R = Rotation.random(random_state=rng).as_matrix()
         k = int(np.argmax(np.abs(rE[i] - np.median(rE[i]))))  # the axis of revolution
         tilt = rng.choice([0.0, 1e-12, 1e-8, 1e-4, 1e-2])
         axis = rng.normal(size=3)
-        RK = R @ Rotation.from_rotvec(axis / np.linalg.norm(axis) * tilt).as_matrix()
-        RK = RK[:, [(k + 1) % 3, (k + 2) % 3, k]]  # the cylinder's axis (its z) along E's axis k
+        Rk = R @ Rotation.from_rotvec(axis / np.linalg.norm(axis) * tilt).as_matrix()
+        RK[i] = Rk[:, [(k + 1) % 3, (k + 2) % 3, k]]  # the cylinder's axis (its z) along E's axis k
         r, L = rng.uniform(0.02, 0.3), rng.uniform(0.01, 0.3)
-        cK = R[:, k] * rng.uniform(0.0, 1.05) * (rE[i, k] + L)
-        E = ((0.0, 0.0, 0.0), tuple(R.ravel()), tuple(rE[i]))
-        st, d, _, _, _ = cylinder_ellipsoid(E, (tuple(cK), tuple(RK.ravel()), (r, L, 0.0)))
-        unproven += st == CYLINDER_UNPROVEN
-        deep += d < 0
-    out["cylinder on a spheroid's axis"] = (n, int(unproven), int(deep))
+        cK[i], sK[i, :2] = R[:, k] * rng.uniform(0.0, 1.05) * (rE[i, k] + L), (r, L)
+    dist, _, _, status = shape_distance(Ellipsoids(np.zeros((n, 3)), RE, rE), "cylinder", cK, RK, sK, parallel=False)
+    out["cylinder on a spheroid's axis"] = (n, int(np.count_nonzero(status != GLOBAL)), int(np.count_nonzero(dist < 0)))
     return out
 
 

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ...native import ext
 from .. import threads
 from .._jit import jit
 from ..ellipsoids import Ellipsoids, as_poses, check_choice, check_parallel, check_rotations
@@ -88,11 +89,11 @@ def shape_distance(ellipsoids, kind, centers, rotations, sizes, *, parallel=None
     arrays = (ellipsoids.centers, ellipsoids.rotations, ellipsoids.radii, c, rot, s, code)
     dist, normal, pos, status = np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int8)
     parallel = check_parallel(parallel, n)
-    threads.run(_distances, n, parallel, *arrays, dist, normal, pos, status)
+    threads.run(ext.shape_distances, n, parallel, *arrays, dist, normal, pos, status)
     if not derivatives:
         return dist, normal, pos, status
     out = dv.ShapeDerivatives(
         np.empty((n, 18)), np.empty((n, 3, 18)), np.empty((n, 3, 18)), np.empty(n, np.int8), np.empty(n, np.int8)
     )
-    threads.run(dv.shape_derivatives, n, parallel, *arrays, normal, status == 0, *out)
+    threads.run(ext.shape_derivatives, n, parallel, *arrays, normal, status == 0, *out)
     return dist, normal, pos, status, out

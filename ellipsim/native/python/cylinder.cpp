@@ -1,6 +1,6 @@
 // The bindings of the core's pairs/cylinder.hpp and of shape_distance's batch kernel: shape_distances, a drop-in for
-// ellipsim/core/pairs/shape_distance.py's _distances (capsule, box or cylinder by kind), and, for
-// tests/test_native_cylinder.py, the cylinder's kernel and stages in the testing submodule.
+// ellipsim/core/pairs/shape_distance.py's _distances (capsule, box or cylinder by kind), and, for the tests
+// (test_cylinder.py, test_native_cylinder.py), the cylinder's kernel and stages in the testing submodule.
 #include <ellipsim/pairs/box.hpp>
 #include <ellipsim/pairs/capsule.hpp>
 #include <ellipsim/pairs/cylinder.hpp>
@@ -227,6 +227,25 @@ void bind_cylinder(nb::module_& m, nb::module_& t) {
     const PlanePole pp = plane_pole(g0.x, g0.y, gm.x);
     w.f(pp.ok), w.f(pp.na), w.f(pp.nb), w.f(py_mod(g2.x, g2.y));
     w.f(equator_bound(cs, sn, {g0.x, g0.y, gm.x}, {gm.y, g2.x, g2.y}, {cs, sn, g0.x}, g0.y));
+  });
+  // sigma_cylinder: a2, e, u, L, r, n -> 1
+  def_rows<14, 1>(t, "sigma_cylinder", [](Reader x, Writer w) {
+    const Vec3 a2 = x.v(), e = x.v(), u = x.v();
+    const double L = x.f(), r = x.f();
+    w.f(sigma_cylinder(a2, e, u, L, r, x.v()));
+  });
+  // local_max: a2, e, u, L, r -> n (3), stratum, converged
+  def_rows<11, 5>(t, "cylinder_local_max", [](Reader x, Writer w) {
+    const Vec3 a2 = x.v(), e = x.v(), u = x.v();
+    const double L = x.f(), r = x.f();
+    const LocalMax lm = local_max(a2, e, u, L, r);
+    w.v(lm.n), w.f(lm.stratum), w.f(lm.converged);
+  });
+  // equator_bound: side_ub, r, ca, cb, c, slack -> 1
+  def_rows<12, 1>(t, "equator_bound", [](Reader x, Writer w) {
+    const double side_ub = x.f(), r = x.f();
+    const Vec3 ca = x.v(), cb = x.v(), c = x.v();
+    w.f(equator_bound(side_ub, r, ca, cb, c, x.f()));
   });
   // The constants of cylinder.hpp by name (the same as cylinder.py's).
   nb::dict c;

@@ -1,5 +1,6 @@
-// The bindings of the core's pairs/ folder: for now the stages tests/test_native_pairs.py compares with the
-// numba kernels (ellipsim/core/pairs/{point_ellipsoid,tangent_cones,capsule,box}.py), in the testing submodule.
+// The bindings of the core's pairs/ folder: the capsule and box kernels and the stages of
+// pairs/{point_ellipsoid,tangent_cones,capsule,box}.hpp the tests call (test_capsule.py, test_box.py,
+// test_point_ellipsoid.py, test_tangent_cones.py, test_native_pairs.py), in the testing submodule.
 #include <ellipsim/pairs/box.hpp>
 #include <ellipsim/pairs/capsule.hpp>
 #include <ellipsim/pairs/point_ellipsoid.hpp>
@@ -213,6 +214,19 @@ void tangent_cones_stages(const InRows<23>& x, Rows<7> out, std::int64_t lo, std
   });
 }
 
+// box.hpp's local_max and vertex_q on x = (a2, e, V (9: v0, v1, v2), r, s (3 each)): local_max(a2, e, V, r) (3),
+// vertex_q(e, V, r, s0, s1, s2) (3): 6 columns (tests/test_tangent_cones.py's octants).
+void box_vertex_stages(const InRows<21>& x, Rows<6> out, std::int64_t lo, std::int64_t hi) {
+  rows<21, 6>(x, out, lo, hi, [](const double* in, double* o) {
+    using namespace pairs::box;
+    const Vec3 a2 = vec(in), e = vec(in + 3);
+    const Axes V = {{vec(in + 6), vec(in + 9), vec(in + 12)}};
+    const Vec3 r = vec(in + 15);
+    put(o, local_max(a2, e, V, r));
+    put(o + 3, vertex_q(e, V, r, in[18], in[19], in[20]));
+  });
+}
+
 }  // namespace
 
 void bind_pairs(nb::module_& m, nb::module_& t) {
@@ -227,6 +241,15 @@ void bind_pairs(nb::module_& m, nb::module_& t) {
         "hi"_a);
   t.def("point_ellipsoid_stages", &point_ellipsoid_stages, in("x"), in("out"), "lo"_a, "hi"_a);
   t.def("tangent_cones_stages", &tangent_cones_stages, in("x"), in("out"), "lo"_a, "hi"_a);
+  t.def("box_vertex_stages", &box_vertex_stages, in("x"), in("out"), "lo"_a, "hi"_a);
+  // The statuses of capsule.hpp and box.hpp by name (the same as capsule.py's and box.py's), and box.hpp's NO_AXIS.
+  nb::dict capsule, box;
+  capsule["CERTIFIED"] = pairs::capsule::CERTIFIED, capsule["ENUMERATED"] = pairs::capsule::ENUMERATED;
+  box["CERTIFIED"] = pairs::box::CERTIFIED, box["ENUMERATED"] = pairs::box::ENUMERATED;
+  const Vec3 no_axis = pairs::box::no_axis();
+  box["NO_AXIS"] = nb::make_tuple(no_axis.x, no_axis.y, no_axis.z);
+  t.attr("CAPSULE_CONSTANTS") = capsule;
+  t.attr("BOX_CONSTANTS") = box;
 }
 
 }  // namespace ellipsim::binding

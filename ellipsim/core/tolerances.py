@@ -149,7 +149,7 @@ TILTED_MAX_NODES = 60000
 #: a lower local maximum (off by up to 0.35 r_min) on deep prolate pairs (issue 18).
 PARALLEL_CANDIDATE_TILT = 0.2
 
-# --- Ellipsoid x capsule and box (ellipsim/core/pairs/capsule.py, box.py, point_ellipsoid.py) ------------
+# --- Ellipsoid x capsule and box (ellipsim/core/pairs/capsule.py, box.py, pairs/point_ellipsoid.hpp) ------------
 
 #: The contract: a capsule or box distance is certified when its upper bound is within this fraction
 #: of the smaller shortest half-size of the pair (ellipsoid semi-axis, capsule radius, box half-size) of the value

@@ -3,7 +3,7 @@ with the same proofs.
 
 sigma(n) = n.e - h_E(n) - sum_j r_j |n.v_j| in E's principal frame, smooth on 26 pieces (8 vertex
 octants, 12 edge quarter circles, 6 face normals), each solved globally by Eberly's secular equation
-(point_ellipsoid.py; Schneider & Eberly 10.5.2).  An active-set local solve from the best face normal,
+(pairs/point_ellipsoid.hpp; Schneider & Eberly 10.5.2).  An active-set local solve from the best face normal,
 certified by the rolling-radius and weak-duality bounds, else a complete enumeration of the critical
 points of the 26 pieces: both are proofs (status GLOBAL); a result that is not finite is UNPROVEN.
 

@@ -1,5 +1,5 @@
 """The point-ellipsoid and point-ellipse problems as Warp functions: a float64 port of
-core/pairs/point_ellipsoid.py (same method, same tolerances, same order of operations), the primitives
+ellipsim/native/include/ellipsim/pairs/point_ellipsoid.hpp (same method, same tolerances, same order of operations), the primitives
 of the capsule x ellipsoid kernel (capsule.py).
 
 E = {x : sum x_i^2 / a2_i <= 1} in its principal frame, support h(n) = sqrt(n^T A n); the boundary point

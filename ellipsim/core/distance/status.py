@@ -1,7 +1,6 @@
 """What signed_distance reports per pair, by name: `DistanceStatus`, and `DerivativeStatus` for its derivatives.
 
-The kernels return the plain int8 codes ellipsoid_pair.GLOBAL and UNPROVEN (numba compiles them as
-constants); the arrays signed_distance returns compare equal to the members of `DistanceStatus`.
+The kernels return the plain int8 codes ellipsoid_pair.GLOBAL and UNPROVEN (distance/status.hpp); the arrays signed_distance returns compare equal to the members of `DistanceStatus`.
 The codes are repeated here, not imported, so that `ellipsim.DistanceStatus` loads no kernel
 (tests/test_distance.py checks they are the kernel's).
 """

@@ -4,42 +4,22 @@ Two ellipsoids X^T A X <= 0 and X^T B X <= 0 are separated iff det(lambda A + B)
 distinct positive roots and externally touching iff it has a positive double root (Wang, Wang &
 Kim; thesis ch. 4, Theorem 1).  "exact" decides this on the float64 inputs with a certified float
 path (certified_filter.py) and exact rationals where that path is unsure (rational_fallback.py); "sturm" and
-"descartes" are the thesis's uncertified tests (root_tests.py) on either set-up (characteristic.py).
+"descartes" are the thesis's uncertified tests (exact/root_tests.hpp) on either set-up (characteristic.py).
 """
 
 import numpy as np
 
 from ...native import ext
 from .. import threads
-from .._jit import jit, stage
 from ..ellipsoids import Ellipsoids, check_choice, check_pair, check_parallel, indices_of
 from ..relation import UNDECIDED
 from ..tolerances import SMALL_BATCH_PAIRS
-from ..vec3 import load
-from .certified_filter import certify, certify_pair
-from .characteristic import SETUPS, cofactor_coefficients, rearranged_frame_coefficients
-from .root_tests import descartes_relation, sturm_relation
+from .certified_filter import certify
+from .characteristic import SETUPS
 
 METHODS = ("exact", "sturm", "descartes")
 DTYPES = ("float64", "float32")
 _DEFAULTS = ("exact", "rearranged", "float64")  # classify's method, setup and dtype
-
-
-@stage
-def _float_relation(A, B, cofactor, sturm):
-    """One pair by a thesis test: the chosen set-up's quartic, then Sturm or Descartes."""
-    if cofactor:
-        c4, c3, c2, c1, c0 = cofactor_coefficients(A, B)
-    else:
-        c4, c3, c2, c1, c0 = rearranged_frame_coefficients(A, B)
-    return sturm_relation(c4, c3, c2, c1, c0) if sturm else descartes_relation(c4, c3, c2, c1, c0)
-
-
-@jit
-def _classify_float(Ca, Ra, ra, Cb, Rb, rb, cofactor, sturm, out, lo, hi):
-    sa, sb = int(Ca.shape[0] > 1), int(Cb.shape[0] > 1)  # stride 0 broadcasts a batch of one
-    for i in range(lo, hi):
-        out[i] = _float_relation(load(Ca, Ra, ra, i * sa), load(Cb, Rb, rb, i * sb), cofactor, sturm)
 
 
 def resolve_undecided(a, b, out):
@@ -83,12 +63,6 @@ def classify(a, b, *, method="exact", setup="rearranged", dtype="float64", paral
     out = np.empty(n, dtype=np.int8)
     threads.run(ext.classify_float, n, parallel, *arrays, setup == "cofactor", method == "sturm", out)
     return out
-
-
-@jit
-def _certify_indexed(C, R, r, first, second, out, lo, hi):
-    for k in range(lo, hi):
-        out[k] = certify_pair(load(C, R, r, first[k]), load(C, R, r, second[k]))
 
 
 def check_indices(name, value, n):

@@ -1,6 +1,6 @@
 """Exact rational fallback: the relation of two ellipsoids on their float64 inputs, always right.
 
-Every float64 is a dyadic rational, so the pencil of pair_frame.py (with C = cof(R_a), alpha =
+Every float64 is a dyadic rational, so the pencil of exact/pair_frame.hpp (with C = cof(R_a), alpha =
 det(R_a)^2, valid for any invertible R_a) has rational coefficients that Python's Fraction computes
 exactly.  The theorem of Wang, Wang & Kim (thesis ch. 4, Theorem 1) then reads the relation off the
 number of distinct positive roots, counted by an exact Sturm sequence (thesis 4.2.1): two means
@@ -33,7 +33,7 @@ def _cofactor(R):
 
 
 def pencil_coefficients(ca, Ra, ra, cb, Rb, rb):
-    """Exact coefficients (mu^4 ... 1) of f(mu) = mu N(mu) - (mu + alpha) P(mu) (pair_frame.py), as Fractions.
+    """Exact coefficients (mu^4 ... 1) of f(mu) = mu N(mu) - (mu + alpha) P(mu) (exact/pair_frame.hpp), as Fractions.
 
     Uses the plain matrix formulas (K = W^T W, principal minors, |K e|^2), not the sums of squares
     of the float path, so the two are independent.

@@ -9,39 +9,14 @@ these pair types), with the derivatives of derivatives.py.  The other bodies tak
 cylinder's are (radius, half-length, ignored), the axis the rotation's third column.
 """
 
-import math
-
 import numpy as np
 
 from ...native import ext
 from .. import threads
-from .._jit import jit
 from ..ellipsoids import Ellipsoids, as_poses, check_choice, check_parallel, check_rotations
-from ..vec3 import load
-from . import box, capsule, cylinder
 from . import derivatives as dv
 
 KINDS = ("capsule", "box", "cylinder")
-
-
-@jit
-def _distances(Ce, Re, re, Ck, Rk, sk, kind, dist, normal, pos, status, lo, hi):
-    sa, sb = int(Ce.shape[0] > 1), int(Ck.shape[0] > 1)
-    for i in range(lo, hi):
-        E, K = load(Ce, Re, re, i * sa), load(Ck, Rk, sk, i * sb)
-        if kind == dv.CAPSULE:
-            st, d, n, p, _ = capsule.capsule_ellipsoid(E, K)
-            ok = True
-        elif kind == dv.BOX:
-            st, d, n, p, _ = box.box_ellipsoid(E, K)
-            ok = True
-        else:
-            st, d, n, p, _ = cylinder.cylinder_ellipsoid(E, K)
-            ok = st != cylinder.UNPROVEN
-        dist[i] = d
-        status[i] = 0 if ok and math.isfinite(d) else 1
-        for k in range(3):
-            normal[i, k], pos[i, k] = n[k], p[k]
 
 
 def _check_shapes(kind, centers, rotations, sizes):

@@ -24,22 +24,17 @@ def test_shipped_data_is_installed_with_the_package(tmp_path):
         "import importlib.resources as r, ellipsim\n"
         "models = sorted(p.name for p in r.files('ellipsim.models').iterdir() if p.name.endswith('.xml'))\n"
         "scenarios = sorted(p.name for p in r.files('ellipsim.scenarios').iterdir() if p.name.endswith('.toml'))\n"
-        "kernels = sorted(str(p.relative_to(r.files('ellipsim') / 'kernels')) for p in (r.files('ellipsim') / 'kernels').rglob('*.nb?'))\n"
         "import ellipsim.native\n"  # the compiled core loads, built from the sources installed beside it
-        "print(ellipsim.__file__); print(','.join(models)); print(','.join(scenarios)); print(','.join(kernels))\n"
+        "print(ellipsim.__file__); print(','.join(models)); print(','.join(scenarios))\n"
         "print(ellipsim.native.ext.__file__)\n"
     )
     proc = installed("-c", code, tmp_path=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    where, models, scenarios, kernels, module = proc.stdout.splitlines()
+    where, models, scenarios, module = proc.stdout.splitlines()
     assert not where.startswith(str(tmp_path)) and not module.startswith(str(tmp_path))
     assert pathlib.Path(module).name.startswith("_ellipsim.")
     assert "figure.xml" in models.split(",")
     assert {"crowd.toml", "handshake.toml", "pile.toml", "replay.toml", "tumble.toml"} <= set(scenarios.split(","))
-    checkout = pathlib.Path(__file__).resolve().parents[1] / "ellipsim" / "kernels"
-    assert kernels.split(",") == sorted(
-        str(p.relative_to(checkout)) for p in checkout.rglob("*.nb?")
-    )  # shipped kernels
 
 
 @pytest.mark.slow

@@ -26,7 +26,6 @@ import math
 import warp as wp
 
 from ..core.distance.spheroids import (
-    BB_ERR_SIGMA_ULPS,
     ERR_C_ULPS,
     ROOT_P,
     ROOT_T,
@@ -38,6 +37,7 @@ from ..core.distance.spheroids import (
 )
 from ..core.pairs.cylinder import CAP_TOL, NEWTON_MAX_ITER, NEWTON_STEP_TOL
 from ..core.tolerances import (
+    BB_ERR_SIGMA_ULPS,
     BB_TOL_ULPS,
     PAIR_CERT_REL,
     PAIR_SIGMA_SLACK_ULPS,

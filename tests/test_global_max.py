@@ -1,4 +1,4 @@
-"""core/distance/branch_and_bound.py on its own: the branch and bound over the sphere and its parts, each against an
+"""The C++ core's distance/branch_and_bound.hpp (its stages through tests/distance_stages.py) on its own: the branch and bound over the sphere and its parts, each against an
 independent reference.
 
 sigma(n) = n.e - |diag(a) n| - |diag(b) U^T n| in A's principal frame is written out here in numpy and in

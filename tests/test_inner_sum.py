@@ -1,4 +1,4 @@
-"""core/distance/inner_sum.py: the ellipsoid inside A + (-B) that touches it at a direction n bounds max
+"""The C++ core's distance/inner_sum.hpp (its stages through tests/distance_stages.py): the ellipsoid inside A + (-B) that touches it at a direction n bounds max
 sigma from above whatever n is, and closes on the global maximum for most deep crossings.
 
 The references are test_global_max's (sigma in A's frame written out in numpy and 40-digit mpmath,

@@ -241,7 +241,7 @@ def test_a_module_built_against_another_mujoco_is_refused_in_one_line(monkeypatc
         f"ellipsim's compiled core was built against MuJoCo {native.version_text(ext.mujoco.MUJOCO_VERSION)}, "
     )
     assert "this process runs mujoco 4.1.0" in message and "pip install --no-build-isolation ." in message
-    assert message.endswith(f"mujoco=={native.version_text(ext.mujoco.MUJOCO_VERSION)}")
+    assert f"pip install mujoco=={native.version_text(ext.mujoco.MUJOCO_VERSION)}, or rebuild" in message
 
 
 def test_the_command_line_says_an_unusable_core_in_one_line_without_a_traceback(monkeypatch, capsys):
@@ -462,3 +462,66 @@ def test_exact_containment_is_the_fraction_one_on_hard_pairs(pair):
         ext.resolve_containment(*arrays(x, y), exact, 0, 1)
         assert exact[0] == contains_exact(x.centers[0], x.rotations[0], x.radii[0], y.centers[0], y.rotations[0],
                                           y.radii[0])  # fmt: skip
+
+
+# --- the constants the Python layer and the Warp glue read, against the C++ core's ----------------------
+
+_LITERAL = re.compile(r"\b([A-Z][A-Z0-9_]*)\s*=\s*(-?(?:0x[0-9a-fA-F.]+p-?[0-9]+|[0-9][0-9.eE+-]*))\s*[,;]")
+
+
+def _header_constants(header):
+    """{NAME: value} of the literal `constexpr` constants of a header (hex floats included)."""
+    found = {}
+    for line in header.read_text().splitlines():
+        if "constexpr" not in line:
+            continue
+        for name, text in _LITERAL.findall(line.split("//")[0]):
+            found[name] = float.fromhex(text) if "0x" in text else float(text)
+    return found
+
+
+def test_every_constant_a_python_module_repeats_is_its_headers():
+    """A core module's numeric constant with a literal twin in its header (include/ellipsim/<folder>/<module>.hpp)
+    has its value: the Python layer and ellipsim.warp read the Python copies, the kernels the header's."""
+    import importlib
+
+    include = pathlib.Path(native.FOLDER) / "include" / "ellipsim"
+    compared = 0
+    for header in sorted(include.glob("*/*.hpp")):
+        name = f"ellipsim.core.{header.parent.name}.{header.stem}"
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError:
+            continue
+        for constant, value in _header_constants(header).items():
+            ours = getattr(module, constant, None)
+            if isinstance(ours, (int, float)) and not isinstance(ours, bool):
+                assert float(ours) == value, f"{name}.{constant}: {ours!r} in Python, {value!r} in {header.name}"
+                compared += 1
+    assert compared >= 40
+
+
+def test_the_bound_constants_are_the_python_modules():
+    from ellipsim.core.distance import branch_and_bound, derivatives, ellipsoid_pair, sphere_newton, spheroids, status
+    from ellipsim.core.pairs import box, capsule, cylinder
+    from ellipsim.core.pairs import derivatives as pair_derivatives
+
+    T = ext.testing
+    for table, module in ((T.CYLINDER_CONSTANTS, cylinder), (T.CAPSULE_CONSTANTS, capsule), (T.BOX_CONSTANTS, box)):
+        for name, value in table.items():
+            assert getattr(module, name) == value, (module.__name__, name)
+    modules = dict(
+        sphere_newton=sphere_newton,
+        branch_and_bound=branch_and_bound,
+        spheroids=spheroids,
+        ellipsoid_pair=ellipsoid_pair,
+        derivatives=derivatives,
+    )
+    for key, value in {**T.DISTANCE_CONSTANTS, **T.DISTANCE_CODES}.items():
+        owner, name = key.split(".")
+        module = modules.get(owner)
+        got = getattr(module, name) if module else getattr(getattr(status, owner), name)
+        assert got == value, key
+    for name, value in T.PAIR_DERIVATIVE_CODES.items():
+        assert getattr(pair_derivatives, name) == value, name
+    np.testing.assert_array_equal(np.array(T.rho_table()), np.asarray(branch_and_bound.RHO_TABLE))

@@ -1,4 +1,4 @@
-"""core/distance/sphere_newton.py on its own: the pair in A's principal frame (a_frame), sigma, unit,
+"""The C++ core's distance/sphere_newton.hpp (its stages through tests/distance_stages.py) on its own: the pair in A's principal frame (a_frame), sigma, unit,
 tangent_basis, rolling_radius, bisector_seed and the Riemannian Newton run (newton), each against an
 independent reference.
 

@@ -1,4 +1,4 @@
-"""core/distance/spheroids.py on its own: parallel_max (the 1-D branch and bound for spheroids with parallel
+"""The C++ core's distance/spheroids.hpp (its stages through tests/distance_stages.py) on its own: parallel_max (the 1-D branch and bound for spheroids with parallel
 axes of revolution), tilted_max (the 2-D one over (t, phi) for nearly parallel axes) and axis_bb (that
 branch and bound for its model sigma_m, at any angle between the axes), each against an independent
 reference, in A's principal frame as the module takes the pair (e, a, U row-major, b).

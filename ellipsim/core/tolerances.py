@@ -82,7 +82,7 @@ CHUNK_MIN_PAIRS = 2_000
 #: one compiled call.  The results are the same on either path (tests/test_single_pair.py).
 SMALL_BATCH_PAIRS = 16
 
-# --- MuJoCo contact filter (ellipsim/mujoco/callbacks.py) ----------------------------------------------
+# --- MuJoCo contact filter (ellipsim/native/mujoco/contact_filter.hpp) -----------------------------------
 
 #: The filter grows each body by half of margin + gap + FILTER_CCD_FACTOR * ccd_tolerance.  MuJoCo's
 #: GJK declares the margin-grown bodies in contact once its iterate is within ccd_tolerance of the
@@ -105,10 +105,10 @@ NEWTON_STEP_TOL = 1e-5
 #: takes over: touching pairs converge in 3-5; a needle seen along its length can bounce indefinitely.
 FIRST_RUN_ITER = 10
 
-# --- Warm start of the MuJoCo narrow phase (ellipsim/mujoco/callbacks.py, core/distance/ellipsoid_pair.py) -------
+# --- Warm start of the MuJoCo narrow phase (ellipsim/native/mujoco/narrowphase.hpp, distance/ellipsoid_pair.hpp) --
 
-#: distance.sigma_lower_bound: sigma along a stored normal minus this many ulps of the pair's scale
-#: |d|_1 + max r_A + max r_B (<= 34 u S counted in its docstring); a persistent pair is dropped as
+#: sigma_lower_bound (distance/ellipsoid_pair.hpp): sigma along a stored normal minus this many ulps of the pair's scale
+#: |d|_1 + max r_A + max r_B (<= 34 u S counted in its comment); a persistent pair is dropped as
 #: apart beyond the margin only when that bound is >= the margin.
 WARM_SIGMA_SLACK_ULPS = 64.0
 #: ... and only for semi-axes >= WARM_SCALE_MIN and a scale <= WARM_SCALE_MAX: squares of 2^-400
@@ -211,7 +211,7 @@ OMEGA_ZERO = 2.0**-500
 #: Its own polynomials rather than libm's sin/cos, whose accuracy is documented but not proven.
 SINCOS_ERR = 62.0 * U
 
-#: Rodrigues' E~^T p errs by at most (RODRIGUES_ERR + 12 |alpha|) u |p| (motion.rodrigues_apply:
+#: Rodrigues' E~^T p errs by at most (RODRIGUES_ERR + 12 |alpha|) u |p| (rodrigues_apply in motion/interpolation.hpp:
 #: 3 SINCOS_ERR/u + 28.8 = 214.8; mpmath over random cases in tests/test_toi.py).
 RODRIGUES_ERR = 216.0
 

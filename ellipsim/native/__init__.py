@@ -38,9 +38,9 @@ def mujoco_mismatch(built, running):
         return None
     return (
         f"ellipsim's compiled core was built against MuJoCo {version_text(built)}, but this process runs mujoco "
-        f"{version_text(running)} (its structs may differ): rebuild it against the installed one, pip install "
-        "--no-build-isolation . (with scikit-build-core and nanobind installed), or install "
-        f"mujoco=={version_text(built)}"
+        f"{version_text(running)} (its structs may differ): pip install mujoco=={version_text(built)}, or rebuild "
+        "ellipsim against yours from its source (pip install --no-build-isolation . with scikit-build-core and "
+        "nanobind installed)"
     )
 
 

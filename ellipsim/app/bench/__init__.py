@@ -11,8 +11,8 @@ each:
 3. scaling: classify against batch size; the kinematic replay against the number of figures
 4. table1: the thesis's Table 1 re-run
 5. inside_mujoco: mj_step per mode, cost per pair, contacts against MuJoCo's, long runs
-6. startup: `import ellipsim` to the first narrow-phase mj_step in fresh interpreters: cold
-   (compiling), warm cache, shipped prebuilt objects
+6. startup: `import ellipsim` to the first narrow-phase mj_step in fresh interpreters, against MuJoCo
+   alone; the README's commands run twice on a fresh install, first against second
 7. motion: time_of_impact against checking sampled instants with the exact classify, the samples a
    sampling checker needs to find the same contacts; contains
 8. speculative: MuJoCo 4.0's speculative contacts against time_of_impact on fast ellipsoids: missed

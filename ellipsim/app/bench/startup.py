@@ -48,7 +48,7 @@ t1 = time.perf_counter()
 usage = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"part": t1 - t0, "part_cpu": time.process_time() - cpu0, "attach": t_attach - t0,
                   "before": t0 - t_start, "cpu": usage.ru_utime + usage.ru_stime,
-                  "numba": "numba" in sys.modules or "llvmlite" in sys.modules}))
+                  "core": any(m.startswith("ellipsim.core") for m in sys.modules)}))
 """
 
 #: rounds of the interleaved fresh-process runs
@@ -96,17 +96,17 @@ def _readme_commands(tmp, quick):
 
 
 def first_runs(size):
-    """{command: (first run s, second run s, the first's stderr said it compiles)}: each README command
+    """{command: (first run s, second run s)}: each README command
     twice in fresh processes (nothing of ellipsim's is cached between them: there is nothing to cache)."""
     quick = size == SIZES["quick"]
     # --quick: the README's first command only; a custom size says how many (startup_first_runs)
     count = size.get("startup_first_runs", 1 if quick else None)
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
-        env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "ELLIPSIM_"))}
+        env = {k: v for k, v in os.environ.items() if not k.startswith("ELLIPSIM_")}
         for name, argv in list(_readme_commands(tmp, quick).items())[:count]:
             env_k = env
-            times, notices = [], []
+            times = []
             for _ in range(2):
                 say(f"start-up: first and second run of `ellipsim {name}` ...")
                 t0 = time.perf_counter()
@@ -116,8 +116,7 @@ def first_runs(size):
                 times.append(time.perf_counter() - t0)
                 if proc.returncode:
                     raise RuntimeError(f"`ellipsim {name}` failed: {proc.stderr.strip()[-500:]}")
-                notices.append("compiling" in proc.stderr)
-            out[name] = (times[0], times[1], notices[0])
+            out[name] = (times[0], times[1])
     return out
 
 
@@ -147,28 +146,26 @@ def write(result, size, out, plt):
         "less sensitive than wall time to other work on the machine.",
         "",
         "| configuration | mode | runs | ellipsim part s | its CPU s | import + attach s | process wall s "
-        "| process CPU s | numba or llvmlite imported |",
+        "| process CPU s | core's Python layer loaded |",
         "|---|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     firsts = result.pop("first runs", {})
     for (config, mode), reports in result.items():
         col = {k: np.array([r[k] for r in reports]) for k in ("part", "part_cpu", "attach", "wall", "cpu")}
         med = {k: float(np.median(v)) for k, v in col.items()}
-        numba = "/".join(sorted({"yes" if r["numba"] else "no" for r in reports}))
+        core = "/".join(sorted({"yes" if r["core"] else "no" for r in reports}))
         L.append(
             f"| {config} | {mode} | {len(reports)} | **{med['part']:.3f}** ({col['part'].min():.3f}) | {med['part_cpu']:.3f} "
-            f"| {med['attach']:.3f} | {med['wall']:.2f} ({col['wall'].min():.2f}) | {med['cpu']:.2f} | {numba} |"
+            f"| {med['attach']:.3f} | {med['wall']:.2f} ({col['wall'].min():.2f}) | {med['cpu']:.2f} | {core} |"
         )
     L += [
         "",
-        "The README's commands on a fresh install: each run twice in fresh processes on one fresh set of caches "
+        "The README's commands on a fresh install: each run twice in fresh processes "
         "(nothing compiles at run time; the issue's goal: the first within 1.2x of the second).",
         "",
-        "| command | first run s | second run s | first / second | first run compiled |",
+        "| command | first run s | second run s | first / second |",
         "|---|---:|---:|---:|---|",
     ]
-    for name, (first, second, compiled) in firsts.items():
-        L.append(
-            f"| `ellipsim {name}` | {first:.2f} | {second:.2f} | **{first / second:.2f}** | {'yes' if compiled else 'no'} |"
-        )
+    for name, (first, second) in firsts.items():
+        L.append(f"| `ellipsim {name}` | {first:.2f} | {second:.2f} | **{first / second:.2f}** |")
     return L + [""]

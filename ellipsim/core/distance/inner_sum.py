@@ -28,9 +28,3 @@ Algorithms, 2nd ed., Thm 10.3) plus the rounding of forming K; lambda_min(L L^T)
 the explicit 3x3 triangular inverse; the forward substitution's backward error |dL| <= gamma_3 |L|
 (Thm 8.5).  Then e^T K^-1 e <= |y|^2 (1 + gamma_3 N |L|_F)^2 / (1 - |E| lambda_lo^-1), N >= |L^-1|_F.
 """
-
-import math
-
-#: turns (and as many reflections) of S tried about the contact direction: 8, 45 degrees apart
-_COS = tuple(math.cos(2.0 * math.pi * k / 8) for k in range(8))
-_SIN = tuple(math.sin(2.0 * math.pi * k / 8) for k in range(8))

@@ -2,7 +2,7 @@
 
 The kernels return the plain int8 codes ellipsoid_pair.GLOBAL and UNPROVEN (distance/status.hpp); the arrays signed_distance returns compare equal to the members of `DistanceStatus`.
 The codes are repeated here, not imported, so that `ellipsim.DistanceStatus` loads no kernel
-(tests/test_distance.py checks they are the kernel's).
+(tests/test_native_distance.py checks they are the kernel's).
 """
 
 from enum import IntEnum

@@ -3,7 +3,8 @@
 Two ellipsoids X^T A X <= 0 and X^T B X <= 0 are separated iff det(lambda A + B) = 0 has two
 distinct positive roots and externally touching iff it has a positive double root (Wang, Wang &
 Kim; thesis ch. 4, Theorem 1).  "exact" decides this on the float64 inputs with a certified float
-path (certified_filter.py) and exact rationals where that path is unsure (rational_fallback.py); "sturm" and
+path (certified_filter.py) and exact integer arithmetic where that path is unsure (exact/rational_fallback.hpp;
+rational_fallback.py is the same decision in Fractions, the tests' reference); "sturm" and
 "descartes" are the thesis's uncertified tests (exact/root_tests.hpp) on either set-up (characteristic.py).
 """
 

@@ -24,9 +24,10 @@ Float filter (decisions proven by error bounds: exact/pair_frame.hpp's mags, Hig
 * not inside: a sorted semi-axis of B longer than A's (widths of B are at most A's), B's centre not
   strictly inside A, the bounding spheres apart, or a point strictly inside B with |y| > 1 (the
   maximiser of |y|^2 over B pulled slightly towards B's centre, or the ends of B's axes).
-* UNDECIDED otherwise (internal tangency, identical-but-rotated axes, near-tangency): rationals.
+* UNDECIDED otherwise (internal tangency, identical-but-rotated axes, near-tangency): exact arithmetic.
 
-Exact fallback (Fractions, any invertible rotations through cof(R_a), as rational_fallback.py).  The set
+Exact fallback (exact/containment_fallback.hpp in integers; contains_exact below the same in Fractions, the
+tests' reference; any invertible rotations through cof(R_a), as rational_fallback.py).  The set
 F = {nu > 0 : N(nu) PSD} is a closed interval inside (0, kappa_1]; N is singular at its left end, so F is
 non-empty iff some positive root r of T(nu) = det N(nu) has N(r) PSD, i.e. the sums of principal minors
 E_1, E_2, E_3 of N(r) (the elementary symmetric functions of its eigenvalues; E_4 = T(r) = 0) are all

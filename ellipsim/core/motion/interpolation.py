@@ -17,7 +17,7 @@ Float64 evaluation, E(phi) = exp(phi [w]x) by Rodrigues' formula (u = 2^-53, alp
 * sin and cos come from `sincos`, Taylor polynomials with a proven error (not libm, whose accuracy is
   documented but not proven): within SINCOS_ERR of the exact values for |x| <= 1.6 (|alpha| <= pi/2
   here: |w| < pi, |phi| <= 1/2).
-* E~^T p errs by at most (RODRIGUES_ERR + 12 |alpha|) u |p| (derivation in `rodrigues_apply`), and the
+* E~^T p errs by at most (RODRIGUES_ERR + 12 |alpha|) u |p| (derivation at `rodrigues_apply` in the header), and the
   float pose fl(R_p E~) lies within DELTA_R (spectral norm) of the exact R_p E (tolerances.py).
 
 The kernels are C++, ellipsim/native/include/ellipsim/motion/interpolation.hpp (bound in the _ellipsim module).
@@ -30,11 +30,6 @@ import numpy as np
 from ...native import ext
 from ..ellipsoids import Ellipsoids
 from ..tolerances import HALF_TURN_TOL
-
-# Taylor coefficients (-1)^k / (2k)! and (-1)^k / (2k + 1)!, k = 11 ... 0 (Horner's order), each rounded
-# once to float64.
-_COS = tuple((-1.0) ** k / math.factorial(2 * k) for k in range(11, -1, -1))
-_SIN = tuple((-1.0) ** k / math.factorial(2 * k + 1) for k in range(11, -1, -1))
 
 
 def rotation_vectors(x0, x1, name0="x0", name1="x1"):

@@ -76,7 +76,7 @@ def test_a_fresh_process_attaches_and_steps_with_nothing_compiled(pile):
 def test_bench_section_reports_first_and_second_runs():
     from ellipsim.app.bench import startup
 
-    size = {"startup_rounds": 1, "startup_modes": ("filter",), "startup_first_runs": 1}
+    size = {"startup_rounds": 1, "startup_modes": ("filter",), "startup_first_runs": 1, "startup_runs": 2}
     runs = startup.measure(size)
     firsts = runs["first runs"]  # the README's first command, twice in fresh processes
     assert list(firsts) == ["run handshake --record"]

@@ -24,6 +24,12 @@ from .common import say
 from .inside_mujoco import SCENES
 
 CHILD = pathlib.Path(__file__).with_name("baseline_child.py")
+#: glibc's malloc maps a large block (the outputs of a batch call) afresh, page faults and all, until the process
+#: has freed one of its size, when it raises its threshold: a process's history then decides (the numba build's
+#: LLVM raised it at import, this build's import does not).  Both sides' processes run with the threshold fixed
+#: at 32 MiB and its trim threshold at 256 MiB (freed heap kept, not returned and faulted in again), so that the
+#: comparison is of the builds, not of that history (the measuring processes only).
+MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(32 << 20), "MALLOC_TRIM_THRESHOLD_": str(256 << 20)}
 #: the scenes timed per mj_step (inside_mujoco.SCENES) and the plain steps that settle each first
 STEP_SCENES = ("pile of 40 ellipsoids", "4 figures in a heap", "MuJoCo's collision_convex/perf/mixed.xml")
 ENV = "ELLIPSIM_BASELINE_PYTHON"
@@ -77,6 +83,7 @@ def child(python, path, repeats):
         capture_output=True,
         text=True,
         cwd=tempfile.gettempdir(),
+        env=dict(os.environ, **MALLOC_ENV),
     )
     if proc.returncode:
         tail = proc.stderr.strip().splitlines()[-1:] or ["no output"]
@@ -132,7 +139,9 @@ def write(result, size, out, plt):
         f"{base[0]['file']}), on the same inputs, each side in {len(this)} fresh processes alternating with the "
         "other's.  Per pair: every public batch function with parallel=False (the fastest of "
         f"{size['baseline_repeats']} calls), except the all-cores row; per step: mj_step from the same settled "
-        "state, its fastest repeat.  Speed-up = baseline / this build, per round.",
+        "state, its fastest repeat.  Speed-up = baseline / this build, per round.  Both sides run with glibc's mmap "
+        "and trim thresholds fixed (32 and 256 MiB): otherwise a fresh process maps each large output array "
+        "anew, page faults included, until it has freed one (a cost of the process's history, not of either build).",
         "",
         "| item | this build | baseline | speed-up, median | lowest | highest |",
         "|---|---:|---:|---:|---:|---:|",

@@ -69,6 +69,57 @@ void pairwise(const Batch<T>& a, const Batch<T>& b, O* out, std::int64_t lo, std
 // (an output copied would be lost).
 inline auto in(const char* name) { return nb::arg(name).noconvert(); }
 
+// Rows of numbers, one per call: how the testing bindings take a stage's inputs and give its outputs (the
+// tests pack them).
+template <int K>
+using Rows = nb::ndarray<double, nb::shape<-1, K>, nb::c_contig, nb::device::cpu>;
+template <int K>
+using InRows = In<double, nb::shape<-1, K>>;
+
+// What a row holds, read in order.
+struct Reader {
+  const double* p;
+  double f() { return *p++; }
+  int i() { return static_cast<int>(*p++); }
+  bool b() { return *p++ != 0.0; }
+  Vec3 v() {
+    const Vec3 x = {p[0], p[1], p[2]};
+    p += 3;
+    return x;
+  }
+  Mat3 m() {
+    Mat3 x;
+    for (int k = 0; k < 9; ++k) x.m[k] = p[k];
+    p += 9;
+    return x;
+  }
+};
+
+// What a row receives, written in order.
+struct Writer {
+  double* p;
+  void f(double x) { *p++ = x; }
+  void v(const Vec3& x) { f(x.x), f(x.y), f(x.z); }
+};
+
+// Binds `name`: out[i] = f(inp[i]) for the rows [lo, hi), with the GIL released.
+template <int KI, int KO, typename F>
+void def_rows(nb::module_& t, const char* name, F f) {
+  t.def(
+      name,
+      [f](const InRows<KI>& inp, Rows<KO> out, std::int64_t lo, std::int64_t hi) {
+        const auto n = static_cast<std::int64_t>(out.shape(0));
+        if (static_cast<std::int64_t>(inp.shape(0)) != n)
+          throw std::invalid_argument("inp and out must have the same length");
+        if (lo < 0 || hi < lo || hi > n) throw std::out_of_range("row range outside the output");
+        const double* in = inp.data();
+        double* o = out.data();
+        nb::gil_scoped_release release;
+        for (std::int64_t i = lo; i < hi; ++i) f(Reader{in + KI * i}, Writer{o + KO * i});
+      },
+      in("inp"), in("out"), nb::arg("lo"), nb::arg("hi"));
+}
+
 // Each folder of the core binds its kernels (m) and the internals its tests need (testing).
 void bind_exact(nb::module_& m, nb::module_& testing);
 void bind_distance(nb::module_& m, nb::module_& testing);

@@ -12,11 +12,6 @@ namespace {
 
 using namespace nb::literals;
 
-template <int K>
-using Rows = nb::ndarray<double, nb::shape<-1, K>, nb::c_contig, nb::device::cpu>;
-template <int K>
-using InRows = In<double, nb::shape<-1, K>>;
-
 // shape_distance.py's kind codes (derivatives.py CAPSULE, BOX, CYLINDER).
 constexpr std::int64_t CAPSULE = 0, BOX = 1, CYLINDER = 2;
 
@@ -68,42 +63,6 @@ void shape_distances(const Centers<>& Ce, const Rotations<>& Re, const Centers<>
       return r;
     });
   }
-}
-
-// What a row holds, read in order.
-struct Reader {
-  const double* p;
-  double f() { return *p++; }
-  Vec3 v() {
-    const Vec3 x = {p[0], p[1], p[2]};
-    p += 3;
-    return x;
-  }
-};
-
-// What a row receives, written in order.
-struct Writer {
-  double* p;
-  void f(double x) { *p++ = x; }
-  void v(const Vec3& x) { f(x.x), f(x.y), f(x.z); }
-};
-
-// out[i] = f(inp[i]) for the rows [lo, hi), with the GIL released.
-template <int KI, int KO, typename F>
-void def_rows(nb::module_& t, const char* name, F f) {
-  t.def(
-      name,
-      [f](const InRows<KI>& inp, Rows<KO> out, std::int64_t lo, std::int64_t hi) {
-        const auto n = static_cast<std::int64_t>(out.shape(0));
-        if (static_cast<std::int64_t>(inp.shape(0)) != n)
-          throw std::invalid_argument("inp and out must have the same length");
-        if (lo < 0 || hi < lo || hi > n) throw std::out_of_range("row range outside the output");
-        const double* in = inp.data();
-        double* o = out.data();
-        nb::gil_scoped_release release;
-        for (std::int64_t i = lo; i < hi; ++i) f(Reader{in + KI * i}, Writer{o + KO * i});
-      },
-      in("inp"), in("out"), "lo"_a, "hi"_a);
 }
 
 // out[i, :K] = f(E_i, K_i) for the ellipsoids E and the cylinders K of pairs [lo, hi), with the GIL released.

@@ -17,10 +17,6 @@ namespace {
 
 using namespace nb::literals;
 
-template <int K>
-using Rows = nb::ndarray<double, nb::shape<-1, K>, nb::c_contig, nb::device::cpu>;
-template <int K>
-using InRows = nb::ndarray<const double, nb::shape<-1, K>, nb::c_contig, nb::device::cpu>;
 using Jacobians = nb::ndarray<double, nb::shape<-1, 3, 18>, nb::c_contig, nb::device::cpu>;
 using Codes = In<std::int8_t, nb::ndim<1>>;
 
@@ -158,52 +154,6 @@ void newton_runs(const Centers<>& Ca, const Rotations<>& Ra, const Centers<>& ra
 }
 
 // --- the stages on rows: out[i] = f(inp[i]) for i in [lo, hi), each a row of numbers (the test packs them) ------
-
-// What a row holds, read in order.
-struct Reader {
-  const double* p;
-  double f() { return *p++; }
-  int i() { return static_cast<int>(*p++); }
-  bool b() { return *p++ != 0.0; }
-  Vec3 v() {
-    const Vec3 x = {p[0], p[1], p[2]};
-    p += 3;
-    return x;
-  }
-  Mat3 m() {
-    Mat3 x;
-    for (int k = 0; k < 9; ++k) x.m[k] = p[k];
-    p += 9;
-    return x;
-  }
-};
-
-// What a row receives, written in order.
-struct Writer {
-  double* p;
-  void f(double x) { *p++ = x; }
-  void v(const Vec3& x) { f(x.x), f(x.y), f(x.z); }
-};
-
-template <int KI, int KO, typename F>
-void rows(const InRows<KI>& inp, Rows<KO>& out, std::int64_t lo, std::int64_t hi, F f) {
-  const auto n = static_cast<std::int64_t>(out.shape(0));
-  if (static_cast<std::int64_t>(inp.shape(0)) != n)
-    throw std::invalid_argument("inp and out must have the same length");
-  if (lo < 0 || hi < lo || hi > n) throw std::out_of_range("row range outside the output");
-  const double* in = inp.data();
-  double* o = out.data();
-  nb::gil_scoped_release release;
-  for (std::int64_t i = lo; i < hi; ++i) f(Reader{in + KI * i}, Writer{o + KO * i});
-}
-
-template <int KI, int KO, typename F>
-void def_rows(nb::module_& t, const char* name, F f) {
-  t.def(
-      name,
-      [f](const InRows<KI>& inp, Rows<KO> out, std::int64_t lo, std::int64_t hi) { rows<KI, KO>(inp, out, lo, hi, f); },
-      in("inp"), in("out"), "lo"_a, "hi"_a);
-}
 
 // A pair-level stage: out[i] = f(a[i], b[i], x[i]) for a per-pair 3-vector x (none: zeros), with the batches'
 // broadcasting.

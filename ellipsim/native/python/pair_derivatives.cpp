@@ -13,10 +13,6 @@ namespace {
 using namespace nb::literals;
 namespace pd = ellipsim::pairs::derivatives;
 
-template <int K>
-using Rows = nb::ndarray<double, nb::shape<-1, K>, nb::c_contig, nb::device::cpu>;
-template <int K>
-using InRows = In<double, nb::shape<-1, K>>;
 using Jacobians = nb::ndarray<double, nb::shape<-1, 3, 18>, nb::c_contig, nb::device::cpu>;
 
 void same_length(std::int64_t n, std::int64_t m) {

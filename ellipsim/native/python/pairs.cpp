@@ -13,10 +13,6 @@ namespace {
 
 using namespace nb::literals;
 
-template <int K>
-using Rows = nb::ndarray<double, nb::shape<-1, K>, nb::c_contig, nb::device::cpu>;
-template <int K>
-using InRows = In<double, nb::shape<-1, K>>;
 
 // out[i, :K] = f(E_i, K_i) for the ellipsoids E and the capsules or boxes K (centres, rotations, sizes as
 // MuJoCo's geoms) of pairs [lo, hi), with the GIL released.

@@ -62,7 +62,6 @@ COMPARED = ("pile of 40 ellipsoids", "pile of 100 ellipsoids", "4 figures in a h
 LONG_RUNS = ("pile of 40 ellipsoids", "16 figures in a heap")
 ELL = int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 
-_FILTER_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int)
 _NARROW_FN = ctypes.CFUNCTYPE(
     ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int, ctypes.c_double
 )

@@ -60,9 +60,10 @@ void check_range(std::int64_t lo, std::int64_t hi, std::int64_t size, const Batc
 template <typename T, typename O, typename F>
 void pairwise(const Batch<T>& a, const Batch<T>& b, O* out, std::int64_t lo, std::int64_t hi, F f) {
   const std::int64_t sa = a.n > 1, sb = b.n > 1;  // stride 0 broadcasts a batch of one
+  // the pointers in locals: a store to an int8 output may alias anything, the batches' fields included
+  const T *Ca = a.C, *Ra = a.R, *ra = a.r, *Cb = b.C, *Rb = b.R, *rb = b.r;
   nb::gil_scoped_release release;
-  for (std::int64_t i = lo; i < hi; ++i)
-    out[i] = f(ellipsim::load(a.C, a.R, a.r, i * sa), ellipsim::load(b.C, b.R, b.r, i * sb));
+  for (std::int64_t i = lo; i < hi; ++i) out[i] = f(ellipsim::load(Ca, Ra, ra, i * sa), ellipsim::load(Cb, Rb, rb, i * sb));
 }
 
 // An array argument bound without conversion: a strided or wrongly typed array is refused, never copied

@@ -1,5 +1,6 @@
 // The bindings of the core's exact/ folder: the certified filter, the contact scale, the thesis's
 // set-ups and root tests, and the exact fallback.
+#include <type_traits>
 #include <ellipsim/exact/certified_filter.hpp>
 #include <ellipsim/exact/characteristic.hpp>
 #include <ellipsim/exact/contact_scale.hpp>
@@ -63,11 +64,30 @@ void classify_float(const Centers<T>& Ca, const Rotations<T>& Ra, const Centers<
                     std::int64_t lo, std::int64_t hi) {
   const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
   check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
-  pairwise(a, b, out.data(), lo, hi, [cofactor, sturm](const ellipsim::EllipsoidT<T>& A, const ellipsim::EllipsoidT<T>& B) {
-    using namespace ellipsim::exact;
-    const Quartic<T> c = cofactor ? cofactor_coefficients(A, B) : rearranged_frame_coefficients(A, B);
-    return sturm ? sturm_relation(c.c4, c.c3, c.c2, c.c1, c.c0) : descartes_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
-  });
+  // one loop per (set-up, test): each compiled on its own, with no flag tested per pair
+  const auto run = [&](auto cof, auto stu) {
+    pairwise(a, b, out.data(), lo, hi, [](const ellipsim::EllipsoidT<T>& A, const ellipsim::EllipsoidT<T>& B) {
+      using namespace ellipsim::exact;
+      Quartic<T> c;
+      if constexpr (decltype(cof)::value) {
+        c = cofactor_coefficients(A, B);
+      } else {
+        c = rearranged_frame_coefficients(A, B);
+      }
+      if constexpr (decltype(stu)::value) {
+        return sturm_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
+      } else {
+        return descartes_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
+      }
+    });
+  };
+  using yes = std::true_type;
+  using no = std::false_type;
+  if (cofactor) {
+    sturm ? run(yes{}, yes{}) : run(yes{}, no{});
+  } else {
+    sturm ? run(no{}, yes{}) : run(no{}, no{});
+  }
 }
 
 // Coefficients of det(lambda A + B), (n, 5) rows lambda^4 ... 1.

@@ -23,14 +23,11 @@ namespace ellipsim::exact {
 
 constexpr std::int8_t INSIDE = 1, NOT_INSIDE = 0, CONTAIN_UNDECIDED = -1;
 
-// (a, b) swapped when a > b, as three compare-exchanges (selects, not branches: the inputs are random).
+// r sorted ascending, as min / max of the pairs: selects (minsd / maxsd), not branches, the inputs being random
+// (written as compare-exchanges, GCC turns the swaps into branches).
 ELLIPSIM_HD Vec3 sort3(const Vec3& r) {
-  double a = min2(r.x, r.y), b = max2(r.y, r.x);  // a > b ? (b, a) : (a, b)
-  const double c = max2(r.z, b);
-  b = min2(b, r.z);
-  const double a2 = min2(a, b);
-  b = max2(b, a);
-  return {a2, b, c};
+  const double lo = min2(r.x, r.y), hi = max2(r.x, r.y);
+  return {min2(lo, r.z), max2(lo, min2(hi, r.z)), max2(hi, r.z)};
 }
 
 // --- K_c's eigenbasis (float guidance only) -------------------------------------------------------------
@@ -242,13 +239,15 @@ ELLIPSIM_HD std::int8_t containment_certificates(double nu, const Eigen3& eig, c
 // INSIDE when B is certainly inside A, NOT_INSIDE when certainly not, else CONTAIN_UNDECIDED.
 ELLIPSIM_HD std::int8_t contains_pair(const Ellipsoid& A, const Ellipsoid& B) {
   const Vec3 &ca = A.c, &cb = B.c, &ra = A.r, &rb = B.r;
+  // First, from the radii alone (most pairs end here): a semi-axis of B longer than A's.  The same-frame case
+  // below never ends here: rb <= ra componentwise keeps each sorted semi-axis of B within A's.
+  const Vec3 sa = sort3(ra), sb = sort3(rb);
+  if ((sb.x > sa.x * tol::AXIS_SLACK) | (sb.y > sa.y * tol::AXIS_SLACK) | (sb.z > sa.z * tol::AXIS_SLACK))
+    return NOT_INSIDE;  // one branch, not three
   bool same = ca.x == cb.x && ca.y == cb.y && ca.z == cb.z;
   for (int k = 0; k < 9 && same; ++k) same = A.R.m[k] == B.R.m[k];
   if (same && rb.x <= ra.x && rb.y <= ra.y && rb.z <= ra.z)
     return INSIDE;  // the same frame and no longer axes: q_A <= q_B everywhere, exactly
-  const Vec3 sa = sort3(ra), sb = sort3(rb);
-  if (sb.x > sa.x * tol::AXIS_SLACK || sb.y > sa.y * tol::AXIS_SLACK || sb.z > sa.z * tol::AXIS_SLACK)
-    return NOT_INSIDE;
   const Vec3 d = sub(cb, ca);
   if (bounding_spheres_apart(ra, rb, norm2(d))) return NOT_INSIDE;
   if (!in_float_range(ra, rb)) return CONTAIN_UNDECIDED;

@@ -12,17 +12,17 @@
 
 namespace ellipsim::exact {
 
-// Sign changes in a sequence, zeros skipped.
+// Sign changes in a sequence, zeros skipped; counted with flags, not branches (the signs are data).
 template <typename T>
 ELLIPSIM_HD int variations(T s0, T s1, T s2, T s3, T s4) {
   const T s[5] = {s0, s1, s2, s3, s4};
   int count = 0;
-  T last = T(0);
+  bool seen = false, last_positive = false;  // a nonzero term seen yet; the sign of the latest
   for (int k = 0; k < 5; ++k) {
-    if (s[k] != T(0)) {
-      if (last != T(0) && (s[k] > T(0)) != (last > T(0))) ++count;
-      last = s[k];
-    }
+    const bool nonzero = s[k] != T(0), positive = s[k] > T(0);
+    count += static_cast<int>(nonzero & seen & (positive != last_positive));
+    last_positive = nonzero ? positive : last_positive;
+    seen = seen | nonzero;
   }
   return count;
 }
@@ -62,10 +62,9 @@ ELLIPSIM_HD std::int8_t sturm_relation(T a, T b, T c, T d, T e) {
     at_inf = variations(a, a, r, zero, zero);
     at_zero = variations(e, d, r, zero, zero);
   }
-  const int count = at_zero - at_inf;
-  if (count == 2) return SEPARATED;
-  if (count == 1) return TOUCHING;
-  return OVERLAPPING;
+  const int count = at_zero - at_inf;  // selects, not branches: the relation is data
+  const std::int8_t two = count == 2 ? SEPARATED : OVERLAPPING;
+  return count == 1 ? TOUCHING : two;
 }
 
 // Discriminant of the quartic times 27: 4 D0^3 - D1^2 (the resolvent cubic's invariants).

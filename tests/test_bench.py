@@ -171,15 +171,18 @@ def test_in_situ_noop_slots_are_restored_and_calls_counted():
     from ellipsim.app.bench import inside_mujoco
     from ellipsim.mujoco import publish
     from ellipsim.mujoco.context import PAIR_TYPES
+    from ellipsim.native import ext
 
     table, n = publish.collision_table()
     before = [table[row.type1 * n + row.type2] for row in PAIR_TYPES]
-    with inside_mujoco._noop_installed():
-        assert all(table[row.type1 * n + row.type2] == inside_mujoco._noop_address() for row in PAIR_TYPES)
-    assert [table[row.type1 * n + row.type2] for row in PAIR_TYPES] == before
+    for address in (inside_mujoco._noop_address(), ext.bench.DISCARD):
+        with inside_mujoco._installed(address):
+            assert all(table[row.type1 * n + row.type2] == address for row in PAIR_TYPES)
+        assert [table[row.type1 * n + row.type2] for row in PAIR_TYPES] == before
     model, data, state = _small_pile()
-    ns, calls, noop = inside_mujoco.in_situ(model, data, state, 5, 1)
-    assert calls > 0 and np.isfinite(ns) and noop >= 0
+    ns, calls, noop, own = inside_mujoco.in_situ(model, data, state, 5, 1)
+    assert calls > 0 and np.isfinite(ns) and np.isfinite(own) and noop >= 0
+    assert [table[row.type1 * n + row.type2] for row in PAIR_TYPES] == before
     assert mujoco.get_mjcb_time() is None or mujoco.get_mjcb_time() is not inside_mujoco._clock
 
 

@@ -309,12 +309,12 @@ def _noop_address():
 
 
 @contextlib.contextmanager
-def _noop_installed():
-    """The no-op function in every collision-table slot ellipsim's narrow phase takes (context.PAIR_TYPES)."""
+def _installed(address):
+    """The function at `address` in every collision-table slot ellipsim's narrow phase takes (context.PAIR_TYPES):
+    the no-op (_noop_address), or ellipsim's narrow phase with its contact dropped (ext.bench.DISCARD)."""
     table, ntypes = publish.collision_table()
     slots = [row.type1 * ntypes + row.type2 for row in PAIR_TYPES]
     saved = [table[k] for k in slots]
-    address = _noop_address()
     for k in slots:
         table[k] = address
     try:
@@ -327,8 +327,10 @@ def _noop_installed():
 def in_situ(model, data, state, steps, rounds):
     """ns per ellipsim call inside mj_step: the states of a narrowphase segment from `state`, then per
     round each state in order set and mj_forward run twice, ellipsim attached and with the no-op in its
-    slots; (narrow phase with ellipsim - with the no-op) / ellipsim's calls, median of the rounds.
-    Returns (ns per call, calls per step, no-op narrow phase µs per step)."""
+    slots, then with ellipsim's narrow phase dropping its contact (ext.bench.DISCARD); (narrow phase with
+    ellipsim - with the no-op) / ellipsim's calls, median of the rounds.  Returns (ns per call, calls per step,
+    no-op narrow phase µs per step, ns per call with the contact dropped: ellipsim's own work, without MuJoCo's
+    on the contacts it returns)."""
     size = mujoco.mj_stateSize(model, STEP_STATE)
     states = np.empty((steps, size))
     mujoco.mj_setState(model, data, state, STEP_STATE)
@@ -347,17 +349,20 @@ def in_situ(model, data, state, steps, rounds):
             total += data.timer[k].duration
         return total / steps
 
-    per_call, calls, noop = [], 0.0, []
+    per_call, own, calls, noop = [], [], 0.0, []
     with mujoco_timers():
         for _ in range(rounds):
             with attach(model, data, mode="narrowphase") as att:
                 ours = narrow()
                 calls = att.counters["calls"] / steps
-            with _noop_installed():
+                with _installed(ext.bench.DISCARD):
+                    dropped = narrow()
+            with _installed(_noop_address()):
                 none = narrow()
             noop.append(none)
             per_call.append((ours - none) / calls * 1e3 if calls else math.nan)
-    return float(np.median(per_call)), calls, float(np.median(noop))
+            own.append((dropped - none) / calls * 1e3 if calls else math.nan)
+    return float(np.median(per_call)), calls, float(np.median(noop)), float(np.median(own))
 
 
 def narrow_calls(model, data, state, steps):
@@ -650,17 +655,20 @@ def _write_timers(timers, situ, rows, twin, size):
         "ellipsim attached and with a no-op function (no contact) in the same collision-table slots; in-situ cost = "
         "(narrow phase with ellipsim - with the no-op) / ellipsim's calls, median of "
         f"{rounds} rounds; it includes MuJoCo's own work on each contact ellipsim makes (the no-op makes none).  "
-        "The compiled loop's cost (table below, ellipsoid pairs only) weighted by its touching and "
-        "separated pairs, for comparison.",
+        "Contact dropped: the same calls returning no contact, ellipsim's own cost in mj_step (the kernels from the "
+        "previous step's warm start, the glue, the caches MuJoCo leaves).  The compiled loop's cost (table below, "
+        "ellipsoid pairs only, warm-started at the same state) weighted by its touching and separated pairs, for "
+        "comparison.",
         "",
-        "| scene | ellipsim calls/step | in-situ ns/call | compiled loop ns/call | narrow phase with the no-op µs/step |",
-        "|---|---:|---:|---:|---:|",
+        "| scene | ellipsim calls/step | in-situ ns/call | contact dropped, ns/call | compiled loop ns/call "
+        "| narrow phase with the no-op µs/step |",
+        "|---|---:|---:|---:|---:|---:|",
     ]
-    for name, (ns, calls, noop) in situ.items():
+    for name, (ns, calls, noop, own) in situ.items():
         t, s = rows[name][1]["touching"], rows[name][1]["separated"]
         npairs = t[3] + s[3]
         loop = (np.nan_to_num(t[0]) * t[3] + np.nan_to_num(s[0]) * s[3]) / npairs if npairs else np.nan
-        L.append(f"| {name} | {calls:.0f} | {ns:.0f} | {loop:.0f} | {noop:.0f} |")
+        L.append(f"| {name} | {calls:.0f} | {ns:.0f} | {own:.0f} | {loop:.0f} | {noop:.0f} |")
     return L
 
 

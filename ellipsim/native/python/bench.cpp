@@ -3,6 +3,7 @@
 // not Python's.  Private: `_ellipsim.bench`.
 #include <mujoco/mujoco.h>
 
+#include "../mujoco/narrowphase.hpp"
 #include "common.hpp"
 
 namespace ellipsim::binding {
@@ -67,6 +68,14 @@ void geom_distance_loop(std::uintptr_t fn, std::uintptr_t m, std::uintptr_t d, c
 // An mjfCollision that makes no contact: the bench's measure of the table call's own cost.
 extern "C" int ellipsim_noop_collision(const mjModel*, const mjData*, mjContact*, int, int, mjtNum) { return 0; }
 
+// ellipsim's narrow phase with its contact dropped: in mj_step against the no-op, ellipsim's own cost of a call
+// (the kernels, the glue, the caches as MuJoCo leaves them) without MuJoCo's work on the contacts it returns.
+extern "C" int ellipsim_discard_collision(const mjModel* m, mjData* d, mjPreContact* con, int g1, int g2,
+                                          mjtNum margin) {
+  glue::ellipsim_narrowphase(m, d, con, g1, g2, margin);
+  return 0;
+}
+
 }  // namespace
 
 void bind_bench(nb::module_& m, nb::module_& testing) {
@@ -76,6 +85,7 @@ void bind_bench(nb::module_& m, nb::module_& testing) {
   b.def("collision_loop", &collision_loop, "fn"_a, "m"_a, "d"_a, "con"_a, in("pairs"), in("margins"), "reps"_a);
   b.def("geom_distance_loop", &geom_distance_loop, "fn"_a, "m"_a, "d"_a, in("pairs"), "distmax"_a, in("out"));
   b.attr("NOOP") = reinterpret_cast<std::uintptr_t>(&ellipsim_noop_collision);
+  b.attr("DISCARD") = reinterpret_cast<std::uintptr_t>(&ellipsim_discard_collision);
 }
 
 }  // namespace ellipsim::binding

@@ -1,6 +1,5 @@
 // The bindings of the core's exact/ folder: the certified filter, the contact scale, the thesis's
 // set-ups and root tests, and the exact fallback.
-#include <type_traits>
 #include <ellipsim/exact/certified_filter.hpp>
 #include <ellipsim/exact/characteristic.hpp>
 #include <ellipsim/exact/contact_scale.hpp>
@@ -57,36 +56,49 @@ void separated_by_axes(const Centers<>& Ca, const Rotations<>& Ra, const Centers
            [](const ellipsim::Ellipsoid& A, const ellipsim::Ellipsoid& B) { return ellipsim::exact::separated_by_axes(A, B); });
 }
 
-// The thesis's uncertified relation (sturm or descartes on either set-up) in the arrays' precision.
+// The thesis's uncertified relation (sturm or descartes on either set-up) in the arrays' precision, in blocks of
+// BLOCK pairs: the set-ups of a block, then its root tests.  Each test ends in a chain of dependent divisions;
+// run after the next pair's set-up, the chains of successive pairs overlap (12% faster for the cofactor set-up,
+// measured).  Each pair's result is the same either way.
+template <bool Cofactor, bool Sturm, typename T>
+void classify_float_blocks(const Batch<T>& a, const Batch<T>& b, std::int8_t* out, std::int64_t lo, std::int64_t hi) {
+  using namespace ellipsim::exact;
+  constexpr std::int64_t BLOCK = 32;
+  const std::int64_t sa = a.n > 1, sb = b.n > 1;  // stride 0 broadcasts a batch of one
+  nb::gil_scoped_release release;
+  for (std::int64_t i0 = lo; i0 < hi; i0 += BLOCK) {
+    const std::int64_t m = hi - i0 < BLOCK ? hi - i0 : BLOCK;
+    Quartic<T> q[BLOCK];
+    for (std::int64_t j = 0; j < m; ++j) {
+      const auto A = ellipsim::load(a.C, a.R, a.r, (i0 + j) * sa), B = ellipsim::load(b.C, b.R, b.r, (i0 + j) * sb);
+      if constexpr (Cofactor) {
+        q[j] = cofactor_coefficients(A, B);
+      } else {
+        q[j] = rearranged_frame_coefficients(A, B);
+      }
+    }
+    for (std::int64_t j = 0; j < m; ++j) {
+      const Quartic<T>& c = q[j];
+      if constexpr (Sturm) {
+        out[i0 + j] = sturm_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
+      } else {
+        out[i0 + j] = descartes_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
+      }
+    }
+  }
+}
+
 template <typename T>
 void classify_float(const Centers<T>& Ca, const Rotations<T>& Ra, const Centers<T>& ra, const Centers<T>& Cb,
                     const Rotations<T>& Rb, const Centers<T>& rb, bool cofactor, bool sturm, Out<std::int8_t> out,
                     std::int64_t lo, std::int64_t hi) {
   const auto a = batch(Ca, Ra, ra), b = batch(Cb, Rb, rb);
   check_range(lo, hi, static_cast<std::int64_t>(out.shape(0)), a, b);
-  // one loop per (set-up, test): each compiled on its own, with no flag tested per pair
-  const auto run = [&](auto cof, auto stu) {
-    pairwise(a, b, out.data(), lo, hi, [](const ellipsim::EllipsoidT<T>& A, const ellipsim::EllipsoidT<T>& B) {
-      using namespace ellipsim::exact;
-      Quartic<T> c;
-      if constexpr (decltype(cof)::value) {
-        c = cofactor_coefficients(A, B);
-      } else {
-        c = rearranged_frame_coefficients(A, B);
-      }
-      if constexpr (decltype(stu)::value) {
-        return sturm_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
-      } else {
-        return descartes_relation(c.c4, c.c3, c.c2, c.c1, c.c0);
-      }
-    });
-  };
-  using yes = std::true_type;
-  using no = std::false_type;
+  std::int8_t* o = out.data();
   if (cofactor) {
-    sturm ? run(yes{}, yes{}) : run(yes{}, no{});
+    sturm ? classify_float_blocks<true, true>(a, b, o, lo, hi) : classify_float_blocks<true, false>(a, b, o, lo, hi);
   } else {
-    sturm ? run(no{}, yes{}) : run(no{}, no{});
+    sturm ? classify_float_blocks<false, true>(a, b, o, lo, hi) : classify_float_blocks<false, false>(a, b, o, lo, hi);
   }
 }
 

@@ -566,6 +566,7 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
         (["compare", "pile", "--nconmax", "100", "--njmax", "9"], "--nconmax and --njmax are for --engine warp"),
         (["compare", "pile", "--engine", "warp", "--plot", "x.png"], "--plot and --between-frames are for"),
         (["run", "pile", "--engine", "warp", "--mode", "filter"], "--mode filter is MuJoCo C's"),
+        (["run", "crowd", "--engine", "warp"], 'crowd: its mode "filter" is MuJoCo C\'s; on Warp, --mode narrowphase'),
         (["run", "replay", "--engine", "warp", "--between-frames"], "--between-frames is for --engine mujoco"),
     ],
 )
@@ -586,6 +587,19 @@ def test_device_cuda_is_refused_where_warp_finds_none():
     else:
         with pytest.raises(UserError, match="--device cuda: Warp finds no CUDA device"):
             warp_run.check_device("cuda")
+
+
+def test_a_filter_scenario_is_refused_on_warp_not_run_as_narrowphase():
+    """crowd.toml's mode is "filter" (MuJoCo C's contact filter): warp_run.run refuses it, as it refuses any mode
+    but builtin and narrowphase, before building anything; an explicit mode runs it."""
+    from ellipsim.app import scenario, warp_run
+
+    crowd = scenario.load("crowd")
+    assert crowd.mode == "filter"
+    for mode in (None, "filter", "exact"):
+        with pytest.raises(ValueError, match="mode must be one of builtin, narrowphase on Warp"):
+            warp_run.run(crowd, steps=1, nworld=1, mode=mode)
+    assert warp_run.run(crowd, steps=1, nworld=1, mode="builtin").steps == 1
 
 
 def test_worlds_of_a_seeded_figure_scene_start_from_other_layouts():

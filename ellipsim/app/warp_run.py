@@ -18,6 +18,10 @@ from . import simulate
 from .scenario import ScenarioError
 from .stepping import FrameLoop
 
+#: The modes a scenario runs in on Warp: plain Warp, or ellipsim's narrow phase attached (the contact filter is
+#: MuJoCo C's mjcb_contactfilter, which Warp has no counterpart of).
+WARP_MODES = ("builtin", "narrowphase")
+
 #: Distinct layout seeds at most (each one a model build on the host).
 SEEDS = 64
 
@@ -218,8 +222,10 @@ def run(
     """Step scenario s in nworld worlds on MuJoCo Warp (module docstring); returns a WarpRun.
     nconmax, njmax : contacts and constraint rows a world (setup's defaults when None); started : optional
     callable(), called once the model is built."""
-    wp, mjw, ew = _warp()
     mode = mode or s.mode
+    if mode not in WARP_MODES:
+        raise ValueError(f"mode must be one of {', '.join(WARP_MODES)} on Warp (filter is MuJoCo C's), got {mode!r}")
+    wp, mjw, ew = _warp()
     if s.kinematic:
         raise ScenarioError(f"{s.path}: a kinematic scenario (keyframed poses) has nothing to step on Warp")
     if isinstance(nworld, bool) or not isinstance(nworld, int) or nworld < 1:

@@ -31,6 +31,10 @@ def run(args):
     if args.engine == "warp" and args.between_frames:
         raise UserError("--between-frames is for --engine mujoco (not yet for --engine warp)")
     s = load_scenario(args)
+    if args.engine == "warp" and (args.mode or s.mode) == "filter":  # the scenario file's mode, no --mode given
+        raise UserError(
+            f'{s.name}: its mode "filter" is MuJoCo C\'s; on Warp, --mode narrowphase (ellipsim attached) or builtin'
+        )
     if args.engine == "warp":
         return _run_warp(args, s)
     if args.record:

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_checks import assert_same_bits, finite, positive
 from scipy.spatial.transform import Rotation as Rot
 from strategies import SIGNED_PERMUTATIONS, hard_pair, random_pair
 
@@ -64,18 +65,6 @@ def run(name, args, n, lo=0, hi=None):
     with np.errstate(all="ignore"):
         kernel(*args, out, lo, n if hi is None else hi)
     return out
-
-
-def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN; any dtype."""
-    got, want = np.asarray(got), np.asarray(want)
-    assert got.shape == want.shape and got.dtype == want.dtype
-    if got.dtype == np.float64:
-        differ = (got.view(np.int64) != want.view(np.int64)) & ~(np.isnan(got) & np.isnan(want))
-    else:
-        differ = got != want
-    bad = np.flatnonzero(differ)
-    assert not len(bad), f"{what}: pair {bad[0]} gives {got[bad[0]]!r}, expected {want[bad[0]]!r}"
 
 
 def exact(args, n):
@@ -135,10 +124,6 @@ def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice(name):
 def test_hard_pairs_the_filters_decide_as_the_exact_relation(pair):
     a, b = pair
     assert_filters_are_exact(arrays(a, b), 1)
-
-
-finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
-positive = st.floats(min_value=5e-324, max_value=1.7e308, allow_nan=False, width=64)
 
 
 @settings(max_examples=400, deadline=None)

@@ -26,8 +26,8 @@ import pytest
 import test_cylinder as tc  # its stage adapters (tuples in, cylinder.py's results out)
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_native import finite, positive
-from test_native_pairs import _degenerate_poses, _rotation, as_shapes, pose_args, quaternion, size
+from native_checks import as_shapes, assert_same_bits, finite, pose_args, positive, quaternion, rotation, size
+from test_native_pairs import _degenerate_poses
 
 import ellipsim.native as native
 from ellipsim.core import samples, threads
@@ -61,15 +61,6 @@ def run(name, args, n, lo=0, hi=None):
     with np.errstate(all="ignore"):
         kernel(*args, out, lo, n if hi is None else hi)
     return out
-
-
-def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN (its sign and payload are the compiler's choice)."""
-    differ = (got.view(np.int64) != want.view(np.int64)) & ~(np.isnan(got) & np.isnan(want))
-    bad = np.argwhere(differ)
-    assert not len(bad), (
-        f"{what}: at {tuple(bad[0])}: {got[tuple(bad[0])]!r}, {want[tuple(bad[0])]!r} ({len(bad)} differ)"
-    )
 
 
 def twice(name, args, n, lo=0, hi=None):
@@ -262,7 +253,7 @@ def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice():
     st.tuples(*[size] * 3),
 )
 def test_random_poses_give_sane_results(cE, qE, rE, cK, qK, sK):
-    P = dict(cE=[cE], RE=[_rotation(qE)], rE=[rE], cK=[cK], RK=[_rotation(qK)], sK=[sK])
+    P = dict(cE=[cE], RE=[rotation(qE)], rE=[rE], cK=[cK], RK=[rotation(qK)], sK=[sK])
     assert_poses_sane({k: np.array(v, float) for k, v in P.items()})
 
 

@@ -18,9 +18,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_checks import assert_same_bits, finite, positive
 from scipy.spatial.transform import Rotation as Rot
 from strategies import hard_pair, random_pair
-from test_native import arrays, finite, positive
+from test_native import arrays
 
 import ellipsim.native as native
 from ellipsim import ContactFeature, DerivativeStatus, DistanceStatus, Ellipsoids
@@ -32,18 +33,6 @@ from ellipsim.core.tolerances import NEWTON_MAX_ITER, WARM_SCALE_MAX, WARM_SCALE
 ext = native.ext
 T = ext.testing
 GLOBAL, UNPROVEN = int(DistanceStatus.GLOBAL), int(DistanceStatus.UNPROVEN)
-
-
-def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN; any dtype."""
-    got, want = np.asarray(got), np.asarray(want)
-    assert got.shape == want.shape and got.dtype == want.dtype
-    if got.dtype == np.float64:
-        differ = (got.view(np.int64) != want.view(np.int64)) & ~(np.isnan(got) & np.isnan(want))
-    else:
-        differ = got != want
-    bad = np.argwhere(differ)
-    assert not len(bad), f"{what} at {tuple(bad[0])}: {got[tuple(bad[0])]!r}, expected {want[tuple(bad[0])]!r}"
 
 
 SETS = [

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_checks import finite, positive
 from scipy.spatial.transform import Rotation as Rot
-from test_native import finite, positive
 
 import ellipsim.native as native
 from ellipsim.core import threads

@@ -15,37 +15,19 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_checks import as_shapes, assert_same_bits, finite, pose_args, positive, quaternion, rotation, size
 from scipy.spatial.transform import Rotation as Rot
-from test_native import finite, positive
 
 import ellipsim.native as native
 from ellipsim import ContactFeature, DerivativeStatus, Ellipsoids
 from ellipsim.core import samples, threads
 from ellipsim.core.pairs import shape_distance as sd
-from ellipsim.core.rotations import quaternions_to_rotations
 from ellipsim.core.samples import random_ellipsoids
 
 ext = native.ext
 T = ext.testing
 KINDS = ("capsule", "box", "cylinder")
 FEATURES = {"capsule": ("SIDE", "END"), "box": ("FACE", "EDGE", "VERTEX"), "cylinder": ("SIDE", "CAP", "RIM")}
-
-
-def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN; any dtype."""
-    got, want = np.asarray(got), np.asarray(want)
-    assert got.shape == want.shape and got.dtype == want.dtype
-    if got.dtype == np.float64:
-        differ = (got.view(np.int64) != want.view(np.int64)) & ~(np.isnan(got) & np.isnan(want))
-    else:
-        differ = got != want
-    bad = np.argwhere(differ)
-    assert not len(bad), f"{what} at {tuple(bad[0])}: {got[tuple(bad[0])]!r}, expected {want[tuple(bad[0])]!r}"
-
-
-def pose_args(P):
-    """Fresh writable float64 copies of the poses P (dict cE, RE, rE, cK, RK, sK)."""
-    return tuple(np.array(P[k], dtype=float) for k in ("cE", "RE", "rE", "cK", "RK", "sK"))
 
 
 def narrow_phase(args, kind):
@@ -141,12 +123,6 @@ SETS = [
     ("near contact", lambda: samples.near_contact_pairs(300, seed=4)),
 ]
 SETS += [(c, lambda c=c: samples.stress_pairs(c, 60, seed=5)) for c in samples.STRESS]
-
-
-def as_shapes(a, b):
-    """A sample set's pair (a, b) as poses: the ellipsoid a, b's centre, rotation and radii the other body's (a
-    capsule's and a cylinder's radius r_0, half-length r_1: needles, flat disks and spheres alike)."""
-    return dict(cE=a.centers, RE=a.rotations, rE=a.radii, cK=b.centers, RK=b.rotations, sK=b.radii)
 
 
 @pytest.mark.parametrize("label, make", SETS, ids=[s[0] for s in SETS])
@@ -251,15 +227,6 @@ def test_normals_on_the_kinks_and_anywhere_give_statuses_in_range():
 # --- random poses and arbitrary floats ----------------------------------------------------------------------
 
 
-def _rotation(q):
-    q = np.asarray(q, float)
-    return quaternions_to_rotations(q / np.linalg.norm(q))
-
-
-quaternion = st.tuples(*[st.floats(-1, 1)] * 4).filter(lambda q: sum(x * x for x in q) > 1e-3)
-size = st.one_of(st.floats(0.01, 1.0), st.sampled_from([1e-4, 1e-3, 10.0]))
-
-
 @settings(max_examples=300, deadline=None)
 @given(
     st.tuples(*[st.floats(-1, 1)] * 3),
@@ -271,7 +238,7 @@ size = st.one_of(st.floats(0.01, 1.0), st.sampled_from([1e-4, 1e-3, 10.0]))
     st.sampled_from(KINDS),
 )
 def test_random_poses_give_statuses_in_range(cE, qE, rE, cK, qK, sK, kind):
-    P = dict(cE=[cE], RE=[_rotation(qE)], rE=[rE], cK=[cK], RK=[_rotation(qK)], sK=[sK])
+    P = dict(cE=[cE], RE=[rotation(qE)], rE=[rE], cK=[cK], RK=[rotation(qK)], sK=[sK])
     shape_derivatives(pose_args(P), kind)
 
 

@@ -15,12 +15,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_checks import as_shapes, assert_same_bits, finite, pose_args, positive, quaternion, rotation, size
 from scipy.spatial.transform import Rotation as Rot
-from test_native import finite, positive
 
 import ellipsim.native as native
 from ellipsim.core import samples
-from ellipsim.core.rotations import quaternions_to_rotations
 
 ext = native.ext
 
@@ -47,18 +46,6 @@ def run(name, args, n, lo=0, hi=None):
     return out
 
 
-def assert_same_bits(got, want, what=""):
-    """Equal bits, NaN for NaN."""
-    differ = (got.view(np.int64) != want.view(np.int64)) & ~(np.isnan(got) & np.isnan(want))
-    bad = np.argwhere(differ)
-    assert not len(bad), f"{what}: row {bad[0][0]} column {bad[0][1]}: {got[tuple(bad[0])]!r}, {want[tuple(bad[0])]!r}"
-
-
-def pose_args(P):
-    """Fresh writable float64 copies of the poses P."""
-    return tuple(np.array(P[k], dtype=float) for k in ("cE", "RE", "rE", "cK", "RK", "sK"))
-
-
 def assert_pairs_sane(P, kinds=("capsule", "box"), unit=1e-14):
     """Each kind's kernel on the poses P (dict cE, RE, rE, cK, RK, sK, rotations proper): status 0 or 1
     (CERTIFIED, ENUMERATED), a finite distance, a unit normal (to `unit`); its stages run; the same bits twice."""
@@ -70,12 +57,6 @@ def assert_pairs_sane(P, kinds=("capsule", "box"), unit=1e-14):
         assert np.abs(np.linalg.norm(out[:, 2:5], axis=1) - 1.0).max() < unit, kind
         assert_same_bits(run(f"{kind}_ellipsoid", args, n), out, kind)
         run(f"{kind}_stages", args, n)
-
-
-def as_shapes(a, b):
-    """A sample set's pair (a, b) as poses: the ellipsoid a, b's centre, rotation and radii the other body's
-    (a capsule takes radius r_0 and half-length r_1: needles, flat disks and spheres alike)."""
-    return dict(cE=a.centers, RE=a.rotations, rE=a.radii, cK=b.centers, RK=b.rotations, sK=b.radii)
 
 
 # --- capsule and box: the kernels' own test poses, every sample set, degenerate cases ----------------------------
@@ -171,15 +152,6 @@ def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice():
         ext.testing.box_ellipsoid(*pose_args(as_shapes(a, b)), np.empty((60, 10))[:, :9], 0, 60)
 
 
-def _rotation(q):
-    q = np.asarray(q, float)
-    return quaternions_to_rotations(q / np.linalg.norm(q))
-
-
-quaternion = st.tuples(*[st.floats(-1, 1)] * 4).filter(lambda q: sum(x * x for x in q) > 1e-3)
-size = st.one_of(st.floats(0.01, 1.0), st.sampled_from([1e-4, 1e-3, 10.0]))
-
-
 @settings(max_examples=500, deadline=None)
 @given(
     st.tuples(*[st.floats(-1, 1)] * 3),
@@ -190,7 +162,7 @@ size = st.one_of(st.floats(0.01, 1.0), st.sampled_from([1e-4, 1e-3, 10.0]))
     st.tuples(*[size] * 3),
 )
 def test_random_poses_give_sane_results(cE, qE, rE, cK, qK, sK):
-    P = dict(cE=[cE], RE=[_rotation(qE)], rE=[rE], cK=[cK], RK=[_rotation(qK)], sK=[sK])
+    P = dict(cE=[cE], RE=[rotation(qE)], rE=[rE], cK=[cK], RK=[rotation(qK)], sK=[sK])
     assert_pairs_sane({k: np.array(v, float) for k, v in P.items()})
 
 

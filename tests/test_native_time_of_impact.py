@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_checks import finite, positive
 from scipy.spatial.transform import Rotation as Rot
-from test_native import finite, positive
 from test_native_motion import assert_same, floats
 from test_toi import I, one, random_motion, smallstep_motion
 

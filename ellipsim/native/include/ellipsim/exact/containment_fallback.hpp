@@ -68,27 +68,11 @@ inline Polynomial principal_minor_sum(const PolyMatrix& M, int k) {
 
 // N'(nu) above, entries highest degree first.
 inline PolyMatrix containment_pencil(const Ellipsoid& A, const Ellipsoid& B) {
-  const IntegerPair x = integer_pair(A, B);
-  const Integer* R = x.Ra;
-  const Integer C[9] = {R[4] * R[8] - R[5] * R[7], R[5] * R[6] - R[3] * R[8], R[3] * R[7] - R[4] * R[6],
-                        R[2] * R[7] - R[1] * R[8], R[0] * R[8] - R[2] * R[6], R[1] * R[6] - R[0] * R[7],
-                        R[1] * R[5] - R[2] * R[4], R[2] * R[3] - R[0] * R[5], R[0] * R[4] - R[1] * R[3]};
-  const Integer det = R[0] * C[0] + R[1] * C[1] + R[2] * C[2];
-  Integer M[9];  // M = R_b^T C
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) M[3 * i + j] = x.Rb[i] * C[j] + x.Rb[3 + i] * C[3 + j] + x.Rb[6 + i] * C[6 + j];
-  const Integer b2[3] = {x.rb[0] * x.rb[0], x.rb[1] * x.rb[1], x.rb[2] * x.rb[2]};
-  const Integer G[3] = {b2[1] * b2[2], b2[0] * b2[2], b2[0] * b2[1]};
-  const Integer aP = det * det * (b2[0] * G[0]);
-  Integer N[9];
-  for (int j = 0; j < 3; ++j)
-    for (int l = j; l < 3; ++l)
-      N[3 * l + j] = N[3 * j + l] = M[j] * M[l] * G[0] + M[3 + j] * M[3 + l] * G[1] + M[6 + j] * M[6 + l] * G[2];
-  Integer z[3];
-  for (int i = 0; i < 3; ++i) z[i] = R[i] * x.d[0] + R[3 + i] * x.d[1] + R[6 + i] * x.d[2];
-  Integer Nz[3];
-  for (int j = 0; j < 3; ++j) Nz[j] = N[3 * j] * z[0] + N[3 * j + 1] * z[1] + N[3 * j + 2] * z[2];
-  const Integer p1 = z[0] * Nz[0] + z[1] * Nz[1] + z[2] * Nz[2];
+  const PencilTerms t = pencil_terms(A, B);
+  const IntegerPair& x = t.x;
+  const Integer *N = t.N, *Nz = t.Nz;
+  const Integer aP = t.det * t.det * (x.rb[0] * x.rb[0] * t.G[0]);
+  const Integer& p1 = t.p1;
   const Integer pr = x.ra[0] * x.ra[1] * x.ra[2];
   const Integer pr2 = pr * pr;
   const Integer S[3] = {x.ra[1] * x.ra[2], x.ra[0] * x.ra[2], x.ra[0] * x.ra[1]};

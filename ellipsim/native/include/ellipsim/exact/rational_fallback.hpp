@@ -68,35 +68,50 @@ inline IntegerPair integer_pair(const Ellipsoid& A, const Ellipsoid& B) {
   return out;
 }
 
-// h(nu), the integer pencil above, highest degree first.
-inline Polynomial pencil_polynomial(const Ellipsoid& A, const Ellipsoid& B) {
-  const IntegerPair x = integer_pair(A, B);
+// The terms both exact pencils are built from (this file's h, containment_fallback.hpp's N'): the pair in
+// integers, det(R_a), G, N = M^T G M (symmetric), z = R_a^T d, N z and p1 = z^T N z.
+struct PencilTerms {
+  IntegerPair x;
+  Integer det, G[3], N[9], z[3], Nz[3], p1;
+};
+
+inline PencilTerms pencil_terms(const Ellipsoid& A, const Ellipsoid& B) {
+  PencilTerms t;
+  t.x = integer_pair(A, B);
+  const IntegerPair& x = t.x;
   const Integer* R = x.Ra;
   const Integer C[9] = {R[4] * R[8] - R[5] * R[7], R[5] * R[6] - R[3] * R[8], R[3] * R[7] - R[4] * R[6],
                         R[2] * R[7] - R[1] * R[8], R[0] * R[8] - R[2] * R[6], R[1] * R[6] - R[0] * R[7],
                         R[1] * R[5] - R[2] * R[4], R[2] * R[3] - R[0] * R[5], R[0] * R[4] - R[1] * R[3]};
-  const Integer det = R[0] * C[0] + R[1] * C[1] + R[2] * C[2];
-  const Integer alpha = det * det;
+  t.det = R[0] * C[0] + R[1] * C[1] + R[2] * C[2];
   Integer M[9];  // M = R_b^T C
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) M[3 * i + j] = x.Rb[i] * C[j] + x.Rb[3 + i] * C[3 + j] + x.Rb[6 + i] * C[6 + j];
   const Integer b2[3] = {x.rb[0] * x.rb[0], x.rb[1] * x.rb[1], x.rb[2] * x.rb[2]};
-  const Integer a2[3] = {x.ra[0] * x.ra[0], x.ra[1] * x.ra[1], x.ra[2] * x.ra[2]};
-  const Integer G[3] = {b2[1] * b2[2], b2[0] * b2[2], b2[0] * b2[1]};
-  const Integer Pb = b2[0] * G[0];
-  const Integer S = a2[0] * a2[1] * a2[2];
-  Integer N[9];  // M^T G M (symmetric)
+  t.G[0] = b2[1] * b2[2], t.G[1] = b2[0] * b2[2], t.G[2] = b2[0] * b2[1];
   for (int j = 0; j < 3; ++j)
     for (int l = j; l < 3; ++l)
-      N[3 * l + j] = N[3 * j + l] = M[j] * M[l] * G[0] + M[3 + j] * M[3 + l] * G[1] + M[6 + j] * M[6 + l] * G[2];
+      t.N[3 * l + j] = t.N[3 * j + l] =
+          M[j] * M[l] * t.G[0] + M[3 + j] * M[3 + l] * t.G[1] + M[6 + j] * M[6 + l] * t.G[2];
+  for (int i = 0; i < 3; ++i) t.z[i] = R[i] * x.d[0] + R[3 + i] * x.d[1] + R[6 + i] * x.d[2];
+  for (int j = 0; j < 3; ++j) t.Nz[j] = t.N[3 * j] * t.z[0] + t.N[3 * j + 1] * t.z[1] + t.N[3 * j + 2] * t.z[2];
+  t.p1 = t.z[0] * t.Nz[0] + t.z[1] * t.Nz[1] + t.z[2] * t.Nz[2];
+  return t;
+}
+
+// h(nu), the integer pencil above, highest degree first.
+inline Polynomial pencil_polynomial(const Ellipsoid& A, const Ellipsoid& B) {
+  const PencilTerms t = pencil_terms(A, B);
+  const IntegerPair& x = t.x;
+  const Integer *N = t.N, *z = t.z, *Nz = t.Nz;
+  const Integer& p1 = t.p1;
+  const Integer alpha = t.det * t.det;
+  const Integer Pb = x.rb[0] * x.rb[0] * t.G[0];
+  const Integer a2[3] = {x.ra[0] * x.ra[0], x.ra[1] * x.ra[1], x.ra[2] * x.ra[2]};
+  const Integer S = a2[0] * a2[1] * a2[2];
   Integer K[9];  // D_a N D_a
   for (int j = 0; j < 3; ++j)
     for (int l = 0; l < 3; ++l) K[3 * j + l] = x.ra[j] * x.ra[l] * N[3 * j + l];
-  Integer z[3];  // R_a^T d
-  for (int i = 0; i < 3; ++i) z[i] = R[i] * x.d[0] + R[3 + i] * x.d[1] + R[6 + i] * x.d[2];
-  Integer Nz[3];
-  for (int j = 0; j < 3; ++j) Nz[j] = N[3 * j] * z[0] + N[3 * j + 1] * z[1] + N[3 * j + 2] * z[2];
-  const Integer p1 = z[0] * Nz[0] + z[1] * Nz[1] + z[2] * Nz[2];
   const Integer u[3] = {x.ra[0] * Nz[0], x.ra[1] * Nz[1], x.ra[2] * Nz[2]};
   const Integer T1 = K[0] + K[4] + K[8];
   const Integer T2 = (K[0] * K[4] - K[1] * K[3]) + (K[0] * K[8] - K[2] * K[6]) + (K[4] * K[8] - K[5] * K[7]);

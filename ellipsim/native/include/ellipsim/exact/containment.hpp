@@ -51,6 +51,18 @@ ELLIPSIM_HD void rotate_columns(Vec3& vp, Vec3& vq, double c, double s) {
   vq = q;
 }
 
+// One Jacobi rotation in the plane (p, q) of a symmetric 3x3, r its third index: a_pq annihilated, a_pp, a_qq,
+// a_rp, a_rq updated, the eigenvector columns v_p, v_q rotated; nothing when a_pq is already 0.
+ELLIPSIM_HD void jacobi_rotate(double& app, double& aqq, double& apq, double& arp, double& arq, Vec3& vp, Vec3& vq) {
+  if (apq == 0.0) return;
+  const Givens g = givens(app, aqq, apq);
+  const double npp = app - g.t * apq, nqq = aqq + g.t * apq;
+  app = npp, aqq = nqq, apq = 0.0;
+  const double nrp = g.c * arp - g.s * arq, nrq = g.s * arp + g.c * arq;
+  arp = nrp, arq = nrq;
+  rotate_columns(vp, vq, g.c, g.s);
+}
+
 // Eigenvalues (ascending) and eigenvectors (columns V[0..2]) of the symmetric K by cyclic Jacobi.
 struct Eigen3 {
   Vec3 kap;
@@ -62,30 +74,9 @@ ELLIPSIM_HD Eigen3 jacobi3(const Sym3T<double>& K) {
   Vec3 v0 = {1.0, 0.0, 0.0}, v1 = {0.0, 1.0, 0.0}, v2 = {0.0, 0.0, 1.0};
   for (int sweep = 0; sweep < tol::JACOBI_SWEEPS; ++sweep) {
     if (a01 * a01 + a02 * a02 + a12 * a12 <= 1e-36 * (a00 * a00 + a11 * a11 + a22 * a22)) break;
-    if (a01 != 0.0) {  // (p, q) = (0, 1), r = 2
-      const Givens g = givens(a00, a11, a01);
-      const double n00 = a00 - g.t * a01, n11 = a11 + g.t * a01;
-      a00 = n00, a11 = n11, a01 = 0.0;
-      const double n02 = g.c * a02 - g.s * a12, n12 = g.s * a02 + g.c * a12;
-      a02 = n02, a12 = n12;
-      rotate_columns(v0, v1, g.c, g.s);
-    }
-    if (a02 != 0.0) {  // (0, 2), r = 1
-      const Givens g = givens(a00, a22, a02);
-      const double n00 = a00 - g.t * a02, n22 = a22 + g.t * a02;
-      a00 = n00, a22 = n22, a02 = 0.0;
-      const double n01 = g.c * a01 - g.s * a12, n12 = g.s * a01 + g.c * a12;
-      a01 = n01, a12 = n12;
-      rotate_columns(v0, v2, g.c, g.s);
-    }
-    if (a12 != 0.0) {  // (1, 2), r = 0
-      const Givens g = givens(a11, a22, a12);
-      const double n11 = a11 - g.t * a12, n22 = a22 + g.t * a12;
-      a11 = n11, a22 = n22, a12 = 0.0;
-      const double n01 = g.c * a01 - g.s * a02, n02 = g.s * a01 + g.c * a02;
-      a01 = n01, a02 = n02;
-      rotate_columns(v1, v2, g.c, g.s);
-    }
+    jacobi_rotate(a00, a11, a01, a02, a12, v0, v1);  // (p, q) = (0, 1), r = 2
+    jacobi_rotate(a00, a22, a02, a01, a12, v0, v2);  // (0, 2), r = 1
+    jacobi_rotate(a11, a22, a12, a01, a02, v1, v2);  // (1, 2), r = 0
   }
   double t;
   Vec3 w;

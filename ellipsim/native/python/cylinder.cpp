@@ -110,10 +110,8 @@ void bind_cylinder(nb::module_& m, nb::module_& t) {
     const double r = K.r.x, L = K.r.y;
     const Vec3& ra = E.r;
     const double rho = rolling_radius(ra);
-    const double scale = std::sqrt(norm2(e)) + max2(max2(max2(max2(ra.x, ra.y), ra.z), r), L);
-    const double tol = max2(tol::PAIR_CERT_REL * min2(min2(min2(min2(ra.x, ra.y), ra.z), r), L),
-                            2.0 * tol::BB_TOL_ULPS * tol::U * scale);
-    const double slack = tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
+    const Scales sc = scales(e, ra, r, L);
+    const double scale = sc.scale, tol = sc.tol, slack = sc.slack;
     w.v(e), w.v(a2), w.v(u);
     const LocalMax lm = local_max(a2, e, u, L, r);
     w.v(lm.n), w.f(lm.stratum), w.f(lm.converged);

@@ -983,6 +983,19 @@ ELLIPSIM_HD_CALL AxisMax axis_max(const Vec3& a2, const Vec3& e, Vec3 u, double 
   return {bb.proven, n, sigma_cylinder(a2, e, u0, L, r, n)};
 }
 
+// The pair's length scale (|e| + the largest size), the certificates' tolerance (the contract's 1e-12 of the smallest
+// size, floored by what float64 evaluates sigma to; cylinder.py) and sigma's rounding slack at that scale.
+struct Scales {
+  double scale, tol, slack;
+};
+
+ELLIPSIM_HD Scales scales(const Vec3& e, const Vec3& ra, double r, double L) {
+  const double scale = std::sqrt(norm2(e)) + max2(max2(max2(max2(ra.x, ra.y), ra.z), r), L);
+  const double tol = max2(tol::PAIR_CERT_REL * min2(min2(min2(min2(ra.x, ra.y), ra.z), r), L),
+                          2.0 * tol::BB_TOL_ULPS * tol::U * scale);
+  return {scale, tol, tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale};
+}
+
 // (status, dist, normal, pos, ub).
 struct Result {
   int status;
@@ -1002,13 +1015,10 @@ ELLIPSIM_HD Result cylinder_ellipsoid(const Ellipsoid& E, const Ellipsoid& K) {
   const double r = K.r.x, L = K.r.y;
   const Vec3& ra = E.r;
   const double rho = rolling_radius(ra);
-  const double scale = std::sqrt(norm2(e)) + max2(max2(max2(max2(ra.x, ra.y), ra.z), r), L);
-  // the contract's 1e-12 of the smallest size, floored by what float64 evaluates sigma to (cylinder.py)
-  const double tol = max2(tol::PAIR_CERT_REL * min2(min2(min2(min2(ra.x, ra.y), ra.z), r), L),
-                          2.0 * tol::BB_TOL_ULPS * tol::U * scale);
+  const Scales sc = scales(e, ra, r, L);
+  const double scale = sc.scale, tol = sc.tol, slack = sc.slack;
   Vec3 n = local_max(a2, e, u, L, r).n;
   double value = sigma_cylinder(a2, e, u, L, r, n);
-  const double slack = tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
   double ub = upper_bound(a2, e, u, L, r, rho, n, value, tol, slack);
   int status = CERTIFIED;
   if (ub - value > tol) {

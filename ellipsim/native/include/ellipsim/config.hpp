@@ -6,15 +6,17 @@
 // states it again to the compilers that honour it, and tests/test_native.py checks the built module.
 #pragma once
 
-#include <limits>
-
 #pragma STDC FP_CONTRACT OFF
 
 #if defined(__FAST_MATH__)
 #error "ellipsim's certified kernels assume IEEE arithmetic: build without -ffast-math"
 #endif
 
+// (Warp's kernel compilers see no C++ library header: math.hpp; their double is IEEE binary64 by design.)
+#if !defined(WP_NO_CRT)
+#include <limits>
 static_assert(std::numeric_limits<double>::is_iec559, "ellipsim needs IEEE 754 double");
+#endif
 
 // Every per-pair stage is inlined into its kernel (as numba's inline="always" stages were): a stage's
 // error magnitudes ("mags") that a caller does not read are then dropped by the compiler.

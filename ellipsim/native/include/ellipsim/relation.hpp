@@ -2,14 +2,14 @@
 // int8 codes).
 #pragma once
 
-#include <cstdint>
+#include "math.hpp"
 
 namespace ellipsim {
 
-constexpr std::int8_t SEPARATED = 0;    // closed ellipsoids disjoint
-constexpr std::int8_t TOUCHING = 1;     // boundaries meet, interiors disjoint
-constexpr std::int8_t OVERLAPPING = 2;  // interiors intersect (includes containment)
+constexpr int8_t SEPARATED = 0;    // closed ellipsoids disjoint
+constexpr int8_t TOUCHING = 1;     // boundaries meet, interiors disjoint
+constexpr int8_t OVERLAPPING = 2;  // interiors intersect (includes containment)
 // What a certified float path returns for a pair it cannot prove (exact arithmetic decides it).
-constexpr std::int8_t UNDECIDED = -1;
+constexpr int8_t UNDECIDED = -1;
 
 }  // namespace ellipsim

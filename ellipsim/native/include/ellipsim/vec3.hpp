@@ -4,8 +4,7 @@
 // operations, left to right, so the two give bit-identical results while both exist.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "math.hpp"
 
 #include "config.hpp"
 
@@ -36,7 +35,7 @@ using Ellipsoid = EllipsoidT<double>;
 
 // Ellipsoid i of a batch of C-contiguous (n, 3) centres, (n, 3, 3) rotations and (n, 3) radii.
 template <typename T>
-ELLIPSIM_HD EllipsoidT<T> load(const T* C, const T* R, const T* r, std::int64_t i) {
+ELLIPSIM_HD EllipsoidT<T> load(const T* C, const T* R, const T* r, int64_t i) {
   const T* c = C + 3 * i;
   const T* q = R + 9 * i;
   const T* s = r + 3 * i;
@@ -71,7 +70,7 @@ ELLIPSIM_HD T norm2(const Vec3T<T>& x) {
 
 template <typename T>
 ELLIPSIM_HD Vec3T<T> abs3(const Vec3T<T>& x) {
-  return {std::fabs(x.x), std::fabs(x.y), std::fabs(x.z)};
+  return {math::fabs(x.x), math::fabs(x.y), math::fabs(x.z)};
 }
 
 // max and min of two finite numbers (Python's max and min; std::fmax's NaN rules cost a call).
@@ -115,10 +114,9 @@ ELLIPSIM_HD Vec3T<T> rotate_t(const Mat3T<T>& R, const Vec3T<T>& d) {
 // mag of rotate_t: |R|^T md.
 template <typename T>
 ELLIPSIM_HD Vec3T<T> rotate_t_mag(const Mat3T<T>& R, const Vec3T<T>& md) {
-  using std::fabs;
-  return {fabs(R.m[0]) * md.x + fabs(R.m[3]) * md.y + fabs(R.m[6]) * md.z,
-          fabs(R.m[1]) * md.x + fabs(R.m[4]) * md.y + fabs(R.m[7]) * md.z,
-          fabs(R.m[2]) * md.x + fabs(R.m[5]) * md.y + fabs(R.m[8]) * md.z};
+  return {math::fabs(R.m[0]) * md.x + math::fabs(R.m[3]) * md.y + math::fabs(R.m[6]) * md.z,
+          math::fabs(R.m[1]) * md.x + math::fabs(R.m[4]) * md.y + math::fabs(R.m[7]) * md.z,
+          math::fabs(R.m[2]) * md.x + math::fabs(R.m[5]) * md.y + math::fabs(R.m[8]) * md.z};
 }
 
 template <typename T>
@@ -147,8 +145,8 @@ ELLIPSIM_HD double unit_scale(const Vec3& ra, const Vec3& rb) {
   const double m = max2(max3(ra), max3(rb));
   if (0x1p-51 <= m && m < 0x1p50) return 1.0;
   int exponent = 0;
-  std::frexp(m, &exponent);
-  return std::ldexp(1.0, -exponent);
+  math::frexp(m, &exponent);
+  return math::ldexp(1.0, -exponent);
 }
 
 template <typename T>
@@ -162,7 +160,7 @@ ELLIPSIM_HD double rotation_defect(const Mat3& R) {
   for (int i = 0; i < 3; ++i) {
     for (int j = i; j < 3; ++j) {
       const double v = R.m[i] * R.m[j] + R.m[3 + i] * R.m[3 + j] + R.m[6 + i] * R.m[6 + j] - (i == j ? 1.0 : 0.0);
-      d = max2(d, std::fabs(v));
+      d = max2(d, math::fabs(v));
     }
   }
   return d;

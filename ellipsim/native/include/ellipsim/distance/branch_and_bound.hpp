@@ -23,8 +23,7 @@
 // the Python (nothing is allocated).
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -70,13 +69,13 @@ struct EigenBound {
 
 ELLIPSIM_HD EigenBound sym2_min(double p, double q, double r) {
   const double h = 0.5 * (p - r);
-  const double root = std::sqrt(h * h + q * q);
-  return {0.5 * (p + r) - root, 8.0 * U64 * (std::fabs(p) + std::fabs(r) + std::fabs(q))};
+  const double root = math::sqrt(h * h + q * q);
+  return {0.5 * (p + r) - root, 8.0 * U64 * (math::fabs(p) + math::fabs(r) + math::fabs(q))};
 }
 
 ELLIPSIM_HD double sym2_max(double p, double q, double r) {
   const double h = 0.5 * (p - r);
-  return 0.5 * (p + r) + std::sqrt(h * h + q * q);
+  return 0.5 * (p + r) + math::sqrt(h * h + q * q);
 }
 
 // One body's part of the certificate at m: (h lower, h upper, H_i (plane Hessian of h_i), Gram of L t1, L t2
@@ -108,10 +107,10 @@ struct SigmaGrad {
 
 ELLIPSIM_HD SigmaGrad sigma_grad(const Vec3& c, const Vec3& e, const Vec3& a, const Mat3& U, const Vec3& b) {
   const double x0 = a.x * c.x, x1 = a.y * c.y, x2 = a.z * c.z;
-  const double ha = std::sqrt(x0 * x0 + x1 * x1 + x2 * x2);
+  const double ha = math::sqrt(x0 * x0 + x1 * x1 + x2 * x2);
   const Vec3 w = rotate_t(U, c);
   const double y0 = b.x * w.x, y1 = b.y * w.y, y2 = b.z * w.z;
-  const double hb = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
+  const double hb = math::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
   const double s = c.x * e.x + c.y * e.y + c.z * e.z - ha - hb;
   const double ia = 1.0 / ha, ib = 1.0 / hb;  // each product below errs by 2 roundings more than a division: counted
   const Vec3 gb = matvec(U, {b.x * y0 * ib, b.y * y1 * ib, b.z * y2 * ib});
@@ -122,8 +121,8 @@ ELLIPSIM_HD double sigma_only(const Vec3& c, const Vec3& e, const Vec3& a, const
   const double x0 = a.x * c.x, x1 = a.y * c.y, x2 = a.z * c.z;
   const Vec3 w = rotate_t(U, c);
   const double y0 = b.x * w.x, y1 = b.y * w.y, y2 = b.z * w.z;
-  return c.x * e.x + c.y * e.y + c.z * e.z - std::sqrt(x0 * x0 + x1 * x1 + x2 * x2) -
-         std::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
+  return c.x * e.x + c.y * e.y + c.z * e.z - math::sqrt(x0 * x0 + x1 * x1 + x2 * x2) -
+         math::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
 }
 
 // (p, |p|^-1, |p|, rho) of a quadtree patch.
@@ -137,13 +136,13 @@ struct PatchPoint {
 // sigma(p / |p|) = sigma(p) / |p|, the gradient is 0-homogeneous), and the chord radius rho of the cap around
 // p / |p| that holds the patch; Q turns the cube (row-major, columns: where the x, y, z axes go, orthonormal
 // to rounding).
-ELLIPSIM_HD PatchPoint patch_point(int face, int level, std::int64_t i, std::int64_t j, const Mat3& Q) {
+ELLIPSIM_HD PatchPoint patch_point(int face, int level, int64_t i, int64_t j, const Mat3& Q) {
   using namespace branch_and_bound;
-  const double w = double(std::int64_t(1) << (62 - level)) * 0x1p-62;  // half-width 2^-level (exact)
+  const double w = double(int64_t(1) << (62 - level)) * 0x1p-62;  // half-width 2^-level (exact)
   const double u0 = -1.0 + 2.0 * w * double(i);
   const double v0 = -1.0 + 2.0 * w * double(j);
   const double uc = u0 + w, vc = v0 + w;
-  const double pc = std::sqrt(1.0 + uc * uc + vc * vc);
+  const double pc = math::sqrt(1.0 + uc * uc + vc * vc);
   const double inv = 1.0 / pc;
   // the square lies within w sqrt(2) of p_c; on it |p| >= max(1, |p_c| - w sqrt(2)), and
   // 1 / (|p_c| - hd) = inv / (1 - x) <= inv (1 + x + 2 x^2), x = hd inv <= 1/2 (no division);
@@ -153,7 +152,7 @@ ELLIPSIM_HD PatchPoint patch_point(int face, int level, std::int64_t i, std::int
   double rho = x <= 0.5 ? hd * min2(1.0, inv * (1.0 + x + 2.0 * x * x)) : hd;
   rho = rho * (1.0 + 4e-15) + 2e-15;  // roundings of sqrt(2), sqrt, products, Q; |c - exact centre| <= 8u
   // the exact circumradius (the Lipschitz bound above is up to ~20 % larger)
-  if (level <= RHO_LEVELS) rho = rho_table(((std::int64_t(1) << (2 * level)) - 4) / 3 + (i << level) + j);
+  if (level <= RHO_LEVELS) rho = rho_table(((int64_t(1) << (2 * level)) - 4) / 3 + (i << level) + j);
   const int k = face >> 1;
   const double sg = (face & 1) == 0 ? 1.0 : -1.0;  // face 2k + 1 is the antipode of face 2k, patch by patch
   Vec3 p;
@@ -173,7 +172,7 @@ struct PatchCap {
   double rho;
 };
 
-ELLIPSIM_HD PatchCap patch_cap(int face, int level, std::int64_t i, std::int64_t j, const Mat3& Q) {
+ELLIPSIM_HD PatchCap patch_cap(int face, int level, int64_t i, int64_t j, const Mat3& Q) {
   const PatchPoint pp = patch_point(face, level, i, j, Q);
   return {{pp.p.x * pp.inv, pp.p.y * pp.inv, pp.p.z * pp.inv}, pp.rho};
 }
@@ -190,10 +189,10 @@ ELLIPSIM_HD PlaneTerms plane_terms(const Vec3& m, const Vec3& t1, const Vec3& t2
   const SigmaGrad sg = sigma_grad(m, e, a, U, b);
   const double s = sg.s, ha = sg.ha, hb = sg.hb;
   const double g1 = dot(sg.G, t1), g2 = dot(sg.G, t2);
-  const double Gn = std::sqrt(norm2(sg.G));
+  const double Gn = math::sqrt(norm2(sg.G));
   const double epsg = U64 * (32.0 * (S + bmax * bmax / hb) + 16.0 * S);
   // |exact plane gradient| <= computed + eps_G |[t1 t2]| + rounding of the two dot products
-  const double ghi = std::sqrt(g1 * g1 + g2 * g2) * (1.0 + 4.0 * U64) + 1.5 * epsg + 8.0 * U64 * Gn;
+  const double ghi = math::sqrt(g1 * g1 + g2 * g2) * (1.0 + 4.0 * U64) + 1.5 * epsg + 8.0 * U64 * Gn;
   // A: L = diag(a)
   const Vec3 am = {a.x * m.x, a.y * m.y, a.z * m.z};
   const Vec3 a1 = {a.x * t1.x, a.y * t1.y, a.z * t1.z};
@@ -203,7 +202,7 @@ ELLIPSIM_HD PlaneTerms plane_terms(const Vec3& m, const Vec3& t1, const Vec3& t2
   const Sym2 HA = {dot(j1, j1) / ha3, dot(j1, j2) / ha3, dot(j2, j2) / ha3};
   const double ga = 16.0 * U64 * amax * amax;
   const Sym2 GA = {dot(a1, a1) + ga, dot(a1, a2), dot(a2, a2) + ga};
-  const double nuA = std::sqrt(norm2(cross3(a1, a2))) * (1.0 + 4.0 * U64) + 8.0 * U64 * amax * amax;
+  const double nuA = math::sqrt(norm2(cross3(a1, a2))) * (1.0 + 4.0 * U64) + 8.0 * U64 * amax * amax;
   const double ha_lo = ha - 10.0 * U64 * amax, ha_hi = ha + 10.0 * U64 * amax;
   const Part A = {ha_lo, ha_hi, HA, GA, nuA, dot(a1, am), dot(a2, am), 12.0 * U64 * amax * ha};
   // B: L = diag(b) U^T
@@ -216,7 +215,7 @@ ELLIPSIM_HD PlaneTerms plane_terms(const Vec3& m, const Vec3& t1, const Vec3& t2
   const Sym2 HB = {dot(k1, k1) / hb3, dot(k1, k2) / hb3, dot(k2, k2) / hb3};
   const double gb = 48.0 * U64 * bmax * bmax;
   const Sym2 GB = {dot(b1, b1) + gb, dot(b1, b2), dot(b2, b2) + gb};
-  const double nuB = std::sqrt(norm2(cross3(b1, b2))) * (1.0 + 4.0 * U64) + 24.0 * U64 * bmax * bmax;
+  const double nuB = math::sqrt(norm2(cross3(b1, b2))) * (1.0 + 4.0 * U64) + 24.0 * U64 * bmax * bmax;
   const double hb_lo = hb - 16.0 * U64 * bmax, hb_hi = hb + 16.0 * U64 * bmax;
   const Part B = {hb_lo, hb_hi, HB, GB, nuB, dot(b1, bm), dot(b2, bm), 36.0 * U64 * bmax * bmax};
   const Sym2 H0 = {HA.xx + HB.xx, HA.xy + HB.xy, HA.yy + HB.yy};
@@ -243,7 +242,7 @@ struct Curvature {
 // and |L(m + x)|^2 = h0^2 + 2 bv.x + |L x|^2 <= h0^2 + 2 |K bv| + lambda_max(K Gram K) =: h_hi^2.  Hence
 // -Hess F >= (1 - eps) sum_i (h_i0 / h_i,hi)^3 H_i0 - (1/eps - 1) sum_i nu_i^2 / h_i,hi^3 R K^2 R^T.
 ELLIPSIM_HD Curvature curvature(double kw, double ks, double cs, double sn, const Part& A, const Part& B, double eh) {
-  using std::fabs;
+  using math::fabs;
   const Sym2 K = conj(cs, sn, kw, ks);
   const double kmax = max2(kw, ks);
   double Pb0 = 0.0, Pb1 = 0.0, Pb2 = 0.0;
@@ -260,11 +259,11 @@ ELLIPSIM_HD Curvature curvature(double kw, double ks, double cs, double sn, cons
     double kgk = sym2_max(m00 * K.xx + m01 * K.xy, m00 * K.xy + m01 * K.yy, m10 * K.xy + m11 * K.yy);
     kgk += 32.0 * U64 * kmax * kmax * (fabs(G.xx) + fabs(G.xy) + fabs(G.yy));  // K's rounding: ||dK|| <= 8 u kmax
     const double kb0 = K.xx * part.bv0 + K.xy * part.bv1, kb1 = K.xy * part.bv0 + K.yy * part.bv1;
-    const double beta = (std::sqrt(kb0 * kb0 + kb1 * kb1) +
+    const double beta = (math::sqrt(kb0 * kb0 + kb1 * kb1) +
                          kmax * (part.bverr * 1.5 + 16.0 * U64 * (fabs(part.bv0) + fabs(part.bv1)))) *
                         (1.0 + 8.0 * U64);
     const double h2 = (part.hhi * part.hhi + 2.0 * beta + kgk * (1.0 + 16.0 * U64)) * (1.0 + 8.0 * U64);
-    const double hx = std::sqrt(h2) * (1.0 + 2.0 * U64);
+    const double hx = math::sqrt(h2) * (1.0 + 2.0 * U64);
     double r = part.hlo / hx;
     r = r * r * r * (1.0 - 8.0 * U64);
     Pb0 += r * H.xx;
@@ -279,7 +278,7 @@ ELLIPSIM_HD Curvature curvature(double kw, double ks, double cs, double sn, cons
   const double xw = cs * cs * Pb0 + 2.0 * cs * sn * Pb1 + sn * sn * Pb2;
   const double yw = cs * cs * Q.xx + 2.0 * cs * sn * Q.xy + sn * sn * Q.yy;
   if (xw <= 0.0) return {{0.0, 0.0, 0.0}, 0.0};
-  double eps = std::sqrt(max2(yw, 0.0) / xw);
+  double eps = math::sqrt(max2(yw, 0.0) / xw);
   eps = min2(max2(eps, 1e-8), 1.0);
   const double f = 1.0 - eps, gq = 1.0 / eps - 1.0;
   const Sym2 P = {f * Pb0 - gq * Q.xx, f * Pb1 - gq * Q.xy, f * Pb2 - gq * Q.yy};
@@ -290,7 +289,7 @@ ELLIPSIM_HD Curvature curvature(double kw, double ks, double cs, double sn, cons
 }
 
 // A lower bound of the chord of the cap of angle atan(t) (margins for sin, atan, rounding).
-ELLIPSIM_HD double chord(double t) { return 2.0 * std::sin(0.5 * std::atan(t)) * (1.0 - 1e-12) - 1e-14; }
+ELLIPSIM_HD double chord(double t) { return 2.0 * math::sin(0.5 * math::atan(t)) * (1.0 - 1e-12) - 1e-14; }
 
 }  // namespace branch_and_bound
 
@@ -322,7 +321,7 @@ struct Certified {
 ELLIPSIM_HD Certified certify_region(Vec3 m, const Vec3& e, const Vec3& a, const Mat3& U, const Vec3& b, double amax,
                                      double bmax, double S, double err_sigma, double tol) {
   using namespace branch_and_bound;
-  using std::fabs;
+  using math::fabs;
   const Region z21 = {};
   Vec3 t1, t2;
   PlaneTerms pt;
@@ -342,7 +341,7 @@ ELLIPSIM_HD Certified certify_region(Vec3 m, const Vec3& e, const Vec3& a, const
     need = pt.ghi * pt.ghi / (2.0 * tol_d);
     // weak and strong directions of H0
     const double h = 0.5 * (H.xx - H.yy);
-    const double root = std::sqrt(h * h + H.xy * H.xy);
+    const double root = math::sqrt(h * h + H.xy * H.xy);
     lw = 0.5 * (H.xx + H.yy) - root;
     ls = 0.5 * (H.xx + H.yy) + root;
     double v0 = H.xy, v1 = lw - H.xx;
@@ -353,7 +352,7 @@ ELLIPSIM_HD Certified certify_region(Vec3 m, const Vec3& e, const Vec3& a, const
     }
     const double vv = v0 * v0 + v1 * v1;
     if (vv > 0.0) {
-      const double iv = 1.0 / std::sqrt(vv);
+      const double iv = 1.0 / math::sqrt(vv);
       cs = v0 * iv;
       sn = v1 * iv;
     } else {
@@ -378,7 +377,7 @@ ELLIPSIM_HD Certified certify_region(Vec3 m, const Vec3& e, const Vec3& a, const
   // while the reach grows; any T that passes the test is valid, the search only affects the size of the region
   const double la2 = max2(sym2_max(A.G.xx, A.G.xy, A.G.yy), 1e-300);
   const double lb2 = max2(sym2_max(B.G.xx, B.G.xy, B.G.yy), 1e-300);
-  double T = min2(1.0, 8.0 * min2(A.hlo / std::sqrt(la2), B.hlo / std::sqrt(lb2)));
+  double T = min2(1.0, 8.0 * min2(A.hlo / math::sqrt(la2), B.hlo / math::sqrt(lb2)));
   double bestT = 0.0, best_reach = 0.0, best_pmin = 0.0;
   for (int k = 0; k < 64; ++k) {
     const Curvature c = curvature(T, T, cs, sn, A, B, eh);
@@ -436,14 +435,14 @@ ELLIPSIM_HD Certified certify_region(Vec3 m, const Vec3& e, const Vec3& a, const
                64.0 * U64 * kmax * kmax * (fabs(P.xx) + fabs(P.xy) + fabs(P.yy));
   double r_in = max2(kmin, (pmin * kmin - 2.0 * ghi) / Vp * (1.0 - 1e-14));
   if (muK > 0.0) {  // |x| <= r with |V'| r^2 + 2 |g| r <= mu_K
-    r_in = max2(r_in, (std::sqrt(ghi * ghi + Vp * muK) - ghi) / Vp * (1.0 - 1e-13));
+    r_in = max2(r_in, (math::sqrt(ghi * ghi + Vp * muK) - ghi) / Vp * (1.0 - 1e-13));
   } else {
     muK = 0.0;
   }
   const double pmax = sym2_max(P.xx, P.xy, P.yy);
   const double r_out = max2(kmax, pmax * kmax / Vp) * 1.01 + 1e-9;
   const double R_in = chord(r_in);
-  const double R_out = 2.0 * std::sin(0.5 * std::atan(r_out)) + 1e-9;
+  const double R_out = 2.0 * math::sin(0.5 * math::atan(r_out)) + 1e-9;
   if (R_in <= 0.0) return {false, m, s, z21};
   const double ik = 1.0 / kmin;
   const Region region = {{m.x,   m.y, m.z,  t1.x, t1.y, t1.z, t2.x, t2.y, t2.z,  Ki.xx, Ki.xy,
@@ -475,15 +474,15 @@ ELLIPSIM_HD bool in_region(const Vec3& c, double rho, const Region& region) {
   const double k0 = d[9] * x0 + d[10] * x1, k1 = d[10] * x0 + d[11] * x1;
   // |K^-1 x| to within 1e-9 relative: K^-1 is rounded (entries by 4 u / k_min, relative to the ellipse's short
   // axis 4 u k_max / k_min <= 1e-12 for the anisotropy <= 2^11 used)
-  const double thi = (std::sqrt(k0 * k0 + k1 * k1) * (1.0 + 1e-9) + rx * d[12]) * (1.0 + 1e-14);
+  const double thi = (math::sqrt(k0 * k0 + k1 * k1) * (1.0 + 1e-9) + rx * d[12]) * (1.0 + 1e-14);
   if (thi <= 1.0) return true;  // in the ellipse
-  const double X = (std::sqrt(xx) + rx) * (1.0 + 1e-14);
+  const double X = (math::sqrt(xx) + rx) * (1.0 + 1e-14);
   const double grow = (d[16] * X * X + 2.0 * d[17] * X) * (1.0 + 1e-13);
-  const double tlo = (std::sqrt(k0 * k0 + k1 * k1) * (1.0 - 1e-9) - rx * d[12]) * (1.0 - 1e-14);
+  const double tlo = (math::sqrt(k0 * k0 + k1 * k1) * (1.0 - 1e-9) - rx * d[12]) * (1.0 - 1e-14);
   if (grow <= d[21] * max2(1.0, tlo)) return true;  // every point of the disk outside the ellipse satisfies mu_K's
   const double lhs = thi * grow;
   const double p0 = d[13] * x0 + d[14] * x1, p1 = d[14] * x0 + d[15] * x1;
-  const double rhs = (x0 * p0 + x1 * p1) * (1.0 - 1e-13) - 2.0 * rx * std::sqrt(p0 * p0 + p1 * p1) * (1.0 + 1e-13);
+  const double rhs = (x0 * p0 + x1 * p1) * (1.0 - 1e-13) - 2.0 * rx * math::sqrt(p0 * p0 + p1 * p1) * (1.0 + 1e-13);
   return lhs <= rhs;
 }
 
@@ -578,10 +577,10 @@ struct HParts {
 // the h are even).
 ELLIPSIM_HD HParts h_parts(const Vec3& c, const Vec3& e, const Vec3& a, const Mat3& U, const Vec3& b) {
   const double x0 = a.x * c.x, x1 = a.y * c.y, x2 = a.z * c.z;
-  const double ha = std::sqrt(x0 * x0 + x1 * x1 + x2 * x2);
+  const double ha = math::sqrt(x0 * x0 + x1 * x1 + x2 * x2);
   const Vec3 w = rotate_t(U, c);
   const double y0 = b.x * w.x, y1 = b.y * w.y, y2 = b.z * w.z;
-  const double hb = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
+  const double hb = math::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
   const double ce = c.x * e.x + c.y * e.y + c.z * e.z;
   const double iab = 1.0 / (ha * hb);
   const double ia = hb * iab, ib = ha * iab;  // 1/h_A, 1/h_B with 2 roundings more than a division: counted
@@ -603,13 +602,13 @@ ELLIPSIM_HD bool test(const Vec3& c, double rho, double s, const Vec3& G, double
 // A quadtree position (face pair, level, i, j) and whether the subtree walk is done.
 struct Position {
   int fp, level;
-  std::int64_t i, j;
+  int64_t i, j;
   bool done;
 };
 
 // The next quadtree position after (fp, level, i, j) in depth-first order, skipping its subtree, within the
 // subtree of the node at level `root` (0: the whole face pair).
-ELLIPSIM_HD Position next(int fp, int level, std::int64_t i, std::int64_t j, int root) {
+ELLIPSIM_HD Position next(int fp, int level, int64_t i, int64_t j, int root) {
   while (level > root + 1 && (i & 1) == 1 && (j & 1) == 1) {
     level -= 1;
     i >>= 1;
@@ -627,7 +626,7 @@ struct GlobalMax {
   int status;
   Vec3 n;
   double value;
-  std::int64_t count;
+  int64_t count;
   int runs;
 };
 
@@ -641,12 +640,12 @@ struct GlobalMax {
 // share h_A, h_B and their gradients (one evaluation for two patches).  Which of the two is still undecided is
 // kept as 2 bits per level in one int64, so nothing is allocated.
 ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Vec3& e, const Vec3& a, const Mat3& U,
-                                 const Vec3& b, const Mat3& M, double scale, double tol, std::int64_t max_patches) {
+                                 const Vec3& b, const Mat3& M, double scale, double tol, int64_t max_patches) {
   using namespace branch_and_bound;
   (void)v0;
   const double amax = max3(a);
   const double bmax = max3(b);
-  const double S = std::sqrt(norm2(e)) + amax + bmax;
+  const double S = math::sqrt(norm2(e)) + amax + bmax;
   const double slack = PATCH_SLACK_ULPS * U64 * S;
   const double err_sigma = ERR_SIGMA_ULPS * U64 * S;
   Vec3 best_n = {1.0, 0.0, 0.0};
@@ -678,18 +677,18 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
     const double* r0 = regions[0].d;
     Q = {{r0[0], r0[3], r0[6], r0[1], r0[4], r0[7], r0[2], r0[5], r0[8]}};
   }
-  std::int64_t aside[MAX_ASIDE][5] = {};  // deferred subtrees: (face pair, level, i, j, sides)
+  int64_t aside[MAX_ASIDE][5] = {};  // deferred subtrees: (face pair, level, i, j, sides)
   int nu = 0, ai = 0;
   bool sub = false;
   int L0 = 0;  // in the main pass the subtrees are the face pairs (root level 0)
   int fp = 0, level = ROOT_LEVEL;
-  std::int64_t i = 0, j = 0;
-  std::int64_t alive = 0;  // bits 2L, 2L + 1: the patch (+) and its antipode (-) at level L were undecided
-  std::int64_t count = 0;
+  int64_t i = 0, j = 0;
+  int64_t alive = 0;  // bits 2L, 2L + 1: the patch (+) and its antipode (-) at level L were undecided
+  int64_t count = 0;
   // the last node split: its gradient parts (sigma(n) <= G_p.n for every n, Euler + concavity) pre-test its
   // children before their own evaluation (valid while no deeper node was split)
   int pf = -1, pl = -1;
-  std::int64_t pi = 0, pj = 0;
+  int64_t pi = 0, pj = 0;
   Vec3 pgs = {0.0, 0.0, 0.0};
   double peps = 0.0;
   const double dot_err = 4.0 * U64 * S;
@@ -703,15 +702,15 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
       return true;
     }
     if (ai >= nu) return false;
-    const std::int64_t* d = aside[ai];
+    const int64_t* d = aside[ai];
     fp = int(d[0]);
     level = int(d[1]);
     i = d[2];
     j = d[3];
-    const std::int64_t fl = d[4];
+    const int64_t fl = d[4];
     ai += 1;
     const int sh = 2 * (level - 1);
-    alive = (alive & ~(std::int64_t(3) << sh)) | (fl << sh);
+    alive = (alive & ~(int64_t(3) << sh)) | (fl << sh);
     sub = true;
     L0 = level;
     pl = -1;
@@ -720,7 +719,7 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
   while (true) {
     count += 1;
     if (count > max_patches) return {UNPROVEN, best_n, best, count, runs};
-    std::int64_t par = level == ROOT_LEVEL ? 3 : (alive >> (2 * (level - 1))) & 3;
+    int64_t par = level == ROOT_LEVEL ? 3 : (alive >> (2 * (level - 1))) & 3;
     const PatchPoint pp = patch_point(2 * fp, level, i, j, Q);
     const double inv = pp.inv, rho = pp.rho;
     const Vec3 c = {pp.p.x * inv, pp.p.y * inv, pp.p.z * inv};
@@ -736,7 +735,7 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
             cs = {-c.x, -c.y, -c.z};
             G = {e.x + pgs.x, e.y + pgs.y, e.z + pgs.z};
           }
-          if (test(cs, rho, G.x * cs.x + G.y * cs.y + G.z * cs.z, G, peps, lvp)) par &= ~(std::int64_t(1) << side);
+          if (test(cs, rho, G.x * cs.x + G.y * cs.y + G.z * cs.z, G, peps, lvp)) par &= ~(int64_t(1) << side);
         }
       }
       if (par == 0) {
@@ -753,7 +752,7 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
     const double ce = hp.ce * inv, ha = hp.ha * inv, hb = hp.hb * inv;
     const Vec3& gs = hp.gs;
     const double epsg = U64 * (32.0 * (S + bmax * bmax * hp.ib * pp.pc * 1.01) + 16.0 * S);
-    std::int64_t flags = 0;
+    int64_t flags = 0;
     for (int side = 0; side < 2; ++side) {
       if (!((par >> side) & 1)) continue;
       Vec3 cs, G;
@@ -792,7 +791,7 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
           if (kd >= 0) {
             const double* d = regions[kd].d;
             const double dx = cs.x - d[0], dy = cs.y - d[1], dz = cs.z - d[2];
-            widen(regions, kd, std::sqrt(dx * dx + dy * dy + dz * dz) + rho);
+            widen(regions, kd, math::sqrt(dx * dx + dy * dy + dz * dz) + rho);
           } else {
             const Certified cr = certify_region_call(cl.m, e, a, U, b, amax, bmax, S, err_sigma, tol);
             if (cr.value > best) {
@@ -808,7 +807,7 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
         }
         if (!done) done = test(cs, rho, s, G, epsg, best + tol - slack);
       }
-      if (!done) flags |= std::int64_t(1) << side;
+      if (!done) flags |= int64_t(1) << side;
     }
     if (flags != 0 && !sub && level >= DEFER_LEVEL && nu < MAX_ASIDE) {
       // undecided this deep in the main pass (typically a ridge or saddle as high as a poor incumbent): defer
@@ -840,7 +839,7 @@ ELLIPSIM_HD GlobalMax global_max(const Vec3& n0, double v0, bool have0, const Ve
       return {UNPROVEN, best_n, best, count, runs};
     } else {
       const int sh = 2 * level;
-      alive = (alive & ~(std::int64_t(3) << sh)) | (flags << sh);
+      alive = (alive & ~(int64_t(3) << sh)) | (flags << sh);
       pf = fp;
       pl = level;
       pi = i;

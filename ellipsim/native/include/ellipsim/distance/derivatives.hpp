@@ -20,8 +20,7 @@
 // on the sphere (at most DERIV_POLISH_STEPS steps, kept only when sigma does not drop by more than rounding).
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -58,7 +57,7 @@ struct Support {
 ELLIPSIM_HD Support support(const Mat3& R, const Vec3& r, const Vec3& n) {
   const Vec3 z = rotate_t(R, n);
   const Vec3 x = {r.x * z.x, r.y * z.y, r.z * z.z};
-  const double h = std::sqrt(norm2(x));
+  const double h = math::sqrt(norm2(x));
   const Vec3 g = matvec(R, {r.x * x.x / h, r.y * x.y / h, r.z * x.z / h});
   return {h, g, z};
 }
@@ -74,9 +73,9 @@ ELLIPSIM_HD Mat3 hess(const Mat3& R, const Vec3& r, const Vec3& g, double h) {
 
 // An orthonormal basis (t1, t2) of the plane normal to the unit n.
 ELLIPSIM_HD TangentBasis tangent(const Vec3& n) {
-  const Vec3 v = std::fabs(n.x) < 0.6 ? Vec3{0.0, -n.z, n.y}   // e_x x n
+  const Vec3 v = math::fabs(n.x) < 0.6 ? Vec3{0.0, -n.z, n.y}   // e_x x n
                                       : Vec3{n.z, 0.0, -n.x};  // e_y x n
-  const double s = 1.0 / std::sqrt(norm2(v));
+  const double s = 1.0 / math::sqrt(norm2(v));
   const Vec3 t1 = {v.x * s, v.y * s, v.z * s};
   return {t1, {n.y * t1.z - n.z * t1.y, n.z * t1.x - n.x * t1.z, n.x * t1.y - n.y * t1.x}};
 }
@@ -124,7 +123,7 @@ ELLIPSIM_HD Local local(const Vec3& n, const Vec3& d, const Mat3& Ra, const Vec3
 // The larger eigenvalue of the symmetric 2x2 (h11, h12, h22).
 ELLIPSIM_HD double top_eigenvalue(const Reduced& H) {
   const double m = 0.5 * (H.h11 + H.h22), q = 0.5 * (H.h11 - H.h22);
-  return m + std::sqrt(q * q + H.h12 * H.h12);
+  return m + math::sqrt(q * q + H.h12 * H.h12);
 }
 
 // NaN into one pair's rows: grad (18), jn and jp (3 x 18, row-major).
@@ -157,7 +156,7 @@ ELLIPSIM_HD int pair_derivatives(const Ellipsoid& A, const Ellipsoid& B, const V
   const double u = unit_scale(A.r, B.r);
   const Vec3 ra = scaled(A.r, u), rb = scaled(B.r, u);
   const Vec3 d = {(cb.x - ca.x) * u, (cb.y - ca.y) * u, (cb.z - ca.z) * u};
-  const double S = std::sqrt(norm2(d)) + max3(ra) + max3(rb);
+  const double S = math::sqrt(norm2(d)) + max3(ra) + max3(rb);
   Vec3 n = normal;
   Local L = local(n, d, Ra, ra, Rb, rb);
   for (int it = 0; it < tol::DERIV_POLISH_STEPS; ++it) {  // Newton on the sphere (the header's comment)
@@ -167,7 +166,7 @@ ELLIPSIM_HD int pair_derivatives(const Ellipsoid& A, const Ellipsoid& B, const V
     const double det = H.h11 * H.h22 - H.h12 * H.h12;
     const double a1 = -(H.h22 * r1 - H.h12 * r2) / det, a2 = -(H.h11 * r2 - H.h12 * r1) / det;
     Vec3 m = {n.x + a1 * L.t1.x + a2 * L.t2.x, n.y + a1 * L.t1.y + a2 * L.t2.y, n.z + a1 * L.t1.z + a2 * L.t2.z};
-    const double k = 1.0 / std::sqrt(norm2(m));
+    const double k = 1.0 / math::sqrt(norm2(m));
     m = {m.x * k, m.y * k, m.z * k};
     const Local next = local(m, d, Ra, ra, Rb, rb);
     if (next.s < L.s - tol::DERIV_POLISH_SLACK_ULPS * tol::U * S) break;

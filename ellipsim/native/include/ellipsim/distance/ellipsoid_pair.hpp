@@ -23,8 +23,7 @@
 // budget runs out (two spheroids at any angle then get tilted_max as a second chance).
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -123,7 +122,7 @@ struct DeepTolerance {
 ELLIPSIM_HD DeepTolerance deep_tolerance(const Vec3& e, const Mat3& Ra, const Vec3& ra, const Vec3& rb) {
   constexpr double U = tol::U;
   const double rmin = min2(min2(min2(min2(min2(ra.x, ra.y), ra.z), rb.x), rb.y), rb.z);
-  const double S = std::sqrt(norm2(e)) + max3(ra) + max3(rb);
+  const double S = math::sqrt(norm2(e)) + max3(ra) + max3(rb);
   const double delta = rotation_defect(Ra) + 4.0 * U;
   const double tol = max2(tol::BB_TOL_REL * rmin, (tol::BB_TOL_ULPS * U + 6.0 * delta) * S);
   return {rmin, S, delta, tol - (tol::BB_FRAME_ULPS * U + 6.0 * delta) * S};
@@ -145,7 +144,7 @@ struct PairDistance {
   int status;
   double dist;
   Vec3 normal, pos;
-  std::int64_t work;
+  int64_t work;
 };
 
 namespace ellipsoid_pair {
@@ -154,14 +153,14 @@ namespace ellipsoid_pair {
 // sigma(n); the contact point the midpoint of the support points (pair_signed_distance).
 ELLIPSIM_HD PairDistance contact_at(const Vec3& ca, const Mat3& Ra, const Vec3& ra, const Vec3& rb, const Vec3& e,
                                     const Mat3& Ub, const Vec3& n, double u, double value, bool recompute, int status,
-                                    std::int64_t steps) {
+                                    int64_t steps) {
   // h_A, h_B at n through U (as branch_and_bound's sigma_only: errs by <= 11 u S, where through
   // M = U diag(b^2) U^T it errs by ~u max b^2 / h_B, beyond 1e-12 r_min for 100:1 ellipsoids) ...
   const Vec3 x = {ra.x * n.x, ra.y * n.y, ra.z * n.z};
   const Vec3 w = rotate_t(Ub, n);
   const Vec3 y = {rb.x * w.x, rb.y * w.y, rb.z * w.z};
-  const double ha = std::sqrt(x.x * x.x + x.y * x.y + x.z * x.z);
-  const double hb = std::sqrt(y.x * y.x + y.y * y.y + y.z * y.z);
+  const double ha = math::sqrt(x.x * x.x + x.y * x.y + x.z * x.z);
+  const double hb = math::sqrt(y.x * y.x + y.y * y.y + y.z * y.z);
   if (recompute) value = n.x * e.x + n.y * e.y + n.z * e.z - ha - hb;  // sigma at Newton's maximiser
   // ... and the support points grad h_A(n) = diag(a) x / h_A, grad h_B(n) = U diag(b) y / h_B, in A's frame,
   // their midpoint with B's taken from its centre e, then world
@@ -177,7 +176,7 @@ ELLIPSIM_HD PairDistance contact_at(const Vec3& ca, const Mat3& Ra, const Vec3& 
 }
 
 // The narrow phase of one pair, its first Newton run started at `seed` (pair_signed_distance_from).
-ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, std::int64_t max_iter, const Vec3& seed) {
+ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t max_iter, const Vec3& seed) {
   const Vec3 &ca = A.c, &cb = B.c;
   const Mat3 &Ra = A.R, &Rb = B.R;
   // the pair in units of unit_scale (1.0 unless a semi-axis is beyond 2^+-50): A at the origin
@@ -198,11 +197,11 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, std::int64
     start = bisector_seed(e, a2, Ub, rb2);
   }
   const NewtonResult first =
-      newton(start, e, a2, M, scale, -INFINITY, int(min2(max_iter, std::int64_t(tol::FIRST_RUN_ITER))));
+      newton(start, e, a2, M, scale, -INFINITY, int(min2(max_iter, int64_t(tol::FIRST_RUN_ITER))));
   Vec3 n = first.n;
   double value = first.value;
   const int run = first.status;
-  std::int64_t steps = first.steps;
+  int64_t steps = first.steps;
   int status = GLOBAL;
   const bool spheres = ra.x == ra.y && ra.y == ra.z && rb.x == rb.y && rb.y == rb.z;
   const bool shallow = run == CONVERGED && (value >= -rho || spheres);
@@ -225,7 +224,7 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, std::int64
     const double S = dt.S, tol_bb = dt.tol_bb;
     const SpheroidMax ps = parallel_spheroids(d, Ra, ra, Rb, rb, e, Ub, tol_bb, S, dt.rmin);
     const Vec3& nc = ps.n;
-    std::int64_t count = ps.nodes;
+    int64_t count = ps.nodes;
     if (ps.proven) {
       n = nc;
       value = sigma_only(n, e, ra, Ub, rb);
@@ -285,7 +284,7 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, std::int64
 // position).  status: GLOBAL or UNPROVEN (the header's comment).  work: Newton steps of the first run plus
 // branch-and-bound nodes.
 ELLIPSIM_HD PairDistance pair_signed_distance(const Ellipsoid& A, const Ellipsoid& B,
-                                              std::int64_t max_iter = tol::NEWTON_MAX_ITER) {
+                                              int64_t max_iter = tol::NEWTON_MAX_ITER) {
   return ellipsoid_pair::pair(A, B, max_iter, {0.0, 0.0, 0.0});
 }
 
@@ -331,18 +330,18 @@ ELLIPSIM_HD double sigma_lower_bound(const Ellipsoid& A, const Ellipsoid& B, con
   const Vec3 &ca = A.c, &cb = B.c, &ra = A.r, &rb = B.r;
   const double nn = norm2(n);
   if (!(1e-6 < nn && nn < 1e6)) return -INFINITY;
-  const double s = 1.0 / std::sqrt(nn);
+  const double s = 1.0 / math::sqrt(nn);
   const Vec3 m = {n.x * s, n.y * s, n.z * s};
   const Vec3 d = {cb.x - ca.x, cb.y - ca.y, cb.z - ca.z};
   const double amax = max3(ra), bmax = max3(rb);
-  const double S = std::fabs(d.x) + std::fabs(d.y) + std::fabs(d.z) + amax + bmax;
+  const double S = math::fabs(d.x) + math::fabs(d.y) + math::fabs(d.z) + amax + bmax;
   const double lo = min2(min2(min2(min2(min2(ra.x, ra.y), ra.z), rb.x), rb.y), rb.z);
   if (!(lo >= tol::WARM_SCALE_MIN && S <= tol::WARM_SCALE_MAX)) return -INFINITY;
   const Vec3 za = rotate_t(A.R, m), zb = rotate_t(B.R, m);
   const double x0 = ra.x * za.x, x1 = ra.y * za.y, x2 = ra.z * za.z;
   const double y0 = rb.x * zb.x, y1 = rb.y * zb.y, y2 = rb.z * zb.z;
-  const double v = m.x * d.x + m.y * d.y + m.z * d.z - std::sqrt(x0 * x0 + x1 * x1 + x2 * x2) -
-                   std::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
+  const double v = m.x * d.x + m.y * d.y + m.z * d.z - math::sqrt(x0 * x0 + x1 * x1 + x2 * x2) -
+                   math::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
   return v - tol::WARM_SIGMA_SLACK_ULPS * tol::U * S;
 }
 

@@ -13,7 +13,7 @@
 // Accuracy and Stability of Numerical Algorithms, 2nd ed., Thm 10.3 and 8.5).
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -51,7 +51,7 @@ ELLIPSIM_HD double lambda_min2(double z00, double z01, double z10, double z11) {
   const double f = z00 * z00 + z01 * z01 + z10 * z10 + z11 * z11;
   const double d = z00 * z11 - z01 * z10;
   const double r = f * f - 4.0 * d * d;
-  return f > 0.0 ? 2.0 * d * d / (f + std::sqrt(max2(r, 0.0))) : 0.0;
+  return f > 0.0 ? 2.0 * d * d / (f + math::sqrt(max2(r, 0.0))) : 0.0;
 }
 
 }  // namespace inner_sum
@@ -62,13 +62,13 @@ ELLIPSIM_HD double lambda_min2(double z00, double z01, double z10, double z11) {
 ELLIPSIM_HD double inner_sum_bound(const Vec3& n, const Vec3& e, const Vec3& a, const Mat3& Ub, const Vec3& b,
                                    double value) {
   using inner_sum::dot;
-  using std::fabs;
+  using math::fabs;
   constexpr double U = tol::U;
   if (!(value < 0.0)) return INFINITY;
   const Vec3 ua = {a.x * n.x, a.y * n.y, a.z * n.z};
   const Vec3 w = rotate_t(Ub, n);
   const Vec3 ub_ = {b.x * w.x, b.y * w.y, b.z * w.z};
-  const double ha = std::sqrt(dot(ua, ua)), hb = std::sqrt(dot(ub_, ub_));
+  const double ha = math::sqrt(dot(ua, ua)), hb = math::sqrt(dot(ub_, ub_));
   if (!(ha > 0.0 && hb > 0.0)) return INFINITY;
   const Vec3 ah = {ua.x / ha, ua.y / ha, ua.z / ha};
   const Vec3 bh = {ub_.x / hb, ub_.y / hb, ub_.z / hb};
@@ -114,7 +114,7 @@ ELLIPSIM_HD double inner_sum_bound(const Vec3& n, const Vec3& e, const Vec3& a, 
       defect += g * g;
     }
   }
-  const double eta = std::sqrt(defect) + 12.0 * U;
+  const double eta = math::sqrt(defect) + 12.0 * U;
   const double amax = max3(a), bmax = max3(b);
   // X = S diag(a) + diag(b) Ub^T: X_ij = S_ij a_j + b_i Ub_ji
   const double* u = Ub.m;
@@ -131,22 +131,22 @@ ELLIPSIM_HD double inner_sum_bound(const Vec3& n, const Vec3& e, const Vec3& a, 
   const double xf2 = dot(xc0, xc0) + dot(xc1, xc1) + dot(xc2, xc2);
   // Cholesky K = L L^T
   if (!(k00 > 0.0)) return INFINITY;
-  const double l00 = std::sqrt(k00);
+  const double l00 = math::sqrt(k00);
   const double l10 = k10 / l00, l20 = k20 / l00;
   double r = k11 - l10 * l10;
   if (!(r > 0.0)) return INFINITY;
-  const double l11 = std::sqrt(r);
+  const double l11 = math::sqrt(r);
   const double l21 = (k21 - l20 * l10) / l11;
   r = k22 - l20 * l20 - l21 * l21;
   if (!(r > 0.0)) return INFINITY;
-  const double l22 = std::sqrt(r);
+  const double l22 = math::sqrt(r);
   const double lf2 = l00 * l00 + l10 * l10 + l20 * l20 + l11 * l11 + l21 * l21 + l22 * l22;
   // |L^-1|_F from the explicit inverse, each entry taken outwards
   const double i00 = 1.0 / l00, i11 = 1.0 / l11, i22 = 1.0 / l22;
   const double i10 = fabs(l10) / (l00 * l11);
   const double i21 = fabs(l21) / (l11 * l22);
   const double i20 = (fabs(l10 * l21 - l11 * l20) + 4.0 * U * (fabs(l10 * l21) + fabs(l11 * l20))) / (l00 * l11 * l22);
-  const double N = std::sqrt(i00 * i00 + i11 * i11 + i22 * i22 + i10 * i10 + i21 * i21 + i20 * i20) * (1.0 + 16.0 * U);
+  const double N = math::sqrt(i00 * i00 + i11 * i11 + i22 * i22 + i10 * i10 + i21 * i21 + i20 * i20) * (1.0 + 16.0 * U);
   const double lam_lo = (1.0 - 4.0 * U) / (N * N);
   // |E| <= gamma_4 |L|_F^2 (factor) + gamma_4 |X|_F^2 + u (|diag K| + |t|) (forming K)
   const double epsk = 4.1 * U * (lf2 + xf2) + 2.0 * U * (fabs(k00) + fabs(k11) + fabs(k22) + 3.0 * fabs(t));
@@ -189,7 +189,7 @@ ELLIPSIM_HD double inner_sum_bound(const Vec3& n, const Vec3& e, const Vec3& a, 
   const double v = (body + (re0 * re0 + re1 * re1 + re2 * re2) * (1.0 + 4.0 * U) / lam) * (1.0 + 2.0 * U);
   if (!(v < 1.0)) return INFINITY;
   const double g = -t * ((1.0 - v) * (1.0 - 2.0 * U)) * (1.0 - 2.0 * U);
-  return -std::sqrt(g) * (1.0 - 2.0 * U) + eps1 * (1.0 + 2.0 * U);
+  return -math::sqrt(g) * (1.0 - 2.0 * U) + eps1 * (1.0 + 2.0 * U);
 }
 
 }  // namespace ellipsim::distance

@@ -6,7 +6,7 @@
 // patch (level, i, j): ((1 << 2 level) - 4) / 3 + (i << level) + j.
 #pragma once
 
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../config.hpp"
 
@@ -299,7 +299,7 @@ static __device__ const double RHO_TABLE_DEVICE[RHO_TABLE_SIZE] = {ELLIPSIM_RHO_
 #endif
 
 // RHO_TABLE[k].
-ELLIPSIM_HD double rho_table(std::int64_t k) {
+ELLIPSIM_HD double rho_table(int64_t k) {
 #if defined(__CUDA_ARCH__)
   return RHO_TABLE_DEVICE[k];
 #else

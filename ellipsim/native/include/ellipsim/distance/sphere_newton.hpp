@@ -6,7 +6,7 @@
 // distance (ellipsoid_pair.hpp), and a local maximum found here is proven global there.
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -48,18 +48,18 @@ ELLIPSIM_HD AFrame a_frame(const Ellipsoid& A, const Ellipsoid& B) {
 
 // sigma(n) for any nonzero n, scaled to unit length.
 ELLIPSIM_HD double sigma(const Vec3& n, const Vec3& e, const Vec3& a2, const Mat3& M) {
-  const double s = 1.0 / std::sqrt(norm2(n));
+  const double s = 1.0 / math::sqrt(norm2(n));
   const Vec3 u = {n.x * s, n.y * s, n.z * s};
-  const double ha = std::sqrt(a2.x * u.x * u.x + a2.y * u.y * u.y + a2.z * u.z * u.z);
+  const double ha = math::sqrt(a2.x * u.x * u.x + a2.y * u.y * u.y + a2.z * u.z * u.z);
   const Vec3 mu = matvec(M, u);
-  const double hb = std::sqrt(u.x * mu.x + u.y * mu.y + u.z * mu.z);
+  const double hb = math::sqrt(u.x * mu.x + u.y * mu.y + u.z * mu.z);
   return u.x * e.x + u.y * e.y + u.z * e.z - ha - hb;
 }
 
 ELLIPSIM_HD Vec3 unit(const Vec3& v) {
   double s = norm2(v);
   if (s == 0.0) return {1.0, 0.0, 0.0};
-  s = 1.0 / std::sqrt(s);
+  s = 1.0 / math::sqrt(s);
   return {v.x * s, v.y * s, v.z * s};
 }
 
@@ -69,9 +69,9 @@ struct TangentBasis {
 };
 
 ELLIPSIM_HD TangentBasis tangent_basis(const Vec3& n) {
-  const Vec3 t = std::fabs(n.x) < 0.6 ? Vec3{0.0, n.z, -n.y}   // e_x x n
+  const Vec3 t = math::fabs(n.x) < 0.6 ? Vec3{0.0, n.z, -n.y}   // e_x x n
                                       : Vec3{-n.z, 0.0, n.x};  // e_y x n
-  const double s = 1.0 / std::sqrt(norm2(t));
+  const double s = 1.0 / math::sqrt(norm2(t));
   const Vec3 t1 = {t.x * s, t.y * s, t.z * s};
   return {t1, {n.y * t1.z - n.z * t1.y, n.z * t1.x - n.x * t1.z, n.x * t1.y - n.y * t1.x}};
 }
@@ -95,8 +95,8 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
   for (int it = 0; it < max_iter; ++it) {
     const Vec3 a = {a2.x * n.x, a2.y * n.y, a2.z * n.z};
     const Vec3 b = matvec(M, n);
-    const double ha = std::sqrt(a.x * n.x + a.y * n.y + a.z * n.z);
-    const double hb = std::sqrt(b.x * n.x + b.y * n.y + b.z * n.z);
+    const double ha = math::sqrt(a.x * n.x + a.y * n.y + a.z * n.z);
+    const double hb = math::sqrt(b.x * n.x + b.y * n.y + b.z * n.z);
     const double inv = 1.0 / (ha * hb);
     const double ia = hb * inv, ib = ha * inv;
     value = n.x * e.x + n.y * e.y + n.z * e.z - ha - hb;
@@ -126,7 +126,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
       if (value - 0.5 * gg * (h11 + h22) / det < target) return {n, value, ABANDONED, it + 1};
     } else {
       const double hd = h11 - h22;
-      const double top = 0.5 * (h11 + h22) + std::sqrt(0.25 * (hd * hd) + h12 * h12);
+      const double top = 0.5 * (h11 + h22) + math::sqrt(0.25 * (hd * hd) + h12 * h12);
       const double flat = 1e-14 * scale;
       if (gg <= flat * flat && top <= 1e-10 * scale)
         return {n, value, CONVERGED, it + 1};  // a flat maximum (concentric spheres): any n is optimal
@@ -143,7 +143,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
           v1 = h11 >= h22 ? 1.0 : 0.0;
           v2 = h11 >= h22 ? 0.0 : 1.0;
         }
-        const double vs = 0.3 / std::sqrt(v1 * v1 + v2 * v2);
+        const double vs = 0.3 / math::sqrt(v1 * v1 + v2 * v2);
         v1 = v1 * vs;
         v2 = v2 * vs;
         const Vec3 p = {n.x + v1 * t1.x + v2 * t2.x, n.y + v1 * t1.y + v2 * t2.y, n.z + v1 * t1.z + v2 * t2.z};
@@ -151,7 +151,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
         n = sigma(p, e, a2, M) >= sigma(q, e, a2, M) ? unit(p) : unit(q);
         continue;
       }
-      shift = max2(top, 0.0) + 1e-3 * scale + std::sqrt(gg);
+      shift = max2(top, 0.0) + 1e-3 * scale + math::sqrt(gg);
       h11 = h11 - shift;
       h22 = h22 - shift;
       det = h11 * h22 - h12 * h12;
@@ -161,7 +161,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
     double x2 = -(h11 * g2 - h12 * g1) * idet;
     double step2 = x1 * x1 + x2 * x2;
     if (step2 > 0.25) {
-      const double f = 0.5 / std::sqrt(step2);
+      const double f = 0.5 / math::sqrt(step2);
       x1 = x1 * f;
       x2 = x2 * f;
       step2 = 0.25;
@@ -176,7 +176,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
         m = {n.x + x1 * t1.x + x2 * t2.x, n.y + x1 * t1.y + x2 * t2.y, n.z + x1 * t1.z + x2 * t2.z};
       }
     }
-    const double s = 1.0 / std::sqrt(1.0 + step2);  // |n + x|^2 = 1 + |x|^2: x is tangent, n unit
+    const double s = 1.0 / math::sqrt(1.0 + step2);  // |n + x|^2 = 1 + |x|^2: x is tangent, n unit
     n = {m.x * s, m.y * s, m.z * s};
     if (step2 <= tol::NEWTON_STEP_TOL * tol::NEWTON_STEP_TOL && shift == 0.0) return {n, value, CONVERGED, it + 1};
   }
@@ -190,7 +190,7 @@ ELLIPSIM_HD Vec3 bisector_seed(const Vec3& e, const Vec3& a2, const Mat3& U, con
   const Vec3 na = {e.x * a2.y * a2.z, e.y * a2.x * a2.z, e.z * a2.x * a2.y};
   const Vec3 z = rotate_t(U, e);  // in B's axes
   const Vec3 nb = matvec(U, {z.x * rb2.y * rb2.z, z.y * rb2.x * rb2.z, z.z * rb2.x * rb2.y});
-  const double la = std::sqrt(norm2(na)), lb = std::sqrt(norm2(nb));
+  const double la = math::sqrt(norm2(na)), lb = math::sqrt(norm2(nb));
   return unit({na.x * lb + nb.x * la, na.y * lb + nb.y * la, na.z * lb + nb.z * la});
 }
 

@@ -15,8 +15,7 @@
 // the second partials bounded in midpoint-radius (ball) interval arithmetic.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -54,7 +53,7 @@ ELLIPSIM_HD double at(const Vec3& v, int k) {
 ELLIPSIM_HD double at(const Mat3& M, int k) { return M.m[k < 0 ? k + 9 : k]; }
 
 // 2^-L for 0 <= L <= 62, exactly (numba's float ** int: 1 / 2^L by repeated squaring, exact for a power of two).
-ELLIPSIM_HD double pow2_neg(int L) { return 1.0 / double(std::int64_t(1) << L); }
+ELLIPSIM_HD double pow2_neg(int L) { return 1.0 / double(int64_t(1) << L); }
 
 // (g(z, r), G = grad g, h_A, h_B).
 struct GGrad {
@@ -62,8 +61,8 @@ struct GGrad {
 };
 
 ELLIPSIM_HD GGrad g_grad(double z, double r, double ek, double ep, double qa2, double pa2, double qb2, double pb2) {
-  const double ha = std::sqrt(qa2 * z * z + pa2 * r * r);
-  const double hb = std::sqrt(qb2 * z * z + pb2 * r * r);
+  const double ha = math::sqrt(qa2 * z * z + pa2 * r * r);
+  const double hb = math::sqrt(qb2 * z * z + pb2 * r * r);
   const double ia = 1.0 / ha, ib = 1.0 / hb;
   return {ek * z + ep * r - ha - hb, ek - qa2 * z * ia - qb2 * z * ib, ep - pa2 * r * ia - pb2 * r * ib, ha, hb};
 }
@@ -71,7 +70,7 @@ ELLIPSIM_HD GGrad g_grad(double z, double r, double ek, double ep, double qa2, d
 // g <= lv on the arc |n - c| <= rho around the unit c = (z, r): branch_and_bound's test in 2-D.
 ELLIPSIM_HD bool arc_test(double z, double r, double rho, double g, double G0, double G1, double epsg, double lv) {
   const double gc = G0 * z + G1 * r;
-  const double gt = std::fabs(G1 * z - G0 * r);  // |G - (G.c) c|
+  const double gt = math::fabs(G1 * z - G0 * r);  // |G - (G.c) c|
   return g + (gt + epsg) * rho + max2(-gc, 0.0) * rho * rho * 0.5000000000001 <= lv;
 }
 
@@ -85,7 +84,7 @@ ELLIPSIM_HD AxisOf axis_of(const Vec3& r) {
   double best = INFINITY;
   int kb = 0;
   for (int k = 0; k < 3; ++k) {
-    const double d = std::fabs(at(r, (k + 1) % 3) - at(r, (k + 2) % 3));
+    const double d = math::fabs(at(r, (k + 1) % 3) - at(r, (k + 2) % 3));
     if (d < best) {
       best = d;
       kb = k;
@@ -103,7 +102,7 @@ struct Delta {
 // B's axis nearest to A's axis k and the bound delta = delta0 + tilt of spheroids.py's docstring (upwards; tilt
 // its term in eps), with A's and B's semi-axes across their axes taken as their means.
 ELLIPSIM_HD Delta delta(const Vec3& e, const Vec3& a, const Mat3& U, const Vec3& b, int k, double S) {
-  using std::fabs;
+  using math::fabs;
   (void)e;
   const double dbb = axis_of(b).half;
   int j = -1;
@@ -120,7 +119,7 @@ ELLIPSIM_HD Delta delta(const Vec3& e, const Vec3& a, const Mat3& U, const Vec3&
   const double ujk = at(U, 3 * k + j);
   const double s = ujk >= 0.0 ? 1.0 : -1.0;
   const double uk1 = at(U, 3 * k1 + j), uk2 = at(U, 3 * k2 + j);
-  const double eps = std::sqrt(uk1 * uk1 + uk2 * uk2 + (ujk - s) * (ujk - s));
+  const double eps = math::sqrt(uk1 * uk1 + uk2 * uk2 + (ujk - s) * (ujk - s));
   double dfu = 0.0;
   for (int p = 0; p < 3; ++p) {
     for (int q = p; q < 3; ++q) {
@@ -143,7 +142,7 @@ ELLIPSIM_HD Delta delta(const Vec3& e, const Vec3& a, const Mat3& U, const Vec3&
 struct SpheroidMax {
   bool proven;
   Vec3 n;
-  std::int64_t nodes;
+  int64_t nodes;
 };
 
 // The proven maximum of sigma(n) = n.e - |diag(a) n| - |diag(b) U^T n| on the unit sphere for two spheroids with
@@ -169,14 +168,14 @@ ELLIPSIM_HD SpheroidMax parallel_max(const Vec3& e, const Vec3& a, const Mat3& U
   const double tol1 = tol - 2.0 * dlt - (ERR_G_ULPS + tol::BB_ERR_SIGMA_ULPS) * U64 * S;
   const bool provable = tol1 >= (ARC_SLACK_ULPS + 4.0) * U64 * S;
   if (!provable && !(eps <= CANDIDATE_TILT && dlt <= CANDIDATE_TILT * S)) return none;
-  const double ek = at(e, k), ep = std::sqrt(at(e, k1) * at(e, k1) + at(e, k2) * at(e, k2));
+  const double ek = at(e, k), ep = math::sqrt(at(e, k1) * at(e, k1) + at(e, k2) * at(e, k2));
   const double qa2 = qa * qa, pa2 = pa * pa, qb2 = qb * qb, pb2 = pb * pb;
   // incumbent: the best of 33 angles, polished by Newton in t (only a start: the branch and bound proves
   // whatever it ends with)
   double best = -INFINITY, bt = 0.0;
   for (int i = 0; i < 33; ++i) {
     const double t = PI * double(i) / 32.0;
-    const double g = g_grad(std::cos(t), std::sin(t), ek, ep, qa2, pa2, qb2, pb2).g;
+    const double g = g_grad(math::cos(t), math::sin(t), ek, ep, qa2, pa2, qb2, pb2).g;
     if (g > best) {
       best = g;
       bt = t;
@@ -184,12 +183,12 @@ ELLIPSIM_HD SpheroidMax parallel_max(const Vec3& e, const Vec3& a, const Mat3& U
   }
   double t = bt;
   for (int it = 0; it < 30; ++it) {
-    const double z = std::cos(t), r = std::sin(t);
+    const double z = math::cos(t), r = math::sin(t);
     const GGrad gg = g_grad(z, r, ek, ep, qa2, pa2, qb2, pb2);
     const double ha = gg.ha, hb = gg.hb;
     // g(t) = ek cos t + ep sin t - sqrt(alpha) - sqrt(beta), alpha = pa2 + (qa2 - pa2) cos^2 t
     const double d1 = gg.G1 * z - gg.G0 * r;
-    const double s2 = std::sin(2.0 * t), c2 = std::cos(2.0 * t);
+    const double s2 = math::sin(2.0 * t), c2 = math::cos(2.0 * t);
     const double al1 = -(qa2 - pa2) * s2, be1 = -(qb2 - pb2) * s2;
     const double al2 = -2.0 * (qa2 - pa2) * c2, be2 = -2.0 * (qb2 - pb2) * c2;
     double d2 = -ek * z - ep * r - (al2 / (2.0 * ha) - al1 * al1 / (4.0 * ha * ha * ha));
@@ -200,7 +199,7 @@ ELLIPSIM_HD SpheroidMax parallel_max(const Vec3& e, const Vec3& a, const Mat3& U
     double tn = 0.0, gn = 0.0;
     for (int back = 0; back < 40; ++back) {  // backtracking: a full Newton step may overshoot a sharp peak
       tn = min2(PI, max2(0.0, t + step));
-      gn = g_grad(std::cos(tn), std::sin(tn), ek, ep, qa2, pa2, qb2, pb2).g;
+      gn = g_grad(math::cos(tn), math::sin(tn), ek, ep, qa2, pa2, qb2, pb2).g;
       if (gn >= best) {
         gained = true;
         break;
@@ -211,18 +210,18 @@ ELLIPSIM_HD SpheroidMax parallel_max(const Vec3& e, const Vec3& a, const Mat3& U
     best = gn;
     bt = tn;
     t = tn;
-    if (std::fabs(step) < 1e-15) break;
+    if (math::fabs(step) < 1e-15) break;
   }
   // the branch and bound over the arcs (level L, index i) of [0, pi], depth first, no allocation
-  std::int64_t nodes = 0;
+  int64_t nodes = 0;
   int L = 1;
-  std::int64_t i = 0;
+  int64_t i = 0;
   while (provable) {
     nodes += 1;
     if (nodes > tol::COAXIAL_MAX_NODES) return none;
     const double w = PI * pow2_neg(L);
     const double tc = w * (double(i) + 0.5);
-    const double z = std::cos(tc), r = std::sin(tc);
+    const double z = math::cos(tc), r = math::sin(tc);
     const GGrad gg = g_grad(z, r, ek, ep, qa2, pa2, qb2, pb2);
     if (gg.g > best) {
       best = gg.g;
@@ -244,7 +243,7 @@ ELLIPSIM_HD SpheroidMax parallel_max(const Vec3& e, const Vec3& a, const Mat3& U
       i *= 2;
     }
   }
-  const double z = std::cos(bt), r = std::sin(bt);
+  const double z = math::cos(bt), r = math::sin(bt);
   double u1 = 1.0, u2 = 0.0;
   if (ep > 0.0) {
     u1 = at(e, k1) / ep;
@@ -279,14 +278,14 @@ struct Ball {
 
 // Ball product, the rounding of the midpoint added to the radius.
 ELLIPSIM_HD Ball bm(const Ball& x, const Ball& y) {
-  using std::fabs;
+  using math::fabs;
   const double m = x.m * y.m;
   return {m, fabs(x.m) * y.r + fabs(y.m) * x.r + x.r * y.r + U4 * fabs(m)};
 }
 
 // Ball sx x + sy y for exact scalars sx, sy.
 ELLIPSIM_HD Ball ba(const Ball& x, const Ball& y, double sx, double sy) {
-  using std::fabs;
+  using math::fabs;
   const double m = sx * x.m + sy * y.m;
   return {m, fabs(sx) * x.r + fabs(sy) * y.r + U4 * (fabs(sx * x.m) + fabs(sy * y.m))};
 }
@@ -294,7 +293,7 @@ ELLIPSIM_HD Ball ba(const Ball& x, const Ball& y, double sx, double sy) {
 // Ball c x for an exact scalar c.
 ELLIPSIM_HD Ball bc(double c, const Ball& x) {
   const double m = c * x.m;
-  return {m, std::fabs(c) * x.r + U4 * std::fabs(m)};
+  return {m, math::fabs(c) * x.r + U4 * math::fabs(m)};
 }
 
 // Balls of 1 / sqrt(Q) and 1 / sqrt(Q)^3.
@@ -305,7 +304,7 @@ struct InvRoots {
 // Balls of 1 / sqrt(Q) and 1 / sqrt(Q)^3 for Q in the ball q, known >= qlo > 0.
 ELLIPSIM_HD InvRoots inv_roots(const Ball& q, double qlo) {
   const double lo = max2(q.m - q.r, qlo), hi = q.m + q.r;
-  const double i_hi = (1.0 + U4) / std::sqrt(lo), i_lo = (1.0 - U4) / std::sqrt(hi);
+  const double i_hi = (1.0 + U4) / math::sqrt(lo), i_lo = (1.0 - U4) / math::sqrt(hi);
   const double j_hi = i_hi * i_hi * i_hi * (1.0 + U4), j_lo = i_lo * i_lo * i_lo * (1.0 - U4);
   return {{0.5 * (i_hi + i_lo), 0.5 * (i_hi - i_lo) * (1.0 + U4)},
           {0.5 * (j_hi + j_lo), 0.5 * (j_hi - j_lo) * (1.0 + U4)}};
@@ -317,9 +316,9 @@ struct TrigBall {
 };
 
 ELLIPSIM_HD TrigBall trig_ball(double x, double h) {
-  const double c = std::cos(x), s = std::sin(x);
+  const double c = math::cos(x), s = math::sin(x);
   const double h2 = 0.5 * h * h;
-  return {{c, (std::fabs(s) * h + h2) * (1.0 + U4) + U64}, {s, (std::fabs(c) * h + h2) * (1.0 + U4) + U64}};
+  return {{c, (math::fabs(s) * h + h2) * (1.0 + U4) + U64}, {s, (math::fabs(c) * h + h2) * (1.0 + U4) + U64}};
 }
 
 // Balls of l and of its partials t, p, tt, pp, tp.
@@ -356,7 +355,7 @@ struct HaAt {
 // -h1 |cos t| nowhere below it: -|x| = min(x, -x), so sigma <= the piece's model.
 ELLIPSIM_HD HaAt ha_at(int hk, double h1, double h2, double ct, double st) {
   if (hk == 0) {
-    const double ha = std::sqrt(h1 * ct * ct + h2 * st * st);
+    const double ha = math::sqrt(h1 * ct * ct + h2 * st * st);
     return {ha, (h2 - h1) * st * ct / ha};
   }
   const double sg = ct >= 0.0 ? 1.0 : -1.0;
@@ -413,12 +412,12 @@ struct ModelAt {
 // (sigma_m, s_t, s_p, h_A, h_B) at the float (t, p).
 ELLIPSIM_HD ModelAt model_at(double t, double p, double ek, double ex, double ey, int hk, double h1, double h2,
                              double kb, double pb2, double wz, double wx, double wy) {
-  const double ct = std::cos(t), st = std::sin(t), cp = std::cos(p), sp = std::sin(p);
+  const double ct = math::cos(t), st = math::sin(t), cp = math::cos(p), sp = math::sin(p);
   const double me = ex * cp + ey * sp, mqe = -ex * sp + ey * cp;
   const double mw = wx * cp + wy * sp, mqw = -wx * sp + wy * cp;
   const double w = wz * ct + st * mw;
   const HaAt h = ha_at(hk, h1, h2, ct, st);
-  const double hb = std::sqrt(pb2 + kb * w * w);
+  const double hb = math::sqrt(pb2 + kb * w * w);
   const double s = ek * ct + st * me - h.ha - hb;
   const double wt = -wz * st + ct * mw, wp = st * mqw;
   const double s_t = -ek * st + ct * me - h.ha_t - kb * w * wt / hb;
@@ -435,7 +434,7 @@ struct Polished {
 // no worse, only a better incumbent (the proof does not rest on it).
 ELLIPSIM_HD Polished polish(double t, double p, double s, double ek, double ex, double ey, int hk, double h1, double h2,
                             double kb, double pb2, double wz, double wx, double wy, double qlo_a, double qlo_b) {
-  using std::fabs;
+  using math::fabs;
   for (int it = 0; it < 30; ++it) {
     const ModelAt md = model_at(t, p, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy);
     const double g1 = md.s_t, g2 = md.s_p;
@@ -443,7 +442,7 @@ ELLIPSIM_HD Polished polish(double t, double p, double s, double ek, double ex, 
     double a11 = hs.tt.m, a22 = hs.pp.m;
     const double a12 = hs.tp.m;
     // shifted to negative definite where it is not (a saddle, or flat along the circle)
-    const double top = 0.5 * (a11 + a22) + std::sqrt(0.25 * (a11 - a22) * (a11 - a22) + a12 * a12);
+    const double top = 0.5 * (a11 + a22) + math::sqrt(0.25 * (a11 - a22) * (a11 - a22) + a12 * a12);
     const double mu = 1e-9 * (fabs(a11) + fabs(a22)) + 1e-300;
     if (top > -mu) {
       a11 = a11 - top - mu;
@@ -452,7 +451,7 @@ ELLIPSIM_HD Polished polish(double t, double p, double s, double ek, double ex, 
     const double det = a11 * a22 - a12 * a12;
     if (!(det > 0.0)) break;
     double dt = -(a22 * g1 - a12 * g2) / det, dp = -(a11 * g2 - a12 * g1) / det;
-    const double size = std::sqrt(dt * dt + dp * dp);
+    const double size = math::sqrt(dt * dt + dp * dp);
     if (!(size > 0.0)) break;
     if (size > 0.25) {
       dt = dt * 0.25 / size;
@@ -485,9 +484,9 @@ ELLIPSIM_HD Polished polish(double t, double p, double s, double ek, double ex, 
 
 // max over |d| <= h of g d + M d^2 / 2 (upwards).
 ELLIPSIM_HD double q(double g, double M, double h) {
-  g = std::fabs(g);
+  g = math::fabs(g);
   if (M < 0.0 && g <= -M * h) return g * g / (-2.0 * M) * (1.0 + U4);
-  return (g * h + 0.5 * M * h * h) * (1.0 + U4) + U4 * std::fabs(M) * h * h;
+  return (g * h + 0.5 * M * h * h) * (1.0 + U4) + U4 * math::fabs(M) * h * h;
 }
 
 }  // namespace spheroids
@@ -497,7 +496,7 @@ struct AxisBB {
   bool proven;
   double t, p;
   bool moved;
-  std::int64_t nodes;
+  int64_t nodes;
 };
 
 // The branch and bound over (t, phi) of the section's comment for the model sigma_m with pole coordinates:
@@ -518,12 +517,12 @@ ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, d
   const Polished pl = polish(t0, p0, s0, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
   double bt = pl.t, bp = pl.p, best = pl.s;
   bool moved = best != s0;
-  std::int64_t nodes = 0;
+  int64_t nodes = 0;
   for (int root = 0; root < (1 << ROOT_T) * (1 << ROOT_P); ++root) {
     int Lt = ROOT_T, Lp = ROOT_P;
-    std::int64_t it = root >> ROOT_P, ip = root & ((1 << ROOT_P) - 1);
+    int64_t it = root >> ROOT_P, ip = root & ((1 << ROOT_P) - 1);
     int depth = 0;
-    std::int64_t dims = 0;
+    int64_t dims = 0;
     while (true) {
       nodes += 1;
       if (nodes > tol::TILTED_MAX_NODES) return {false, bt, bp, moved, nodes};
@@ -547,13 +546,13 @@ ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, d
         moved = true;
       }
       const HessianBalls hs = hessian_balls(tc, ht, pc, hp, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
-      const double Mtt = hs.tt.m + hs.tt.r, Mpp = hs.pp.m + hs.pp.r, Ktp = std::fabs(hs.tp.m) + hs.tp.r;
+      const double Mtt = hs.tt.m + hs.tt.r, Mpp = hs.pp.m + hs.pp.r, Ktp = math::fabs(hs.tp.m) + hs.tp.r;
       const double epsg = U64 * (32.0 * (S + curv / md.ha + bmax2 / md.hb) + 16.0 * S);
       const double qt = q(md.s_t, Mtt, ht) + epsg * ht, qp = q(md.s_p, Mpp, hp) + epsg * hp;
       const double cross = Ktp * ht * hp * (1.0 + U4);
       if (s + qt + qp + cross <= best + tol1) {
         while (depth > 0) {  // the next cell after this one's subtree
-          const std::int64_t d = (dims >> (depth - 1)) & 1;
+          const int64_t d = (dims >> (depth - 1)) & 1;
           if (d == 0) {
             if ((it & 1) == 0) {
               it += 1;
@@ -577,11 +576,11 @@ ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, d
         if (split_p && Lp >= TILT_LEVELS) split_p = false;
         if ((!split_p && Lt >= TILT_LEVELS) || depth >= TILT_DEPTH) return {false, bt, bp, moved, nodes};
         if (split_p) {
-          dims |= std::int64_t(1) << depth;
+          dims |= int64_t(1) << depth;
           Lp += 1;
           ip *= 2;
         } else {
-          dims &= ~(std::int64_t(1) << depth);
+          dims &= ~(int64_t(1) << depth);
           Lt += 1;
           it *= 2;
         }
@@ -610,13 +609,13 @@ ELLIPSIM_HD SpheroidMax tilted_max(const Vec3& e, const Vec3& a, const Mat3& U, 
   const double amax = max3(a);
   const double tol1 = tol - 2.0 * dl.delta0 - (ERR_C_ULPS + tol::BB_ERR_SIGMA_ULPS + 8.0) * U64 * S;
   const double nk = at(n0, k), nk1 = at(n0, k1), nk2 = at(n0, k2);
-  const double t0 = std::atan2(std::sqrt(nk1 * nk1 + nk2 * nk2), nk);
-  const double p0 = std::atan2(nk2, nk1);
+  const double t0 = math::atan2(math::sqrt(nk1 * nk1 + nk2 * nk2), nk);
+  const double p0 = math::atan2(nk2, nk1);
   const AxisBB r = axis_bb(at(e, k), at(e, k1), at(e, k2), 0, qa * qa, pa * pa, qb * qb - pb * pb, pb * pb,
                            at(U, 3 * k + j), at(U, 3 * k1 + j), at(U, 3 * k2 + j), tol1, S, amax * amax, t0, p0);
   if (!r.moved) return {r.proven, n0, r.nodes};
-  const double z = std::cos(r.t), rr = std::sin(r.t);
-  const double x = rr * std::cos(r.p), y = rr * std::sin(r.p);
+  const double z = math::cos(r.t), rr = math::sin(r.t);
+  const double x = rr * math::cos(r.p), y = rr * math::sin(r.p);
   if (k == 0) return {r.proven, {z, x, y}, r.nodes};
   if (k == 1) return {r.proven, {y, z, x}, r.nodes};
   return {r.proven, {x, y, z}, r.nodes};

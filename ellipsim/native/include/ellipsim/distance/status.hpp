@@ -3,18 +3,18 @@
 // and ContactFeature, of the pairs/ folder).  tests/test_native_distance.py checks they are status.py's.
 #pragma once
 
-#include <cstdint>
+#include "../math.hpp"
 
 namespace ellipsim::distance {
 
 // signed_distance's status, per pair.
-enum class DistanceStatus : std::int8_t {
+enum class DistanceStatus : int8_t {
   GLOBAL = 0,    // the returned maximum is proven global, to ellipsoid_pair's tolerance
   UNPROVEN = 1,  // the proof's budget ran out: the best maximum found, not proven global
 };
 
 // signed_distance(..., derivatives=True)'s derivative status, per pair.
-enum class DerivativeStatus : std::int8_t {
+enum class DerivativeStatus : int8_t {
   SMOOTH = 0,     // unique, nondegenerate maximiser: the derivatives
   BRANCH = 1,     // a deep maximum's derivatives; a tie with another maximiser is not excluded
   FLAT = 2,       // a flat maximum (circle of maxima or nearly): NaN
@@ -23,7 +23,7 @@ enum class DerivativeStatus : std::int8_t {
 };
 
 // shape_distance(..., derivatives=True)'s feature of the capsule, box or cylinder that carries the contact.
-enum class ContactFeature : std::int8_t {
+enum class ContactFeature : int8_t {
   FACE = 0,    // a box face
   EDGE = 1,    // a box edge
   VERTEX = 2,  // a box vertex

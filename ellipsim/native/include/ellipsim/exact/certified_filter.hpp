@@ -13,8 +13,7 @@
 // arithmetic: a decision here is never wrong; an ill-conditioned float only makes it slower.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../relation.hpp"
 #include "../tolerances.hpp"
@@ -41,9 +40,9 @@ ELLIPSIM_HD bool axis_separates(double nd, double mnd, double nn, const Vec3& za
                                 const Vec3& rb, double rsum) {
   const double ax = ra.x * za.x, ay = ra.y * za.y, az = ra.z * za.z;
   const double bx = rb.x * zb.x, by = rb.y * zb.y, bz = rb.z * zb.z;
-  const double ha = std::sqrt(ax * ax + ay * ay + az * az);
-  const double hb = std::sqrt(bx * bx + by * by + bz * bz);
-  const double bound = ha + hb + tol::SUPPORT_SLACK * rsum * std::sqrt(nn);
+  const double ha = math::sqrt(ax * ax + ay * ay + az * az);
+  const double hb = math::sqrt(bx * bx + by * by + bz * bz);
+  const double bound = ha + hb + tol::SUPPORT_SLACK * rsum * math::sqrt(nn);
   return positive(nd - bound, mnd + bound, tol::ERR_SHORT);
 }
 
@@ -55,7 +54,7 @@ ELLIPSIM_HD Vec3 bisector_axis(const Mat3& Ra, const Vec3& ra, const Vec3& za, c
   const double b0 = rb.x * rb.x, b1 = rb.y * rb.y, b2 = rb.z * rb.z;
   const Vec3 na = matvec(Ra, {za.x * a1 * a2, za.y * a0 * a2, za.z * a0 * a1});
   const Vec3 nb = matvec(Rb, {zb.x * b1 * b2, zb.y * b0 * b2, zb.z * b0 * b1});
-  const double la = std::sqrt(norm2(na)), lb = std::sqrt(norm2(nb));
+  const double la = math::sqrt(norm2(na)), lb = math::sqrt(norm2(nb));
   return {na.x * lb + nb.x * la, na.y * lb + nb.y * la, na.z * lb + nb.z * la};
 }
 
@@ -63,14 +62,14 @@ ELLIPSIM_HD bool bisector_separates(const Vec3& d, const Mat3& Ra, const Vec3& r
                                     const Vec3& rb, const Vec3& zb, double rsum) {
   const Vec3 n = bisector_axis(Ra, ra, za, Rb, rb, zb);
   const double nd = n.x * d.x + n.y * d.y + n.z * d.z;
-  const double mnd = std::fabs(n.x * d.x) + std::fabs(n.y * d.y) + std::fabs(n.z * d.z);
+  const double mnd = math::fabs(n.x * d.x) + math::fabs(n.y * d.y) + math::fabs(n.z * d.z);
   return axis_separates(nd, mnd, norm2(n), rotate_t(Ra, n), ra, rotate_t(Rb, n), rb, rsum);
 }
 
 // A point c_a + t d of the centre segment strictly inside both: t^2 q_A(c_b) < 1 and
 // (1 - t)^2 q_B(c_a) < 1, with q_A(c_b) = ee [8], q_B(c_a) = qb [8] and t equalising the two.
 ELLIPSIM_HD bool centre_segment_overlaps(double ee, double mee, double qb, double mqb) {
-  const double sa = std::sqrt(ee), sb = std::sqrt(qb);
+  const double sa = math::sqrt(ee), sb = math::sqrt(qb);
   const double t = sb / (sa + sb);
   const double s = 1.0 - t;  // [1]
   return positive(1.0 - t * t * ee, 1.0 + t * t * mee, tol::ERR_SHORT) &&
@@ -94,7 +93,7 @@ ELLIPSIM_HD bool inside_both(const Vec3& y, const Mat3& W, const Mat3& mW, const
   const double yy = norm2(y);
   if (!positive(1.0 - yy, 1.0 + yy, tol::ERR_WITNESS)) return false;
   const Vec3 u = sub(y, e);  // [6]
-  const Vec3 mu = {std::fabs(y.x) + me.x, std::fabs(y.y) + me.y, std::fabs(y.z) + me.z};
+  const Vec3 mu = {math::fabs(y.x) + me.x, math::fabs(y.y) + me.y, math::fabs(y.z) + me.z};
   return positive(alpha - norm2(matvec(W, u)), malpha + norm2(matvec(mW, mu)), tol::ERR_WITNESS);
 }
 
@@ -107,7 +106,7 @@ ELLIPSIM_HD bool pencil_positive(double mu, const Invariants& inv, const Invaria
 
 // The Perram-Wertheim iteration in A's frame, trying a certificate whenever it is likely to hold:
 // f(mu) > 0 as soon as F(mu) > 1, the point y(mu) once Newton's step is small against 1 - F.
-ELLIPSIM_HD std::int8_t pencil_certificates(const Mat3& Ra, const Vec3& ra, const Mat3& Rb, const Vec3& ib,
+ELLIPSIM_HD int8_t pencil_certificates(const Mat3& Ra, const Vec3& ra, const Mat3& Rb, const Vec3& ib,
                                             const Vec3& e, const Vec3& me, double ee, double qb) {
   const Shape sh = shape(Ra, ra, Rb, ib, true);
   const Vec3 v = matvec(sh.W, e), mv = matvec(sh.mW, me);
@@ -124,7 +123,7 @@ ELLIPSIM_HD std::int8_t pencil_certificates(const Mat3& Ra, const Vec3& ra, cons
     const PwStep s = pw_step(mu, k.inv, sh.alpha, lo, hi);
     lo = s.lo;
     hi = s.hi;
-    const double step = std::fabs(s.mu - mu);
+    const double step = math::fabs(s.mu - mu);
     const bool last = step <= tol::PW_RTOL * mu || it == tol::PW_MAX_ITER - 1;
     if ((s.value > 1.0 + tol::PW_TRY_SEPARATED || last) && pencil_positive(mu, k.inv, k.minv, sh.alpha, sh.malpha))
       return SEPARATED;
@@ -144,7 +143,7 @@ ELLIPSIM_HD bool in_float_range(const Vec3& ra, const Vec3& rb) {
 }
 
 // SEPARATED or OVERLAPPING when certain, else UNDECIDED.
-ELLIPSIM_HD std::int8_t certify_pair(const Ellipsoid& A, const Ellipsoid& B) {
+ELLIPSIM_HD int8_t certify_pair(const Ellipsoid& A, const Ellipsoid& B) {
   const Vec3& ra = A.r;
   const Vec3& rb = B.r;
   const Vec3 d = sub(B.c, A.c);  // [1]

@@ -7,7 +7,7 @@
 // ellipsim/core/exact/contact_scale.py).
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -16,7 +16,7 @@
 namespace ellipsim::exact {
 
 // Starting point alpha * sqrt(q_B(c_a) / q_A(c_b)): exact for two spheres (mu* = alpha r_a / r_b).
-ELLIPSIM_HD double initial_mu(double ee, double qb, double alpha) { return alpha * std::sqrt(qb / ee); }
+ELLIPSIM_HD double initial_mu(double ee, double qb, double alpha) { return alpha * math::sqrt(qb / ee); }
 
 // G = d log F / d log mu = 1 + mu N'/N - mu / (mu + alpha) - mu P'/P, dG/dmu, and F(mu).
 struct LogSlope {
@@ -58,7 +58,7 @@ ELLIPSIM_HD PwStep pw_step(double mu, const Invariants& k, double alpha, double 
     } else if (lo == 0.0) {
       next = 0.25 * mu;
     } else {
-      next = std::sqrt(lo * hi);
+      next = math::sqrt(lo * hi);
     }
   }
   return {next, lo, hi, s.value};
@@ -71,7 +71,7 @@ ELLIPSIM_HD double pw_maximize(const Invariants& k, double alpha, double mu, dou
     const PwStep s = pw_step(mu, k, alpha, lo, hi);
     lo = s.lo;
     hi = s.hi;
-    if (std::fabs(s.mu - mu) <= rtol * mu) return s.mu;
+    if (math::fabs(s.mu - mu) <= rtol * mu) return s.mu;
     mu = s.mu;
   }
   return mu;
@@ -99,7 +99,7 @@ ELLIPSIM_HD double contact_scale_pair(const Ellipsoid& A, const Ellipsoid& B) {
   const Vec3 v = matvec(sh.W, off.e);
   const Invariants inv = invariants(sh.W, sh.mW, off.e, off.me, v, v).inv;
   const double mu = pw_maximize(inv, sh.alpha, initial_mu(ee, inv.p1 / sh.alpha, sh.alpha), tol::PW_RTOL);
-  return k * std::sqrt(pw_value(mu, inv, sh.alpha));
+  return k * math::sqrt(pw_value(mu, inv, sh.alpha));
 }
 
 }  // namespace ellipsim::exact

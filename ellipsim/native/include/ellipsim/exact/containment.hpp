@@ -11,8 +11,7 @@
 // * UNDECIDED otherwise (internal tangency, near it): exact arithmetic.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -21,7 +20,7 @@
 
 namespace ellipsim::exact {
 
-constexpr std::int8_t INSIDE = 1, NOT_INSIDE = 0, CONTAIN_UNDECIDED = -1;
+constexpr int8_t INSIDE = 1, NOT_INSIDE = 0, CONTAIN_UNDECIDED = -1;
 
 // r sorted ascending, as min / max of the pairs: selects (minsd / maxsd), not branches, the inputs being random
 // (written as compare-exchanges, GCC turns the swaps into branches).
@@ -39,8 +38,8 @@ struct Givens {
 
 ELLIPSIM_HD Givens givens(double app, double aqq, double apq) {
   const double theta = (aqq - app) / (2.0 * apq);
-  const double t = (theta >= 0.0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
-  const double c = 1.0 / std::sqrt(t * t + 1.0);
+  const double t = (theta >= 0.0 ? 1.0 : -1.0) / (math::fabs(theta) + math::sqrt(theta * theta + 1.0));
+  const double c = 1.0 / math::sqrt(t * t + 1.0);
   return {t, c, t * c};
 }
 
@@ -102,7 +101,7 @@ ELLIPSIM_HD double secular(double nu, const Vec3& kap, const Vec3& eh2, double a
 ELLIPSIM_HD double maximise_secular(const Vec3& kap, const Vec3& eh2, double alpha, double rtol) {
   double lo = 0.0, hi = kap.x;
   double nu = 0.5 * kap.x;
-  const double ia = 1.0 / std::sqrt(alpha);
+  const double ia = 1.0 / math::sqrt(alpha);
   const double k[3] = {kap.x, kap.y, kap.z}, q[3] = {eh2.x, eh2.y, eh2.z};
   for (int step = 0; step < tol::CONTAIN_NEWTON_STEPS; ++step) {
     double s1 = 0.0, s2 = 0.0;
@@ -118,12 +117,12 @@ ELLIPSIM_HD double maximise_secular(const Vec3& kap, const Vec3& eh2, double alp
     }
     double next = 0.5 * (lo + hi);
     if (s1 > 0.0) {
-      const double z = 1.0 / std::sqrt(s1) - nu * ia;
-      const double dz = -s2 / (s1 * std::sqrt(s1)) - ia;
+      const double z = 1.0 / math::sqrt(s1) - nu * ia;
+      const double dz = -s2 / (s1 * math::sqrt(s1)) - ia;
       next = nu - z / dz;
       if (!(lo < next && next < hi)) next = 0.5 * (lo + hi);
     }
-    const bool done = std::fabs(next - nu) <= rtol * nu || hi - lo <= rtol * kap.x;
+    const bool done = math::fabs(next - nu) <= rtol * nu || hi - lo <= rtol * kap.x;
     nu = next;
     if (done) break;
   }
@@ -135,7 +134,7 @@ ELLIPSIM_HD double maximise_secular(const Vec3& kap, const Vec3& eh2, double alp
 // K_c + mu I positive definite (leading minors) and f(mu) > 0, all certified (mu < 0): B strictly inside A.
 ELLIPSIM_HD bool inside_certificate(double mu, const Mat3& W, const Mat3& mW, const Invariants& k,
                                     const Invariants& m, double alpha, double malpha) {
-  const double am = std::fabs(mu);
+  const double am = math::fabs(mu);
   const Vec3 w0 = column(W, 0), w1 = column(W, 1);
   const Vec3 m0 = column(mW, 0), m1 = column(mW, 1);
   if (!positive(norm2(w0) + mu, norm2(m0) + am, tol::ERR_POLY)) return false;
@@ -155,7 +154,7 @@ ELLIPSIM_HD bool outside_certificate(const Vec3& y, const Mat3& W, const Mat3& m
   const double yy = norm2(y);
   if (!positive(yy - 1.0, yy + 1.0, tol::ERR_WITNESS)) return false;
   const Vec3 u = sub(y, e);
-  const Vec3 mu = {std::fabs(y.x) + me.x, std::fabs(y.y) + me.y, std::fabs(y.z) + me.z};
+  const Vec3 mu = {math::fabs(y.x) + me.x, math::fabs(y.y) + me.y, math::fabs(y.z) + me.z};
   return positive(alpha - norm2(matvec(W, u)), malpha + norm2(matvec(mW, mu)), tol::ERR_WITNESS);
 }
 
@@ -173,7 +172,7 @@ ELLIPSIM_HD Vec3 in_basis(const Vec3* V, const Vec3& z) {
 // INSIDE / NOT_INSIDE proven from the candidates the multiplier nu gives, else CONTAIN_UNDECIDED.
 // The invariants are computed on first use (only the inside certificate reads them): `have` says whether
 // `inv` holds them yet.
-ELLIPSIM_HD std::int8_t containment_certificates(double nu, const Eigen3& eig, const Vec3& eh, const Vec3& eh2,
+ELLIPSIM_HD int8_t containment_certificates(double nu, const Eigen3& eig, const Vec3& eh, const Vec3& eh2,
                                                  const Vec3& e, const Vec3& me, const Shape<double>& sh,
                                                  InvariantsWithMag<double>& inv, bool& have) {
   const Vec3& kap = eig.kap;
@@ -207,7 +206,7 @@ ELLIPSIM_HD std::int8_t containment_certificates(double nu, const Eigen3& eig, c
   const Vec3 u = sub(y, e);
   const double qb = norm2(matvec(W, u)) / alpha;
   if (qb < 1.0) {
-    double tt = std::sqrt((1.0 - qb) * alpha / kap.x);
+    double tt = math::sqrt((1.0 - qb) * alpha / kap.x);
     if (V[0].x * y.x + V[0].y * y.y + V[0].z * y.z < 0.0) tt = -tt;
     y = {y.x + tt * V[0].x, y.y + tt * V[0].y, y.z + tt * V[0].z};
   }
@@ -217,7 +216,7 @@ ELLIPSIM_HD std::int8_t containment_certificates(double nu, const Eigen3& eig, c
     if (outside_certificate(towards(y, e, f), W, mW, e, me, alpha, malpha)) return NOT_INSIDE;
   const double k[3] = {kap.x, kap.y, kap.z};
   for (int i = 0; i < 3; ++i) {  // the ends of B's principal axes
-    const double s = std::sqrt(alpha / k[i]) * 0.999999;
+    const double s = math::sqrt(alpha / k[i]) * 0.999999;
     const double signs[2] = {-1.0, 1.0};
     for (double sg : signs) {
       const Vec3 yi = {e.x + sg * s * V[i].x, e.y + sg * s * V[i].y, e.z + sg * s * V[i].z};
@@ -228,7 +227,7 @@ ELLIPSIM_HD std::int8_t containment_certificates(double nu, const Eigen3& eig, c
 }
 
 // INSIDE when B is certainly inside A, NOT_INSIDE when certainly not, else CONTAIN_UNDECIDED.
-ELLIPSIM_HD std::int8_t contains_pair(const Ellipsoid& A, const Ellipsoid& B) {
+ELLIPSIM_HD int8_t contains_pair(const Ellipsoid& A, const Ellipsoid& B) {
   const Vec3 &ca = A.c, &cb = B.c, &ra = A.r, &rb = B.r;
   // First, from the radii alone (most pairs end here): a semi-axis of B longer than A's.  The same-frame case
   // below never ends here: rb <= ra componentwise keeps each sorted semi-axis of B within A's.
@@ -260,7 +259,7 @@ ELLIPSIM_HD std::int8_t contains_pair(const Ellipsoid& A, const Ellipsoid& B) {
   const Vec3 eh2 = {eh.x * eh.x, eh.y * eh.y, eh.z * eh.z};
   double nu = maximise_secular(eig.kap, eh2, sh.alpha, tol::CONTAIN_RTOL);
   for (int attempt = 0; attempt < 2; ++attempt) {  // a multiplier to 1e-9 settles all but ~1 pair in 50 000
-    const std::int8_t rel = containment_certificates(nu, eig, eh, eh2, e, me, sh, inv, have);
+    const int8_t rel = containment_certificates(nu, eig, eh, eh2, e, me, sh, inv, have);
     if (rel != CONTAIN_UNDECIDED || attempt == 1) return rel;
     nu = maximise_secular(eig.kap, eh2, sh.alpha, tol::CONTAIN_RTOL_FINE);
   }

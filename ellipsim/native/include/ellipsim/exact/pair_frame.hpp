@@ -16,7 +16,7 @@
 // Stability of Numerical Algorithms, ch. 3).  Depths are noted as [n].
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../vec3.hpp"
 
@@ -37,7 +37,7 @@ struct Cofactors {
 
 template <typename T>
 ELLIPSIM_HD Cofactors<T> cofactors(const Mat3T<T>& R) {
-  using std::fabs;
+  using math::fabs;
   const T r00 = R.m[0], r01 = R.m[1], r02 = R.m[2], r10 = R.m[3], r11 = R.m[4], r12 = R.m[5], r20 = R.m[6],
           r21 = R.m[7], r22 = R.m[8];
   Cofactors<T> out{{{r11 * r22 - r12 * r21, r12 * r20 - r10 * r22, r10 * r21 - r11 * r20,  //
@@ -79,7 +79,7 @@ struct Shape {
 template <typename T>
 ELLIPSIM_HD Shape<T> shape(const Mat3T<T>& Ra, const Vec3T<T>& ra, const Mat3T<T>& Rb, const Vec3T<T>& ib,
                            bool exact_inverse) {
-  using std::fabs;
+  using math::fabs;
   Mat3T<T> C, mC;
   T alpha = T(1), malpha = T(1);
   if (exact_inverse) {

@@ -5,7 +5,7 @@
 // measured: neither is reliable near repeated roots.
 #pragma once
 
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../config.hpp"
 #include "../relation.hpp"
@@ -32,7 +32,7 @@ ELLIPSIM_HD int variations(T s0, T s1, T s2, T s3, T s4) {
 //   f3 = -rem(f1, f2) = s x + t, f4 = -rem(f2, f3) = u, with the thesis's special cases p = 0 and s = 0.
 // Two distinct positive roots: separated; one (a double root): touching; none: overlapping.
 template <typename T>
-ELLIPSIM_HD std::int8_t sturm_relation(T a, T b, T c, T d, T e) {
+ELLIPSIM_HD int8_t sturm_relation(T a, T b, T c, T d, T e) {
   const T zero = T(0);
   const T p = T(3) * b * b / (T(16) * a) - c / T(2);
   const T q = b * c / (T(8) * a) - T(3) * d / T(4);
@@ -63,7 +63,7 @@ ELLIPSIM_HD std::int8_t sturm_relation(T a, T b, T c, T d, T e) {
     at_zero = variations(e, d, r, zero, zero);
   }
   const int count = at_zero - at_inf;  // selects, not branches: the relation is data
-  const std::int8_t two = count == 2 ? SEPARATED : OVERLAPPING;
+  const int8_t two = count == 2 ? SEPARATED : OVERLAPPING;
   return count == 1 ? TOUCHING : two;
 }
 
@@ -79,7 +79,7 @@ ELLIPSIM_HD T discriminant(T a, T b, T c, T d, T e) {
 // negative: overlapping.  > 0: four distinct real roots, V+ counts the positive ones.  == 0 with
 // V+ = 2 is read as touching (where the test breaks for spheres and coaxial spheroids).
 template <typename T>
-ELLIPSIM_HD std::int8_t descartes_relation(T a, T b, T c, T d, T e) {
+ELLIPSIM_HD int8_t descartes_relation(T a, T b, T c, T d, T e) {
   const T disc = discriminant(a, b, c, d, e);
   if (disc < T(0)) return OVERLAPPING;
   if (variations(a, b, c, d, e) == 2) return disc > T(0) ? SEPARATED : TOUCHING;

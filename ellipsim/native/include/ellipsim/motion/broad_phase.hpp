@@ -18,8 +18,7 @@
 // out in numba's order, ties included.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -56,50 +55,50 @@ constexpr double PLAIN_COS = -0.5 + 1e-3;
 // --- numba's array reductions and np.argsort ------------------------------------------------------------
 
 // Python's a // b for b > 0.
-ELLIPSIM_HD std::int64_t floor_div(std::int64_t a, std::int64_t b) {
-  const std::int64_t q = a / b;
+ELLIPSIM_HD int64_t floor_div(int64_t a, int64_t b) {
+  const int64_t q = a / b;
   return (a % b != 0 && a < 0) ? q - 1 : q;
 }
 
 // numba's array.max() and .min() of a[0], a[stride], ... (n >= 1 values): the first NaN, else the extreme.
-ELLIPSIM_HD double array_max(const double* a, std::int64_t stride, std::int64_t n) {
+ELLIPSIM_HD double array_max(const double* a, int64_t stride, int64_t n) {
   double m = a[0];
-  if (std::isnan(m)) return m;
-  for (std::int64_t i = 1; i < n; ++i) {
+  if (math::isnan(m)) return m;
+  for (int64_t i = 1; i < n; ++i) {
     const double v = a[i * stride];
-    if (std::isnan(v)) return v;
+    if (math::isnan(v)) return v;
     if (v > m) m = v;
   }
   return m;
 }
 
-ELLIPSIM_HD double array_min(const double* a, std::int64_t stride, std::int64_t n) {
+ELLIPSIM_HD double array_min(const double* a, int64_t stride, int64_t n) {
   double m = a[0];
-  if (std::isnan(m)) return m;
-  for (std::int64_t i = 1; i < n; ++i) {
+  if (math::isnan(m)) return m;
+  for (int64_t i = 1; i < n; ++i) {
     const double v = a[i * stride];
-    if (std::isnan(v)) return v;
+    if (math::isnan(v)) return v;
     if (v < m) m = v;
   }
   return m;
 }
 
 // numba's order on floats for sorting: NaNs last (numba.np.numpy_support.lt_floats).
-ELLIPSIM_HD bool lt_floats(double a, double b) { return a < b || (std::isnan(b) && !std::isnan(a)); }
+ELLIPSIM_HD bool lt_floats(double a, double b) { return a < b || (math::isnan(b) && !math::isnan(a)); }
 
 // numba's quicksort (numba/misc/quicksort.py, the argsort variant): under this size an insertion sort ...
-constexpr std::int64_t SMALL_QUICKSORT = 15;
+constexpr int64_t SMALL_QUICKSORT = 15;
 // ... and the stack of pending partitions (the larger side is pushed: at most log2(n) deep).
 constexpr int MAX_STACK = 100;
 
 // Insertion sort of R[low..high] (inclusive) by A[R[.] * stride].
-ELLIPSIM_HD void insertion_sort(const double* A, std::int64_t stride, std::int64_t* R, std::int64_t low,
-                                std::int64_t high) {
+ELLIPSIM_HD void insertion_sort(const double* A, int64_t stride, int64_t* R, int64_t low,
+                                int64_t high) {
   if (high <= low) return;
-  for (std::int64_t i = low + 1; i < high + 1; ++i) {
-    const std::int64_t k = R[i];
+  for (int64_t i = low + 1; i < high + 1; ++i) {
+    const int64_t k = R[i];
     const double v = A[k * stride];
-    std::int64_t j = i;
+    int64_t j = i;
     while (j > low && lt_floats(v, A[R[j - 1] * stride])) {
       R[j] = R[j - 1];
       j -= 1;
@@ -108,22 +107,22 @@ ELLIPSIM_HD void insertion_sort(const double* A, std::int64_t stride, std::int64
   }
 }
 
-ELLIPSIM_HD void swap_entries(std::int64_t* R, std::int64_t a, std::int64_t b) {
-  const std::int64_t x = R[a];
+ELLIPSIM_HD void swap_entries(int64_t* R, int64_t a, int64_t b) {
+  const int64_t x = R[a];
   R[a] = R[b];
   R[b] = x;
 }
 
 // Partition R[low..high] around a median-of-three pivot; the pivot's index.
-ELLIPSIM_HD std::int64_t partition(const double* A, std::int64_t stride, std::int64_t* R, std::int64_t low,
-                                   std::int64_t high) {
-  const std::int64_t mid = (low + high) >> 1;
+ELLIPSIM_HD int64_t partition(const double* A, int64_t stride, int64_t* R, int64_t low,
+                                   int64_t high) {
+  const int64_t mid = (low + high) >> 1;
   if (lt_floats(A[R[mid] * stride], A[R[low] * stride])) swap_entries(R, low, mid);
   if (lt_floats(A[R[high] * stride], A[R[mid] * stride])) swap_entries(R, high, mid);
   if (lt_floats(A[R[mid] * stride], A[R[low] * stride])) swap_entries(R, low, mid);
   const double pivot = A[R[mid] * stride];
   swap_entries(R, high, mid);  // stash the pivot at the end
-  std::int64_t i = low, j = high - 1;
+  int64_t i = low, j = high - 1;
   while (true) {
     while (i < high && lt_floats(A[R[i] * stride], pivot)) i += 1;
     while (j >= low && lt_floats(pivot, A[R[j] * stride])) j -= 1;
@@ -137,17 +136,17 @@ ELLIPSIM_HD std::int64_t partition(const double* A, std::int64_t stride, std::in
 }
 
 // R = np.argsort(A[0], A[stride], ..., A[(n - 1) stride]) as numba computes it (kind="quicksort").
-ELLIPSIM_HD void argsort(const double* A, std::int64_t stride, std::int64_t n, std::int64_t* R) {
-  for (std::int64_t i = 0; i < n; ++i) R[i] = i;
+ELLIPSIM_HD void argsort(const double* A, int64_t stride, int64_t n, int64_t* R) {
+  for (int64_t i = 0; i < n; ++i) R[i] = i;
   if (n < 2) return;
-  std::int64_t stack_low[MAX_STACK], stack_high[MAX_STACK];
+  int64_t stack_low[MAX_STACK], stack_high[MAX_STACK];
   stack_low[0] = 0, stack_high[0] = n - 1;
   int depth = 1;
   while (depth > 0) {
     depth -= 1;
-    std::int64_t low = stack_low[depth], high = stack_high[depth];
+    int64_t low = stack_low[depth], high = stack_high[depth];
     while (high - low >= SMALL_QUICKSORT) {  // partition until an insertion sort is cheaper
-      const std::int64_t i = partition(A, stride, R, low, high);
+      const int64_t i = partition(A, stride, R, low, high);
       if (high - i > i - low) {  // push the larger side
         if (high > i) stack_low[depth] = i + 1, stack_high[depth] = high, depth += 1;
         high = i - 1;
@@ -166,22 +165,22 @@ ELLIPSIM_HD void argsort(const double* A, std::int64_t stride, std::int64_t n, s
 // of widest spread (figures in a line along y must not be swept along x), sweep.  centers: the frame's (g, 3)
 // centres, rho: (g,) bounding radii; lo (g) and order (g) scratch.  The first `cap` pairs go to out (rows of
 // 3); returns how many there are.
-ELLIPSIM_HD std::int64_t sweep_frame(const double* centers, const double* rho, std::int64_t g, std::int64_t f,
-                                     double* lo, std::int64_t* order, std::int64_t* out, std::int64_t cap) {
+ELLIPSIM_HD int64_t sweep_frame(const double* centers, const double* rho, int64_t g, int64_t f,
+                                     double* lo, int64_t* order, int64_t* out, int64_t cap) {
   int axis = 0;
   double widest = -1.0;
   for (int k = 0; k < 3; ++k) {
     const double spread = g ? array_max(centers + k, 3, g) - array_min(centers + k, 3, g) : 0.0;
     if (spread > widest) axis = k, widest = spread;
   }
-  for (std::int64_t i = 0; i < g; ++i) lo[i] = centers[3 * i + axis] - rho[i];
+  for (int64_t i = 0; i < g; ++i) lo[i] = centers[3 * i + axis] - rho[i];
   argsort(lo, 1, g, order);
-  std::int64_t n = 0;
-  for (std::int64_t a = 0; a < g; ++a) {
-    const std::int64_t i = order[a];
+  int64_t n = 0;
+  for (int64_t a = 0; a < g; ++a) {
+    const int64_t i = order[a];
     const double hi = centers[3 * i + axis] + rho[i];
-    for (std::int64_t b = a + 1; b < g; ++b) {
-      const std::int64_t j = order[b];
+    for (int64_t b = a + 1; b < g; ++b) {
+      const int64_t j = order[b];
       if (lo[j] > hi) break;
       const double dx = centers[3 * i] - centers[3 * j];
       const double dy = centers[3 * i + 1] - centers[3 * j + 1];
@@ -206,19 +205,19 @@ ELLIPSIM_HD std::int64_t sweep_frame(const double* centers, const double* rho, s
 // room), overlap (and allowed[i, j], unless allowed is null): sweep and prune along the axis of widest spread.
 // centers (F, g, 3); lo3, hi3 (g, 3) and order (g) scratch, g >= 1.  Its pairs (i, j), i < j, go to
 // out[:cap] (rows of 2); returns how many there are (more than cap asks for a rerun with more room).
-ELLIPSIM_HD std::int64_t sweep_block(const double* centers, std::int64_t F, std::int64_t g, const double* rho,
-                                     std::int64_t block, const bool* allowed, std::int64_t bk, double* lo3, double* hi3,
-                                     std::int64_t* order, std::int32_t* out, std::int64_t cap) {
-  const std::int64_t f0 = bk * block, f1 = min2((bk + 1) * block, F - 1);  // frames f0..f1
-  for (std::int64_t i = 0; i < g; ++i) {
+ELLIPSIM_HD int64_t sweep_block(const double* centers, int64_t F, int64_t g, const double* rho,
+                                     int64_t block, const bool* allowed, int64_t bk, double* lo3, double* hi3,
+                                     int64_t* order, int32_t* out, int64_t cap) {
+  const int64_t f0 = bk * block, f1 = min2((bk + 1) * block, F - 1);  // frames f0..f1
+  for (int64_t i = 0; i < g; ++i) {
     const double room = rho[i] * (1 + 8 * tol::U);
     for (int k = 0; k < 3; ++k) {
       double a = centers[(f0 * g + i) * 3 + k], b = a;
-      for (std::int64_t f = f0 + 1; f < f1 + 1; ++f) {
+      for (int64_t f = f0 + 1; f < f1 + 1; ++f) {
         a = min2(a, centers[(f * g + i) * 3 + k]);
         b = max2(b, centers[(f * g + i) * 3 + k]);
       }
-      const double r = room + 32 * tol::U * max2(std::fabs(a), std::fabs(b));
+      const double r = room + 32 * tol::U * max2(math::fabs(a), math::fabs(b));
       lo3[3 * i + k] = a - r, hi3[3 * i + k] = b + r;
     }
   }
@@ -229,20 +228,20 @@ ELLIPSIM_HD std::int64_t sweep_block(const double* centers, std::int64_t F, std:
     if (spread > widest) axis = k, widest = spread;
   }
   argsort(lo3 + axis, 3, g, order);
-  std::int64_t n = 0;
-  for (std::int64_t a = 0; a < g; ++a) {
-    const std::int64_t i = order[a];
+  int64_t n = 0;
+  for (int64_t a = 0; a < g; ++a) {
+    const int64_t i = order[a];
     const double top = hi3[3 * i + axis];
-    for (std::int64_t b = a + 1; b < g; ++b) {
-      const std::int64_t j = order[b];
+    for (int64_t b = a + 1; b < g; ++b) {
+      const int64_t j = order[b];
       if (lo3[3 * j + axis] > top) break;
       if (lo3[3 * j] > hi3[3 * i] || lo3[3 * i] > hi3[3 * j] || lo3[3 * j + 1] > hi3[3 * i + 1] ||
           lo3[3 * i + 1] > hi3[3 * j + 1] || lo3[3 * j + 2] > hi3[3 * i + 2] || lo3[3 * i + 2] > hi3[3 * j + 2])
         continue;
       if (allowed && !allowed[i * g + j]) continue;
       if (n < cap) {
-        out[2 * n] = static_cast<std::int32_t>(min2(i, j));
-        out[2 * n + 1] = static_cast<std::int32_t>(max2(i, j));
+        out[2 * n] = static_cast<int32_t>(min2(i, j));
+        out[2 * n + 1] = static_cast<int32_t>(max2(i, j));
       }
       n += 1;
     }
@@ -252,20 +251,20 @@ ELLIPSIM_HD std::int64_t sweep_block(const double* centers, std::int64_t F, std:
 
 // _block_pairs: block bk is swept by the call whose [lo, hi) holds bk * g_unit (threads.run's ranges); its
 // pairs go to out[bk] (nb, cap, 2), their number to count[bk].
-ELLIPSIM_HD void block_pairs(const double* centers, std::int64_t F, std::int64_t g, const double* rho,
-                             std::int64_t block, std::int64_t g_unit, const bool* allowed, std::int32_t* out,
-                             std::int64_t cap, std::int64_t* count, std::int64_t lo, std::int64_t hi, double* lo3,
-                             double* hi3, std::int64_t* order) {
-  for (std::int64_t bk = floor_div(lo + g_unit - 1, g_unit); bk < floor_div(hi + g_unit - 1, g_unit); ++bk)
+ELLIPSIM_HD void block_pairs(const double* centers, int64_t F, int64_t g, const double* rho,
+                             int64_t block, int64_t g_unit, const bool* allowed, int32_t* out,
+                             int64_t cap, int64_t* count, int64_t lo, int64_t hi, double* lo3,
+                             double* hi3, int64_t* order) {
+  for (int64_t bk = floor_div(lo + g_unit - 1, g_unit); bk < floor_div(hi + g_unit - 1, g_unit); ++bk)
     count[bk] = sweep_block(centers, F, g, rho, block, allowed, bk, lo3, hi3, order, out + bk * cap * 2, cap);
 }
 
 // blocks (sum(count), 3): (block, i, j) of out[bk, :count[bk]] (out (nb, cap, 2)), block by block.
-ELLIPSIM_HD void compact(const std::int32_t* out, std::int64_t cap, const std::int64_t* count, std::int64_t nb,
-                         std::int64_t* blocks) {
-  std::int64_t n = 0;
-  for (std::int64_t bk = 0; bk < nb; ++bk) {
-    for (std::int64_t m = 0; m < count[bk]; ++m) {
+ELLIPSIM_HD void compact(const int32_t* out, int64_t cap, const int64_t* count, int64_t nb,
+                         int64_t* blocks) {
+  int64_t n = 0;
+  for (int64_t bk = 0; bk < nb; ++bk) {
+    for (int64_t m = 0; m < count[bk]; ++m) {
       blocks[3 * n] = bk, blocks[3 * n + 1] = out[(bk * cap + m) * 2], blocks[3 * n + 2] = out[(bk * cap + m) * 2 + 1];
       n += 1;
     }
@@ -303,7 +302,7 @@ ELLIPSIM_HD double segment_distance_scaled(double r0, double r1, double r2, doub
   const double x0 = r0 + s * d10 - t * d20;
   const double x1 = r1 + s * d11 - t * d21;
   const double x2 = r2 + s * d12 - t * d22;
-  return std::sqrt(x0 * x0 + x1 * x1 + x2 * x2);
+  return math::sqrt(x0 * x0 + x1 * x1 + x2 * x2);
 }
 
 // Distance between segments p + s d1 and q + t d2, s, t in [0, 1] (segment_distance_scaled).  Computed on the
@@ -311,28 +310,28 @@ ELLIPSIM_HD double segment_distance_scaled(double r0, double r1, double r2, doub
 // its denominator is of the fourth power of the scale: at 2^+-260 it overflowed or underflowed.
 ELLIPSIM_HD double segment_distance(double p0, double p1, double p2, double q0, double q1, double q2, double d10,
                                     double d11, double d12, double d20, double d21, double d22) {
-  using std::fabs;
+  using math::fabs;
   const double r0 = p0 - q0, r1 = p1 - q1, r2 = p2 - q2;
   const double m = max2(
       max2(max2(max2(max2(max2(max2(max2(fabs(r0), fabs(r1)), fabs(r2)), fabs(d10)), fabs(d11)), fabs(d12)), fabs(d20)),
            fabs(d21)),
       fabs(d22));
   int k = 0;
-  if (0.0 < m && m < INFINITY) std::frexp(m, &k);
+  if (0.0 < m && m < INFINITY) math::frexp(m, &k);
   if (-200 < k && k < 200)  // a * e - b * b within float64's range: as written
     return segment_distance_scaled(r0, r1, r2, d10, d11, d12, d20, d21, d22);
-  const double u = std::ldexp(1.0, -k);
+  const double u = math::ldexp(1.0, -k);
   const double dist =
       segment_distance_scaled(r0 * u, r1 * u, r2 * u, d10 * u, d11 * u, d12 * u, d20 * u, d21 * u, d22 * u);
-  return std::ldexp(dist, k);
+  return math::ldexp(dist, k);
 }
 
 // Per geom i of frame f: ends (2, 3), the capsule segment's two ends (centre -/+ half along its axis, the column
 // `axis` of its rotation).  centers (g, 3) and rotations (g, 3, 3) of the frame; ends (g, 2, 3).
-ELLIPSIM_HD void capsule_ends(const double* centers, const double* rotations, const std::int64_t* axis,
-                              const double* half, std::int64_t i, double* ends) {
+ELLIPSIM_HD void capsule_ends(const double* centers, const double* rotations, const int64_t* axis,
+                              const double* half, int64_t i, double* ends) {
   const double h = half[i];
-  const std::int64_t ax = axis[i];
+  const int64_t ax = axis[i];
   for (int k = 0; k < 3; ++k) {
     const double c = centers[3 * i + k], d = h * rotations[9 * i + 3 * k + ax];
     ends[6 * i + k] = c - d, ends[6 * i + 3 + k] = c + d;
@@ -356,13 +355,13 @@ ELLIPSIM_HD double capsule_bend(const double* R0, const double* R1, double half)
 
 // _capsule_motion: per frame and geom, ends (F, g, 2, 3); per step and geom, bend (F - 1, g).  centers
 // (F, g, 3), rotations (F, g, 3, 3); axis, half (g,).
-ELLIPSIM_HD void capsule_motion(const double* centers, const double* rotations, std::int64_t F, std::int64_t g,
-                                const std::int64_t* axis, const double* half, double* ends, double* bend) {
-  for (std::int64_t f = 0; f < F; ++f)
-    for (std::int64_t i = 0; i < g; ++i)
+ELLIPSIM_HD void capsule_motion(const double* centers, const double* rotations, int64_t F, int64_t g,
+                                const int64_t* axis, const double* half, double* ends, double* bend) {
+  for (int64_t f = 0; f < F; ++f)
+    for (int64_t i = 0; i < g; ++i)
       capsule_ends(centers + 3 * g * f, rotations + 9 * g * f, axis, half, i, ends + 6 * g * f);
-  for (std::int64_t f = 0; f < F - 1; ++f)
-    for (std::int64_t i = 0; i < g; ++i)
+  for (int64_t f = 0; f < F - 1; ++f)
+    for (int64_t i = 0; i < g; ++i)
       bend[f * g + i] = capsule_bend(rotations + 9 * (f * g + i), rotations + 9 * ((f + 1) * g + i), half[i]);
 }
 
@@ -406,16 +405,16 @@ ELLIPSIM_HD bool capsules_apart(const double* a0, const double* a1, const double
 // (F, g, 2, 3), bend (F - 1, g), cap and big (g,).
 struct StepScene {
   const double* centers;
-  std::int64_t F, g;
+  int64_t F, g;
   const double *rho, *ends, *bend, *cap, *big;
 };
 
 // keep[k]: the pair (i, j) passes the per-step tests at step s = s0 + k of its block, k < block.
-ELLIPSIM_HD void step_pair(const StepScene& S, std::int64_t bk, std::int64_t i, std::int64_t j, std::int64_t block,
+ELLIPSIM_HD void step_pair(const StepScene& S, int64_t bk, int64_t i, int64_t j, int64_t block,
                            bool* keep) {
-  const std::int64_t g = S.g;
+  const int64_t g = S.g;
   const double* C = S.centers;
-  for (std::int64_t s = bk * block; s < bk * block + block; ++s) {
+  for (int64_t s = bk * block; s < bk * block + block; ++s) {
     keep[s - bk * block] = false;
     if (s >= S.F - 1) continue;
     // the closest approach of the centres' straight paths against the bounding radii, with room for the
@@ -437,7 +436,7 @@ ELLIPSIM_HD void step_pair(const StepScene& S, std::int64_t bk, std::int64_t i, 
     for (int f = 0; f < 2; ++f) {
       const double* pi = f ? ni : ci;
       const double* pj = f ? nj : cj;
-      for (int k = 0; k < 3; ++k) coord = max2(max2(coord, std::fabs(pi[k])), std::fabs(pj[k]));
+      for (int k = 0; k < 3; ++k) coord = max2(max2(coord, math::fabs(pi[k])), math::fabs(pj[k]));
     }
     const double rr = (S.rho[i] + S.rho[j]) * (1 + 8 * tol::U) + 64 * tol::U * coord;
     if (cx * cx + cy * cy + cz * cz > rr * rr) continue;
@@ -460,7 +459,7 @@ ELLIPSIM_HD void step_pair(const StepScene& S, std::int64_t bk, std::int64_t i, 
           speed = max2(speed, m);
         }
       }
-      speed = std::sqrt(speed);
+      speed = math::sqrt(speed);
       const double room = S.cap[i] + S.cap[j] + bi + bj + CAPSULE_SLACK * (S.big[i] + S.big[j]) + 1e-12 * coord;
       if (capsules_apart(a0, a1, b0, b1, speed * (1 + 1e-9), room)) continue;
     }

@@ -23,8 +23,7 @@
 // rotation_vector alone calls the C library (atan2), as the Python does: numba calls the same libm.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
@@ -105,8 +104,8 @@ ELLIPSIM_HD RotationVector rotation_vector(const Mat3& R0, const Mat3& R1) {
   const double q21 = a[2] * b[1] + a[5] * b[4] + a[8] * b[7];
   const double c = 0.5 * (q00 + q11 + q22 - 1.0);
   const double v0 = 0.5 * (q21 - q12), v1 = 0.5 * (q02 - q20), v2 = 0.5 * (q10 - q01);
-  const double s = std::sqrt(v0 * v0 + v1 * v1 + v2 * v2);
-  const double theta = std::atan2(s, c);
+  const double s = math::sqrt(v0 * v0 + v1 * v1 + v2 * v2);
+  const double theta = math::atan2(s, c);
   if (c > 0.0) {
     if (s == 0.0) return {{0.0, 0.0, 0.0}, 0.0};
     const double f = theta / s;
@@ -124,7 +123,7 @@ ELLIPSIM_HD RotationVector rotation_vector(const Mat3& R0, const Mat3& R1) {
   } else {
     k0 = 0.5 * (q02 + q20), k1 = 0.5 * (q12 + q21), k2 = q22 - c;
   }
-  double kn = std::sqrt(k0 * k0 + k1 * k1 + k2 * k2);
+  double kn = math::sqrt(k0 * k0 + k1 * k1 + k2 * k2);
   if (kn == 0.0) return {{0.0, 0.0, 0.0}, theta};
   if (k0 * v0 + k1 * v1 + k2 * v2 < 0.0) kn = -kn;
   const double f = theta / kn;
@@ -134,7 +133,7 @@ ELLIPSIM_HD RotationVector rotation_vector(const Mat3& R0, const Mat3& R1) {
 // _rotation_vectors for body i: w (flushed to exactly 0 below OMEGA_ZERO) and the angle.
 ELLIPSIM_HD RotationVector flushed_rotation_vector(const Mat3& R0, const Mat3& R1) {
   RotationVector r = rotation_vector(R0, R1);
-  if (std::sqrt(r.w.x * r.w.x + r.w.y * r.w.y + r.w.z * r.w.z) < tol::OMEGA_ZERO) r.w = {0.0, 0.0, 0.0};
+  if (math::sqrt(r.w.x * r.w.x + r.w.y * r.w.y + r.w.z * r.w.z) < tol::OMEGA_ZERO) r.w = {0.0, 0.0, 0.0};
   return r;
 }
 
@@ -149,11 +148,11 @@ struct Rodrigues {
 // within eps_a = SINCOS_ERR + 3.6u |alpha~| of the exact ones (sincos; |d sin| <= |d alpha|); |k~ - k| <= 3.53u.
 // w = 0 gives exactly (1, 0, 0, 0, 0), and so does phi = 0.
 ELLIPSIM_HD Rodrigues rodrigues(const Vec3& w, double phi) {
-  const double th = std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
+  const double th = math::sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
   if (th == 0.0) return {1.0, 0.0, 0.0, {0.0, 0.0, 0.0}, 0.0};
   const double al = th * phi;
   const SinCos sc = sincos(al);
-  return {sc.c, sc.s, 1.0 - sc.c, {w.x / th, w.y / th, w.z / th}, std::fabs(al)};
+  return {sc.c, sc.s, 1.0 - sc.c, {w.x / th, w.y / th, w.z / th}, math::fabs(al)};
 }
 
 // E(phi)^T p = c p - s (k x p) + (1 - c)(k . p) k in float64.
@@ -206,7 +205,7 @@ ELLIPSIM_HD Mat3 rotation_at(const Mat3& R0, const Mat3& R1, const Vec3& w, doub
 // rotation_at's, with R0 or R1 read in place; every input of the body is read before its outputs are written
 // (the same values where an output is also an input).  Both: 9% faster than the literal loop, numba's bits.
 ELLIPSIM_HD void pose_at(const double* C0, const double* R0, const double* C1, const double* R1, const double* W,
-                         std::int64_t i, double t, double* C, double* R) {
+                         int64_t i, double t, double* C, double* R) {
   const double* a = R0 + 9 * i;
   const double* b = R1 + 9 * i;
   const double* w = W + 3 * i;

@@ -15,8 +15,7 @@
 // of evaluation so that the two give the same bits; nothing allocates.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../exact/certified_filter.hpp"
 #include "../exact/contact_scale.hpp"
@@ -31,11 +30,11 @@ namespace ellipsim::motion::time_of_impact {
 using exact::Cofactors;
 
 // Statuses (int8), as `Impact` reports them; NEED_EXACT is internal (the kernel asks for the exact relation).
-constexpr std::int8_t NO_CONTACT = 0;
-constexpr std::int8_t CONTACT = 1;
-constexpr std::int8_t CONTACT_AT_FLOAT_POSE = 2;
-constexpr std::int8_t UNRESOLVED = 3;
-constexpr std::int8_t NEED_EXACT = -1;
+constexpr int8_t NO_CONTACT = 0;
+constexpr int8_t CONTACT = 1;
+constexpr int8_t CONTACT_AT_FLOAT_POSE = 2;
+constexpr int8_t UNRESOLVED = 3;
+constexpr int8_t NEED_EXACT = -1;
 
 // _g: gamma_n with 1% for the rounding of the bound itself.
 constexpr double g(int n) { return n * tol::U / (1.0 - n * tol::U) * 1.01; }
@@ -46,16 +45,16 @@ constexpr double ROUND_UP = 1.0 + 0x1p-40;  // a few roundings of a nonnegative 
 // --- tuples ---------------------------------------------------------------------------------------------------
 
 // _load3: row i of a C-contiguous (n, 3) array.
-ELLIPSIM_HD Vec3 load3(const double* X, std::int64_t i) { return {X[3 * i], X[3 * i + 1], X[3 * i + 2]}; }
+ELLIPSIM_HD Vec3 load3(const double* X, int64_t i) { return {X[3 * i], X[3 * i + 1], X[3 * i + 2]}; }
 
 // _load9: matrix i of a C-contiguous (n, 3, 3) array, row-major.
-ELLIPSIM_HD Mat3 load9(const double* R, std::int64_t i) {
+ELLIPSIM_HD Mat3 load9(const double* R, int64_t i) {
   const double* r = R + 9 * i;
   return {{r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]}};
 }
 
 // _norm.
-ELLIPSIM_HD double norm(const Vec3& x) { return std::sqrt(norm2(x)); }
+ELLIPSIM_HD double norm(const Vec3& x) { return math::sqrt(norm2(x)); }
 
 // _affine: x + f y.
 ELLIPSIM_HD Vec3 affine(const Vec3& x, double f, const Vec3& y) { return {x.x + f * y.x, x.y + f * y.y, x.z + f * y.z}; }
@@ -75,7 +74,7 @@ ELLIPSIM_HD Solved solve_inverse(const Cofactors<double>& inv, const Vec3& n) {
   const Vec3 N = rotate_t(inv.C, n);
   const Vec3 mN = rotate_t(inv.mC, abs3(n));
   const double det = inv.det, mdet = inv.mdet;
-  const double ad = std::fabs(det);
+  const double ad = math::fabs(det);
   const double xi = G5 * mdet / (ad - G5 * mdet);
   const Vec3 p = {N.x / det, N.y / det, N.z / det};
   const double eps = (G5 * norm(mN) + norm(N) * (xi + 2.0 * tol::U) * 1.01) / (ad * (1.0 - xi));
@@ -125,7 +124,7 @@ struct Setup {
 ELLIPSIM_HD double margin_lower(double s, const Setup& setup) {
   const double pa = scaled_norm(setup.A.r, affine(setup.A.q, -s, setup.A.x));
   const double pb = scaled_norm(setup.B.r, affine(setup.B.q, -s, setup.B.x));
-  return setup.nd + s * setup.nv - pa - pb - (setup.E0 + std::fabs(s) * setup.E1 + (G3 + G4) * (pa + pb)) * 1.01;
+  return setup.nd + s * setup.nv - pa - pb - (setup.E0 + math::fabs(s) * setup.E1 + (G3 + G4) * (pa + pb)) * 1.01;
 }
 
 // _remainder: Q(S) = S^2/2 |D W^2 q| + theta^2 S^3/6 |D W q|, rounded up.
@@ -136,7 +135,7 @@ ELLIPSIM_HD double remainder(double S, const Body& X) {
 // _certified: the margin bound on an interval from lo (the least _margin_lower at its ends) and S >= |s| on it.
 ELLIPSIM_HD double certified(double lo, double S, const Setup& setup) {
   const double Q = remainder(S, setup.A) + remainder(S, setup.B);
-  return lo - Q * (1.0 + 4.0 * tol::U) - G2 * (std::fabs(lo) + Q);
+  return lo - Q * (1.0 + 4.0 * tol::U) - G2 * (math::fabs(lo) + Q);
 }
 
 // _model_root: float guess of where the bound M0 + L1 S - Qc S^2 falls to zero.
@@ -152,7 +151,7 @@ ELLIPSIM_HD double model_root(const Setup& setup, double M0, double S_full) {
     if (ph > 0.0) L1 += (z.x * y.x + z.y * y.y + z.z * y.z) / ph;  // -d phi/ds = (Dq . Dx) / |Dq|
     Qc += 0.5 * X.c2;
   }
-  if (Qc > 0.0) return min2(S_full, (L1 + std::sqrt(L1 * L1 + 4.0 * Qc * M0)) / (2.0 * Qc));
+  if (Qc > 0.0) return min2(S_full, (L1 + math::sqrt(L1 * L1 + 4.0 * Qc * M0)) / (2.0 * Qc));
   if (L1 < 0.0) return min2(S_full, M0 / -L1);
   return S_full;
 }
@@ -253,7 +252,7 @@ ELLIPSIM_HD Setup setup(const Vec3& n, double m, const Ctx& ctx) {
   const Half& h = *ctx.half;
   const double phi = m - double(ctx.piece);
   const Vec3 an = abs3(n);
-  const double ap = std::fabs(phi);
+  const double ap = math::fabs(phi);
   const Vec3 d = affine(h.d_tau, phi, h.v);
   const double nd = n.x * d.x + n.y * d.y + n.z * d.z;
   const Vec3& md = h.md_tau;
@@ -268,9 +267,9 @@ ELLIPSIM_HD Setup setup(const Vec3& n, double m, const Ctx& ctx) {
   const Vec3 &ra = h.ra, &rb = h.rb;
   const double ma0 = ra.x * A.aq.x + ra.y * A.aq.y + ra.z * A.aq.z + rb.x * B.aq.x + rb.y * B.aq.y + rb.z * B.aq.z;
   const double ma1 = ra.x * A.mx.x + ra.y * A.mx.y + ra.z * A.mx.z + rb.x * B.mx.x + rb.y * B.mx.y + rb.z * B.mx.z;
-  const double E0 = m_nd + G5 * ma0 + h.rma * A.eps_q + h.rmb * B.eps_q + G4 * std::fabs(nd) +
+  const double E0 = m_nd + G5 * ma0 + h.rma * A.eps_q + h.rmb * B.eps_q + G4 * math::fabs(nd) +
                     h.ball * norm(n) * (1.0 + 4.0 * tol::U) + tol::TAU;
-  const double E1 = m_nv + G5 * ma1 + h.rma * A.eps_q * h.tha + h.rmb * B.eps_q * h.thb + G4 * std::fabs(nv);
+  const double E1 = m_nv + G5 * ma1 + h.rma * A.eps_q * h.tha + h.rmb * B.eps_q * h.thb + G4 * math::fabs(nv);
   return {nd, nv, E0, E1, A, B};
 }
 
@@ -344,7 +343,7 @@ ELLIPSIM_HD int witness_relation(const Vec3& ca, const Mat3& Ra, const Vec3& ra,
   if (fa > 0.5 && fb > 0.5) {
     const double yy = norm2(y);
     const Vec3 u = {y.x - e.x, y.y - e.y, y.z - e.z};
-    const Vec3 mu_ = {std::fabs(y.x) + me.x, std::fabs(y.y) + me.y, std::fabs(y.z) + me.z};
+    const Vec3 mu_ = {math::fabs(y.x) + me.x, math::fabs(y.y) + me.y, math::fabs(y.z) + me.z};
     if (exact::positive(fa * fa - yy, fa * fa + yy, tol::ERR_WITNESS) &&
         exact::positive(sh.alpha * (fb * fb) - norm2(matvec(sh.W, u)),
                         sh.malpha * (fb * fb) + norm2(matvec(sh.mW, mu_)), tol::ERR_WITNESS))
@@ -354,8 +353,8 @@ ELLIPSIM_HD int witness_relation(const Vec3& ca, const Mat3& Ra, const Vec3& ra,
 }
 
 // _lookup: the exact relation at t from the pair's oracle, or UNDECIDED.
-ELLIPSIM_HD int lookup(double t, const double* ot, const std::int8_t* orel, std::int64_t ocount) {
-  for (std::int64_t j = 0; j < ocount; ++j)
+ELLIPSIM_HD int lookup(double t, const double* ot, const int8_t* orel, int64_t ocount) {
+  for (int64_t j = 0; j < ocount; ++j)
     if (ot[j] == t) return orel[j];
   return UNDECIDED;
 }
@@ -395,8 +394,8 @@ ELLIPSIM_HD PosePair pose_at(double t, const Pair& pair) {
 }
 
 // _probe: what the pose at t proves, CONTACT, CONTACT_AT_FLOAT_POSE, SEPARATED or UNDECIDED (mu0 0: no warm start).
-ELLIPSIM_HD int probe(double t, const Pair& pair, double mu0, const double* ot, const std::int8_t* orel,
-                      std::int64_t ocount) {
+ELLIPSIM_HD int probe(double t, const Pair& pair, double mu0, const double* ot, const int8_t* orel,
+                      int64_t ocount) {
   const PosePair P = pose_at(t, pair);
   const bool ends = t == 0.0 || t == 1.0;  // the inputs themselves: the motion there
   if (!ends) {
@@ -426,9 +425,9 @@ ELLIPSIM_HD bool spheres_apart_on(const Vec3& n, double t_lo, double t_hi, const
     const double ph = near0 ? t : t - 1.0;
     const Vec3 x = affine(dt, ph, v);
     const double val = n.x * x.x + n.y * x.y + n.z * x.z;
-    const double err = G8 * (an.x * (std::fabs(dt.x) + std::fabs(ph) * std::fabs(v.x)) +
-                             an.y * (std::fabs(dt.y) + std::fabs(ph) * std::fabs(v.y)) +
-                             an.z * (std::fabs(dt.z) + std::fabs(ph) * std::fabs(v.z)));
+    const double err = G8 * (an.x * (math::fabs(dt.x) + math::fabs(ph) * math::fabs(v.x)) +
+                             an.y * (math::fabs(dt.y) + math::fabs(ph) * math::fabs(v.y)) +
+                             an.z * (math::fabs(dt.z) + math::fabs(ph) * math::fabs(v.z)));
     worst = min2(worst, val - err);
   }
   return worst - rho * nn * (1.0 + 8.0 * tol::U) > ball * nn * (1.0 + 4.0 * tol::U) + tol::TAU;
@@ -456,8 +455,8 @@ ELLIPSIM_HD PairData pair_data(const Vec3& ca0, const Mat3& Ra0, const Vec3& ca1
   const Vec3 d0 = {(cb0.x - ca0.x) * p, (cb0.y - ca0.y) * p, (cb0.z - ca0.z) * p};
   const Vec3 d1 = {(cb1.x - ca1.x) * p, (cb1.y - ca1.y) * p, (cb1.z - ca1.z) * p};
   const Vec3 v = {db.x - da.x, db.y - da.y, db.z - da.z};
-  const Vec3 mv = {std::fabs(da.x) + std::fabs(db.x), std::fabs(da.y) + std::fabs(db.y),
-                   std::fabs(da.z) + std::fabs(db.z)};
+  const Vec3 mv = {math::fabs(da.x) + math::fabs(db.x), math::fabs(da.y) + math::fabs(db.y),
+                   math::fabs(da.z) + math::fabs(db.z)};
   const double rma = max3(ra_s), rmb = max3(rb_s);
   const double tha = norm(wa) * (1.0 + 8.0 * tol::U), thb = norm(wb) * (1.0 + 8.0 * tol::U);
   // the pose ball: rotations within DELTA_R (exactly R_p for a body that does not turn), centres within
@@ -503,7 +502,7 @@ ELLIPSIM_HD SweptSpheres swept_spheres(const Swept& sw) {
     const double rr = rho * (1.0 + 1e-6);
     const double r2 = rr * rr - norm2(nc);  // |d0 + t v| = rho (1 + 1e-6) at tc -+ sqrt(r2 / vv)
     if (r2 > 0.0) {
-      const double h = std::sqrt(r2 / vv);
+      const double h = math::sqrt(r2 / vv);
       if (tc - h > 0.0) {
         const double cand = (tc - h) * (1.0 - 1e-9);
         if (spheres_apart_on(affine(d0, cand, v), 0.0, cand, d0, d1, v, rho, ball)) t_in = cand;
@@ -578,15 +577,15 @@ struct Impact {
   double toi;
   int status;
   double t_exact;  // with NEED_EXACT: the float time whose exact relation the search needs
-  std::int64_t steps;
+  int64_t steps;
 };
 
 // toi_pair: (toi, status, t_exact, steps) for one pair; NEED_EXACT asks for the exact relation at the float pose
 // at t_exact (then rerun with it in the oracle ot, orel[:ocount]).
 ELLIPSIM_HD Impact toi_pair(const Vec3& ca0, const Mat3& Ra0, const Vec3& ca1, const Mat3& Ra1, const Vec3& ra,
                             const Vec3& wa, const Vec3& cb0, const Mat3& Rb0, const Vec3& cb1, const Mat3& Rb1,
-                            const Vec3& rb, const Vec3& wb, const double* ot, const std::int8_t* orel,
-                            std::int64_t ocount) {
+                            const Vec3& rb, const Vec3& wb, const double* ot, const int8_t* orel,
+                            int64_t ocount) {
   const PairData pd = pair_data(ca0, Ra0, ca1, Ra1, ra, wa, cb0, Rb0, cb1, Rb1, rb, wb);
   const Pair& pair = pd.pair;
   const SweptSpheres sw = swept_spheres(pd.swept);
@@ -598,7 +597,7 @@ ELLIPSIM_HD Impact toi_pair(const Vec3& ca0, const Mat3& Ra0, const Vec3& ca1, c
   }
   const double t_out = sw.t_out;
   int stalls = 0;
-  std::int64_t steps = 1;
+  int64_t steps = 1;
   bool pw_first = true;  // the contact normal usually reaches farther than the centre line
   bool carry = false;
   bool first = true;
@@ -648,11 +647,11 @@ ELLIPSIM_HD Impact toi_pair(const Vec3& ca0, const Mat3& Ra0, const Vec3& ca1, c
 // C-contiguous (n, 3), (n, 3, 3), (n, 3), (n, 3), (n, 3, 3), (n, 3).
 struct Motion {
   const double *C0, *R0, *r, *C1, *R1, *W;
-  std::int64_t n;
+  int64_t n;
 };
 
 // load_pair (with _loads): _pair_data of pair (ia, ib) of the two bodies' batches.
-ELLIPSIM_HD PairData load_pair(const Motion& A, const Motion& B, std::int64_t ia, std::int64_t ib) {
+ELLIPSIM_HD PairData load_pair(const Motion& A, const Motion& B, int64_t ia, int64_t ib) {
   return pair_data(load3(A.C0, ia), load9(A.R0, ia), load3(A.C1, ia), load9(A.R1, ia), load3(A.r, ia),
                    load3(A.W, ia), load3(B.C0, ib), load9(B.R0, ib), load3(B.C1, ib), load9(B.R1, ib), load3(B.r, ib),
                    load3(B.W, ib));
@@ -661,43 +660,43 @@ ELLIPSIM_HD PairData load_pair(const Motion& A, const Motion& B, std::int64_t ia
 // The oracle (caller-owned, (n, width) times and relations, n counts) and the kernel's four outputs, per pair.
 struct Oracle {
   const double* t;
-  const std::int8_t* rel;
-  const std::int64_t* count;
-  std::int64_t width;
+  const int8_t* rel;
+  const int64_t* count;
+  int64_t width;
 };
 
 struct Outputs {
   double* toi;
-  std::int8_t* status;
+  int8_t* status;
   double* t_exact;
-  std::int64_t* steps;
+  int64_t* steps;
 };
 
 // _run_pair: toi_pair of pair i into the outputs' row i (sa, sb: 0 broadcasts a batch of one).
-ELLIPSIM_HD void run_pair(std::int64_t i, const Motion& A, const Motion& B, std::int64_t sa, std::int64_t sb,
+ELLIPSIM_HD void run_pair(int64_t i, const Motion& A, const Motion& B, int64_t sa, int64_t sb,
                           const Oracle& O, const Outputs& out) {
-  const std::int64_t ia = i * sa, ib = i * sb;
+  const int64_t ia = i * sa, ib = i * sb;
   const Impact r = toi_pair(load3(A.C0, ia), load9(A.R0, ia), load3(A.C1, ia), load9(A.R1, ia), load3(A.r, ia),
                             load3(A.W, ia), load3(B.C0, ib), load9(B.R0, ib), load3(B.C1, ib), load9(B.R1, ib),
                             load3(B.r, ib), load3(B.W, ib), O.t + O.width * i, O.rel + O.width * i, O.count[i]);
   out.toi[i] = r.toi;
-  out.status[i] = static_cast<std::int8_t>(r.status);
+  out.status[i] = static_cast<int8_t>(r.status);
   out.t_exact[i] = r.t_exact;
   out.steps[i] = r.steps;
 }
 
 // _toi: the pairs idx[lo:hi].
-ELLIPSIM_HD void toi(const Motion& A, const Motion& B, const std::int64_t* idx, const Oracle& O, const Outputs& out,
-                     std::int64_t lo, std::int64_t hi) {
-  const std::int64_t sa = A.n > 1, sb = B.n > 1;  // stride 0 broadcasts a batch of one
-  for (std::int64_t k = lo; k < hi; ++k) run_pair(idx[k], A, B, sa, sb, O, out);
+ELLIPSIM_HD void toi(const Motion& A, const Motion& B, const int64_t* idx, const Oracle& O, const Outputs& out,
+                     int64_t lo, int64_t hi) {
+  const int64_t sa = A.n > 1, sb = B.n > 1;  // stride 0 broadcasts a batch of one
+  for (int64_t k = lo; k < hi; ++k) run_pair(idx[k], A, B, sa, sb, O, out);
 }
 
 // _float_poses for entry k: the float pose the kernel classifies at t for pair i (centres (3), rotations (9),
 // radii (3) of A and B into row k of the six outputs).
-ELLIPSIM_HD void float_pose(const Motion& A, const Motion& B, std::int64_t i, double t, std::int64_t k, double* CA,
+ELLIPSIM_HD void float_pose(const Motion& A, const Motion& B, int64_t i, double t, int64_t k, double* CA,
                             double* RA, double* ra, double* CB, double* RB, double* rb) {
-  const std::int64_t sa = A.n > 1, sb = B.n > 1;
+  const int64_t sa = A.n > 1, sb = B.n > 1;
   const PairData pd = load_pair(A, B, i * sa, i * sb);
   const PosePair P = pose_at(t, pd.pair);
   const double a[3] = {P.A.c.x, P.A.c.y, P.A.c.z}, b[3] = {P.B.c.x, P.B.c.y, P.B.c.z};

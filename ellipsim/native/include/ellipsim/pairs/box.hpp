@@ -38,7 +38,7 @@
 // geom.
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../distance/sphere_newton.hpp"
 #include "../tolerances.hpp"
@@ -99,9 +99,9 @@ ELLIPSIM_HD Frame to_frame(const Ellipsoid& E, const Ellipsoid& K) {
 
 // sigma at the unit n (E's frame).
 ELLIPSIM_HD double sigma_box(const Vec3& a2, const Vec3& e, const Axes& V, const Vec3& r, const Vec3& n) {
-  const double h = std::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
-  return n.x * e.x + n.y * e.y + n.z * e.z - h - r.x * std::fabs(dot(n, V.v[0])) - r.y * std::fabs(dot(n, V.v[1])) -
-         r.z * std::fabs(dot(n, V.v[2]));
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  return n.x * e.x + n.y * e.y + n.z * e.z - h - r.x * math::fabs(dot(n, V.v[0])) - r.y * math::fabs(dot(n, V.v[1])) -
+         r.z * math::fabs(dot(n, V.v[2]));
 }
 
 // A lower bound on the signed distance: sigma along the centre line minus its rounding allowance
@@ -111,9 +111,9 @@ ELLIPSIM_HD double centre_line_bound(const Ellipsoid& E, const Ellipsoid& K) {
   const Vec3& e = f.e;
   const double ee = norm2(e);
   if (!(ee > 0.0)) return -INFINITY;
-  const double s = 1.0 / std::sqrt(ee);
+  const double s = 1.0 / math::sqrt(ee);
   const Vec3 &ra = E.r, &rk = K.r;
-  const double scale = std::sqrt(ee) + max2(max2(max2(max2(max2(ra.x, ra.y), ra.z), rk.x), rk.y), rk.z);
+  const double scale = math::sqrt(ee) + max2(max2(max2(max2(max2(ra.x, ra.y), ra.z), rk.x), rk.y), rk.z);
   const double v = sigma_box(f.a2, e, f.V, rk, {e.x * s, e.y * s, e.z * s});
   return v - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
 }
@@ -144,8 +144,8 @@ ELLIPSIM_HD Plane edge_plane(const Axes& V, int i) {
 
 // |v_j . face normal j| per axis (1 for orthonormal axes): face planes j lie 2 r_j times it apart.
 ELLIPSIM_HD Vec3 face_cosines(const Axes& V) {
-  return {std::fabs(dot(V.v[0], face_normal(V, 0))), std::fabs(dot(V.v[1], face_normal(V, 1))),
-          std::fabs(dot(V.v[2], face_normal(V, 2)))};
+  return {math::fabs(dot(V.v[0], face_normal(V, 0))), math::fabs(dot(V.v[1], face_normal(V, 1))),
+          math::fabs(dot(V.v[2], face_normal(V, 2)))};
 }
 
 // A state of the local solve: per axis ACTIVE, +1 or -1.
@@ -190,7 +190,7 @@ struct Kkt {
 ELLIPSIM_HD Kkt kkt(int stj, const Vec3& y, const Vec3& n, const Vec3& v, double rj) {
   if (stj == ACTIVE) {
     const double yj = dot(y, v);
-    if (std::fabs(yj) > rj) return {yj > 0.0 ? 1 : -1, true};
+    if (math::fabs(yj) > rj) return {yj > 0.0 ? 1 : -1, true};
     return {stj, false};
   }
   if (dot(n, v) * double(stj) < 0.0) return {ACTIVE, true};
@@ -240,7 +240,7 @@ ELLIPSIM_HD double sd_point_box(const Vec3& w, const Axes& V, const Vec3& r) {
   const double c0 = 2.0 * v0 - (g00 * v0 + g01 * v1 + g02 * v2);
   const double c1 = 2.0 * v1 - (g01 * v0 + g11 * v1 + g12 * v2);
   const double c2 = 2.0 * v2 - (g02 * v0 + g12 * v1 + g22 * v2);
-  const double d0 = std::fabs(c0) - r.x, d1 = std::fabs(c1) - r.y, d2 = std::fabs(c2) - r.z;
+  const double d0 = math::fabs(c0) - r.x, d1 = math::fabs(c1) - r.y, d2 = math::fabs(c2) - r.z;
   if (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
     const Vec3 f = face_cosines(V);
     return max2(max2(d0 * f.x, d1 * f.y), d2 * f.z);
@@ -249,7 +249,7 @@ ELLIPSIM_HD double sd_point_box(const Vec3& w, const Axes& V, const Vec3& r) {
   const double z0 = w.x - (k0 * V0.x + k1 * V1.x + k2 * V2.x);
   const double z1 = w.y - (k0 * V0.y + k1 * V1.y + k2 * V2.y);
   const double z2 = w.z - (k0 * V0.z + k1 * V1.z + k2 * V2.z);
-  return std::sqrt(z0 * z0 + z1 * z1 + z2 * z2);
+  return math::sqrt(z0 * z0 + z1 * z1 + z2 * z2);
 }
 
 // ub1 of the top comment at the unit n.
@@ -270,17 +270,17 @@ ELLIPSIM_HD double upper_bound2(const Vec3& a2, const Vec3& e, const Axes& V, co
   double c0 = min2(max2(dot(y, V0), -r.x), r.x);
   double c1 = min2(max2(dot(y, V1), -r.y), r.y);
   double c2 = min2(max2(dot(y, V2), -r.z), r.z);
-  const double m0 = std::fabs(dot(n, V0)), m1 = std::fabs(dot(n, V1)), m2 = std::fabs(dot(n, V2));
+  const double m0 = math::fabs(dot(n, V0)), m1 = math::fabs(dot(n, V1)), m2 = math::fabs(dot(n, V2));
   double t = 0.0;
   if (m1 + m2 < 1e-12) {  // a face contact: n along one axis, the others within rounding of zero
-    t = min2(min2(r.x, r.y - std::fabs(c1)), r.z - std::fabs(c2));
-    c0 = std::copysign(r.x - t, dot(n, V0));
+    t = min2(min2(r.x, r.y - math::fabs(c1)), r.z - math::fabs(c2));
+    c0 = math::copysign(r.x - t, dot(n, V0));
   } else if (m0 + m2 < 1e-12) {
-    t = min2(min2(r.y, r.x - std::fabs(c0)), r.z - std::fabs(c2));
-    c1 = std::copysign(r.y - t, dot(n, V1));
+    t = min2(min2(r.y, r.x - math::fabs(c0)), r.z - math::fabs(c2));
+    c1 = math::copysign(r.y - t, dot(n, V1));
   } else if (m0 + m1 < 1e-12) {
-    t = min2(min2(r.z, r.x - std::fabs(c0)), r.y - std::fabs(c1));
-    c2 = std::copysign(r.z - t, dot(n, V2));
+    t = min2(min2(r.z, r.x - math::fabs(c0)), r.y - math::fabs(c1));
+    c2 = math::copysign(r.z - t, dot(n, V2));
   }
   const Vec3 q = {e.x - c0 * V0.x - c1 * V1.x - c2 * V2.x, e.y - c0 * V0.y - c1 * V1.y - c2 * V2.y,
                   e.z - c0 * V0.z - c1 * V1.z - c2 * V2.z};
@@ -311,7 +311,7 @@ ELLIPSIM_HD Vec3 vertex_q(const Vec3& e, const Axes& V, const Vec3& r, double s0
 // that times its Lipschitz bound |q| + max a.
 ELLIPSIM_HD double below_slack(const Vec3& q, const Vec3& a2, double best) {
   return tol::PAIR_SIGMA_SLACK_ULPS * tol::U *
-         (std::sqrt(dot(q, q)) + std::sqrt(max2(max2(a2.x, a2.y), a2.z)) + std::fabs(best));
+         (math::sqrt(dot(q, q)) + math::sqrt(max2(max2(a2.x, a2.y), a2.z)) + math::fabs(best));
 }
 
 // The best (value, n) found.

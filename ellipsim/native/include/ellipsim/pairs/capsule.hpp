@@ -35,7 +35,7 @@
 // K's sizes (radius, half-length, unused) as MuJoCo's capsule geom, its axis its local z.
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../distance/sphere_newton.hpp"
 #include "../tolerances.hpp"
@@ -75,8 +75,8 @@ ELLIPSIM_HD Frame to_frame(const Ellipsoid& E, const Ellipsoid& K) {
 
 // sigma at the unit n (E's frame).
 ELLIPSIM_HD double sigma_capsule(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, const Vec3& n) {
-  const double h = std::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
-  return n.x * e.x + n.y * e.y + n.z * e.z - h - L * std::fabs(n.x * u.x + n.y * u.y + n.z * u.z) - r;
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  return n.x * e.x + n.y * e.y + n.z * e.z - h - L * math::fabs(n.x * u.x + n.y * u.y + n.z * u.z) - r;
 }
 
 // A lower bound on the signed distance: sigma along the centre line minus its rounding allowance
@@ -86,9 +86,9 @@ ELLIPSIM_HD double centre_line_bound(const Ellipsoid& E, const Ellipsoid& K) {
   const Vec3& e = f.e;
   const double ee = norm2(e);
   if (!(ee > 0.0)) return -INFINITY;
-  const double s = 1.0 / std::sqrt(ee);
+  const double s = 1.0 / math::sqrt(ee);
   const Vec3 &ra = E.r, &rk = K.r;
-  const double scale = std::sqrt(ee) + max2(max2(max2(max2(ra.x, ra.y), ra.z), rk.x), rk.y);
+  const double scale = math::sqrt(ee) + max2(max2(max2(max2(ra.x, ra.y), ra.z), rk.x), rk.y);
   const double v = sigma_capsule(f.a2, e, f.u, rk.y, rk.x, {e.x * s, e.y * s, e.z * s});
   return v - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
 }
@@ -106,7 +106,7 @@ ELLIPSIM_HD LocalMax local_max(const Vec3& a2, const Vec3& e, const Vec3& u, dou
   const Vec3 n = circle_max_bound(a2, e, w.t1, w.t2).n;
   const Vec3 s = support(a2, n).s;
   const double t = dot3(s.x, s.y, s.z, u.x, u.y, u.z) - dot3(e.x, e.y, e.z, u.x, u.y, u.z);
-  if (std::fabs(t) <= L) return {n, 0};
+  if (math::fabs(t) <= L) return {n, 0};
   const double sg = t > 0.0 ? 1.0 : -1.0;
   const Vec3 q = {e.x + sg * L * u.x, e.y + sg * L * u.y, e.z + sg * L * u.z};
   return {foot3(a2, q).n, sg > 0.0 ? 1 : -1};
@@ -119,7 +119,7 @@ ELLIPSIM_HD double upper_bound1(const Vec3& a2, const Vec3& e, const Vec3& u, do
   const Vec3 w = {e.x - s.x + rho * n.x, e.y - s.y + rho * n.y, e.z - s.z + rho * n.z};
   const double t = min2(max2(dot3(w.x, w.y, w.z, u.x, u.y, u.z), -L), L);
   const Vec3 z = {w.x - t * u.x, w.y - t * u.y, w.z - t * u.z};
-  return std::sqrt(norm2(z)) - r - rho;
+  return math::sqrt(norm2(z)) - r - rho;
 }
 
 // ub2 of the top comment: the axis point c = e - s - (value + r) n, clamped to the segment.

@@ -39,8 +39,7 @@
 // right), math.copysign, atan2, sin, cos and ldexp as the same libm calls.
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../distance/sphere_newton.hpp"
 #include "../distance/spheroids.hpp"
@@ -95,7 +94,7 @@ constexpr int REACH_STEPS = 5;
 
 // Python's float x % y (numba's real_mod: fmod, then moved to y's sign; a zero remainder takes y's sign).
 ELLIPSIM_HD double py_mod(double x, double y) {
-  double mod = std::fmod(x, y);
+  double mod = math::fmod(x, y);
   if (mod != 0.0 || mod != mod) {
     if ((y < 0.0) != (mod < 0.0)) mod = mod + y;
   } else {
@@ -130,19 +129,19 @@ ELLIPSIM_HD Frame to_frame(const Ellipsoid& E, const Ellipsoid& K) {
 // |P n| = |n x u| for the unit u (cylinder.py perp).
 ELLIPSIM_HD double perp(const Vec3& n, const Vec3& u) {
   const Vec3 x = cross3(n, u);
-  return std::sqrt(x.x * x.x + x.y * x.y + x.z * x.z);
+  return math::sqrt(x.x * x.x + x.y * x.y + x.z * x.z);
 }
 
 // sigma at the unit n (cylinder.py sigma_cylinder).
 ELLIPSIM_HD double sigma_cylinder(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r, const Vec3& n) {
-  const double h = std::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
   const double nu = dot(n, u);
-  return dot(n, e) - h - L * std::fabs(nu) - r * perp(n, u);
+  return dot(n, e) - h - L * math::fabs(nu) - r * perp(n, u);
 }
 
 // f_rim(n) = n.q - h_E(n) - r |P n| for the unit n (cylinder.py sigma_rim).
 ELLIPSIM_HD double sigma_rim(const Vec3& a2, const Vec3& q, const Vec3& u, double r, const Vec3& n) {
-  const double h = std::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
   return dot(n, q) - h - r * perp(n, u);
 }
 
@@ -164,20 +163,20 @@ ELLIPSIM_HD_CALL RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3&
   const Vec3 q = {e.x - sg * L * u.x, e.y - sg * L * u.y, e.z - sg * L * u.z};
   const TangentBasis w = tangent_basis(u);
   const Vec3 &w1 = w.t1, &w2 = w.t2;
-  double b = std::atan2(perp(n, u), sg * dot(n, u));
-  double p = std::atan2(dot(n, w2), dot(n, w1));
+  double b = math::atan2(perp(n, u), sg * dot(n, u));
+  double p = math::atan2(dot(n, w2), dot(n, w1));
   b = min2(max2(b, 1e-6), 0.5 * PI - 1e-6);
   double value = -INFINITY;
   for (int it = 0; it < NEWTON_MAX_ITER; ++it) {
-    double cb = std::cos(b), sb = std::sin(b);
-    const double cp = std::cos(p), sp = std::sin(p);
+    double cb = math::cos(b), sb = math::sin(b);
+    const double cp = math::cos(p), sp = math::sin(p);
     const Vec3 c = {cp * w1.x + sp * w2.x, cp * w1.y + sp * w2.y, cp * w1.z + sp * w2.z};
     const Vec3 dc = {-sp * w1.x + cp * w2.x, -sp * w1.y + cp * w2.y, -sp * w1.z + cp * w2.z};
     n = {sg * cb * u.x + sb * c.x, sg * cb * u.y + sb * c.y, sg * cb * u.z + sb * c.z};
     const Vec3 nb = {-sg * sb * u.x + cb * c.x, -sg * sb * u.y + cb * c.y, -sg * sb * u.z + cb * c.z};
     const Vec3 npp = {sb * dc.x, sb * dc.y, sb * dc.z};
     const Vec3 an = {a2.x * n.x, a2.y * n.y, a2.z * n.z};
-    const double h = std::sqrt(dot(an, n));
+    const double h = math::sqrt(dot(an, n));
     const double ih = 1.0 / h;
     const Vec3 G = {q.x - an.x * ih, q.y - an.y * ih, q.z - an.z * ih};
     value = dot(n, q) - h - r * sb;
@@ -190,8 +189,8 @@ ELLIPSIM_HD_CALL RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3&
     double shift = 0.0;
     if (!(fbb < 0.0 && det > 0.0)) {
       const double hd = fbb - fpp;
-      const double top = 0.5 * (fbb + fpp) + std::sqrt(0.25 * (hd * hd) + fbp * fbp);
-      shift = max2(top, 0.0) + 1e-3 * (std::fabs(fbb) + std::fabs(fpp)) + std::sqrt(fb * fb + fp * fp);
+      const double top = 0.5 * (fbb + fpp) + math::sqrt(0.25 * (hd * hd) + fbp * fbp);
+      shift = max2(top, 0.0) + 1e-3 * (math::fabs(fbb) + math::fabs(fpp)) + math::sqrt(fb * fb + fp * fp);
       fbb = fbb - shift;
       fpp = fpp - shift;
       det = fbb * fpp - fbp * fbp;
@@ -201,7 +200,7 @@ ELLIPSIM_HD_CALL RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3&
     double dp = -(fbb * fp - fbp * fb) * idet;
     double arc2 = db * db + sb * sb * dp * dp;
     if (arc2 > 0.25) {
-      const double f = 0.5 / std::sqrt(arc2);
+      const double f = 0.5 / math::sqrt(arc2);
       db = db * f;
       dp = dp * f;
       arc2 = 0.25;
@@ -215,9 +214,9 @@ ELLIPSIM_HD_CALL RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3&
     for (int k = 0; k < 12; ++k) {  // backtrack until f grows
       const double bn_ = b + db;
       const Vec3 m = {
-          sg * std::cos(bn_) * u.x + std::sin(bn_) * (std::cos(p + dp) * w1.x + std::sin(p + dp) * w2.x),
-          sg * std::cos(bn_) * u.y + std::sin(bn_) * (std::cos(p + dp) * w1.y + std::sin(p + dp) * w2.y),
-          sg * std::cos(bn_) * u.z + std::sin(bn_) * (std::cos(p + dp) * w1.z + std::sin(p + dp) * w2.z)};
+          sg * math::cos(bn_) * u.x + math::sin(bn_) * (math::cos(p + dp) * w1.x + math::sin(p + dp) * w2.x),
+          sg * math::cos(bn_) * u.y + math::sin(bn_) * (math::cos(p + dp) * w1.y + math::sin(p + dp) * w2.y),
+          sg * math::cos(bn_) * u.z + math::sin(bn_) * (math::cos(p + dp) * w1.z + math::sin(p + dp) * w2.z)};
       if (arc2 < 1e-12 || sigma_rim(a2, q, u, r, m) >= value) break;
       db = 0.5 * db;
       dp = 0.5 * dp;
@@ -230,11 +229,11 @@ ELLIPSIM_HD_CALL RimNewton rim_newton(const Vec3& a2, const Vec3& e, const Vec3&
       return {m, sigma_rim(a2, q, u, r, m), AT_CAP};
     }
     if (arc2 <= NEWTON_STEP_TOL * NEWTON_STEP_TOL && shift == 0.0) {
-      cb = std::cos(b);
-      sb = std::sin(b);
-      const Vec3 m = {sg * cb * u.x + sb * (std::cos(p) * w1.x + std::sin(p) * w2.x),
-                      sg * cb * u.y + sb * (std::cos(p) * w1.y + std::sin(p) * w2.y),
-                      sg * cb * u.z + sb * (std::cos(p) * w1.z + std::sin(p) * w2.z)};
+      cb = math::cos(b);
+      sb = math::sin(b);
+      const Vec3 m = {sg * cb * u.x + sb * (math::cos(p) * w1.x + math::sin(p) * w2.x),
+                      sg * cb * u.y + sb * (math::cos(p) * w1.y + math::sin(p) * w2.y),
+                      sg * cb * u.z + sb * (math::cos(p) * w1.z + math::sin(p) * w2.z)};
       return {m, sigma_rim(a2, q, u, r, m), CONVERGED};
     }
   }
@@ -258,7 +257,7 @@ struct LocalMax {
 ELLIPSIM_HD LocalMax local_max(const Vec3& a2, const Vec3& e, const Vec3& u, double L, double r) {
   const double eu = dot(e, u);
   const Vec3 ep = {e.x - eu * u.x, e.y - eu * u.y, e.z - eu * u.z};
-  const double pe = std::sqrt(dot(ep, ep));
+  const double pe = math::sqrt(dot(ep, ep));
   Vec3 c;
   if (pe > 0.0) {
     c = {ep.x / pe, ep.y / pe, ep.z / pe};
@@ -269,7 +268,7 @@ ELLIPSIM_HD LocalMax local_max(const Vec3& a2, const Vec3& e, const Vec3& u, dou
   double sg = eu >= 0.0 ? 1.0 : -1.0;
   const Vec3 q = {e.x - sg * L * u.x - r * c.x, e.y - sg * L * u.y - r * c.y, e.z - sg * L * u.z - r * c.z};
   Vec3 start = foot3(a2, q).n;
-  if (sg * dot(start, u) > 0.0 && std::fabs(dot(start, u)) < 1.0 - 1e-9) {
+  if (sg * dot(start, u) > 0.0 && math::fabs(dot(start, u)) < 1.0 - 1e-9) {
     const RimNewton rn = rim_newton(a2, e, u, L, r, sg, start);
     if (rn.code == CONVERGED && sg * dot(rn.n, u) > 0.0) return {rn.n, sg > 0.0 ? RIM_P : RIM_M, true};
   }
@@ -290,13 +289,13 @@ ELLIPSIM_HD LocalMax local_max(const Vec3& a2, const Vec3& e, const Vec3& u, dou
     double f = 0.0;
     Vec3 yr = {0.0, 0.0, 0.0};
     if (st == SIDE) {
-      if (std::fabs(ya) <= L) return {n, st, true};
+      if (math::fabs(ya) <= L) return {n, st, true};
       sg = ya > 0.0 ? 1.0 : -1.0;
       start = unit({n.x + 0.1 * sg * u.x, n.y + 0.1 * sg * u.y, n.z + 0.1 * sg * u.z});
     } else {
       sg = st == CAP_P ? 1.0 : -1.0;
       yr = {y.x - ya * u.x, y.y - ya * u.y, y.z - ya * u.z};
-      const double rad = std::sqrt(dot(yr, yr));
+      const double rad = math::sqrt(dot(yr, yr));
       if (rad <= r) return {n, st, true};
       // the rim optimum sits off the cap by about (rad - r) / curvature: start there, on the azimuth of the
       // violation (a far start may crawl along the cap's degenerate azimuth)
@@ -329,10 +328,10 @@ ELLIPSIM_HD LocalMax local_max(const Vec3& a2, const Vec3& e, const Vec3& u, dou
 ELLIPSIM_HD double sd_point_cylinder(const Vec3& w, const Vec3& u, double L, double r) {
   const double z = dot(w, u);
   const double rad = perp(w, u);  // |w x u|: sqrt(|w|^2 - z^2) would lose half the digits near the axis
-  const double dz = std::fabs(z) - L, dr = rad - r;
+  const double dz = math::fabs(z) - L, dr = rad - r;
   if (dz <= 0.0 && dr <= 0.0) return max2(dz, dr);
   const double oz = max2(dz, 0.0), orr = max2(dr, 0.0);
-  return std::sqrt(oz * oz + orr * orr);
+  return math::sqrt(oz * oz + orr * orr);
 }
 
 // ub1 of the top comment at the unit n (cylinder.py upper_bound1).
@@ -350,7 +349,7 @@ ELLIPSIM_HD double upper_bound2(const Vec3& a2, const Vec3& e, const Vec3& u, do
   const Vec3 y = witness(a2, e, n, value);
   const double ya = dot(y, u);
   Vec3 yr = {y.x - ya * u.x, y.y - ya * u.y, y.z - ya * u.z};
-  const double rad = std::sqrt(dot(yr, yr));
+  const double rad = math::sqrt(dot(yr, yr));
   const double nu = dot(n, u);
   const double pn = perp(n, u);
   double za = min2(max2(ya, -L), L);
@@ -359,15 +358,15 @@ ELLIPSIM_HD double upper_bound2(const Vec3& a2, const Vec3& e, const Vec3& u, do
     const double f = rad > 0.0 ? min2(1.0, r / rad) : 1.0;
     yr = {yr.x * f, yr.y * f, yr.z * f};
     t = min2(L, r - rad * f);
-    za = std::copysign(L - t, nu);
-  } else if (std::fabs(nu) < 1e-12) {  // side: centre radial (r - t) n, axial the witness's (within L)
-    t = min2(r, L - std::fabs(za));
+    za = math::copysign(L - t, nu);
+  } else if (math::fabs(nu) < 1e-12) {  // side: centre radial (r - t) n, axial the witness's (within L)
+    t = min2(r, L - math::fabs(za));
     const double pr = r - t;
     yr = {pr * n.x, pr * n.y, pr * n.z};
   } else {  // rim: the rim point
     const double f = rad > 0.0 ? r / rad : 0.0;
     yr = {yr.x * f, yr.y * f, yr.z * f};
-    za = std::copysign(L, ya);
+    za = math::copysign(L, ya);
   }
   const Vec3 q = {e.x - za * u.x - yr.x, e.y - za * u.y - yr.y, e.z - za * u.z - yr.z};
   const double tt = foot3(a2, q).t;
@@ -389,7 +388,7 @@ ELLIPSIM_HD double sweep_bound(const Vec3& a2, const Vec3& e, const Vec3& u, dou
   const double c0 = tau + dot(g, ep) / kappa;
   const double gam2 = max2(dot(g, g) - kappa * kappa, 0.0) / (kappa * kappa);
   const double dd = d2 + r;
-  if (std::fabs(c0) + std::sqrt(dd * dd + gam2 * d2 * d2) <= L) return -dd;
+  if (math::fabs(c0) + math::sqrt(dd * dd + gam2 * d2 * d2) <= L) return -dd;
   return INFINITY;
 }
 
@@ -399,7 +398,7 @@ ELLIPSIM_HD_CALL double capsule_bound(const Vec3& a2, const Vec3& e, const Vec3&
                                  const Vec3& n, double value, double tol, double slack) {
   (void)slack;
   const double ya = dot(witness(a2, e, n, value), u);
-  const double t = min2(r, L - std::fabs(ya));
+  const double t = min2(r, L - math::fabs(ya));
   if (!(t > CAPSULE_MIN_FIT * r)) return INFINITY;  // (a thinner capsule's round end rarely fits under the rim)
   const Vec3 ec = {e.x - (r - t) * n.x, e.y - (r - t) * n.y, e.z - (r - t) * n.z};
   const double lc = L - t;
@@ -417,7 +416,7 @@ ELLIPSIM_HD double upper_bound(const Vec3& a2, const Vec3& e, const Vec3& u, dou
   if (ub - value <= tol) return ub;
   ub = min2(ub, upper_bound2(a2, e, u, L, r, n, value));
   if (ub - value <= tol) return ub;
-  if (std::fabs(dot(n, u)) < 1e-12) {
+  if (math::fabs(dot(n, u)) < 1e-12) {
     ub = min2(ub, sweep_bound(a2, e, u, L, r, n));
     if (ub - value > tol) ub = min2(ub, capsule_bound(a2, e, u, L, r, rho, n, value, tol, slack));
   }
@@ -428,7 +427,7 @@ ELLIPSIM_HD double upper_bound(const Vec3& a2, const Vec3& e, const Vec3& u, dou
 
 // f_p(m) = m.p - h_E(m) (cylinder.py _f).
 ELLIPSIM_HD double f(const Vec3& a2, const Vec3& p, const Vec3& m) {
-  return dot(m, p) - std::sqrt(a2.x * m.x * m.x + a2.y * m.y * m.y + a2.z * m.z * m.z);
+  return dot(m, p) - math::sqrt(a2.x * m.x * m.x + a2.y * m.y * m.y + a2.z * m.z * m.z);
 }
 
 // Whether the unit m of the plane span(v1, v2) lies on the arc [0, span] (cylinder.py _on_arc).
@@ -439,7 +438,7 @@ ELLIPSIM_HD bool on_arc(const Vec3& m, const Vec3& v1, const Vec3& v2, double cs
 
 // cos t v1 + sin t v2 (cylinder.py _turn).
 ELLIPSIM_HD Vec3 turn(const Vec3& v1, const Vec3& v2, double t) {
-  const double ct = std::cos(t), st = std::sin(t);
+  const double ct = math::cos(t), st = math::sin(t);
   return {ct * v1.x + st * v2.x, ct * v1.y + st * v2.y, ct * v1.z + st * v2.z};
 }
 
@@ -470,12 +469,12 @@ ELLIPSIM_HD PlanePole plane_pole(double la, double lb, double qb) {
   const double xb = lb * qb / (lb - la);
   const double rest = 1.0 - xb * xb / lb;
   if (!(rest >= 0.0)) return {false, 0.0, 0.0};
-  return {true, std::sqrt(rest * la) / la, xb / lb};
+  return {true, math::sqrt(rest * la) / la, xb / lb};
 }
 
 // max of g.(x, y) over the unit directions from (x0, y0) to (x1, y1) (cylinder.py _sub_max).
 ELLIPSIM_HD double sub_max(const V2& g, double x0, double y0, double x1, double y1) {
-  if (x0 * g.y - y0 * g.x >= 0.0 && g.x * y1 - g.y * x1 >= 0.0) return std::sqrt(g.x * g.x + g.y * g.y);
+  if (x0 * g.y - y0 * g.x >= 0.0 && g.x * y1 - g.y * x1 >= 0.0) return math::sqrt(g.x * g.x + g.y * g.y);
   return max2(g.x * x0 + g.y * y0, g.x * x1 + g.y * y1);
 }
 
@@ -488,7 +487,7 @@ ELLIPSIM_HD double split_max(const V2& ga, const V2& gb, double x0, double y0, d
     dx = x0 + x1;  // no crossing inside (rounding): the bisector
     dy = y0 + y1;
   }
-  const double nd = std::sqrt(dx * dx + dy * dy);
+  const double nd = math::sqrt(dx * dx + dy * dy);
   if (!(nd > 0.0)) return max2(sub_max(ga, x0, y0, x1, y1), sub_max(gb, x0, y0, x1, y1));
   dx = dx / nd;
   dy = dy / nd;
@@ -497,7 +496,7 @@ ELLIPSIM_HD double split_max(const V2& ga, const V2& gb, double x0, double y0, d
 
 // An upper bound of min_k g_k.(cos t, sin t) over t in [0, span] (cylinder.py _envelope).
 ELLIPSIM_HD double envelope(const V2& g0, const V2& gm, const V2& g2, double cs, double sn) {
-  const double nm = std::sqrt(2.0 + 2.0 * cs);
+  const double nm = math::sqrt(2.0 + 2.0 * cs);
   if (!(nm > 0.0)) return max2(sub_max(g0, 1.0, 0.0, cs, sn), sub_max(g2, 1.0, 0.0, cs, sn));
   const double xm = (1.0 + cs) / nm, ym = sn / nm;
   return max2(split_max(g0, gm, 1.0, 0.0, xm, ym), split_max(gm, g2, xm, ym, cs, sn));
@@ -557,11 +556,11 @@ ELLIPSIM_HD Vec3 edge_normal(const Vec3& a, const Vec3& b, const Vec3& cen) {
 ELLIPSIM_HD Top edge_max(const Vec3& a2, const Vec3& p, const Vec3& a, const Vec3& b, double slack, double floor,
                          double stop) {
   const Vec3 k = cross3(a, b);
-  const double sn = std::sqrt(norm2(k));
+  const double sn = math::sqrt(norm2(k));
   if (sn == 0.0) return {-INFINITY, a};
   const double cs = dot(a, b);
   Vec3 w = {b.x - cs * a.x, b.y - cs * a.y, b.z - cs * a.z};
-  const double nw = std::sqrt(norm2(w));
+  const double nw = math::sqrt(norm2(w));
   if (!(nw > 0.0)) return {-INFINITY, a};
   w = {w.x / nw, w.y / nw, w.z / nw};
   return arc_max(a2, p, a, w, cs, nw, b, slack, floor, stop);
@@ -628,7 +627,7 @@ struct CertModel {
 ELLIPSIM_HD double reach(const V2& g, double H0, double H1, double H2, double value, double h, double ss, double bt,
                          double r, double s1, double s2) {
   const double c = min2(value, 0.0);
-  const double ns = std::sqrt(s1 * s1 + s2 * s2);
+  const double ns = math::sqrt(s1 * s1 + s2 * s2);
   if (!(ns > 0.0)) return 0.0;
   const V2 s = {s1 / ns, s2 / ns};  // the chart direction towards the cap
   const V2 a = {-s.y, s.x};         // along the rim
@@ -650,7 +649,7 @@ ELLIPSIM_HD double reach(const V2& g, double H0, double H1, double H2, double va
 // cylinder.py _cert_model.
 ELLIPSIM_HD CertModel cert_model(const Vec3& a2, const Vec3& q, const Vec3& su, double r, const Vec3& n) {
   const Vec3 an = {a2.x * n.x, a2.y * n.y, a2.z * n.z};
-  const double h = std::sqrt(dot(an, n));
+  const double h = math::sqrt(dot(an, n));
   const double ss = perp(n, su);
   const TangentBasis tb = tangent_basis(n);
   const Vec3 &t1 = tb.t1, &t2 = tb.t2;
@@ -671,9 +670,9 @@ ELLIPSIM_HD CertModel cert_model(const Vec3& a2, const Vec3& q, const Vec3& su, 
   const double h12 = -(a12 - at.x * at.y * ih2) * ih - r * (-ut.x * ut.y - pt.x * pt.y * iss2) * iss;
   const double h22 = -(a22 - at.y * at.y * ih2) * ih - r * ((1.0 - ut.y * ut.y) - pt.y * pt.y * iss2) * iss;
   const double ad = a11 - a22;
-  const double bt = std::sqrt(0.5 * (a11 + a22) + std::sqrt(0.25 * (ad * ad) + a12 * a12));
+  const double bt = math::sqrt(0.5 * (a11 + a22) + math::sqrt(0.25 * (ad * ad) + a12 * a12));
   const double amax = max2(max2(a2.x, a2.y), a2.z);
-  const double eg = 64.0 * tol::U * (std::sqrt(norm2(q)) + std::sqrt(amax) + r);
+  const double eg = 64.0 * tol::U * (math::sqrt(norm2(q)) + math::sqrt(amax) + r);
   // |P n| near 0: 1 - ut^2 and pt lose U / |P n|^2
   const double eh = 256.0 * tol::U * (amax * ih + r * iss) + 64.0 * tol::U * r * iss2;
   const double value = dot(n, q) - h - r * ss;
@@ -718,7 +717,7 @@ ELLIPSIM_HD bool cert_region(const CertModel& cm, const Vec3& n, double r, const
   const Chart c2 = chart(n, cm.t1, cm.t2, v2), c3 = chart(n, cm.t1, cm.t2, v3);
   if (!(cm.ok && c0.ok && c1.ok && c2.ok && c3.ok)) return false;
   const V2 &y0 = c0.y, &y1 = c1.y, &y2 = c2.y, &y3 = c3.y;
-  double rho = std::sqrt(max2(max2(max2(y0.x * y0.x + y0.y * y0.y, y1.x * y1.x + y1.y * y1.y),
+  double rho = math::sqrt(max2(max2(max2(y0.x * y0.x + y0.y * y0.y, y1.x * y1.x + y1.y * y1.y),
                                    y2.x * y2.x + y2.y * y2.y),
                               y3.x * y3.x + y3.y * y3.y));
   rho = rho * (1.0 + 1e-9);  // the chart's own rounding
@@ -805,25 +804,25 @@ ELLIPSIM_HD_CALL RimBB rim_bb(const Vec3& a2, const Vec3& e, const Vec3& u, doub
   const double first = 2.0 * PI / RIM_LUNES;
   double phi = 0.0;
   bool has = perp(bn, u) > 0.0;  // an azimuth: on this rim, on the side circle, or on the other rim
-  if (has) phi = std::atan2(dot(bn, w2), dot(bn, w1));
+  if (has) phi = math::atan2(dot(bn, w2), dot(bn, w1));
   Vec3 ci = turn(w1, w2, phi);
   CertModel cm = cert_model(a2, q, su, r, bn);
-  double theta = std::atan2(perp(bn, u), dot(bn, su));
+  double theta = math::atan2(perp(bn, u), dot(bn, su));
   const double start = phi - 0.5 * first;
-  std::int64_t nodes = 0;
+  int64_t nodes = 0;
   double xs = 0.0;  // the last failed bound of a lune holding the incumbent: its excess and level
-  std::int64_t xl = 0;
+  int64_t xl = 0;
   const Vec3 e0 = turn(w1, w2, start);
   Vec3 cb = e0;
   for (int k = 0; k < RIM_LUNES; ++k) {
     const double a0 = start + double(k) * first;
     const Vec3 end = k == RIM_LUNES - 1 ? e0 : turn(w1, w2, a0 + first);  // the last closes the circle on e0
-    std::int64_t lev = 0, idx = 0;
+    int64_t lev = 0, idx = 0;
     Vec3 ca = cb;  // the next lune starts where the last one ended
     while (true) {
-      const double width = std::ldexp(first, int(-lev));
+      const double width = math::ldexp(first, int(-lev));
       const double a = a0 + double(idx) * width;
-      cb = idx + 1 == (std::int64_t(1) << lev) ? end : turn(w1, w2, a + width);  // the lune's far end
+      cb = idx + 1 == (int64_t(1) << lev) ? end : turn(w1, w2, a + width);  // the lune's far end
       const double off = py_mod(phi - a, 2.0 * PI);
       Vec3 c;
       if (!has) {
@@ -843,7 +842,7 @@ ELLIPSIM_HD_CALL RimBB rim_bb(const Vec3& a2, const Vec3& e, const Vec3& u, doub
       const bool holds = has && off <= width && !near;
       double bound;
       Vec3 m;
-      if (holds && std::ldexp(xs, int(2 * (xl - lev))) > SKIP_EXCESS * tol) {
+      if (holds && math::ldexp(xs, int(2 * (xl - lev))) > SKIP_EXCESS * tol) {
         bound = INFINITY;  // its bound would fail too (SKIP_EXCESS): split it unbounded
         m = bn;
       } else if (!near && !(holds && sg * dot(bn, u) >= -1e-12) &&
@@ -875,11 +874,11 @@ ELLIPSIM_HD_CALL RimBB rim_bb(const Vec3& a2, const Vec3& e, const Vec3& u, doub
           xs = 0.0;  // no prediction for the new incumbent's lunes
           has = perp(bn, u) > 0.0;
           if (has) {
-            phi = std::atan2(dot(bn, w2), dot(bn, w1));
+            phi = math::atan2(dot(bn, w2), dot(bn, w1));
             ci = turn(w1, w2, phi);
           }
           cm = cert_model(a2, q, su, r, bn);
-          theta = std::atan2(perp(bn, u), dot(bn, su));
+          theta = math::atan2(perp(bn, u), dot(bn, su));
         }
       }
       if (bound > best + tol) {
@@ -904,9 +903,9 @@ ELLIPSIM_HD_CALL RimBB rim_bb(const Vec3& a2, const Vec3& e, const Vec3& u, doub
 // _mirrored): |e.u| >= h_E(u), with 64 u of margin on each side.
 ELLIPSIM_HD bool mirrored(const Vec3& a2, const Vec3& e, const Vec3& u) {
   const double eu = dot(e, u);
-  const double spread = std::fabs(e.x * u.x) + std::fabs(e.y * u.y) + std::fabs(e.z * u.z);
-  const double hu = std::sqrt(a2.x * u.x * u.x + a2.y * u.y * u.y + a2.z * u.z * u.z);
-  return std::fabs(eu) - 64.0 * tol::U * spread >= hu * (1.0 + 64.0 * tol::U);
+  const double spread = math::fabs(e.x * u.x) + math::fabs(e.y * u.y) + math::fabs(e.z * u.z);
+  const double hu = math::sqrt(a2.x * u.x * u.x + a2.y * u.y * u.y + a2.z * u.z * u.z);
+  return math::fabs(eu) - 64.0 * tol::U * spread >= hu * (1.0 + 64.0 * tol::U);
 }
 
 // (value, n, proven) of the enumeration.
@@ -951,32 +950,32 @@ struct AxisMax {
 ELLIPSIM_HD_CALL AxisMax axis_max(const Vec3& a2, const Vec3& e, Vec3 u, double L, double r, double tol, double scale,
                              const Vec3& n0) {
   using distance::spheroids::at;
-  const Vec3 ra = {std::sqrt(a2.x), std::sqrt(a2.y), std::sqrt(a2.z)};
+  const Vec3 ra = {math::sqrt(a2.x), math::sqrt(a2.y), math::sqrt(a2.z)};
   const distance::spheroids::AxisOf ax = distance::spheroids::axis_of(ra);
   const int j = ax.k;
   const double db = ax.half;
   const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
   const double qb = at(ra, j), pb = 0.5 * (at(ra, j1) + at(ra, j2));
-  const double uu = std::sqrt(dot(u, u));  // u from to_frame is unit to ~1e-15: the model's axis is u / |u|
+  const double uu = math::sqrt(dot(u, u));  // u from to_frame is unit to ~1e-15: the model's axis is u / |u|
   const Vec3 u0 = u;
   u = {u.x / uu, u.y / uu, u.z / uu};
   const TangentBasis w = tangent_basis(u);
   const Vec3 &w1 = w.t1, &w2 = w.t2;
-  double dfu = max2(max2(std::fabs(dot(u, u) - 1.0), std::fabs(dot(w1, w1) - 1.0)), std::fabs(dot(w2, w2) - 1.0));
+  double dfu = max2(max2(math::fabs(dot(u, u) - 1.0), math::fabs(dot(w1, w1) - 1.0)), math::fabs(dot(w2, w2) - 1.0));
   // + the dots' rounding
-  dfu = max2(max2(max2(dfu, std::fabs(dot(u, w1))), std::fabs(dot(u, w2))), std::fabs(dot(w1, w2))) + 3.0 * tol::U;
+  dfu = max2(max2(max2(dfu, math::fabs(dot(u, w1))), math::fabs(dot(u, w2))), math::fabs(dot(w1, w2))) + 3.0 * tol::U;
   double delta0 = db * (1.0 + 3.0 * dfu) + 3.0 * pb * pb * dfu / min2(qb, pb) + 3.0 * dfu * scale;
-  delta0 += 3.0 * (L + r) * (std::fabs(uu - 1.0) + 2.0 * tol::U) + 12.0 * tol::U * scale;
+  delta0 += 3.0 * (L + r) * (math::fabs(uu - 1.0) + 2.0 * tol::U) + 12.0 * tol::U * scale;
   delta0 += 4.0 * tol::U * L;  // the cells at t = T/2 reach ~2e-16 past pi / 2
   const double tol1 =
       tol - 2.0 * delta0 - (distance::spheroids::ERR_C_ULPS + tol::BB_ERR_SIGMA_ULPS + 8.0) * tol::U * scale;
   const Vec3 nu = {dot(n0, u), dot(n0, w1), dot(n0, w2)};
-  const double t0 = std::atan2(std::sqrt(nu.y * nu.y + nu.z * nu.z), nu.x), p0 = std::atan2(nu.z, nu.y);
+  const double t0 = math::atan2(math::sqrt(nu.y * nu.y + nu.z * nu.z), nu.x), p0 = math::atan2(nu.z, nu.y);
   const distance::AxisBB bb = distance::axis_bb(dot(e, u), dot(e, w1), dot(e, w2), 1, L, r, qb * qb - pb * pb, pb * pb,
                                                 at(u, j), at(w1, j), at(w2, j), tol1, scale, 0.0, t0, p0);
   Vec3 n = n0;
   if (bb.moved) {
-    const double ct = std::cos(bb.t), st = std::sin(bb.t), cp = std::cos(bb.p), sp = std::sin(bb.p);
+    const double ct = math::cos(bb.t), st = math::sin(bb.t), cp = math::cos(bb.p), sp = math::sin(bb.p);
     n = unit({ct * u.x + st * (cp * w1.x + sp * w2.x), ct * u.y + st * (cp * w1.y + sp * w2.y),
               ct * u.z + st * (cp * w1.z + sp * w2.z)});
   }
@@ -990,7 +989,7 @@ struct Scales {
 };
 
 ELLIPSIM_HD Scales scales(const Vec3& e, const Vec3& ra, double r, double L) {
-  const double scale = std::sqrt(norm2(e)) + max2(max2(max2(max2(ra.x, ra.y), ra.z), r), L);
+  const double scale = math::sqrt(norm2(e)) + max2(max2(max2(max2(ra.x, ra.y), ra.z), r), L);
   const double tol = max2(tol::PAIR_CERT_REL * min2(min2(min2(min2(ra.x, ra.y), ra.z), r), L),
                           2.0 * tol::BB_TOL_ULPS * tol::U * scale);
   return {scale, tol, tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale};
@@ -1059,9 +1058,9 @@ ELLIPSIM_HD double centre_line_bound(const Ellipsoid& E, const Ellipsoid& K) {
   const Vec3& e = fr.e;
   const double ee = norm2(e);
   if (!(ee > 0.0)) return -INFINITY;
-  const double s = 1.0 / std::sqrt(ee);
+  const double s = 1.0 / math::sqrt(ee);
   const Vec3 &ra = E.r, &rk = K.r;
-  const double scale = std::sqrt(ee) + max2(max2(max2(max2(ra.x, ra.y), ra.z), rk.x), rk.y);
+  const double scale = math::sqrt(ee) + max2(max2(max2(max2(ra.x, ra.y), ra.z), rk.x), rk.y);
   const double v = sigma_cylinder(fr.a2, e, fr.u, rk.y, rk.x, {e.x * s, e.y * s, e.z * s});
   return v - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
 }

@@ -31,8 +31,7 @@
 // numba kernel (tests/test_native_pair_derivatives.py).
 #pragma once
 
-#include <cmath>
-#include <cstdint>
+#include "../math.hpp"
 
 #include "../distance/derivatives.hpp"
 #include "../tolerances.hpp"
@@ -71,7 +70,7 @@ ELLIPSIM_HD Vec3 zero() { return {0.0, 0.0, 0.0}; }
 
 // _unit: v / |v| (no guard: a zero v gives NaN, as the Python).
 ELLIPSIM_HD Vec3 unit(const Vec3& v) {
-  const double s = 1.0 / std::sqrt(norm2(v));
+  const double s = 1.0 / math::sqrt(norm2(v));
   return {v.x * s, v.y * s, v.z * s};
 }
 
@@ -86,11 +85,11 @@ struct PNorm {
 
 // _pnorm: (|n|_P, P n) for P = I (pt 1) or I - u u^T (pt 2); (1, 0) for no such term (pt 0).
 ELLIPSIM_HD PNorm pnorm(const Vec3& n, int pt, const Vec3& u) {
-  if (pt == 1) return {std::sqrt(norm2(n)), n};
+  if (pt == 1) return {math::sqrt(norm2(n)), n};
   if (pt == 2) {
     const double c = dot(n, u);
     const Vec3 p = {n.x - c * u.x, n.y - c * u.y, n.z - c * u.z};
-    return {std::sqrt(norm2(p)), p};
+    return {math::sqrt(norm2(p)), p};
   }
   return {1.0, zero()};
 }
@@ -112,12 +111,12 @@ ELLIPSIM_HD Stratum stratum(int kind, const Vec3& n, const Axes& V, const Vec3& 
   if (kind == BOX) {
     const double c[3] = {dot(n, V.v[0]), dot(n, V.v[1]), dot(n, V.v[2])};
     const double s[3] = {sk.x, sk.y, sk.z};
-    const bool a0 = std::fabs(c[0]) <= tol::DERIV_KINK_COS, a1 = std::fabs(c[1]) <= tol::DERIV_KINK_COS,
-               a2 = std::fabs(c[2]) <= tol::DERIV_KINK_COS;
+    const bool a0 = math::fabs(c[0]) <= tol::DERIV_KINK_COS, a1 = math::fabs(c[1]) <= tol::DERIV_KINK_COS,
+               a2 = math::fabs(c[2]) <= tol::DERIV_KINK_COS;
     const int k = int(a0) + int(a1) + int(a2);
     Vec3 w = Z;
     for (int j = 0; j < 3; ++j) {
-      if (std::fabs(c[j]) > tol::DERIV_KINK_COS) w = axpy(std::copysign(s[j], c[j]), V.v[j], w);
+      if (math::fabs(c[j]) > tol::DERIV_KINK_COS) w = axpy(math::copysign(s[j], c[j]), V.v[j], w);
     }
     if (k == 0) return {VERTEX, 0, Z, Z, w, 0.0, 0, Z, 0.0, 0.0};
     if (k == 1) {
@@ -131,10 +130,10 @@ ELLIPSIM_HD Stratum stratum(int kind, const Vec3& n, const Axes& V, const Vec3& 
   const double r = sk.x, L = sk.y;
   const Vec3& u = V.v[2];
   const double c = dot(n, u);
-  const Vec3 w = {std::copysign(L, c) * u.x, std::copysign(L, c) * u.y, std::copysign(L, c) * u.z};
-  if (std::fabs(c) <= tol::DERIV_KINK_COS) return {SIDE, 1, u, Z, Z, r, 1, u, L, 0.0};
+  const Vec3 w = {math::copysign(L, c) * u.x, math::copysign(L, c) * u.y, math::copysign(L, c) * u.z};
+  if (math::fabs(c) <= tol::DERIV_KINK_COS) return {SIDE, 1, u, Z, Z, r, 1, u, L, 0.0};
   if (kind == CAPSULE) return {END, 0, Z, Z, w, r, 1, u, 0.0, 0.0};
-  if (std::sqrt(norm2(cross(n, u))) <= tol::DERIV_KINK_COS) {
+  if (math::sqrt(norm2(cross(n, u))) <= tol::DERIV_KINK_COS) {
     const TangentBasis t = tangent(u);
     return {CAP, 2, t.t1, t.t2, w, 0.0, 0, u, r, r};
   }
@@ -253,7 +252,7 @@ ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const 
     const double c = dot(n, g0);
     n = unit({n.x - c * g0.x, n.y - c * g0.y, n.z - c * g0.z});
   }
-  const double S = std::sqrt(norm2(d)) + max3(re) + max3(sk);
+  const double S = math::sqrt(norm2(d)) + max3(re) + max3(sk);
   const Vec3 dw = {d.x - w.x, d.y - w.y, d.z - w.z};
   Local L = local(n, dw, Re, re, rho, pt, u, g0, k);
   for (int it = 0; it < (k < 2 ? tol::DERIV_POLISH_STEPS : 0); ++it) {  // Newton on the stratum
@@ -279,8 +278,8 @@ ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const 
   int status = s > 0.0 ? SMOOTH : BRANCH;
   const double slack = tol::DERIV_KINK_REL * S;
   if (k == 2 && f == CAP) {
-    if (std::sqrt(mu0 * mu0 + mu1 * mu1) >= st.bound0 - slack) status = ONE_SIDED;
-  } else if ((k >= 1 && std::fabs(mu0) >= st.bound0 - slack) || (k == 2 && std::fabs(mu1) >= st.bound1 - slack)) {
+    if (math::sqrt(mu0 * mu0 + mu1 * mu1) >= st.bound0 - slack) status = ONE_SIDED;
+  } else if ((k >= 1 && math::fabs(mu0) >= st.bound0 - slack) || (k == 2 && math::fabs(mu1) >= st.bound1 - slack)) {
     status = ONE_SIDED;
   }
   const PNorm p = pnorm(n, pt, u);
@@ -342,16 +341,16 @@ ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const 
     } else if (kind == BOX) {  // a half-size: w moves along a free axis
       const Vec3& va = V.v[axis];
       const double cj = dot(n, va);
-      if (std::fabs(cj) > tol::DERIV_KINK_COS) {
-        const double sg = std::copysign(1.0, cj);
-        dv = -std::fabs(cj), b = {-sg * va.x, -sg * va.y, -sg * va.z};
+      if (math::fabs(cj) > tol::DERIV_KINK_COS) {
+        const double sg = math::copysign(1.0, cj);
+        dv = -math::fabs(cj), b = {-sg * va.x, -sg * va.y, -sg * va.z};
       }
     } else if (axis == 0 && f != CAP) {  // a radius: d rho
       dv = -npn, b = {-Pn.x / npn, -Pn.y / npn, -Pn.z / npn};
     } else if (axis == 1 && f != SIDE) {  // a half-length: w = s L u
       const double cu = dot(n, u);
-      const double sg = std::copysign(1.0, cu);
-      dv = -std::fabs(cu), b = {-sg * u.x, -sg * u.y, -sg * u.z};
+      const double sg = math::copysign(1.0, cu);
+      dv = -math::fabs(cu), b = {-sg * u.x, -sg * u.y, -sg * u.z};
     }
     const double dd = dv - mu0 * dg0 - mu1 * dg1;
     // dn: -G^T (dG n) along the rows, the reduced solve in the tangent space

@@ -18,7 +18,7 @@
 // names); the Python's private helpers keep their names without the leading underscore.
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../distance/sphere_newton.hpp"
 #include "../tolerances.hpp"
@@ -39,7 +39,7 @@ struct Support {
 
 ELLIPSIM_HD Support support(const Vec3& a2, const Vec3& n) {
   const double an0 = a2.x * n.x, an1 = a2.y * n.y, an2 = a2.z * n.z;
-  const double h = std::sqrt(an0 * n.x + an1 * n.y + an2 * n.z);
+  const double h = math::sqrt(an0 * n.x + an1 * n.y + an2 * n.z);
   const double ih = 1.0 / h;
   return {h, {an0 * ih, an1 * ih, an2 * ih}};
 }
@@ -75,7 +75,7 @@ ELLIPSIM_HD Psi psi3(const Vec3& a2, const Vec3& q, double t) {
   const double s0 = a2.x * w0 * w0, s1 = a2.y * w1 * w1, s2 = a2.z * w2 * w2;
   const double S = s0 + s1 + s2;
   const double T = s0 * d0 + s1 * d1 + s2 * d2;
-  return {S, S * (1.0 - std::sqrt(S)) / T};
+  return {S, S * (1.0 - math::sqrt(S)) / T};
 }
 
 // The largest root of S(t) = 1, or nan when it lies within POLE_RTOL * amin of the pole -amin.
@@ -83,15 +83,15 @@ ELLIPSIM_HD Psi psi3(const Vec3& a2, const Vec3& q, double t) {
 ELLIPSIM_HD double secular_root3(const Vec3& a2, const Vec3& q, double amin, double amax, double qq) {
   const double lo = -amin + tol::POLE_RTOL * amin;
   double t = lo;
-  for (int i = 0; i < 3; ++i) t = max2(t, -at(a2, i) + std::sqrt(at(a2, i)) * std::fabs(at(q, i)));
-  const double hi = std::sqrt(amax * qq);  // S(hi) <= 1
+  for (int i = 0; i < 3; ++i) t = max2(t, -at(a2, i) + math::sqrt(at(a2, i)) * math::fabs(at(q, i)));
+  const double hi = math::sqrt(amax * qq);  // S(hi) <= 1
   Psi p = psi3(a2, q, t);
   if (!(p.S > 1.0)) return p.S == 1.0 || t > lo ? t : NAN;
   for (int it = 0; it < tol::SECULAR_MAX_ITER; ++it) {
     const double tn = min2(t - p.step, hi);
     // converged relative to the root's distance from the pole -amin (the normal's q_i / (t + a2_i) is as
     // accurate as that), down to what t's float resolution allows
-    if (tn - t <= max2(tol::SECULAR_LAST * (tn + amin), 4.0 * tol::U * (std::fabs(tn) + amin))) return tn;
+    if (tn - t <= max2(tol::SECULAR_LAST * (tn + amin), 4.0 * tol::U * (math::fabs(tn) + amin))) return tn;
     t = tn;
     p = psi3(a2, q, t);
     if (!(p.S > 1.0)) return t;
@@ -110,16 +110,16 @@ ELLIPSIM_HD Vec3 pole_limit(const Vec3& a2, const Vec3& q, double amin) {
   const double rest = max2(1.0 - x0 * x0 / a2.x - x1 * x1 / a2.y - x2 * x2 / a2.z, 0.0);
   const double qd = (d0 ? q.x * q.x / a2.x : 0.0) + (d1 ? q.y * q.y / a2.y : 0.0) + (d2 ? q.z * q.z / a2.z : 0.0);
   if (qd > 0.0) {
-    const double f = std::sqrt(rest / qd);
+    const double f = math::sqrt(rest / qd);
     x0 = d0 ? q.x * f : x0;
     x1 = d1 ? q.y * f : x1;
     x2 = d2 ? q.z * f : x2;
   } else if (d0) {
-    x0 = std::sqrt(rest * a2.x);
+    x0 = math::sqrt(rest * a2.x);
   } else if (d1) {
-    x1 = std::sqrt(rest * a2.y);
+    x1 = math::sqrt(rest * a2.y);
   } else {
-    x2 = std::sqrt(rest * a2.z);
+    x2 = math::sqrt(rest * a2.z);
   }
   return unit({x0 / a2.x, x1 / a2.y, x2 / a2.z});
 }
@@ -157,14 +157,14 @@ ELLIPSIM_HD double dual_bound(const Vec3& a2, const Vec3& q, double t, int d) {
         c += at(a2, i) * at(q, i) * at(q, i);
       }
     }
-    const double delta = srest < 1.0 ? std::sqrt(c / (1.0 - srest)) : tol::POLE_RTOL * amin;
+    const double delta = srest < 1.0 ? math::sqrt(c / (1.0 - srest)) : tol::POLE_RTOL * amin;
     tt = -amin + max2(delta, 1e-15 * amin);
   }
   double g = 0.0;
   for (int i = 0; i < d; ++i) g += at(q, i) * at(q, i) / (at(a2, i) + tt);
   g = tt * (g - 1.0);
   if (!(g > 0.0)) return 0.0;
-  return -std::sqrt(g);
+  return -math::sqrt(g);
 }
 
 // |q - x| for the foot point x at t (pulled onto the body if rounding left it outside: a point of the body is
@@ -176,11 +176,11 @@ ELLIPSIM_HD double outside_bound(const Vec3& a2, const Vec3& q, double t, int d)
             ok && d == 3 ? a2.z * q.z / (t + a2.z) : 0.0};
   const double k = x.x * x.x / a2.x + x.y * x.y / a2.y + (d == 3 ? x.z * x.z / a2.z : 0.0);
   if (k > 1.0) {
-    const double f = 1.0 / std::sqrt(k) * (1.0 - 4e-16);
+    const double f = 1.0 / math::sqrt(k) * (1.0 - 4e-16);
     x = {x.x * f, x.y * f, x.z * f};
   }
   const double d0 = q.x - x.x, d1 = q.y - x.y, d2 = d == 3 ? q.z - x.z : 0.0;
-  return std::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+  return math::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
 }
 
 // An upper bound on the signed distance of q to E (negative inside) from foot3's secular value t: outside,
@@ -198,7 +198,7 @@ ELLIPSIM_HD Psi psi2(double b0, double b1, double p0, double p1, double t) {
   const double s0 = b0 * w0 * w0, s1 = b1 * w1 * w1;
   const double S = s0 + s1;
   const double T = s0 * d0 + s1 * d1;
-  return {S, S * (1.0 - std::sqrt(S)) / T};
+  return {S, S * (1.0 - math::sqrt(S)) / T};
 }
 
 // A normal of the ellipse in its own axes (not unit).
@@ -224,10 +224,10 @@ ELLIPSIM_HD Normal2 pole_normal2(double b0, double b1, double p0, double p1, dou
       const double r0 = delta + d0, r1 = delta + d1;
       const double S = c0 / (r0 * r0) + c1 / (r1 * r1);
       const double dS = -2.0 * (c0 / (r0 * r0 * r0) + c1 / (r1 * r1 * r1));
-      const double step = (1.0 / std::sqrt(S) - 1.0) / (-0.5 * dS / (S * std::sqrt(S)));
+      const double step = (1.0 / math::sqrt(S) - 1.0) / (-0.5 * dS / (S * math::sqrt(S)));
       double dn = delta - step;
       if (!(dn > 0.0)) dn = 1e-3 * delta;
-      if (std::fabs(dn - delta) <= 4.0 * tol::U * delta) {
+      if (math::fabs(dn - delta) <= 4.0 * tol::U * delta) {
         delta = dn;
         break;
       }
@@ -239,9 +239,9 @@ ELLIPSIM_HD Normal2 pole_normal2(double b0, double b1, double p0, double p1, dou
   double x1 = d1 > 0.0 ? b1 * p1 / d1 : 0.0;
   const double rest = max2(1.0 - x0 * x0 / b0 - x1 * x1 / b1, 0.0);
   if (d0 == 0.0) {
-    x0 = std::sqrt(rest * b0);
+    x0 = math::sqrt(rest * b0);
   } else {
-    x1 = std::sqrt(rest * b1);
+    x1 = math::sqrt(rest * b1);
   }
   return {x0 / b0, x1 / b1};
 }
@@ -259,15 +259,15 @@ ELLIPSIM_HD Foot2 foot2(double b0, double b1, double p0, double p1) {
   double t = NAN;
   if (pp > 0.0) {
     const double lo = -bmin + tol::POLE_RTOL * bmin;
-    t = max2(max2(lo, -b0 + std::sqrt(b0) * std::fabs(p0)), -b1 + std::sqrt(b1) * std::fabs(p1));
-    const double hi = std::sqrt(bmax * pp);
+    t = max2(max2(lo, -b0 + math::sqrt(b0) * math::fabs(p0)), -b1 + math::sqrt(b1) * math::fabs(p1));
+    const double hi = math::sqrt(bmax * pp);
     Psi p = psi2(b0, b1, p0, p1, t);
     if (!(p.S > 1.0)) {
       if (!(p.S == 1.0 || t > lo)) t = NAN;
     } else {
       for (int it = 0; it < tol::SECULAR_MAX_ITER; ++it) {
         const double tn = min2(t - p.step, hi);
-        if (tn - t <= max2(tol::SECULAR_LAST * (tn + bmin), 4.0 * tol::U * (std::fabs(tn) + bmin))) {
+        if (tn - t <= max2(tol::SECULAR_LAST * (tn + bmin), 4.0 * tol::U * (math::fabs(tn) + bmin))) {
           t = tn;
           break;
         }
@@ -286,7 +286,7 @@ ELLIPSIM_HD Foot2 foot2(double b0, double b1, double p0, double p1) {
     n0 = m.n0;
     n1 = m.n1;
   }
-  const double s = std::sqrt(n0 * n0 + n1 * n1);
+  const double s = math::sqrt(n0 * n0 + n1 * n1);
   return {t == t ? t : -bmin, n0 / s, n1 / s};
 }
 
@@ -308,7 +308,7 @@ ELLIPSIM_HD Ellipse project_ellipse(const Vec3& a2, const Vec3& w1, const Vec3& 
   const double m12 = a2.x * w1.x * w2.x + a2.y * w1.y * w2.y + a2.z * w1.z * w2.z;
   const double m22 = a2.x * w2.x * w2.x + a2.y * w2.y * w2.y + a2.z * w2.z * w2.z;
   const double half = 0.5 * (m11 - m22);
-  const double rad = std::sqrt(half * half + m12 * m12);
+  const double rad = math::sqrt(half * half + m12 * m12);
   const double lam = 0.5 * (m11 + m22) + rad;
   // the smaller eigenvalue as det / lam, det = m11 m22 - m12^2 by Cauchy-Binet: a sum of positive terms
   // a_i a_j (w1 x w2)_k^2, where the difference cancels for a thin projection (aspect 100: 1e4 u)
@@ -325,7 +325,7 @@ ELLIPSIM_HD Ellipse project_ellipse(const Vec3& a2, const Vec3& w1, const Vec3& 
       c = m12;
       s = rad - half;
     }
-    const double f = 1.0 / std::sqrt(c * c + s * s);
+    const double f = 1.0 / math::sqrt(c * c + s * s);
     c = c * f;
     s = s * f;
   } else {
@@ -391,9 +391,9 @@ ELLIPSIM_HD double root(const Vec3& a2, const Vec3& c, double t, double lo, doub
   for (int it = 0; it < tol::CRITICAL_MAX_ITER; ++it) {
     const Secular s = S3(a2, c, t);
     if (!(s.S > 1.0)) return t;
-    const double step = -2.0 * s.S * (1.0 - std::sqrt(s.S)) / s.dS;  // psi / psi' with psi' = -S' / (2 S^1.5)
+    const double step = -2.0 * s.S * (1.0 - math::sqrt(s.S)) / s.dS;  // psi / psi' with psi' = -S' / (2 S^1.5)
     const double tn = min2(max2(t - step, lo), hi);
-    if (std::fabs(tn - t) <= 1e-15 * scale) return tn;
+    if (math::fabs(tn - t) <= 1e-15 * scale) return tn;
     t = tn;
   }
   return t;
@@ -403,7 +403,7 @@ ELLIPSIM_HD double root(const Vec3& a2, const Vec3& c, double t, double lo, doub
 // of the two pole terms alone, cl^2/(t-lo)^2 + cr^2/(hi-t)^2, safeguarded Newton on S' towards the minimiser of
 // the convex S while S stays >= 1.  cl ** (2/3) is Python's float power: pow (numba's llvm.pow, the libm call).
 ELLIPSIM_HD double split(const Vec3& a2, const Vec3& c, double lo, double hi, double cl, double cr, double scale) {
-  const double wl = std::pow(cl, 2.0 / 3.0), wr = std::pow(cr, 2.0 / 3.0);
+  const double wl = math::pow(cl, 2.0 / 3.0), wr = math::pow(cr, 2.0 / 3.0);
   double t = lo + (hi - lo) * (wl + wr > 0.0 ? wl / (wl + wr) : 0.5);
   for (int it = 0; it < tol::CRITICAL_MAX_ITER; ++it) {
     const Secular s = S3(a2, c, t);
@@ -416,7 +416,7 @@ ELLIPSIM_HD double split(const Vec3& a2, const Vec3& c, double lo, double hi, do
     }
     double tn = s.ddS > 0.0 ? t - s.dS / s.ddS : 0.5 * (lo + hi);
     if (!(lo < tn && tn < hi)) tn = 0.5 * (lo + hi);
-    if (std::fabs(tn - t) <= 1e-15 * scale || hi - lo <= 1e-15 * scale) return S3(a2, c, tn).S < 1.0 ? tn : NAN;
+    if (math::fabs(tn - t) <= 1e-15 * scale || hi - lo <= 1e-15 * scale) return S3(a2, c, tn).S < 1.0 ? tn : NAN;
     t = tn;
   }
   return NAN;
@@ -448,13 +448,13 @@ ELLIPSIM_HD Roots secular_roots(const Vec3& a2, const Vec3& q, bool largest = tr
     i0 = i1;
     i1 = k;
   }
-  const Vec3 c = {std::sqrt(a2.x) * q.x, std::sqrt(a2.y) * q.y, std::sqrt(a2.z) * q.z};
-  const double scale = max2(max2(a2.x, a2.y), a2.z) + std::fabs(c.x) + std::fabs(c.y) + std::fabs(c.z);
+  const Vec3 c = {math::sqrt(a2.x) * q.x, math::sqrt(a2.y) * q.y, math::sqrt(a2.z) * q.z};
+  const double scale = max2(max2(a2.x, a2.y), a2.z) + math::fabs(c.x) + math::fabs(c.y) + math::fabs(c.z);
   double r1 = NAN, ra = NAN, rb = NAN;
   // right of the rightmost pole: psi increasing to +inf; start where the largest single term is 1
   const double p = -at(a2, i2);
   double t = p + 1e-300;
-  for (int i = 0; i < 3; ++i) t = max2(t, -at(a2, i) + std::fabs(at(c, i)));
+  for (int i = 0; i < 3; ++i) t = max2(t, -at(a2, i) + math::fabs(at(c, i)));
   if (largest) {
     const double S = S3(a2, c, t).S;
     if (S > 1.0) {
@@ -465,11 +465,11 @@ ELLIPSIM_HD Roots secular_roots(const Vec3& a2, const Vec3& q, bool largest = tr
   }
   // between the two rightmost poles: psi concave, 0 or 2 roots around its maximum
   const double pl = -at(a2, i1), pr = -at(a2, i2);
-  const double cl = std::fabs(at(c, i1)), cr = std::fabs(at(c, i2));
+  const double cl = math::fabs(at(c, i1)), cr = math::fabs(at(c, i2));
   // S >= cl^2/(t-pl)^2 + cr^2/(pr-t)^2 >= (cl^(2/3) + cr^(2/3))^3 / (pr-pl)^2: no root if >= 1
   // (cl + cr)^2 <= g^3 (the 2/3-power mean): far enough beyond, g^3 is not computed
   if ((cl + cr) * (cl + cr) >= (pr - pl) * (pr - pl) * (1.0 + 1e-9)) return {{r1, ra, rb}};
-  const double g = std::pow(cl, 2.0 / 3.0) + std::pow(cr, 2.0 / 3.0);
+  const double g = math::pow(cl, 2.0 / 3.0) + math::pow(cr, 2.0 / 3.0);
   if (pr > pl && g * g * g < (pr - pl) * (pr - pl) * (1.0 + 1e-12)) {
     const double eps = 1e-15 * scale;
     const double m = split(a2, c, pl + eps, pr - eps, cl, cr, scale);
@@ -528,7 +528,7 @@ ELLIPSIM_HD PoleNormal pole_normal(const Vec3& a2, const Vec3& q, int i, double 
     rest -= x2 * x2 / a2.z;
   }
   if (!ok || rest < 0.0) return {false, {1.0, 0.0, 0.0}};
-  const double xi = sign * std::sqrt(rest * ai);
+  const double xi = sign * math::sqrt(rest * ai);
   x0 = i == 0 ? xi : x0;
   x1 = i == 1 ? xi : x1;
   x2 = i == 2 ? xi : x2;

@@ -16,7 +16,7 @@
 // whole.
 #pragma once
 
-#include <cmath>
+#include "../math.hpp"
 
 #include "../vec3.hpp"
 #include "point_ellipsoid.hpp"
@@ -40,7 +40,7 @@ ELLIPSIM_HD Vec3 tangent_point(const Vec3& a2, const Vec3& u, double r, const Ve
   const double d = dot(n, u);
   const Vec3 pn = {n.x - d * u.x, n.y - d * u.y, n.z - d * u.z};
   const double pp = dot(pn, pn);
-  const double k = pp > 0.0 ? r / std::sqrt(pp) : 0.0;
+  const double k = pp > 0.0 ? r / math::sqrt(pp) : 0.0;
   return {s.x + k * pn.x, s.y + k * pn.y, s.z + k * pn.z};
 }
 

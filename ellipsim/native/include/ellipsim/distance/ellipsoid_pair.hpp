@@ -40,6 +40,9 @@ namespace ellipsoid_pair {
 // UNPROVEN (the branch and bound's budget ran out: the best maximum found, no proof); status.hpp's
 // DistanceStatus.
 constexpr int GLOBAL = 0, UNPROVEN = 1;
+// pair_signed_distance_until's third status: proven at least `apart` apart (dist: sigma at the returned normal,
+// a lower bound on the distance, not the distance).
+constexpr int APART = 2;
 
 // The column of R_b equal to column k of R_a or to its negative, exactly; -1 if none.
 ELLIPSIM_HD int column_match(const Mat3& Ra, int k, const Mat3& Rb) {
@@ -176,7 +179,8 @@ ELLIPSIM_HD PairDistance contact_at(const Vec3& ca, const Mat3& Ra, const Vec3& 
 }
 
 // The narrow phase of one pair, its first Newton run started at `seed` (pair_signed_distance_from).
-ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t max_iter, const Vec3& seed) {
+ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t max_iter, const Vec3& seed,
+                              double apart = INFINITY) {
   const Vec3 &ca = A.c, &cb = B.c;
   const Mat3 &Ra = A.R, &Rb = B.R;
   // the pair in units of unit_scale (1.0 unless a semi-axis is beyond 2^+-50): A at the origin
@@ -197,7 +201,8 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t ma
     start = bisector_seed(e, a2, Ub, rb2);
   }
   const NewtonResult first =
-      newton(start, e, a2, M, scale, -INFINITY, int(min2(max_iter, int64_t(tol::FIRST_RUN_ITER))));
+      newton(start, e, a2, M, scale, -INFINITY, int(min2(max_iter, int64_t(tol::FIRST_RUN_ITER))), apart * u);
+  if (first.status == REACHED) return contact_at(ca, Ra, ra, rb, e, Ub, first.n, u, first.value, false, APART, first.steps);
   Vec3 n = first.n;
   double value = first.value;
   const int run = first.status;
@@ -295,6 +300,13 @@ ELLIPSIM_HD PairDistance pair_signed_distance(const Ellipsoid& A, const Ellipsoi
 // seed, a wrong one included; from a good one Newton converges in 1-2 steps instead of 3-5.
 ELLIPSIM_HD PairDistance pair_signed_distance_from(const Ellipsoid& A, const Ellipsoid& B, const Vec3& seed) {
   return ellipsoid_pair::pair(A, B, tol::NEWTON_MAX_ITER, seed);
+}
+
+// pair_signed_distance, stopped where an iterate of the first Newton run proves the pair at least `apart` apart
+// (status APART, dist that lower bound, >= apart): the narrow phase of a pair with a contact margin, which needs
+// the distance only below it (ellipsim/native/warp/narrowphase.hpp).  Below `apart` it is pair_signed_distance.
+ELLIPSIM_HD PairDistance pair_signed_distance_until(const Ellipsoid& A, const Ellipsoid& B, double apart) {
+  return ellipsoid_pair::pair(A, B, tol::NEWTON_MAX_ITER, {0.0, 0.0, 0.0}, apart);
 }
 
 // (sigma, normal, pos) of contact_at.

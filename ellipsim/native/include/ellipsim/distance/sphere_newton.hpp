@@ -15,7 +15,7 @@ namespace ellipsim::distance {
 
 // How one Newton run ended: at a local maximum, not within its steps, or abandoned (its quadratic bound
 // stays below a value another run already reached).
-constexpr int CONVERGED = 0, NOT_CONVERGED = 1, ABANDONED = 2;
+constexpr int CONVERGED = 0, NOT_CONVERGED = 1, ABANDONED = 2, REACHED = 3;
 
 // A^T B for row-major matrices.
 ELLIPSIM_HD Mat3 tmatmul(const Mat3& A, const Mat3& B) {
@@ -88,9 +88,11 @@ struct NewtonResult {
 // at most 0.5 rad, halved while it would decrease sigma (steps over 0.1 rad), a Levenberg shift where the
 // tangent Hessian is not negative definite, and a 0.3 rad escape along the curvature direction from
 // saddles.  target: a value another run already reached; a run whose quadratic bound
-// sigma + |g|^2 / (2 lam) stays below it is ABANDONED (-inf for none).
+// sigma + |g|^2 / (2 lam) stays below it is ABANDONED (-inf for none).  apart: a run whose iterate's sigma
+// reaches it stops there, REACHED (sigma at any unit n is a lower bound on the signed distance: the pair is
+// proven at least that far apart; +inf for none, the default).
 ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat3& M, double scale, double target,
-                                int max_iter) {
+                                int max_iter, double apart = INFINITY) {
   double value = 0.0;
   for (int it = 0; it < max_iter; ++it) {
     const Vec3 a = {a2.x * n.x, a2.y * n.y, a2.z * n.z};
@@ -100,6 +102,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
     const double inv = 1.0 / (ha * hb);
     const double ia = hb * inv, ib = ha * inv;
     value = n.x * e.x + n.y * e.y + n.z * e.z - ha - hb;
+    if (value >= apart) return {n, value, REACHED, it + 1};
     const TangentBasis tb = tangent_basis(n);
     const Vec3 &t1 = tb.t1, &t2 = tb.t2;
     // gradient e - a/ha - b/hb in the tangent basis

@@ -14,9 +14,10 @@ PACKAGE = pathlib.Path(ellipsim.__file__).parent
 ALLOWED = {
     "native": {"native"},  # the compiled core (issue 46): the C++ and its module, below everything
     "core": {"core", "native"},
-    "mujoco": {"core", "mujoco", "native", "shipped"},
-    "warp": {"core", "warp", "native", "shipped"},  # the MuJoCo Warp layer (issue 21): beside mujoco, not on it
-    "app": {"core", "mujoco", "warp", "app", "native", "shipped"},
+    "mujoco": {"core", "mujoco", "native", "shipped", "pair_table"},
+    # the MuJoCo Warp layer (issue 21): beside mujoco, not on it; both read one pair table (pair_table.py, data)
+    "warp": {"core", "warp", "native", "shipped", "pair_table"},
+    "app": {"core", "mujoco", "warp", "app", "native", "shipped", "pair_table"},
 }
 HEAVY = ("mujoco", "rerun", "trimesh")
 
@@ -101,6 +102,7 @@ def test_import_ellipsim_and_its_glue_load_only_what_attaching_needs():
         "ellipsim.mujoco.context",
         "ellipsim.mujoco.publish",
         "ellipsim.native",
+        "ellipsim.pair_table",  # the pair table both glues read: data only
     ]
 
 
@@ -258,7 +260,7 @@ def test_every_layer_folder_is_declared_and_the_warp_layer_may_import_only_the_c
     # MuJoCo C glue (whose compiled callbacks and process context it must not load) nor the app
     layers = {p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__"}
     assert layers <= set(ALLOWED), sorted(layers - set(ALLOWED))
-    assert ALLOWED["warp"] == {"core", "warp", "native", "shipped"}
+    assert ALLOWED["warp"] == {"core", "warp", "native", "shipped", "pair_table"}
     assert "warp" not in ALLOWED["mujoco"] and "warp" in ALLOWED["app"]
 
 

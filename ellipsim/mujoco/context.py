@@ -12,14 +12,15 @@ read from CONTEXT, an int64 array whose address publish.fill_context hands them 
 
 mjModel and mjData they read through MuJoCo's own structs (the headers the extension was built against).
 
-It also holds MuJoCo's geom type codes and PAIR_TYPES, the geom-type pairs ellipsim handles, for
-the whole glue: it imports nothing but mujoco and numpy.
+It also hands the glue the pair table (ellipsim/pair_table.py: MuJoCo's geom type codes and PAIR_TYPES, the
+geom-type pairs ellipsim handles) and says which word holds each row's MuJoCo function (FALLBACK_WORDS): it
+imports nothing but mujoco, numpy and that table.
 """
-
-from typing import NamedTuple
 
 import mujoco
 import numpy as np
+
+from ..pair_table import BOX, CAPSULE, CYLINDER, ELLIPSOID, FILTER_PAIR_TYPES, PAIR_TYPES, SPHERE, PairType  # noqa: F401
 
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
 FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER = 15, 16, 17
@@ -59,86 +60,23 @@ WARM_TIME, WARM_EPOCH = 0, 5
 # then starts cold, as on a fresh data, so identical initial states give bit-identical trajectories.
 WARM_SLOT_WORDS = 8
 
-# MuJoCo's geom type codes (the C++ glue uses MuJoCo's own enum, mjtGeom).
-SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
-    int(mujoco.mjtGeom.mjGEOM_SPHERE),
-    int(mujoco.mjtGeom.mjGEOM_CAPSULE),
-    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
-    int(mujoco.mjtGeom.mjGEOM_CYLINDER),
-    int(mujoco.mjtGeom.mjGEOM_BOX),
+# The pair table both engines' glues read (ellipsim/pair_table.py), its geom codes MuJoCo's (the C++ glue uses
+# MuJoCo's own enum, mjtGeom).
+assert (SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX) == tuple(
+    int(getattr(mujoco.mjtGeom, f"mjGEOM_{name.upper()}"))
+    for name in ("sphere", "capsule", "ellipsoid", "cylinder", "box")
 )
 
-
-class PairType(NamedTuple):
-    """A geom-type pair ellipsim handles, as a row of PAIR_TYPES."""
-
-    name: str
-    #: the pair type as reports name it (validate, compare, replay, run: `by_pair_type`), the ellipsoid first
-    key: str
-    #: MuJoCo's table order, type1 <= type2 (engine_collision_driver.c swaps a pair by type)
-    type1: int
-    type2: int
-    #: the CONTEXT word holding MuJoCo's own mjCOLLISIONFUNC entry for the pair (publish.fill_context)
-    fallback: int
-    #: the contact filter (modes "filter", "record"; geoms.candidate_pairs, validate, compare) covers it
-    filter: bool
-    #: its geoms count towards the warm-start table's size (attachment.warm_slots)
-    warm: bool
-    #: the core's header the narrow phase calls for it (ellipsim/native/include/ellipsim/<kernel>.hpp)
-    kernel: str
-
-
-#: Every geom-type pair ellipsim handles: the narrow phase replaces MuJoCo's table entry of each
-#: (attachment.py), the context holds MuJoCo's function for each (publish.py), the filter covers those
-#: marked `filter`, the recorder of candidate pairs (mode "record") and the validation (judge.py) all.  The C++
-#: narrow phase (ellipsim/native/mujoco/narrowphase.hpp) dispatches on geom types, written out there;
-#: tests/test_pair_table.py checks that code against these rows.  Capsule geoms size the warm-start
-#: table though capsule pairs start cold: kept, as the table's size decides which pairs share a set,
-#: and so the trajectories.
-PAIR_TYPES = (
-    PairType(
-        "ellipsoid x ellipsoid",
-        "ellipsoid-ellipsoid",
-        ELLIPSOID,
-        ELLIPSOID,
-        FALLBACK_ELLIPSOID,
-        True,
-        True,
-        "distance/ellipsoid_pair",
-    ),
-    PairType(
-        "sphere x ellipsoid",
-        "ellipsoid-sphere",
-        SPHERE,
-        ELLIPSOID,
-        FALLBACK_SPHERE,
-        True,
-        True,
-        "distance/ellipsoid_pair",
-    ),
-    PairType(
-        "capsule x ellipsoid",
-        "ellipsoid-capsule",
-        CAPSULE,
-        ELLIPSOID,
-        FALLBACK_CAPSULE,
-        False,
-        True,
-        "pairs/capsule",
-    ),
-    PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, FALLBACK_BOX, False, False, "pairs/box"),
-    PairType(
-        "ellipsoid x cylinder",
-        "ellipsoid-cylinder",
-        ELLIPSOID,
-        CYLINDER,
-        FALLBACK_CYLINDER,
-        False,
-        False,
-        "pairs/cylinder",
-    ),
-)
-FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
+#: The CONTEXT word holding MuJoCo's own mjCOLLISIONFUNC entry for each row of PAIR_TYPES (publish.fill_context),
+#: by the row's key.
+FALLBACK_WORDS = {
+    "ellipsoid-ellipsoid": FALLBACK_ELLIPSOID,
+    "ellipsoid-sphere": FALLBACK_SPHERE,
+    "ellipsoid-capsule": FALLBACK_CAPSULE,
+    "ellipsoid-box": FALLBACK_BOX,
+    "ellipsoid-cylinder": FALLBACK_CYLINDER,
+}
+assert set(FALLBACK_WORDS) == {row.key for row in PAIR_TYPES}
 
 OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 SPECULATIVE = int(mujoco.mjtEnableBit.mjENBL_SPECULATIVE)

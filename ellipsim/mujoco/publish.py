@@ -17,7 +17,7 @@ import threading
 import mujoco
 
 from ..native import ext
-from .context import CONTEXT, PAIR_TYPES, REGISTRY, REGISTRY_ADDRESS, REGISTRY_ROWS
+from .context import CONTEXT, FALLBACK_WORDS, PAIR_TYPES, REGISTRY, REGISTRY_ADDRESS, REGISTRY_ROWS
 
 _lock = threading.Lock()
 _state = {"filled": False}
@@ -48,6 +48,6 @@ def fill_context():
         table, ntypes = collision_table()
         CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS] = REGISTRY.ctypes.data, REGISTRY.shape[0]
         for row in PAIR_TYPES:
-            CONTEXT[row.fallback] = table[row.type1 * ntypes + row.type2]
+            CONTEXT[FALLBACK_WORDS[row.key]] = table[row.type1 * ntypes + row.type2]
         ext.mujoco.set_context(CONTEXT.ctypes.data)
         _state["filled"] = True

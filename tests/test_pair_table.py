@@ -49,7 +49,7 @@ def test_the_glue_loads_neither_numba_nor_llvmlite(module):
 def test_rows_are_in_mujocos_order_and_name_distinct_words():
     pairs = [(row.type1, row.type2) for row in PAIR_TYPES]
     assert all(t1 <= t2 for t1, t2 in pairs) and len(set(pairs)) == len(pairs)
-    fallbacks = [row.fallback for row in PAIR_TYPES]
+    fallbacks = [context.FALLBACK_WORDS[row.key] for row in PAIR_TYPES]
     used = {context.REGISTRY_ADDRESS, context.REGISTRY_ROWS}
     assert len(set(fallbacks)) == len(fallbacks) and not set(fallbacks) & used
     assert all(0 <= w < context.WORDS for w in fallbacks)
@@ -78,7 +78,7 @@ def test_context_holds_mujocos_function_of_every_row():
     assert attachment._state["table"] is None  # nothing attached: the table holds MuJoCo's own functions
     table, n = publish.collision_table()
     for row in PAIR_TYPES:
-        assert context.CONTEXT[row.fallback] == table[row.type1 * n + row.type2], row.name
+        assert context.CONTEXT[context.FALLBACK_WORDS[row.key]] == table[row.type1 * n + row.type2], row.name
 
 
 def _model(types, spacing=1.0, extra=""):
@@ -183,7 +183,7 @@ class _Markers:
                 return 1
 
             self._keep.append(proto(marker))
-            context.CONTEXT[row.fallback] = ctypes.cast(self._keep[-1], ctypes.c_void_p).value
+            context.CONTEXT[context.FALLBACK_WORDS[row.key]] = ctypes.cast(self._keep[-1], ctypes.c_void_p).value
         return self
 
     def __exit__(self, *exc):
@@ -226,3 +226,32 @@ def test_the_narrow_phase_computes_and_counts_every_row():
             assert made == want_made == 1, row.name
             assert abs(ours[0] - want[0]) <= DIST_TOL, f"{row.name}: dist {ours[0]} vs MuJoCo's {want[0]}"
             assert ours[0] < -0.01, row.name  # overlapping by more than 1 cm: the pose means something
+
+
+def test_both_engines_read_one_table_whose_codes_are_their_enums_and_rows_the_warp_glues():
+    """ellipsim/pair_table.py: MuJoCo's mjtGeom and MuJoCo Warp's GeomType give its type codes; ellipsim.warp
+    takes exactly its pairs and runs each row's function (narrowphase.hpp's ROW_* constants, checked in the
+    header's text); ellipsim.mujoco's tables are the same object."""
+    from mujoco_warp._src import types as mjw_types
+
+    from ellipsim import pair_table as pair_types
+    from ellipsim.warp import attachment as warp_attachment
+
+    for code, name in pair_types.TYPE_NAMES.items():
+        assert int(getattr(mujoco.mjtGeom, f"mjGEOM_{name.upper()}")) == code
+        assert int(getattr(mjw_types.GeomType, name.upper())) == code
+    assert context.PAIR_TYPES is pair_types.PAIR_TYPES is warp_attachment.PAIR_TYPES
+    header = (NATIVE / "warp" / "narrowphase.hpp").read_text()
+    rows = dict(re.findall(r"ROW_(\w+) = (\d+)", re.search(r"constexpr int (ROW_[^;]+);", header).group(1)))
+    for row in PAIR_TYPES:
+        kind = row.kernel.split("/")[1].split("_")[0].upper()  # ellipsoid_pair -> ELLIPSOID, capsule -> CAPSULE
+        assert int(rows[kind]) == row.row == getattr(pair_types, f"ROW_{kind}"), row.name
+        assert f"#include <ellipsim/{row.kernel}.hpp>" in header, row.kernel
+    geom = np.array(
+        [pair_types.SPHERE, pair_types.CAPSULE, pair_types.ELLIPSOID, pair_types.CYLINDER, pair_types.BOX, 0]
+    )
+    pairs = np.array([(i, j) for i in range(6) for j in range(i + 1, 6)] + [(2, 2)], np.int32)
+    take, ordered, rows_taken = warp_attachment._selection(geom, pairs, np.full((len(pairs), 2), -1))
+    got = {(int(geom[a]), int(geom[b]), int(r)) for (a, b), r in zip(ordered, rows_taken)}
+    want = {(r.type1, r.type2, r.row) for r in PAIR_TYPES if r.type1 != r.type2} | {(pair_types.ELLIPSOID,) * 2 + (0,)}
+    assert got == want and take.sum() == len(want)

@@ -43,20 +43,11 @@ import numpy as np
 import warp as wp
 from mujoco_warp._src import types as mjw_types
 
+from ..pair_table import PAIR_TYPES, TYPE_NAMES
 from . import kernels
 
-SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (getattr(kernels, t) for t in kernels.TYPE_NAMES)
-assert (SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX) == tuple(
-    int(getattr(mjw_types.GeomType, t)) for t in kernels.TYPE_NAMES
-)
-#: (type1, type2) with type1 <= type2, as MuJoCo Warp orders a pair's geoms.
-PAIR_TYPES = (
-    (SPHERE, ELLIPSOID),
-    (CAPSULE, ELLIPSOID),
-    (ELLIPSOID, ELLIPSOID),
-    (ELLIPSOID, CYLINDER),
-    (ELLIPSOID, BOX),
-)
+# The pair table both glues read (ellipsim/pair_table.py); its geom codes are MuJoCo Warp's too.
+assert all(int(getattr(mjw_types.GeomType, name.upper())) == t for t, name in TYPE_NAMES.items())
 COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep")
 
 
@@ -73,22 +64,23 @@ def _upper_tri(n, i, j):
 
 def _selection(geom_type, pairs, pairid):
     """(mask over the model's filtered pair table of the pairs taken, those pairs (k, 2) int32 with their
-    geoms ordered as _add_geom_pair orders them: the lower type first, the normal from the first)."""
+    geoms ordered as _add_geom_pair orders them: the lower type first, the normal from the first, and each
+    pair's row of PAIR_TYPES' `row` column (k,) int32)."""
     t1, t2 = geom_type[pairs[:, 0]], geom_type[pairs[:, 1]]
     lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-    typed = np.zeros(len(pairs), bool)
-    for a, b in PAIR_TYPES:
-        typed |= (lo == a) & (hi == b)
-    take = typed & (pairid[:, 0] >= -1) & (pairid[:, 1] == -1)  # default and explicit pairs, no sensor
+    row = np.full(len(pairs), -1, np.int32)
+    for r in PAIR_TYPES:
+        row[(lo == r.type1) & (hi == r.type2)] = r.row
+    take = (row >= 0) & (pairid[:, 0] >= -1) & (pairid[:, 1] == -1)  # default and explicit pairs, no sensor
     ordered = np.where((t1 > t2)[:, None], pairs[:, ::-1], pairs)[take]
-    return take, ordered.astype(np.int32).reshape(-1, 2)
+    return take, ordered.astype(np.int32).reshape(-1, 2), row[take]
 
 
 def candidate_pairs(m, *, pair_ids=False):
     """The pairs attach(m) would take from the mujoco_warp Model m, as Attachment.pairs, without attaching;
     pair_ids: also their pair ids (k, 2): entry 0 the explicit <pair>'s index (its margin, gap) or -1."""
     pairid = m.nxn_pairid_filtered.numpy()
-    take, ordered = _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), pairid)
+    take, ordered, _ = _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), pairid)
     return (ordered, pairid[take].reshape(-1, 2)) if pair_ids else ordered
 
 
@@ -135,12 +127,13 @@ class Attachment:
         geom_type = m.geom_type.numpy()
         pairs = m.nxn_geom_pair_filtered.numpy()
         pairid = m.nxn_pairid_filtered.numpy()
-        take, ordered = _selection(geom_type, pairs, pairid)
+        take, ordered, rows = _selection(geom_type, pairs, pairid)
         lo, hi = np.sort(geom_type[pairs[take]].reshape(-1, 2), axis=1).T
         self.pairs = ordered
         self.npairs = len(self.pairs)
         self._pair_geom = wp.array(self.pairs.reshape(-1, 2), dtype=wp.vec2i, device=device)
         self._pair_id = wp.array(pairid[take].reshape(-1, 2), dtype=wp.vec2i, device=device)
+        self._pair_row = wp.array(rows, dtype=int, device=device)
         self._counters = wp.zeros(kernels.NCOUNTERS, dtype=wp.int64, device=device)  # (int32 wraps at 4096 worlds)
         # this model's tables without the taken pairs
         keep = ~take
@@ -191,6 +184,7 @@ class Attachment:
             inputs=[
                 self._pair_geom,
                 self._pair_id,
+                self._pair_row,
                 m.geom_type,
                 m.geom_bodyid,
                 m.geom_size,

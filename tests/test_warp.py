@@ -736,6 +736,49 @@ def test_a_cutoff_stops_only_pairs_proven_beyond_it():
     np.testing.assert_array_equal(sw[~apart], sc[~apart])
 
 
+@SLOW
+def test_the_gpu_check_runs_on_the_cpu_device_and_refuses_a_missing_device(tmp_path):
+    """bench/gpu.sh, as the GPU machine runs it (python -P: the installed package, not this tree's sources), at
+    the CPU's sizes: both tables, every scene and world count, its report and results written; a device Warp
+    does not find is a one-line error (after Warp's own warning where no CUDA driver loads), exit 2."""
+    import json
+    import os
+    import pathlib
+
+    script = pathlib.Path(__file__).resolve().parents[1] / "bench" / "gpu.sh"
+    env = {**os.environ, "PYTHON": sys.executable}
+    argv = [
+        str(script),
+        "--device",
+        "cpu",
+        "--worlds",
+        "1,2",
+        "--pairs",
+        "4",
+        "--launches",
+        "1",
+        "--out",
+        str(tmp_path),
+    ]
+    proc = subprocess.run(argv, capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "## Accuracy against ellipsim's CPU answer" in proc.stdout and "## Scenes" in proc.stdout
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert [(r["scene"], r["nworld"]) for r in results["scenes"]] == [
+        (s, n) for s in ("16 figures in a heap", "pile of 100 ellipsoids") for n in (1, 2)
+    ]
+    for r in results["scenes"]:
+        assert r["attached"]["counters"]["pairs"] > 0 and r["attached"]["counters"]["unproven"] == 0
+        assert r["plain"]["contacts"] > 0 and r["attached"]["contacts"] > 0
+    ours = [a for a in results["accuracy"] if a["method"] == "ellipsim on Warp"]
+    assert len(ours) == 50 and all(a["mujoco_missed"] == 0 and a["mujoco_extra"] == 0 for a in ours)
+    assert (tmp_path / "report.md").read_text().startswith("# ellipsim on MuJoCo Warp: the GPU check")
+    bad = subprocess.run([str(script), "--device", "cuda:7"], capture_output=True, text=True, env=env)
+    last = bad.stderr.strip().splitlines()[-1]  # (after Warp's own warning where it finds no CUDA driver)
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
+    assert last == "bench/gpu.sh: error: --device 'cuda:7': Warp finds no such device here", bad.stderr
+
+
 def test_every_warp_module_of_ellipsim_compiles_without_contraction_or_fast_math():
     """kernels.py's own module and each contact kernel's (module "unique"): fuse_fp and fast_math off, the core's
     headers on both compilers' include paths and in the module hash; no other module of ellipsim defines kernels."""

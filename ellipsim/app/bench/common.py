@@ -21,6 +21,7 @@ from ...native import ext
 
 SIZES = {
     "quick": dict(
+        quick=True,  # (a section may add sizes of its own per --quick: on_warp, startup)
         generic=100_000,
         near=10_000,
         mujoco=2_000,

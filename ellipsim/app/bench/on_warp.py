@@ -26,7 +26,7 @@ from ...core.distance.ellipsoid_pair import signed_distance
 from ...core.ellipsoids import Ellipsoids
 from ...core.pairs.shape_distance import shape_distance
 from .. import scenes
-from .common import SIZES, interleaved, say, settled
+from .common import interleaved, say, settled
 
 #: This section's sizes (kept here: common.py's text keys the bench's shipped kernels).
 WARP_SIZES = {
@@ -316,7 +316,7 @@ def scenes_rows(size, device):
 
 
 def measure(size):
-    size = {**size, **WARP_SIZES["quick" if size is SIZES["quick"] else "full"]}
+    size = {**size, **WARP_SIZES["quick" if size.get("quick") else "full"]}
     try:
         wp, _, _ = _warp()
     except ImportError as exc:

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from .common import SIZES, say
+from .common import say
 
 # Two overlapping ellipsoids: the first mj_step calls the narrow phase (the child checks).
 _XML = """<mujoco><worldbody>
@@ -99,7 +99,7 @@ def first_runs(size):
     """{command: (first run s, median of the later runs s)}: each README command run `startup_runs` times (5;
     3 at the quick size) in fresh processes, one after the other: the first against the rest (nothing of
     ellipsim's is cached between them; a single pair of runs differs by up to 15% on this VM)."""
-    quick = size == SIZES["quick"]
+    quick = bool(size.get("quick"))
     # --quick: the README's first command only; a custom size says how many (startup_first_runs)
     count = size.get("startup_first_runs", 1 if quick else None)
     out = {}
@@ -123,7 +123,7 @@ def first_runs(size):
 
 def measure(size):
     """{(configuration, mode): [child reports]} (see _child), and "first runs": first_runs(size)."""
-    rounds = size.get("startup_rounds", _ROUNDS["quick" if size == SIZES["quick"] else "full"])
+    rounds = size.get("startup_rounds", _ROUNDS["quick" if size.get("quick") else "full"])
     modes = size.get("startup_modes", MODES)
     runs = {}
     say(f"start-up: ellipsim and MuJoCo alone, {rounds} interleaved rounds ...")

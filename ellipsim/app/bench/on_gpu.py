@@ -7,7 +7,8 @@
 2. The 16-figure heap and the 100-ellipsoid pile, settled by MuJoCo C, at each world count, plain Warp and
    ellipsim attached: mjw.step and mjw.collision each captured in a CUDA graph (on CUDA; called directly on the
    CPU device, which does not capture) and timed over `--launches` launches between events, after one warm-up
-   launch: world-steps per second, and the collision stage's milliseconds per step.  Goals (issue 47): the
+   launch: world-steps per second, and the collision stage's milliseconds per step.  Warp's buffers as `ellipsim
+   run --engine warp` sizes them (warp_run.default_nconmax, default_njmax: no contact or row dropped).  Goals (issue 47): the
    collision stage >= 2x faster than plain Warp's at 4096 worlds, mjw.step >= 1.2x on the pile.
 
 Everything it runs is installed already (the project's wheel, warp-lang, mujoco, mujoco-warp); Warp compiles its
@@ -72,10 +73,14 @@ def scene_rows(worlds, launches, device):
 
     import ellipsim.warp as ew
 
+    from ..warp_run import default_nconmax, default_njmax
+
     timed = _timer(wp, device)
     rows = []
     for name, make in SCENES.items():
         model, data, _ = settled(make(), 1000)
+        nconmax = default_nconmax(model)  # Warp's buffers as `ellipsim run --engine warp` sizes them
+        njmax = max(default_njmax(model, nconmax), data.nefc)
         for nworld in worlds:
             say(f"gpu check: {name}, {nworld} worlds ...")
             t0 = time.perf_counter()
@@ -83,7 +88,7 @@ def scene_rows(worlds, launches, device):
             for mode in ("plain", "attached"):
                 with wp.ScopedDevice(device):
                     m = mjw.put_model(model)
-                    d = mjw.put_data(model, data, nworld=nworld, naconmax=nworld * max(64, 4 * model.ngeom))
+                    d = mjw.put_data(model, data, nworld=nworld, naconmax=nworld * nconmax, njmax=njmax)
                     att = ew.attach(m) if mode == "attached" else None
                     step = _graph(wp, device, lambda m=m, d=d: mjw.step(m, d))
                     collide = _graph(wp, device, lambda m=m, d=d: mjw.collision(m, d))

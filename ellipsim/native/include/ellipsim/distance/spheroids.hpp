@@ -430,15 +430,26 @@ struct Polished {
   double t, p, s;
 };
 
-// Newton on sigma_m in (t, phi) from (t, p) of value s (its Hessian: the balls' midpoints at a point): (t, p, s)
-// no worse, only a better incumbent (the proof does not rest on it).
-ELLIPSIM_HD Polished polish(double t, double p, double s, double ek, double ex, double ey, int hk, double h1, double h2,
-                            double kb, double pb2, double wz, double wx, double wy, double qlo_a, double qlo_b) {
+// axis_bb's model: A a spheroid or a cylinder (ha_at), B a spheroid about its axis w, e in pole coordinates.
+struct RevolutionModel {
+  double ek, ex, ey;
+  int hk;
+  double h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b;
+  ELLIPSIM_HD ModelAt at(double t, double p) const { return model_at(t, p, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy); }
+  ELLIPSIM_HD HessianBalls hessian(double tc, double ht, double pc, double hp) const {
+    return hessian_balls(tc, ht, pc, hp, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
+  }
+};
+
+// Newton on the model's sigma in (t, phi) from (t, p) of value s (its Hessian: the balls' midpoints at a point):
+// (t, p, s) no worse, only a better incumbent (the proof does not rest on it).
+template <typename Model>
+ELLIPSIM_HD Polished polish(double t, double p, double s, const Model& model) {
   using math::fabs;
   for (int it = 0; it < 30; ++it) {
-    const ModelAt md = model_at(t, p, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy);
+    const ModelAt md = model.at(t, p);
     const double g1 = md.s_t, g2 = md.s_p;
-    const HessianBalls hs = hessian_balls(t, 0.0, p, 0.0, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
+    const HessianBalls hs = model.hessian(t, 0.0, p, 0.0);
     double a11 = hs.tt.m, a22 = hs.pp.m;
     const double a12 = hs.tp.m;
     // shifted to negative definite where it is not (a saddle, or flat along the circle)
@@ -466,7 +477,7 @@ ELLIPSIM_HD Polished polish(double t, double p, double s, double ek, double ex, 
         tn = tn < 0.0 ? -tn : 2.0 * PI - tn;
         pn = pn < 0.0 ? pn + PI : pn - PI;
       }
-      sn = model_at(tn, pn, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy).s;
+      sn = model.at(tn, pn).s;
       if (sn > s) {
         better = true;
         break;
@@ -499,22 +510,16 @@ struct AxisBB {
   int64_t nodes;
 };
 
-// The branch and bound over (t, phi) of the section's comment for the model sigma_m with pole coordinates:
-// e = (ek, ex, ey), A's term by (hk, h1, h2) (ha_at), B a spheroid sqrt(pb2 + kb (w.n)^2) with its axis
-// w = (wz, wx, wy); tol1 what is left of the tolerance once the model's and the centre values' errors are taken;
-// curv bounds A's |h_A''| h_A (its squared largest semi-axis; 0 for a cylinder).  From the incumbent (t0, p0),
-// polished by Newton first.  proven: max sigma_m <= sigma_m(t, p) as computed + tol1; moved: (t, p) is not
-// (t0, p0).
-ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, double h2, double kb, double pb2,
-                           double wz, double wx, double wy, double tol1, double S, double curv, double t0, double p0) {
+// The branch and bound over cells of (t, phi) for a model of sigma in pole coordinates (model.at: value and gradient
+// at a point; model.hessian: balls of the second partials over a cell), from the incumbent (t0, p0) polished by
+// Newton first: axis_bb's loop, for axis_bb's model and quadric_max's.  curv, bmax2: the gradient's rounding
+// scales (A's and B's squared largest semi-axes).
+template <typename Model>
+ELLIPSIM_HD AxisBB cells_bb(const Model& model, double tol1, double S, double curv, double bmax2, double t0,
+                            double p0) {
   using namespace spheroids;
-  const double qlo_a = hk == 0 ? min2(h1, h2) * (1.0 - 1e-12) : 1.0;
-  const double ww = wz * wz + wx * wx + wy * wy;
-  const double qlo_b = (pb2 + min2(kb, 0.0) * ww * (1.0 + 1e-12)) * (1.0 - 1e-12);
-  if (!(tol1 > 0.0 && qlo_a > 0.0 && qlo_b > 0.0)) return {false, t0, p0, false, 0};
-  const double bmax2 = max2(pb2, pb2 + kb);
-  const double s0 = model_at(t0, p0, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy).s;
-  const Polished pl = polish(t0, p0, s0, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
+  const double s0 = model.at(t0, p0).s;
+  const Polished pl = spheroids::polish(t0, p0, s0, model);
   double bt = pl.t, bp = pl.p, best = pl.s;
   bool moved = best != s0;
   int64_t nodes = 0;
@@ -530,11 +535,11 @@ ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, d
       const double tc = wt * (double(it) + 0.5), pc = -T_DOMAIN + wp * (double(ip) + 0.5);
       const double ht = 0.5 * wt * (1.0 + 1e-15) + U4 * tc;
       const double hp = 0.5 * wp * (1.0 + 1e-15) + U4 * T_DOMAIN;
-      const ModelAt md = model_at(tc, pc, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy);
+      const ModelAt md = model.at(tc, pc);
       const double s = md.s;
       if (s > best) {
         if (s > best + tol1) {  // a poor incumbent: climb from the better centre
-          const Polished p1 = polish(tc, pc, s, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
+          const Polished p1 = spheroids::polish(tc, pc, s, model);
           best = p1.s;
           bt = p1.t;
           bp = p1.p;
@@ -545,7 +550,7 @@ ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, d
         }
         moved = true;
       }
-      const HessianBalls hs = hessian_balls(tc, ht, pc, hp, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b);
+      const HessianBalls hs = model.hessian(tc, ht, pc, hp);
       const double Mtt = hs.tt.m + hs.tt.r, Mpp = hs.pp.m + hs.pp.r, Ktp = math::fabs(hs.tp.m) + hs.tp.r;
       const double epsg = U64 * (32.0 * (S + curv / md.ha + bmax2 / md.hb) + 16.0 * S);
       const double qt = q(md.s_t, Mtt, ht) + epsg * ht, qp = q(md.s_p, Mpp, hp) + epsg * hp;
@@ -589,6 +594,23 @@ ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, d
     }
   }
   return {true, bt, bp, moved, nodes};
+}
+
+// The branch and bound over (t, phi) of the section's comment for the model sigma_m with pole coordinates:
+// e = (ek, ex, ey), A's term by (hk, h1, h2) (ha_at), B a spheroid sqrt(pb2 + kb (w.n)^2) with its axis
+// w = (wz, wx, wy); tol1 what is left of the tolerance once the model's and the centre values' errors are taken;
+// curv bounds A's |h_A''| h_A (its squared largest semi-axis; 0 for a cylinder).  From the incumbent (t0, p0),
+// polished by Newton first.  proven: max sigma_m <= sigma_m(t, p) as computed + tol1; moved: (t, p) is not
+// (t0, p0).
+ELLIPSIM_HD AxisBB axis_bb(double ek, double ex, double ey, int hk, double h1, double h2, double kb, double pb2,
+                           double wz, double wx, double wy, double tol1, double S, double curv, double t0, double p0) {
+  using namespace spheroids;
+  const double qlo_a = hk == 0 ? min2(h1, h2) * (1.0 - 1e-12) : 1.0;
+  const double ww = wz * wz + wx * wx + wy * wy;
+  const double qlo_b = (pb2 + min2(kb, 0.0) * ww * (1.0 + 1e-12)) * (1.0 - 1e-12);
+  if (!(tol1 > 0.0 && qlo_a > 0.0 && qlo_b > 0.0)) return {false, t0, p0, false, 0};
+  const RevolutionModel model = {ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, qlo_a, qlo_b};
+  return cells_bb(model, tol1, S, curv, max2(pb2, pb2 + kb), t0, p0);
 }
 
 // The proven maximum of sigma for spheroids with nearly parallel axes, in A's frame (axis_bb about A's axis), from

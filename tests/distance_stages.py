@@ -150,6 +150,11 @@ def tilted_max(e, a, U, b, tol, S, n0):
     return bool(r[0]), _v(r[1:4]), int(r[4])
 
 
+def ring_max(e, a, U, b, tol, S, n0):
+    r = _row(T.ring_max, 5, e, a, U, b, tol, S, n0)
+    return bool(r[0]), _v(r[1:4]), int(r[4])
+
+
 def axis_bb(ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, tol1, S, curv, t0, p0):
     r = _row(T.axis_bb, 5, ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, tol1, S, curv, t0, p0)
     return bool(r[0]), r[1], r[2], bool(r[3]), int(r[4])

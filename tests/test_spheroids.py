@@ -26,6 +26,7 @@ from hypothesis import strategies as st
 from reference import fibonacci, sigma_stationary
 from scipy.spatial.transform import Rotation as Rot
 
+import ellipsim
 from ellipsim.core.tolerances import COAXIAL_MAX_NODES, PARALLEL_CANDIDATE_TILT, TILTED_MAX_NODES
 
 U64 = 2.0**-53
@@ -377,6 +378,56 @@ def test_tilted_max_declines_pairs_that_are_not_spheroids():
     no room, so nothing is proven and no cell is visited."""
     P = Pair((0.1, 0.2, 0.3), (1.0, 0.5, 0.4), np.eye(3), (0.6, 0.3, 0.3), 0, 0)
     proven, n, nodes = sp.tilted_max(P.e, P.a, P.U, P.b, P.tol, P.S, (1.0, 0.0, 0.0))
+    assert not proven and nodes == 0 and n == (1.0, 0.0, 0.0)
+
+
+# --- ring_max -------------------------------------------------------------------------------------------
+
+
+def nearly_spheroidal_pair(rng, where, off, float32):
+    """test_spheroid_pair's parallel pair with B's cross-section off a circle by `off` (relative) and, with
+    float32, U rounded to float32 (orthonormal only to ~6e-8, as MuJoCo Warp's rotations): spheroids to within
+    far more than the deep branch's tolerance (80 u S), far less than their size."""
+    P = spheroid_pair(rng, where)
+    b = np.array(P.b)
+    b[(P.j + 1) % 3] *= 1.0 + off
+    Um = P.Um.astype(np.float32).astype(float) if float32 else P.Um
+    return Pair(P.e, P.a, Um, b, P.k, P.j)
+
+
+@pytest.mark.parametrize("off", [0.0, 1e-12, 1e-9, 1e-7, 1e-5])
+def test_ring_max_proves_nearly_spheroidal_pairs_on_a_common_axis(off):
+    """On the axis, concentric or within 1e-9 of it, the maxima nearly form a ring, too flat for the branch and
+    bound over the sphere and beyond parallel_max's and tilted_max's models by 2 delta0 > tol: ring_max (sigma
+    itself in pole coordinates) proves every one within a few thousand cells, and the 40-digit reference is at
+    most sigma(n) + tol; through the narrow phase every such deep pair is GLOBAL."""
+    rng = np.random.default_rng(200 + int(-math.log10(off)) if off else 200)
+    nodes_all = []
+    for float32 in (False, True):
+        if off == 0.0 and not float32:
+            continue  # exact spheroids: parallel_max's
+        for where in ("axis", "concentric", "near axis"):
+            for _ in range(3):
+                P = nearly_spheroidal_pair(rng, where, off, float32)
+                ref = P.stationary_reference()
+                n0 = tuple(map(float, fibonacci(7)[int(rng.integers(7))]))
+                proven, n, nodes = sp.ring_max(P.e, P.a, P.U, P.b, P.tol, P.S, n0)
+                assert proven and 0 < nodes <= TILTED_MAX_NODES, (P, nodes)
+                assert abs(np.linalg.norm(n) - 1) <= 4 * U64
+                assert ref <= float(P.sigma_mp(n)) + P.tol, (P, ref, float(P.sigma_mp(n)), P.tol)
+                nodes_all.append(nodes)
+                A = ellipsim.Ellipsoids(np.zeros((1, 3)), np.eye(3)[None], np.array([P.a]))
+                B = ellipsim.Ellipsoids(np.array([P.e]), P.Um[None], np.array([P.b]))
+                dist, _, _, status = ellipsim.signed_distance(A, B)
+                assert status[0] == ellipsim.DistanceStatus.GLOBAL, P
+                assert ref <= dist[0] + P.tol + 64 * U64 * P.S
+    assert np.median(nodes_all) < 5000
+
+
+def test_ring_max_declines_where_its_tolerance_is_spent():
+    """A tolerance below the centre values' rounding (ERR_C + ERR_SIGMA): nothing proven, no cell visited."""
+    P = nearly_spheroidal_pair(np.random.default_rng(1), "axis", 1e-9, True)
+    proven, n, nodes = sp.ring_max(P.e, P.a, P.U, P.b, 10 * U64 * P.S, P.S, (1.0, 0.0, 0.0))
     assert not proven and nodes == 0 and n == (1.0, 0.0, 0.0)
 
 

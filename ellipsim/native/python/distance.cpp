@@ -313,6 +313,15 @@ void bind_stages(nb::module_& t) {
     const SpheroidMax p = tilted_max(e, a, U, b, tol, S, r.v());
     w.f(p.proven), w.v(p.n), w.f(double(p.nodes));
   });
+  // ring_max: e, a, U (9), b, tol, S, n0 -> proven, n (3), nodes
+  def_rows<23, 5>(t, "ring_max", [](Reader r, Writer w) {
+    const Vec3 e = r.v(), a = r.v();
+    const Mat3 U = r.m();
+    const Vec3 b = r.v();
+    const double tol = r.f(), S = r.f();
+    const SpheroidMax p = ring_max(e, a, U, b, tol, S, r.v());
+    w.f(p.proven), w.v(p.n), w.f(double(p.nodes));
+  });
   // axis_bb: ek, ex, ey, hk, h1, h2, kb, pb2, wz, wx, wy, tol1, S, curv, t0, p0 -> proven, t, p, moved, nodes
   def_rows<16, 5>(t, "axis_bb", [](Reader r, Writer w) {
     const double ek = r.f(), ex = r.f(), ey = r.f();

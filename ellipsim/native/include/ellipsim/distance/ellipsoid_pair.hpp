@@ -17,10 +17,12 @@
 //   minimum over a simplex lies at a vertex);
 // * for a deeper converged maximum that the ellipsoid inside A + (-B) touching it there proves (inner_sum.hpp).
 // Deeper penetrations it leaves, and a first run that does not converge, go to spheroids.hpp when the two are
-// spheroids with parallel axes of revolution (parallel_max) or nearly parallel ones (tilted_max), and the rest
-// to branch_and_bound.hpp: a branch and bound over the sphere that proves its answer within
-// TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of the global maximum, or reports UNPROVEN when its
-// budget runs out (two spheroids at any angle then get tilted_max as a second chance).
+// spheroids with parallel axes of revolution (parallel_max) or nearly parallel ones (tilted_max), or to
+// ring_max.hpp when they are spheroids only nearly (a cross-section off a circle, a float32 rotation: the maxima
+// a nearly flat ring), and the rest to branch_and_bound.hpp: a branch and bound over the sphere that proves its
+// answer within TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of the global maximum, or reports
+// UNPROVEN when its budget runs out (two spheroids at any angle then get tilted_max and ring_max as second
+// chances).
 #pragma once
 
 #include "../math.hpp"
@@ -29,6 +31,7 @@
 #include "../vec3.hpp"
 #include "branch_and_bound.hpp"
 #include "inner_sum.hpp"
+#include "ring_max.hpp"
 #include "sphere_newton.hpp"
 #include "spheroids.hpp"
 
@@ -259,6 +262,15 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t ma
         value = sigma_only(n, e, ra, Ub, rb);
         if (tm.proven) bb = branch_and_bound::GLOBAL;
       }
+      if (near && bb != branch_and_bound::GLOBAL) {  // not spheroids to the tolerance: nearly, the maxima a ring
+        const SpheroidMax rm = ring_max(e, ra, Ub, rb, tol_bb, S, n);
+        count += rm.nodes;
+        if (rm.proven) {
+          bb = branch_and_bound::GLOBAL;
+          n = rm.n;
+          value = sigma_only(n, e, ra, Ub, rb);
+        }
+      }
       if (bb != branch_and_bound::GLOBAL) {
         const GlobalMax gm = global_max(n, value, have, e, ra, Ub, rb, M, scale, tol_bb, tol::BB_MAX_PATCHES);
         bb = gm.status;
@@ -273,6 +285,15 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t ma
           bb = branch_and_bound::GLOBAL;
           n = tm.n;
           value = sigma_only(tm.n, e, ra, Ub, rb);
+        }
+      }
+      if (bb == branch_and_bound::UNPROVEN && !near) {  // nearly spheroidal, not found near parallel: a last chance
+        const SpheroidMax rm = ring_max(e, ra, Ub, rb, tol_bb, S, n);
+        count += rm.nodes;
+        if (rm.proven) {
+          bb = branch_and_bound::GLOBAL;
+          n = rm.n;
+          value = sigma_only(n, e, ra, Ub, rb);
         }
       }
       status = bb == branch_and_bound::GLOBAL || bb == branch_and_bound::SEPARATED_MAX ? GLOBAL : UNPROVEN;

@@ -90,7 +90,8 @@ def _spheroids(rng, n):
 
 def symmetric_fallbacks(n):
     """{category: (pairs, UNPROVEN, deep)}: spheroids with parallel axes (equal rotations, or turned about
-    the common axis), nearly parallel (tilted by 1e-12 to 0.1 rad), and a cylinder on a spheroid's axis
+    the common axis), nearly parallel (tilted by 1e-12 to 0.1 rad), each also on float32 poses, spheroids only
+    nearly (a cross-section off a circle by 1e-12 to 1e-5) on a common axis, and a cylinder on a spheroid's axis
     (exactly or tilted by up to 1e-2 rad); centres on the axis, near it or anywhere, deep to touching."""
     rng = np.random.default_rng(18)
     out = {}
@@ -108,6 +109,13 @@ def symmetric_fallbacks(n):
         c = u * (rng.uniform(0.0, 1.1, n) * (ra.max(1) + rb.max(1)))[:, None]
         dist, _, _, status = signed_distance(Ellipsoids(np.zeros((n, 3)), R, ra), Ellipsoids(c, Rb, rb), parallel=False)
         out[name] = (n, int(np.count_nonzero(status != GLOBAL)), int(np.count_nonzero(dist < 0)))
+        # the same pairs as MuJoCo Warp holds them: float32 poses (rotations orthonormal only to ~6e-8, so the
+        # spheroids are spheroids only to that: the maxima a nearly flat ring on the axis)
+        f32 = [np.asarray(x, np.float32).astype(float) for x in (R, ra, c, Rb, rb)]
+        dist, _, _, status = signed_distance(
+            Ellipsoids(np.zeros((n, 3)), f32[0], f32[1]), Ellipsoids(f32[2], f32[3], f32[4]), parallel=False
+        )
+        out[f"{name}, float32 poses"] = (n, int(np.count_nonzero(status != GLOBAL)), int(np.count_nonzero(dist < 0)))
     rE = _spheroids(rng, n)
     RE, cK, RK, sK = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3, 3)), np.zeros((n, 3))
     for i in range(n):
@@ -121,6 +129,19 @@ def symmetric_fallbacks(n):
         cK[i], sK[i, :2] = R[:, k] * rng.uniform(0.0, 1.05) * (rE[i, k] + L), (r, L)
     dist, _, _, status = shape_distance(Ellipsoids(np.zeros((n, 3)), RE, rE), "cylinder", cK, RK, sK, parallel=False)
     out["cylinder on a spheroid's axis"] = (n, int(np.count_nonzero(status != GLOBAL)), int(np.count_nonzero(dist < 0)))
+    # spheroids only nearly: B's cross-section off a circle by 1e-12 to 1e-5 of its size, on A's axis
+    near = np.random.default_rng(19)  # its own draws: the other categories' pairs stay as they were
+    ra, rb = _spheroids(near, n), _spheroids(near, n)
+    off = 10.0 ** near.uniform(-12, -5, n)
+    rb[:, 1] *= 1.0 + off  # (the axis of revolution is 0: the cross-section is (1, 2))
+    R = Rotation.random(n, random_state=near).as_matrix()
+    c = R[:, :, 0] * (near.uniform(-1.1, 1.1, n) * (ra.max(1) + rb.max(1)))[:, None]
+    dist, _, _, status = signed_distance(Ellipsoids(np.zeros((n, 3)), R, ra), Ellipsoids(c, R, rb), parallel=False)
+    out["nearly spheroidal on a common axis"] = (
+        n,
+        int(np.count_nonzero(status != GLOBAL)),
+        int(np.count_nonzero(dist < 0)),
+    )
     return out
 
 

@@ -45,3 +45,25 @@ def test_command_line_from_outside_the_checkout(tmp_path):
     proc = installed("-m", "ellipsim", "run", "handshake", "--steps", "20", "--record", "h.rrd", tmp_path=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "narrow phase:" in proc.stdout and (tmp_path / "h.rrd").stat().st_size > 1000
+
+
+def test_the_warp_kernels_compile_the_installed_core_headers(tmp_path):
+    """ellipsim.warp's kernels include the core's headers from the installed package (ellipsim/native/include and
+    native/warp ship in the wheel): one pair's distance through Warp's CPU device, outside the checkout, is the
+    CPU API's."""
+    code = (
+        "import numpy as np, warp as wp, ellipsim\n"
+        "wp.config.quiet = True\n"
+        "from ellipsim.warp import kernels\n"
+        "x = [np.zeros((1, 3)), np.eye(3)[None], np.array([[0.3, 0.2, 0.1]]),\n"
+        "     np.array([[0.4, 0.1, 0.0]]), np.eye(3)[None], np.array([[0.2, 0.2, 0.3]])]\n"
+        "x = [v.astype(np.float32).astype(float) for v in x]  # (the kernel reads float32 poses)\n"
+        "d = kernels.pair_distances(*x, device='cpu')[0][0]\n"
+        "c = ellipsim.signed_distance(ellipsim.Ellipsoids(*x[:3]), ellipsim.Ellipsoids(*x[3:]))[0][0]\n"
+        "print(kernels.NATIVE); print(d == c, d)\n"
+    )
+    proc = installed("-c", code, tmp_path=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    native, same = proc.stdout.splitlines()[-2:]
+    assert not native.startswith(str(tmp_path)) and (pathlib.Path(native) / "warp" / "narrowphase.hpp").is_file()
+    assert same.startswith("True"), same

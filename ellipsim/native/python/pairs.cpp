@@ -4,6 +4,7 @@
 #include <ellipsim/pairs/box.hpp>
 #include <ellipsim/pairs/capsule.hpp>
 #include <ellipsim/pairs/point_ellipsoid.hpp>
+#include <ellipsim/pairs/polytope.hpp>
 #include <ellipsim/pairs/tangent_cones.hpp>
 
 #include "common.hpp"
@@ -223,6 +224,39 @@ void box_vertex_stages(const InRows<21>& x, Rows<6> out, std::int64_t lo, std::i
   });
 }
 
+// polytope_ellipsoid for the ellipsoids E and one hull (vertices (nv, 3), edges (ne, 2), face normals (nf, 3), its
+// local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per row.
+void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
+                        const Rotations<>& RP, const Centers<>& vertices, const In<std::int32_t, nb::shape<-1, 2>>& edges,
+                        const Centers<>& normals, Rows<9> out, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ce, Re, re);
+  const auto n = static_cast<std::int64_t>(out.shape(0));
+  if (lo < 0 || hi < lo || hi > n || hi > a.n || hi > static_cast<std::int64_t>(CP.shape(0)) ||
+      static_cast<std::int64_t>(RP.shape(0)) != static_cast<std::int64_t>(CP.shape(0)))
+    throw std::out_of_range("pair range outside the arrays");
+  const pairs::polytope::Hull H = {int(vertices.shape(0)), int(edges.shape(0)), int(normals.shape(0)),
+                                   vertices.data(), edges.data(), normals.data()};
+  for (int k = 0; k < 2 * H.ne; ++k)
+    if (H.edge[k] < 0 || H.edge[k] >= H.nv) throw std::out_of_range("an edge names a vertex the hull lacks");
+  std::vector<double> scratch(3 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
+  double* o = out.data();
+  const double *C = CP.data(), *R = RP.data();
+  nb::gil_scoped_release release;
+  for (std::int64_t i = lo; i < hi; ++i) {
+    const Ellipsoid E = load(a.C, a.R, a.r, i);
+    const Mat3 Rp = {{R[9 * i], R[9 * i + 1], R[9 * i + 2], R[9 * i + 3], R[9 * i + 4], R[9 * i + 5], R[9 * i + 6],
+                      R[9 * i + 7], R[9 * i + 8]}};
+    const pairs::polytope::Result r =
+        pairs::polytope::polytope_ellipsoid(E, {C[3 * i], C[3 * i + 1], C[3 * i + 2]}, Rp, H, scratch.data());
+    double* row = o + 9 * i;
+    row[0] = double(r.status);
+    row[1] = r.dist;
+    put(row + 2, r.normal);
+    put(row + 5, r.pos);
+    row[8] = r.ub;
+  }
+}
+
 }  // namespace
 
 void bind_pairs(nb::module_& m, nb::module_& t) {
@@ -231,6 +265,8 @@ void bind_pairs(nb::module_& m, nb::module_& t) {
         "lo"_a, "hi"_a);
   t.def("box_ellipsoid", &box_ellipsoid, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,
         "hi"_a);
+  t.def("polytope_ellipsoid", &polytope_ellipsoid, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
+        in("edges"), in("normals"), in("out"), "lo"_a, "hi"_a);
   t.def("capsule_stages", &capsule_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"),
         "lo"_a, "hi"_a);
   t.def("box_stages", &box_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,

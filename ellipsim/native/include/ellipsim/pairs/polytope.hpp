@@ -1,0 +1,202 @@
+// Signed distance of an ellipsoid and a convex polytope (a mesh's convex hull, as MuJoCo collides a mesh), its
+// maximum proven by a complete case analysis (issue 48; box.hpp is the polytope with 8 vertices and its method).
+//
+// sigma(n) = min_i n.p_i - h_E(n) over unit n (p_i the hull's vertices in E's principal frame, from E's centre;
+// Schneider & Eberly 10.5.2: support functions; the normal n from E to P).  sigma is smooth except where the
+// minimising vertex changes, so the sphere splits into strata: each vertex's open region (sigma = f_q(n) =
+// n.q - h_E(n), q = p_i), each edge's open arc (n normal to the edge, sigma = f_q in that plane, q the edge's
+// midpoint) and each face's normal point.  The global maximum lies in one stratum: an interior critical point of
+// its f_q (a 3-D or 2-D point-ellipsoid problem: point_ellipsoid.hpp's foot3 / foot2, every other root of the
+// secular equation, the pole limits; Eberly, "Distance from a point to an ellipse, an ellipsoid, or a
+// hyperellipsoid", sec. 2-3), or a face normal.  Every candidate is evaluated with sigma itself (a candidate
+// outside its stratum only gives a lower bound), so the largest is the maximum: status ENUMERATED.  A stratum's
+// other roots are skipped when the certified bound on its f_q's global maximum (sd_upper, weak duality) does not
+// beat the incumbent by tol; the incumbent comes first from every face normal and every piece's global maximiser.
+//
+// The hull: vertices in P's local frame, its edges (vertex pairs) and its faces' outward normals.  Extra edges or
+// faces (a triangulated face's diagonals, duplicate normals) only add candidates; every edge and face of the hull
+// must be among them.  Cost O(V (V + E + F)): every candidate's sigma reads every vertex (a first version:
+// pruning by tangent planes and by face fans, and the certified Newton path of the box, are not here yet).
+#pragma once
+
+#include "../math.hpp"
+
+#include "../distance/sphere_newton.hpp"
+#include "../tolerances.hpp"
+#include "../vec3.hpp"
+#include "point_ellipsoid.hpp"
+
+namespace ellipsim::pairs::polytope {
+
+using distance::unit;
+using point_ellipsoid::at;
+using point_ellipsoid::contact_in_world;
+using point_ellipsoid::foot2;
+using point_ellipsoid::foot3;
+using point_ellipsoid::from_plane;
+using point_ellipsoid::pole_normal;
+using point_ellipsoid::project_ellipse;
+using point_ellipsoid::sd_upper;
+using point_ellipsoid::sd_upper2;
+using point_ellipsoid::secular_roots;
+
+// How polytope_ellipsoid proved its maximum: every critical point evaluated (box.hpp's second proof).
+constexpr int ENUMERATED = 1;
+
+// A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf faces'
+// outward unit normals (3 nf numbers).
+struct Hull {
+  int nv, ne, nf;
+  const double* v;
+  const int* edge;
+  const double* normal;
+};
+
+ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
+
+// The hull in E's principal frame: p_i = R_E^T (c_P + R_P v_i - c_E), written into p (3 nv numbers).
+ELLIPSIM_HD void to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H, double* p) {
+  const Vec3 d = sub(cP, E.c);
+  for (int i = 0; i < H.nv; ++i) {
+    const Vec3 w = matvec(RP, {H.v[3 * i], H.v[3 * i + 1], H.v[3 * i + 2]});
+    const Vec3 q = rotate_t(E.R, {d.x + w.x, d.y + w.y, d.z + w.z});
+    p[3 * i] = q.x;
+    p[3 * i + 1] = q.y;
+    p[3 * i + 2] = q.z;
+  }
+}
+
+ELLIPSIM_HD Vec3 vertex(const double* p, int i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
+
+// sigma at the unit n (E's frame).
+ELLIPSIM_HD double sigma_hull(const Vec3& a2, const double* p, int nv, const Vec3& n) {
+  double lo = INFINITY;
+  for (int i = 0; i < nv; ++i) lo = min2(lo, n.x * p[3 * i] + n.y * p[3 * i + 1] + n.z * p[3 * i + 2]);
+  return lo - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+}
+
+struct Best {
+  double value;
+  Vec3 n;
+};
+
+ELLIPSIM_HD void consider(const Vec3& a2, const double* p, int nv, const Vec3& n, Best& best) {
+  const double v = sigma_hull(a2, p, nv, n);
+  if (v > best.value) best = {v, n};
+}
+
+// The plane normal to an edge: an orthonormal basis (b1, b2).
+struct Plane {
+  Vec3 b1, b2;
+};
+
+ELLIPSIM_HD Plane normal_plane(const Vec3& d) {
+  const Vec3 u = unit(d);
+  const Vec3 a = math::fabs(u.x) < 0.6 ? Vec3{1.0, 0.0, 0.0} : Vec3{0.0, 1.0, 0.0};
+  const Vec3 b1 = unit(cross3(u, a));
+  return {b1, cross3(u, b1)};
+}
+
+// An edge's 2-D problem: the projected ellipse and the projected midpoint.
+struct EdgeProblem {
+  Plane pl;
+  point_ellipsoid::Ellipse el;
+  Vec3 p;  // (along the ellipse's axes, 0)
+};
+
+ELLIPSIM_HD EdgeProblem edge_problem(const Vec3& a2, const double* p, int i, int j) {
+  const Vec3 pi = vertex(p, i), pj = vertex(p, j);
+  const Plane pl = normal_plane(sub(pj, pi));
+  const point_ellipsoid::Ellipse el = project_ellipse(a2, pl.b1, pl.b2);
+  const Vec3 q = {0.5 * (pi.x + pj.x), 0.5 * (pi.y + pj.y), 0.5 * (pi.z + pj.z)};
+  const double p1 = dot(q, pl.b1), p2 = dot(q, pl.b2);
+  return {pl, el, {el.c * p1 + el.s * p2, -el.s * p1 + el.c * p2, 0.0}};
+}
+
+// The maximum of sigma (top comment) over the hull p (E's frame, nv vertices) and its edges and face normals
+// (normals in E's frame, nf of them): (value, n).
+ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol) {
+  const int nv = H.nv;
+  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
+  // the incumbent: every face normal (n = -m_f: the face's vertices minimise n.p) and every piece's global
+  // maximiser
+  for (int f = 0; f < H.nf; ++f) consider(a2, p, nv, {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  for (int i = 0; i < nv; ++i) consider(a2, p, nv, foot3(a2, vertex(p, i)).n, b);
+  for (int k = 0; k < H.ne; ++k) {
+    const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
+    const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
+    consider(a2, p, nv, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+  }
+  // every other critical point of the pieces whose extended function could beat it
+  for (int i = 0; i < nv; ++i) {
+    const Vec3 q = vertex(p, i);
+    const point_ellipsoid::Foot3 ft = foot3(a2, q);
+    if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
+    const point_ellipsoid::Roots roots = secular_roots(a2, q);
+    for (int r = 0; r < 3; ++r) {
+      const double t = roots.t[r];
+      if (t == t) consider(a2, p, nv, unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}), b);
+    }
+    for (int ii = 0; ii < 3; ++ii) {
+      for (int s = 0; s < 2; ++s) {
+        const point_ellipsoid::PoleNormal pn = pole_normal(a2, q, ii, s == 0 ? 1.0 : -1.0);
+        if (pn.ok) consider(a2, p, nv, pn.n, b);
+      }
+    }
+  }
+  for (int k = 0; k < H.ne; ++k) {
+    const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
+    const double lam = ep.el.lam, mu = ep.el.mu, c = ep.el.c, s = ep.el.s;
+    const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
+    if (sd_upper2(lam, mu, ep.p.x, ep.p.y, ft.t) <= b.value + tol) continue;
+    // the 2-D roots through the 3-D enumeration with a third axis longer than both (box.hpp's enumerate_max)
+    const Vec3 b3 = {lam, mu, 2.0 * max2(lam, mu)};
+    const point_ellipsoid::Roots roots = secular_roots(b3, ep.p);
+    for (int r = 0; r < 3; ++r) {
+      const double t = roots.t[r];
+      if (t == t) {
+        const Vec3 u = unit({ep.p.x / (t + lam), ep.p.y / (t + mu), 0.0});
+        consider(a2, p, nv, from_plane(u.x, u.y, c, s, ep.pl.b1, ep.pl.b2), b);
+      }
+    }
+    for (int ii = 0; ii < 2; ++ii) {
+      for (int sg = 0; sg < 2; ++sg) {
+        const point_ellipsoid::PoleNormal pn = pole_normal(b3, ep.p, ii, sg == 0 ? 1.0 : -1.0);
+        if (pn.ok) consider(a2, p, nv, from_plane(pn.n.x, pn.n.y, c, s, ep.pl.b1, ep.pl.b2), b);
+      }
+    }
+  }
+  return b;
+}
+
+// (status, dist, normal, pos, ub).
+struct Result {
+  int status;
+  double dist;
+  Vec3 normal, pos;
+  double ub;
+};
+
+// For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
+// distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
+// box.hpp), status ENUMERATED.  scratch: 6 H.nv + 3 H.nf numbers.
+ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
+                                      double* scratch) {
+  double* p = scratch;
+  double* m = scratch + 3 * H.nv;
+  to_frame(E, cP, RP, H, p);
+  const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 w = matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
+    m[3 * f] = w.x;
+    m[3 * f + 1] = w.y;
+    m[3 * f + 2] = w.z;
+  }
+  const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
+  const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
+  const Best b = enumerate_max(a2, p, H, m, tol);
+  const point_ellipsoid::Contact c = contact_in_world(E, a2, b.n, b.value);
+  return {ENUMERATED, b.value, c.normal, c.pos, INFINITY};
+}
+
+}  // namespace ellipsim::pairs::polytope

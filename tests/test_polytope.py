@@ -15,8 +15,9 @@ SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)],
 
 
 def hull_of(points):
-    """(vertices (nv, 3), edges (ne, 2) int32, outward face normals (nf, 3)) of the convex hull of points, its
-    faces as scipy's triangles (a flat face's diagonals are extra edges: only more candidates)."""
+    """(vertices (nv, 3), edges (ne, 2) int32, outward face normals (nf, 3), a vertex of each face (nf,) int32)
+    of the convex hull of points, its faces as scipy's triangles (a flat face's diagonals are extra edges: only
+    more candidates)."""
     h = ConvexHull(points)
     index = {v: k for k, v in enumerate(h.vertices)}
     edges = sorted(
@@ -26,6 +27,7 @@ def hull_of(points):
         np.ascontiguousarray(points[h.vertices], float),
         np.array(edges, np.int32).reshape(-1, 2),
         np.ascontiguousarray(h.equations[:, :3]),
+        np.array([index[s[0]] for s in h.simplices], np.int32),
     )
 
 
@@ -99,7 +101,7 @@ def test_extra_edges_and_faces_change_nothing_and_a_bad_edge_is_refused():
     """Every vertex pair as an edge and every face normal twice: only more candidates, the same maximum; an
     edge naming a vertex the hull lacks raises, nothing is read past the arrays."""
     rng = np.random.default_rng(5)
-    V, E, N = hull_of(rng.normal(size=(20, 3)) * 0.2)
+    V, E, N, F = hull_of(rng.normal(size=(20, 3)) * 0.2)
     extra = np.array([(i, j) for i in range(len(V)) for j in range(i + 1, len(V))], np.int32)
     args = [
         np.zeros((1, 3)),
@@ -108,8 +110,8 @@ def test_extra_edges_and_faces_change_nothing_and_a_bad_edge_is_refused():
         np.array([[0.1, 0.2, 0.05]]),
         np.eye(3)[None],
     ]
-    _, d, _, _ = kernel(*args, (V, E, N))
-    _, d2, _, _ = kernel(*args, (V, extra, np.ascontiguousarray(np.concatenate([N, N]))))
+    _, d, _, _ = kernel(*args, (V, E, N, F))
+    _, d2, _, _ = kernel(*args, (V, extra, np.ascontiguousarray(np.concatenate([N, N])), np.concatenate([F, F])))
     assert abs(d[0] - d2[0]) <= 1e-15 * (1 + abs(d[0]))
     with pytest.raises(IndexError, match="edge names a vertex"):
-        kernel(*args, (V, np.array([[0, len(V)]], np.int32), N))
+        kernel(*args, (V, np.array([[0, len(V)]], np.int32), N, F))

@@ -44,12 +44,13 @@ using point_ellipsoid::secular_roots;
 constexpr int ENUMERATED = 1;
 
 // A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf faces'
-// outward unit normals (3 nf numbers).
+// outward unit normals (3 nf numbers) and a vertex on each face (nf indices).
 struct Hull {
   int nv, ne, nf;
   const double* v;
   const int* edge;
   const double* normal;
+  const int* face_vertex;
 };
 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
@@ -80,7 +81,12 @@ struct Best {
   Vec3 n;
 };
 
-ELLIPSIM_HD void consider(const Vec3& a2, const double* p, int nv, const Vec3& n, Best& best) {
+// A candidate n of a piece whose point is q (a vertex, an edge's midpoint, a face's vertex): sigma(n) <= f_q(n) =
+// n.q - h_E(n) (the minimum over the vertices is at most the one at q), so sigma, which reads every vertex, is
+// evaluated only where f_q beats the incumbent.
+ELLIPSIM_HD void consider(const Vec3& a2, const double* p, int nv, const Vec3& q, const Vec3& n, Best& best) {
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > best.value)) return;
   const double v = sigma_hull(a2, p, nv, n);
   if (v > best.value) best = {v, n};
 }
@@ -101,7 +107,8 @@ ELLIPSIM_HD Plane normal_plane(const Vec3& d) {
 struct EdgeProblem {
   Plane pl;
   point_ellipsoid::Ellipse el;
-  Vec3 p;  // (along the ellipse's axes, 0)
+  Vec3 p;  // the midpoint projected, along the ellipse's axes (third coordinate 0)
+  Vec3 q;  // the midpoint
 };
 
 ELLIPSIM_HD EdgeProblem edge_problem(const Vec3& a2, const double* p, int i, int j) {
@@ -110,41 +117,66 @@ ELLIPSIM_HD EdgeProblem edge_problem(const Vec3& a2, const double* p, int i, int
   const point_ellipsoid::Ellipse el = project_ellipse(a2, pl.b1, pl.b2);
   const Vec3 q = {0.5 * (pi.x + pj.x), 0.5 * (pi.y + pj.y), 0.5 * (pi.z + pj.z)};
   const double p1 = dot(q, pl.b1), p2 = dot(q, pl.b2);
-  return {pl, el, {el.c * p1 + el.s * p2, -el.s * p1 + el.c * p2, 0.0}};
+  return {pl, el, {el.c * p1 + el.s * p2, -el.s * p1 + el.c * p2, 0.0}, q};
+}
+
+// Upper bounds on a piece's maximum before it is solved: f_q's maximum over the sphere is the signed distance of q
+// from E, at most |q| - r_min (q outside E: its distance is at most |q| - r_min; inside: its depth at least
+// r_min - |q|); an edge's, over its great circle, the 2-D one of q's projection from E's projection (semi-axes
+// >= r_min), at most |q_perp| - r_min, q_perp q's part normal to the edge.  Inflated by their rounding (a few u
+// of |q|): a piece whose bound does not beat the incumbent by tol is not solved.
+ELLIPSIM_HD bool vertex_beaten(const Vec3& q, double rmin, double best) {
+  return math::sqrt(dot(q, q)) * (1.0 + 8.0 * tol::U) - rmin * (1.0 - 8.0 * tol::U) <= best;
+}
+
+ELLIPSIM_HD bool edge_beaten(const double* p, int i, int j, double rmin, double best) {
+  const Vec3 pi = vertex(p, i), pj = vertex(p, j);
+  const Vec3 u = unit(sub(pj, pi));
+  const Vec3 q = {0.5 * (pi.x + pj.x), 0.5 * (pi.y + pj.y), 0.5 * (pi.z + pj.z)};
+  const double qu = dot(q, u);
+  const Vec3 w = {q.x - qu * u.x, q.y - qu * u.y, q.z - qu * u.z};
+  return math::sqrt(dot(w, w)) * (1.0 + 8.0 * tol::U) + 8.0 * tol::U * math::sqrt(dot(q, q)) -
+             rmin * (1.0 - 8.0 * tol::U) <= best;
 }
 
 // The maximum of sigma (top comment) over the hull p (E's frame, nv vertices) and its edges and face normals
 // (normals in E's frame, nf of them): (value, n).
 ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol) {
   const int nv = H.nv;
+  const double rmin = math::sqrt(min2(min2(a2.x, a2.y), a2.z));
   Best b = {-INFINITY, {0.0, 0.0, 1.0}};
   // the incumbent: every face normal (n = -m_f: the face's vertices minimise n.p) and every piece's global
   // maximiser
-  for (int f = 0; f < H.nf; ++f) consider(a2, p, nv, {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
-  for (int i = 0; i < nv; ++i) consider(a2, p, nv, foot3(a2, vertex(p, i)).n, b);
+  for (int f = 0; f < H.nf; ++f)
+    consider(a2, p, nv, vertex(p, H.face_vertex[f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  for (int i = 0; i < nv; ++i)
+    if (!vertex_beaten(vertex(p, i), rmin, b.value + tol)) consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
   for (int k = 0; k < H.ne; ++k) {
+    if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
     const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
     const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
-    consider(a2, p, nv, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+    consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
   }
   // every other critical point of the pieces whose extended function could beat it
   for (int i = 0; i < nv; ++i) {
     const Vec3 q = vertex(p, i);
+    if (vertex_beaten(q, rmin, b.value + tol)) continue;
     const point_ellipsoid::Foot3 ft = foot3(a2, q);
     if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
     const point_ellipsoid::Roots roots = secular_roots(a2, q);
     for (int r = 0; r < 3; ++r) {
       const double t = roots.t[r];
-      if (t == t) consider(a2, p, nv, unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}), b);
+      if (t == t) consider(a2, p, nv, q, unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}), b);
     }
     for (int ii = 0; ii < 3; ++ii) {
       for (int s = 0; s < 2; ++s) {
         const point_ellipsoid::PoleNormal pn = pole_normal(a2, q, ii, s == 0 ? 1.0 : -1.0);
-        if (pn.ok) consider(a2, p, nv, pn.n, b);
+        if (pn.ok) consider(a2, p, nv, q, pn.n, b);
       }
     }
   }
   for (int k = 0; k < H.ne; ++k) {
+    if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
     const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
     const double lam = ep.el.lam, mu = ep.el.mu, c = ep.el.c, s = ep.el.s;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
@@ -156,13 +188,13 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
       const double t = roots.t[r];
       if (t == t) {
         const Vec3 u = unit({ep.p.x / (t + lam), ep.p.y / (t + mu), 0.0});
-        consider(a2, p, nv, from_plane(u.x, u.y, c, s, ep.pl.b1, ep.pl.b2), b);
+        consider(a2, p, nv, ep.q, from_plane(u.x, u.y, c, s, ep.pl.b1, ep.pl.b2), b);
       }
     }
     for (int ii = 0; ii < 2; ++ii) {
       for (int sg = 0; sg < 2; ++sg) {
         const point_ellipsoid::PoleNormal pn = pole_normal(b3, ep.p, ii, sg == 0 ? 1.0 : -1.0);
-        if (pn.ok) consider(a2, p, nv, from_plane(pn.n.x, pn.n.y, c, s, ep.pl.b1, ep.pl.b2), b);
+        if (pn.ok) consider(a2, p, nv, ep.q, from_plane(pn.n.x, pn.n.y, c, s, ep.pl.b1, ep.pl.b2), b);
       }
     }
   }

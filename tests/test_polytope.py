@@ -5,30 +5,18 @@ analysis, through _ellipsim.testing): the box kernel's answer on boxes given as 
 import numpy as np
 import pytest
 from polytope_reference import signed_distance as reference
-from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation as Rot
 
 import ellipsim
+from ellipsim.core.pairs.hull import convex_hull
 from ellipsim.native import ext
 
 SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 
 
 def hull_of(points):
-    """(vertices (nv, 3), edges (ne, 2) int32, outward face normals (nf, 3), a vertex of each face (nf,) int32)
-    of the convex hull of points, its faces as scipy's triangles (a flat face's diagonals are extra edges: only
-    more candidates)."""
-    h = ConvexHull(points)
-    index = {v: k for k, v in enumerate(h.vertices)}
-    edges = sorted(
-        {tuple(sorted((index[s[a]], index[s[b]]))) for s in h.simplices for a, b in ((0, 1), (1, 2), (0, 2))}
-    )
-    return (
-        np.ascontiguousarray(points[h.vertices], float),
-        np.array(edges, np.int32).reshape(-1, 2),
-        np.ascontiguousarray(h.equations[:, :3]),
-        np.array([index[s[0]] for s in h.simplices], np.int32),
-    )
+    """The kernel's hull arrays of the convex hull of points (core/pairs/hull.py)."""
+    return tuple(convex_hull(points))
 
 
 def kernel(cE, RE, rE, cP, RP, hull):
@@ -115,3 +103,51 @@ def test_extra_edges_and_faces_change_nothing_and_a_bad_edge_is_refused():
     assert abs(d[0] - d2[0]) <= 1e-15 * (1 + abs(d[0]))
     with pytest.raises(IndexError, match="edge names a vertex"):
         kernel(*args, (V, np.array([[0, len(V)]], np.int32), N, F))
+
+
+def _mesh_model(points):
+    import mujoco
+
+    vertex = " ".join(f"{x:.9g}" for x in np.asarray(points).ravel())
+    xml = f'''<mujoco><asset><mesh name="m" vertex="{vertex}"/></asset>
+    <worldbody><geom type="mesh" mesh="m"/></worldbody></mujoco>'''
+    return mujoco.MjModel.from_xml_string(xml)
+
+
+@pytest.mark.parametrize("count", [8, 40, 120])
+def test_a_mesh_geoms_hull_is_mujocos_and_the_kernel_reads_it(count):
+    """mujoco/hull.py reads MuJoCo's own hull (mesh_graph): the vertices scipy's hull of the same mesh keeps,
+    outward unit normals, every face's vertex on its plane, and the kernel's distance the one it gives on scipy's
+    hull of those vertices."""
+    from ellipsim.mujoco.hull import mesh_hull
+
+    rng = np.random.default_rng(count)
+    model = _mesh_model(rng.normal(size=(count, 3)) * 0.1)
+    hull = mesh_hull(model, "m")
+    mesh_vert = model.mesh_vert[: model.mesh_vertnum[0]].astype(float)
+    ref = convex_hull(mesh_vert)
+    assert {tuple(v) for v in hull.vertices} == {tuple(v) for v in ref.vertices}
+    assert np.allclose(np.linalg.norm(hull.normals, axis=1), 1)
+    offsets = np.einsum("ij,ij->i", hull.normals, hull.vertices[hull.face_vertex])
+    assert np.all(hull.vertices @ hull.normals.T <= offsets + 1e-12)  # every vertex behind every face: outward
+    one = lambda x: np.asarray(x, float)[None]  # noqa: E731
+    args = (one(np.zeros(3)), one(np.eye(3)), one([0.1, 0.07, 0.05]), one([0.12, 0.03, -0.02]), one(np.eye(3)))
+    _, d, _, _ = kernel(*args, tuple(hull))
+    _, d_ref, _, _ = kernel(*args, tuple(ref))
+    assert abs(d[0] - d_ref[0]) <= 1e-14
+
+
+def test_hull_mistakes_are_clear_errors():
+    from ellipsim.mujoco.hull import mesh_hull
+
+    with pytest.raises(ValueError, match="span a volume"):
+        convex_hull([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    with pytest.raises(ValueError, match=r"\(m, 3\) with m >= 4"):
+        convex_hull(np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="finite"):
+        convex_hull([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, np.nan]])
+    model = _mesh_model(np.random.default_rng(0).normal(size=(8, 3)))
+    with pytest.raises(ValueError, match="'nope' is not in the model"):
+        mesh_hull(model, "nope")
+    with pytest.raises(ValueError, match=r"mesh must be an id in \[0, 1\)"):
+        mesh_hull(model, 3)

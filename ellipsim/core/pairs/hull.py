@@ -1,0 +1,62 @@
+"""A convex polytope as the polytope kernel reads it (ellipsim/native/include/ellipsim/pairs/polytope.hpp): its
+vertices, edges, outward face normals and a vertex on each face, in its own frame.
+
+    hull = convex_hull(points)          # any points; their convex hull (scipy's Qhull)
+
+A hull from a MuJoCo model's mesh is ellipsim.mujoco.hull.mesh_hull (MuJoCo's own hull, mesh_graph).
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Hull(NamedTuple):
+    """vertices (nv, 3) float64, edges (ne, 2) int32 vertex pairs, normals (nf, 3) outward unit face normals,
+    face_vertex (nf,) int32 a vertex of each face.  Faces may be triangles of a flat face (its diagonals then
+    appear as edges): the kernel only gets more candidates from them."""
+
+    vertices: np.ndarray
+    edges: np.ndarray
+    normals: np.ndarray
+    face_vertex: np.ndarray
+
+
+def from_triangles(vertices, triangles):
+    """The Hull of a closed convex triangle mesh: vertices (m, 3), triangles (k, 3) indices into them (any
+    orientation: each face's normal is turned away from the vertices' centroid); only the vertices the
+    triangles use are kept."""
+    vertices = np.asarray(vertices, float)
+    triangles = np.asarray(triangles, np.int64).reshape(-1, 3)
+    used = np.unique(triangles)
+    index = np.full(len(vertices), -1, np.int64)
+    index[used] = np.arange(len(used))
+    V = np.ascontiguousarray(vertices[used])
+    T = index[triangles]
+    a, b, c = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
+    n = np.cross(b - a, c - a)
+    length = np.linalg.norm(n, axis=1)
+    if not np.all(length > 0):
+        raise ValueError(f"triangle {int(np.argmin(length))} of the hull is degenerate (collinear vertices)")
+    n /= length[:, None]
+    n[np.einsum("ij,ij->i", n, a - V.mean(0)) < 0] *= -1.0
+    pairs = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [0, 2]]]), axis=1)
+    edges = np.unique(pairs, axis=0).astype(np.int32)
+    return Hull(V, np.ascontiguousarray(edges), np.ascontiguousarray(n), np.ascontiguousarray(T[:, 0].astype(np.int32)))
+
+
+def convex_hull(points):
+    """The Hull of the convex hull of points (m, 3), m >= 4 not all in a plane; ValueError naming the
+    argument otherwise."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    p = np.asarray(points, float)
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) < 4:
+        raise ValueError(f"points must be (m, 3) with m >= 4, got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("points must be finite")
+    try:
+        h = ConvexHull(p)
+    except QhullError:
+        raise ValueError("points must span a volume (they are coplanar, collinear or coincident)") from None
+    return from_triangles(p, h.simplices)

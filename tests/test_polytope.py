@@ -1,5 +1,5 @@
-"""The C++ core's pairs/polytope.hpp (issue 48, first step: ellipsoid x convex polytope by a complete case
-analysis, through _ellipsim.testing): the box kernel's answer on boxes given as hulls, and the slow reference
+"""The C++ core's pairs/polytope.hpp (issue 48, first steps: ellipsoid x convex polytope, certified by ub1 or
+by a complete case analysis, through _ellipsim.testing): the box kernel's answer on boxes given as hulls, and the slow reference
 (tests/polytope_reference.py) on random hulls of 8 to 120 points, separated, touching and deep."""
 
 import numpy as np
@@ -11,6 +11,7 @@ import ellipsim
 from ellipsim.core.pairs.hull import convex_hull
 from ellipsim.native import ext
 
+CERTIFIED, ENUMERATED = 0, 1  # pairs/polytope.hpp's statuses
 SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 
 
@@ -39,13 +40,17 @@ def test_a_box_as_a_hull_is_the_box_kernel():
     cK = cE + rng.normal(size=(n, 3)) * 0.25
     dist, normal, pos, _ = ellipsim.shape_distance(ellipsim.Ellipsoids(cE, RE, rE), "box", cK, RK, sK)
     rmin = np.minimum(rE.min(1), sK.min(1))
+    statuses = []
     for i in range(n):
         status, d, nrm, p = kernel(
             cE[i : i + 1], RE[i : i + 1], rE[i : i + 1], cK[i : i + 1], RK[i : i + 1], hull_of(SIGNS * sK[i])
         )
-        assert status[0] == 1 and abs(d[0] - dist[i]) <= 1e-12 * rmin[i], (i, d[0], dist[i])
+        assert status[0] in (CERTIFIED, ENUMERATED) and abs(d[0] - dist[i]) <= 1e-12 * rmin[i], (i, d[0], dist[i])
+        statuses.append(status[0])
         assert np.linalg.norm(nrm[0] - normal[i]) <= 1e-9 and np.linalg.norm(p[0] - pos[i]) <= 1e-9 * rmin[i], i
     assert (dist < 0).sum() > 100 and (dist > 0).sum() > 50
+    # separated and shallow pairs close by ub1 (the certified path), deep crossings are enumerated
+    assert statuses.count(CERTIFIED) > 100 and statuses.count(ENUMERATED) > 20
 
 
 def _random_pairs(rng, count):
@@ -62,8 +67,9 @@ def test_random_hulls_are_the_reference(where):
     normal to its category's distance (apart: 0.5 of the smaller size; touching: +-1e-6; deep: its centre
     within the ellipsoid's smallest semi-axis): the 40-digit reference's maximum within 1e-9 of the ellipsoid's
     smallest semi-axis, and never above sigma at the kernel's normal by more than rounding (both are sigma at a
-    direction: the larger is the better lower bound)."""
+    direction: the larger is the better lower bound); apart and touching pairs certified by ub1."""
     rng = np.random.default_rng({"apart": 2, "touching": 3, "deep": 4}[where])
+    certified = []
     for m, hull, rE, RE in _random_pairs(rng, 5):
         RP = Rot.random(random_state=rng).as_matrix()
         one = lambda x: np.asarray(x, float)[None]  # noqa: E731
@@ -76,13 +82,16 @@ def test_random_hulls_are_the_reference(where):
             cP = rng.uniform(-1, 1, 3) * rE.min() * 0.5
         status, d, nrm, pos = kernel(one(np.zeros(3)), one(RE), one(rE), one(cP), one(RP), hull)
         ref, _ = reference(np.zeros(3), RE, rE, cP + hull[0] @ RP.T)
-        assert status[0] == 1 and abs(np.linalg.norm(nrm[0]) - 1) < 1e-12
+        assert status[0] in (CERTIFIED, ENUMERATED) and abs(np.linalg.norm(nrm[0]) - 1) < 1e-12
+        certified.append(status[0] == CERTIFIED)
         assert ref - d[0] <= 1e-9 * rE.min(), (m, where, ref, d[0])
         assert d[0] - ref <= 1e-12 * (1 + abs(ref)), (m, where, ref, d[0])
         if where == "deep":
             assert d[0] < 0
         elif where == "apart":
             assert abs(d[0] - 0.5 * rE.min()) < 1e-6 * rE.min()
+    if where != "deep":  # ub1 closes at the local maximum (199 and 200 of 200 on larger samples)
+        assert sum(certified) >= len(certified) - 1, certified
 
 
 def test_extra_edges_and_faces_change_nothing_and_a_bad_edge_is_refused():
@@ -128,7 +137,7 @@ def test_a_mesh_geoms_hull_is_mujocos_and_the_kernel_reads_it(count):
     ref = convex_hull(mesh_vert)
     assert {tuple(v) for v in hull.vertices} == {tuple(v) for v in ref.vertices}
     assert np.allclose(np.linalg.norm(hull.normals, axis=1), 1)
-    offsets = np.einsum("ij,ij->i", hull.normals, hull.vertices[hull.face_vertex])
+    offsets = np.einsum("ij,ij->i", hull.normals, hull.vertices[hull.faces[:, 0]])
     assert np.all(hull.vertices @ hull.normals.T <= offsets + 1e-12)  # every vertex behind every face: outward
     one = lambda x: np.asarray(x, float)[None]  # noqa: E731
     args = (one(np.zeros(3)), one(np.eye(3)), one([0.1, 0.07, 0.05]), one([0.12, 0.03, -0.02]), one(np.eye(3)))

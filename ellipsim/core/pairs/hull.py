@@ -1,5 +1,5 @@
 """A convex polytope as the polytope kernel reads it (ellipsim/native/include/ellipsim/pairs/polytope.hpp): its
-vertices, edges, outward face normals and a vertex on each face, in its own frame.
+vertices, edges, outward face normals and triangles, in its own frame.
 
     hull = convex_hull(points)          # any points; their convex hull (scipy's Qhull)
 
@@ -13,13 +13,13 @@ import numpy as np
 
 class Hull(NamedTuple):
     """vertices (nv, 3) float64, edges (ne, 2) int32 vertex pairs, normals (nf, 3) outward unit face normals,
-    face_vertex (nf,) int32 a vertex of each face.  Faces may be triangles of a flat face (its diagonals then
-    appear as edges): the kernel only gets more candidates from them."""
+    faces (nf, 3) int32 the triangles.  A flat face may be several triangles (its diagonals then appear as
+    edges): the kernel only gets more candidates from them."""
 
     vertices: np.ndarray
     edges: np.ndarray
     normals: np.ndarray
-    face_vertex: np.ndarray
+    faces: np.ndarray
 
 
 def from_triangles(vertices, triangles):
@@ -42,7 +42,7 @@ def from_triangles(vertices, triangles):
     n[np.einsum("ij,ij->i", n, a - V.mean(0)) < 0] *= -1.0
     pairs = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [0, 2]]]), axis=1)
     edges = np.unique(pairs, axis=0).astype(np.int32)
-    return Hull(V, np.ascontiguousarray(edges), np.ascontiguousarray(n), np.ascontiguousarray(T[:, 0].astype(np.int32)))
+    return Hull(V, np.ascontiguousarray(edges), np.ascontiguousarray(n), np.ascontiguousarray(T.astype(np.int32)))
 
 
 def convex_hull(points):

@@ -224,11 +224,11 @@ void box_vertex_stages(const InRows<21>& x, Rows<6> out, std::int64_t lo, std::i
   });
 }
 
-// polytope_ellipsoid for the ellipsoids E and one hull (vertices (nv, 3), edges (ne, 2), face normals (nf, 3), its
-// local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per row.
+// polytope_ellipsoid for the ellipsoids E and one hull (vertices (nv, 3), edges (ne, 2), face normals (nf, 3),
+// triangles (nf, 3), its local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per row.
 void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
                         const Rotations<>& RP, const Centers<>& vertices, const In<std::int32_t, nb::shape<-1, 2>>& edges,
-                        const Centers<>& normals, const In<std::int32_t, nb::ndim<1>>& face_vertex, Rows<9> out,
+                        const Centers<>& normals, const In<std::int32_t, nb::shape<-1, 3>>& faces, Rows<9> out,
                         std::int64_t lo, std::int64_t hi) {
   const auto a = batch(Ce, Re, re);
   const auto n = static_cast<std::int64_t>(out.shape(0));
@@ -237,12 +237,12 @@ void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Center
     throw std::out_of_range("pair range outside the arrays");
   const pairs::polytope::Hull H = {int(vertices.shape(0)), int(edges.shape(0)), int(normals.shape(0)),
                                    vertices.data(),       edges.data(),       normals.data(),
-                                   face_vertex.data()};
+                                   faces.data()};
   for (int k = 0; k < 2 * H.ne; ++k)
     if (H.edge[k] < 0 || H.edge[k] >= H.nv) throw std::out_of_range("an edge names a vertex the hull lacks");
-  if (static_cast<int>(face_vertex.shape(0)) != H.nf) throw std::invalid_argument("one vertex per face");
-  for (int f = 0; f < H.nf; ++f)
-    if (H.face_vertex[f] < 0 || H.face_vertex[f] >= H.nv) throw std::out_of_range("a face names a vertex the hull lacks");
+  if (static_cast<int>(faces.shape(0)) != H.nf) throw std::invalid_argument("one normal per face");
+  for (int k = 0; k < 3 * H.nf; ++k)
+    if (H.face[k] < 0 || H.face[k] >= H.nv) throw std::out_of_range("a face names a vertex the hull lacks");
   std::vector<double> scratch(3 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
   double* o = out.data();
   const double *C = CP.data(), *R = RP.data();
@@ -271,7 +271,7 @@ void bind_pairs(nb::module_& m, nb::module_& t) {
   t.def("box_ellipsoid", &box_ellipsoid, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,
         "hi"_a);
   t.def("polytope_ellipsoid", &polytope_ellipsoid, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
-        in("edges"), in("normals"), in("face_vertex"), in("out"), "lo"_a, "hi"_a);
+        in("edges"), in("normals"), in("faces"), in("out"), "lo"_a, "hi"_a);
   t.def("capsule_stages", &capsule_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"),
         "lo"_a, "hi"_a);
   t.def("box_stages", &box_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,

@@ -1,22 +1,32 @@
 // Signed distance of an ellipsoid and a convex polytope (a mesh's convex hull, as MuJoCo collides a mesh), its
-// maximum proven by a complete case analysis (issue 48; box.hpp is the polytope with 8 vertices and its method).
+// maximum proven by a certificate or by a complete case analysis (issue 48; box.hpp is the polytope with 8
+// vertices, and its method).
 //
 // sigma(n) = min_i n.p_i - h_E(n) over unit n (p_i the hull's vertices in E's principal frame, from E's centre;
 // Schneider & Eberly 10.5.2: support functions; the normal n from E to P).  sigma is smooth except where the
 // minimising vertex changes, so the sphere splits into strata: each vertex's open region (sigma = f_q(n) =
 // n.q - h_E(n), q = p_i), each edge's open arc (n normal to the edge, sigma = f_q in that plane, q the edge's
-// midpoint) and each face's normal point.  The global maximum lies in one stratum: an interior critical point of
-// its f_q (a 3-D or 2-D point-ellipsoid problem: point_ellipsoid.hpp's foot3 / foot2, every other root of the
-// secular equation, the pole limits; Eberly, "Distance from a point to an ellipse, an ellipsoid, or a
+// midpoint) and each face's normal point.
+//
+// Certified path: a local maximum (local_max: the face normals, then the global maximisers of the pieces active
+// at the incumbent) and ub1 = sd(x', P) - rho, x' the support point at n of E shrunk by its rolling radius rho
+// (E = E' + ball(rho): sigma(n) <= min_i n.(p_i - x') - rho <= sd(x', P) - rho for every n; tight when the
+// maximum is at n and no deeper than rho), sd the point-hull signed distance (the nearest triangle outside).
+// Status CERTIFIED when ub1 is within tol.
+//
+// Otherwise (deep crossings) the case analysis: the global maximum lies in one stratum, an interior critical
+// point of its f_q (a 3-D or 2-D point-ellipsoid problem: point_ellipsoid.hpp's foot3 / foot2, every other root of
+// the secular equation, the pole limits; Eberly, "Distance from a point to an ellipse, an ellipsoid, or a
 // hyperellipsoid", sec. 2-3), or a face normal.  Every candidate is evaluated with sigma itself (a candidate
 // outside its stratum only gives a lower bound), so the largest is the maximum: status ENUMERATED.  A stratum's
 // other roots are skipped when the certified bound on its f_q's global maximum (sd_upper, weak duality) does not
-// beat the incumbent by tol; the incumbent comes first from every face normal and every piece's global maximiser.
+// beat the incumbent by tol, a piece altogether when |q| - r_min does not.
 //
-// The hull: vertices in P's local frame, its edges (vertex pairs) and its faces' outward normals.  Extra edges or
-// faces (a triangulated face's diagonals, duplicate normals) only add candidates; every edge and face of the hull
-// must be among them.  Cost O(V (V + E + F)): every candidate's sigma reads every vertex (a first version:
-// pruning by tangent planes and by face fans, and the certified Newton path of the box, are not here yet).
+// The hull: vertices in P's local frame, its edges (vertex pairs), its triangles and their outward normals.  Extra
+// edges (a flat face's diagonals) only add candidates; every edge and face of the hull must be among them.  A
+// candidate's sigma, which reads every vertex, is computed only where its piece's f_q beats the incumbent.  Not
+// here yet: ub2 (a ball inside P) for deep pairs, and pruning of the enumeration by tangent planes over the
+// pieces' normal cones: deep crossings of large hulls cost O(V + E) point-ellipsoid problems.
 #pragma once
 
 #include "../math.hpp"
@@ -40,17 +50,18 @@ using point_ellipsoid::sd_upper;
 using point_ellipsoid::sd_upper2;
 using point_ellipsoid::secular_roots;
 
-// How polytope_ellipsoid proved its maximum: every critical point evaluated (box.hpp's second proof).
-constexpr int ENUMERATED = 1;
+// How polytope_ellipsoid proved its maximum (box.hpp's): CERTIFIED (ub1 within tol), ENUMERATED (every critical
+// point evaluated).
+constexpr int CERTIFIED = 0, ENUMERATED = 1;
 
-// A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf faces'
-// outward unit normals (3 nf numbers) and a vertex on each face (nf indices).
+// A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf triangular
+// faces (3 nf vertex indices; a flat face may be several) and their outward unit normals (3 nf numbers).
 struct Hull {
   int nv, ne, nf;
   const double* v;
   const int* edge;
   const double* normal;
-  const int* face_vertex;
+  const int* face;
 };
 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
@@ -148,7 +159,7 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
   // the incumbent: every face normal (n = -m_f: the face's vertices minimise n.p) and every piece's global
   // maximiser
   for (int f = 0; f < H.nf; ++f)
-    consider(a2, p, nv, vertex(p, H.face_vertex[f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+    consider(a2, p, nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
   for (int i = 0; i < nv; ++i)
     if (!vertex_beaten(vertex(p, i), rmin, b.value + tol)) consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
   for (int k = 0; k < H.ne; ++k) {
@@ -201,6 +212,115 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
   return b;
 }
 
+// --- the certified path (box.hpp's ub1): a local maximum from the face normals, then one bound --------------
+
+// The incumbent from the face normals, refined on the pieces active there: the vertices lowest in n.p (at most 16,
+// within 1e-2 of the hull's size of the lowest) and the edges between them, their global maximisers, for a few
+// rounds while it improves.  Only a start: the proof is ub1's, or the enumeration's.
+ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m) {
+  const int nv = H.nv;
+  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
+  for (int f = 0; f < H.nf; ++f)
+    consider(a2, p, nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  double scale = 0.0;
+  for (int i = 0; i < nv; ++i) scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+  for (int round = 0; round < 8; ++round) {
+    const Best before = b;
+    // the (at most 16) vertices lowest in n.p, by insertion into a sorted list
+    int active[16];
+    double key[16];
+    int na = 0;
+    for (int i = 0; i < nv; ++i) {
+      const double v = dot(b.n, vertex(p, i));
+      if (na == 16 && v >= key[15]) continue;
+      int k = na < 16 ? na++ : 15;
+      while (k > 0 && key[k - 1] > v) {
+        key[k] = key[k - 1];
+        active[k] = active[k - 1];
+        --k;
+      }
+      key[k] = v;
+      active[k] = i;
+    }
+    while (na > 1 && key[na - 1] > key[0] + 1e-2 * scale) --na;  // within a band of the lowest
+    for (int k = 0; k < na; ++k) consider(a2, p, nv, vertex(p, active[k]), foot3(a2, vertex(p, active[k])).n, b);
+    for (int k = 0; k < H.ne; ++k) {
+      const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+      bool in_i = false, in_j = false;
+      for (int a = 0; a < na; ++a) {
+        in_i = in_i || active[a] == i;
+        in_j = in_j || active[a] == j;
+      }
+      if (!(in_i && in_j)) continue;
+      const EdgeProblem ep = edge_problem(a2, p, i, j);
+      const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
+      consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+    }
+    if (b.value == before.value) break;
+  }
+  return b;
+}
+
+// The point of the triangle (a, b, c) nearest to w (Ericson, Real-Time Collision Detection 5.1.5: by the Voronoi
+// regions of its vertices, edges and face).
+ELLIPSIM_HD Vec3 nearest_on_triangle(const Vec3& w, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = sub(b, a), ac = sub(c, a), aw = sub(w, a);
+  const double d1 = dot(ab, aw), d2 = dot(ac, aw);
+  if (d1 <= 0.0 && d2 <= 0.0) return a;
+  const Vec3 bw = sub(w, b);
+  const double d3 = dot(ab, bw), d4 = dot(ac, bw);
+  if (d3 >= 0.0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    const double t = d1 / (d1 - d3);
+    return {a.x + t * ab.x, a.y + t * ab.y, a.z + t * ab.z};
+  }
+  const Vec3 cw = sub(w, c);
+  const double d5 = dot(ab, cw), d6 = dot(ac, cw);
+  if (d6 >= 0.0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    const double t = d2 / (d2 - d6);
+    return {a.x + t * ac.x, a.y + t * ac.y, a.z + t * ac.z};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {b.x + t * (c.x - b.x), b.y + t * (c.y - b.y), b.z + t * (c.z - b.z)};
+  }
+  const double den = 1.0 / (va + vb + vc);
+  const double v = vb * den, u = vc * den;
+  return {a.x + v * ab.x + u * ac.x, a.y + v * ab.y + u * ac.y, a.z + v * ab.z + u * ac.z};
+}
+
+// The signed distance of the point w from the hull (E's frame): inside (below every face plane), minus the
+// distance to the nearest face plane; outside, the distance to the nearest triangle (its nearest point a point
+// of the hull, to rounding: an upper bound whatever the case, exact to rounding).
+ELLIPSIM_HD double sd_point_hull(const Vec3& w, const double* p, const Hull& H, const double* m) {
+  double smax = -INFINITY;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    smax = max2(smax, dot(mf, w) - dot(mf, vertex(p, H.face[3 * f])));
+  }
+  if (smax <= 0.0) return smax;
+  double best = INFINITY;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 x = nearest_on_triangle(w, vertex(p, H.face[3 * f]), vertex(p, H.face[3 * f + 1]),
+                                       vertex(p, H.face[3 * f + 2]));
+    const Vec3 z = sub(w, x);
+    best = min2(best, dot(z, z));
+  }
+  return math::sqrt(best);
+}
+
+// ub1 (box.hpp): E = E' + ball(rho), rho its rolling radius; for any x' in E', sigma(n) <= sd(x', P) - rho
+// for every n; x' = E''s support point at n (tight when the maximum is there and no deeper than rho).
+ELLIPSIM_HD double upper_bound1(const Vec3& a2, const double* p, const Hull& H, const double* m, double rho,
+                                const Vec3& n) {
+  const Vec3 s = point_ellipsoid::support(a2, n).s;
+  return sd_point_hull({s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z}, p, H, m) - rho;
+}
+
 // (status, dist, normal, pos, ub).
 struct Result {
   int status;
@@ -226,9 +346,15 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   }
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
-  const Best b = enumerate_max(a2, p, H, m, tol);
+  Best b = local_max(a2, p, H, m);
+  const double ub = upper_bound1(a2, p, H, m, distance::rolling_radius(E.r), b.n);
+  int status = CERTIFIED;
+  if (!(ub - b.value <= tol)) {
+    b = enumerate_max(a2, p, H, m, tol);
+    status = ENUMERATED;
+  }
   const point_ellipsoid::Contact c = contact_in_world(E, a2, b.n, b.value);
-  return {ENUMERATED, b.value, c.normal, c.pos, INFINITY};
+  return {status, b.value, c.normal, c.pos, status == CERTIFIED ? ub : INFINITY};
 }
 
 }  // namespace ellipsim::pairs::polytope

@@ -56,11 +56,9 @@ using point_ellipsoid::contact_in_world;
 using point_ellipsoid::foot2;
 using point_ellipsoid::foot3;
 using point_ellipsoid::from_plane;
-using point_ellipsoid::pole_normal;
 using point_ellipsoid::project_ellipse;
 using point_ellipsoid::sd_upper;
 using point_ellipsoid::sd_upper2;
-using point_ellipsoid::secular_roots;
 using point_ellipsoid::support;
 using tangent_cones::arc_below;
 using tangent_cones::cone_below;
@@ -370,7 +368,6 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const Vec3& e, const Axes& V, con
     const Vec3 &b1 = pl.b1, &b2 = pl.b2;
     const point_ellipsoid::Ellipse el = project_ellipse(a2, b1, b2);
     const double lam = el.lam, mu = el.mu, c = el.c, s = el.s;
-    const Vec3 b3 = {lam, mu, 2.0 * max2(lam, mu)};
     for (int ij = 0; ij < 2; ++ij) {
       for (int ik = 0; ik < 2; ++ik) {
         const double sj = ij == 0 ? 1.0 : -1.0, sk = ik == 0 ? 1.0 : -1.0;
@@ -392,20 +389,7 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const Vec3& e, const Axes& V, con
           continue;
         }
         if (sd_upper2(lam, mu, p.x, p.y, ft.t) <= b.value + tol) continue;
-        const point_ellipsoid::Roots roots = secular_roots(b3, p);
-        for (int m = 0; m < 3; ++m) {
-          const double t = roots.t[m];
-          if (t == t) {
-            const Vec3 u = unit({p.x / (t + lam), p.y / (t + mu), 0.0});
-            consider(a2, e, V, r, from_plane(u.x, u.y, c, s, b1, b2), b);
-          }
-        }
-        for (int ii = 0; ii < 2; ++ii) {
-          for (int m = 0; m < 2; ++m) {
-            const point_ellipsoid::PoleNormal pn = pole_normal(b3, p, ii, m == 0 ? 1.0 : -1.0);
-            if (pn.ok) consider(a2, e, V, r, from_plane(pn.n.x, pn.n.y, c, s, b1, b2), b);
-          }
-        }
+        point_ellipsoid::other_critical_normals2(el, p, b1, b2, [&](const Vec3& n) { consider(a2, e, V, r, n, b); });
       }
     }
   }
@@ -424,17 +408,7 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const Vec3& e, const Axes& V, con
           continue;
         }
         if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
-        const point_ellipsoid::Roots roots = secular_roots(a2, q);
-        for (int m = 0; m < 3; ++m) {
-          const double t = roots.t[m];
-          if (t == t) consider(a2, e, V, r, unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}), b);
-        }
-        for (int ii = 0; ii < 3; ++ii) {
-          for (int m = 0; m < 2; ++m) {
-            const point_ellipsoid::PoleNormal pn = pole_normal(a2, q, ii, m == 0 ? 1.0 : -1.0);
-            if (pn.ok) consider(a2, e, V, r, pn.n, b);
-          }
-        }
+        point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, e, V, r, n, b); });
       }
     }
   }

@@ -44,11 +44,9 @@ using point_ellipsoid::contact_in_world;
 using point_ellipsoid::foot2;
 using point_ellipsoid::foot3;
 using point_ellipsoid::from_plane;
-using point_ellipsoid::pole_normal;
 using point_ellipsoid::project_ellipse;
 using point_ellipsoid::sd_upper;
 using point_ellipsoid::sd_upper2;
-using point_ellipsoid::secular_roots;
 
 // How polytope_ellipsoid proved its maximum (box.hpp's): CERTIFIED (ub1 within tol), ENUMERATED (every critical
 // point evaluated).
@@ -174,40 +172,16 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
     if (vertex_beaten(q, rmin, b.value + tol)) continue;
     const point_ellipsoid::Foot3 ft = foot3(a2, q);
     if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
-    const point_ellipsoid::Roots roots = secular_roots(a2, q);
-    for (int r = 0; r < 3; ++r) {
-      const double t = roots.t[r];
-      if (t == t) consider(a2, p, nv, q, unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}), b);
-    }
-    for (int ii = 0; ii < 3; ++ii) {
-      for (int s = 0; s < 2; ++s) {
-        const point_ellipsoid::PoleNormal pn = pole_normal(a2, q, ii, s == 0 ? 1.0 : -1.0);
-        if (pn.ok) consider(a2, p, nv, q, pn.n, b);
-      }
-    }
+    point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); });
   }
   for (int k = 0; k < H.ne; ++k) {
     if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
     const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
-    const double lam = ep.el.lam, mu = ep.el.mu, c = ep.el.c, s = ep.el.s;
+    const double lam = ep.el.lam, mu = ep.el.mu;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
     if (sd_upper2(lam, mu, ep.p.x, ep.p.y, ft.t) <= b.value + tol) continue;
-    // the 2-D roots through the 3-D enumeration with a third axis longer than both (box.hpp's enumerate_max)
-    const Vec3 b3 = {lam, mu, 2.0 * max2(lam, mu)};
-    const point_ellipsoid::Roots roots = secular_roots(b3, ep.p);
-    for (int r = 0; r < 3; ++r) {
-      const double t = roots.t[r];
-      if (t == t) {
-        const Vec3 u = unit({ep.p.x / (t + lam), ep.p.y / (t + mu), 0.0});
-        consider(a2, p, nv, ep.q, from_plane(u.x, u.y, c, s, ep.pl.b1, ep.pl.b2), b);
-      }
-    }
-    for (int ii = 0; ii < 2; ++ii) {
-      for (int sg = 0; sg < 2; ++sg) {
-        const point_ellipsoid::PoleNormal pn = pole_normal(b3, ep.p, ii, sg == 0 ? 1.0 : -1.0);
-        if (pn.ok) consider(a2, p, nv, ep.q, from_plane(pn.n.x, pn.n.y, c, s, ep.pl.b1, ep.pl.b2), b);
-      }
-    }
+    point_ellipsoid::other_critical_normals2(ep.el, ep.p, ep.pl.b1, ep.pl.b2,
+                                             [&](const Vec3& n) { consider(a2, p, nv, ep.q, n, b); });
   }
   return b;
 }
@@ -331,7 +305,7 @@ struct Result {
 
 // For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
 // distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
-// box.hpp), status ENUMERATED.  scratch: 6 H.nv + 3 H.nf numbers.
+// box.hpp), status CERTIFIED or ENUMERATED.  scratch: 3 H.nv + 3 H.nf numbers.
 ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
                                       double* scratch) {
   double* p = scratch;

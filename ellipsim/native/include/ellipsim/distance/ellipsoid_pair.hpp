@@ -203,8 +203,9 @@ ELLIPSIM_HD PairDistance pair(const Ellipsoid& A, const Ellipsoid& B, int64_t ma
   } else {
     start = bisector_seed(e, a2, Ub, rb2);
   }
-  const NewtonResult first =
-      newton(start, e, a2, M, scale, -INFINITY, int(min2(max_iter, int64_t(tol::FIRST_RUN_ITER))), apart * u);
+  const int iters = int(min2(max_iter, int64_t(tol::FIRST_RUN_ITER)));
+  const NewtonResult first = apart < INFINITY ? newton<true>(start, e, a2, M, scale, -INFINITY, iters, apart * u)
+                                              : newton(start, e, a2, M, scale, -INFINITY, iters);
   if (first.status == REACHED) return contact_at(ca, Ra, ra, rb, e, Ub, first.n, u, first.value, false, APART, first.steps);
   Vec3 n = first.n;
   double value = first.value;

@@ -90,7 +90,8 @@ struct NewtonResult {
 // saddles.  target: a value another run already reached; a run whose quadratic bound
 // sigma + |g|^2 / (2 lam) stays below it is ABANDONED (-inf for none).  apart: a run whose iterate's sigma
 // reaches it stops there, REACHED (sigma at any unit n is a lower bound on the signed distance: the pair is
-// proven at least that far apart; +inf for none, the default).
+// proven at least that far apart; only with Stop, so the other callers' loop carries no test of it).
+template <bool Stop = false>
 ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat3& M, double scale, double target,
                                 int max_iter, double apart = INFINITY) {
   double value = 0.0;
@@ -102,7 +103,7 @@ ELLIPSIM_HD NewtonResult newton(Vec3 n, const Vec3& e, const Vec3& a2, const Mat
     const double inv = 1.0 / (ha * hb);
     const double ia = hb * inv, ib = ha * inv;
     value = n.x * e.x + n.y * e.y + n.z * e.z - ha - hb;
-    if (value >= apart) return {n, value, REACHED, it + 1};
+    if (Stop && value >= apart) return {n, value, REACHED, it + 1};
     const TangentBasis tb = tangent_basis(n);
     const Vec3 &t1 = tb.t1, &t2 = tb.t2;
     // gradient e - a/ha - b/hb in the tangent basis

@@ -10,12 +10,20 @@ order, type1 <= type2 (engine_collision_driver.c swaps a pair by type, MuJoCo Wa
 from typing import NamedTuple
 
 #: MuJoCo's mjtGeom codes of the types ellipsim reads.
-SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 2, 3, 4, 5, 6
-TYPE_NAMES = {SPHERE: "sphere", CAPSULE: "capsule", ELLIPSOID: "ellipsoid", CYLINDER: "cylinder", BOX: "box"}
+HFIELD, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH = 1, 2, 3, 4, 5, 6, 7
+TYPE_NAMES = {
+    HFIELD: "hfield",
+    SPHERE: "sphere",
+    CAPSULE: "capsule",
+    ELLIPSOID: "ellipsoid",
+    CYLINDER: "cylinder",
+    BOX: "box",
+    MESH: "mesh",
+}
 
 #: Which core function a pair runs (ellipsim/native/warp/narrowphase.hpp's ROW_*; the MuJoCo C narrow phase
 #: dispatches on the same rows by geom type, ellipsim/native/mujoco/narrowphase.hpp).
-ROW_ELLIPSOID, ROW_CAPSULE, ROW_BOX, ROW_CYLINDER = 0, 1, 2, 3
+ROW_ELLIPSOID, ROW_CAPSULE, ROW_BOX, ROW_CYLINDER, ROW_MESH, ROW_HFIELD = 0, 1, 2, 3, 4, 5
 
 
 class PairType(NamedTuple):
@@ -35,15 +43,21 @@ class PairType(NamedTuple):
     kernel: str
     #: the narrow phase's row: which function of that header, the capsule's normal flipped (ROW_*)
     row: int
+    #: ellipsim.warp takes it from MuJoCo Warp (its kernel has the row); the others stay with Warp's GJK/EPA
+    warp: bool
 
 
 #: Every geom-type pair ellipsim handles.  Capsule geoms size MuJoCo C's warm-start table though capsule pairs
 #: start cold: kept, as the table's size decides which pairs share a set, and so the trajectories.
 PAIR_TYPES = (
-    PairType("ellipsoid x ellipsoid", "ellipsoid-ellipsoid", ELLIPSOID, ELLIPSOID, True, True, "distance/ellipsoid_pair", ROW_ELLIPSOID),
-    PairType("sphere x ellipsoid", "ellipsoid-sphere", SPHERE, ELLIPSOID, True, True, "distance/ellipsoid_pair", ROW_ELLIPSOID),
-    PairType("capsule x ellipsoid", "ellipsoid-capsule", CAPSULE, ELLIPSOID, False, True, "pairs/capsule", ROW_CAPSULE),
-    PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, False, False, "pairs/box", ROW_BOX),
-    PairType("ellipsoid x cylinder", "ellipsoid-cylinder", ELLIPSOID, CYLINDER, False, False, "pairs/cylinder", ROW_CYLINDER),
+    PairType("ellipsoid x ellipsoid", "ellipsoid-ellipsoid", ELLIPSOID, ELLIPSOID, True, True, "distance/ellipsoid_pair", ROW_ELLIPSOID, True),
+    PairType("sphere x ellipsoid", "ellipsoid-sphere", SPHERE, ELLIPSOID, True, True, "distance/ellipsoid_pair", ROW_ELLIPSOID, True),
+    PairType("capsule x ellipsoid", "ellipsoid-capsule", CAPSULE, ELLIPSOID, False, True, "pairs/capsule", ROW_CAPSULE, True),
+    PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, False, False, "pairs/box", ROW_BOX, True),
+    PairType("ellipsoid x cylinder", "ellipsoid-cylinder", ELLIPSOID, CYLINDER, False, False, "pairs/cylinder", ROW_CYLINDER, True),
+    PairType("ellipsoid x mesh", "ellipsoid-mesh", ELLIPSOID, MESH, False, False, "pairs/polytope", ROW_MESH, False),
+    PairType("hfield x ellipsoid", "ellipsoid-hfield", HFIELD, ELLIPSOID, False, False, "pairs/height_field", ROW_HFIELD, False),
 )  # fmt: skip
 FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
+#: the rows ellipsim.warp takes from MuJoCo Warp (mesh and height-field pairs are not on Warp yet: issue 48)
+WARP_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.warp)

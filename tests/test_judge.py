@@ -16,15 +16,16 @@ from ellipsim.mujoco.judge import KEYS, NORMAL_OFF_DEG, judged, pair_type, sigma
 from tests.test_margins_pairs import ABOVE, BELOW, ELLIPSOID_A, ELLIPSOID_B, MARGIN, SPHERE_A, rows_xml
 
 CAPSULE_B, BOX_B, CYLINDER_B = ("capsule", (0.08, 0.2)), ("box", (0.1, 0.12, 0.14)), ("cylinder", (0.09, 0.15))
-#: One pair of each type (geom a an ellipsoid, b of the type), in judge.KEYS' order
+#: One pair of each type (geom a an ellipsoid, b of the type), in judge.KEYS' order, but mesh and height field
+#: (tests/test_meshes.py)
 EVERY_TYPE = (ELLIPSOID_B, SPHERE_A, CAPSULE_B, BOX_B, CYLINDER_B)
 
 
 def test_pair_types_are_the_tables_rows_in_either_order():
     model = mujoco.MjModel.from_xml_string(rows_xml([(ELLIPSOID_A, b, 0.1, "", "") for b in EVERY_TYPE]))
     pairs = np.arange(2 * len(EVERY_TYPE)).reshape(-1, 2)
-    assert pair_type(model, pairs[:, 0], pairs[:, 1]).tolist() == list(range(len(KEYS)))
-    assert pair_type(model, pairs[:, 1], pairs[:, 0]).tolist() == list(range(len(KEYS)))
+    assert pair_type(model, pairs[:, 0], pairs[:, 1]).tolist() == list(range(len(EVERY_TYPE)))
+    assert pair_type(model, pairs[:, 1], pairs[:, 0]).tolist() == list(range(len(EVERY_TYPE)))
     assert not judged(model, [3, 5], [5, 7]).any()  # sphere x capsule, capsule x box: not ellipsim's
 
 
@@ -67,7 +68,7 @@ def test_one_margin_rule_in_validate_compare_run_and_replay(tmp_path, capsys, sd
     path = tmp_path / "margins.xml"
     path.write_text(rows_xml(rows))
     model = mujoco.MjModel.from_xml_string(path.read_text())
-    want = [int(contact)] * len(KEYS)
+    want = [int(contact)] * len(EVERY_TYPE) + [0] * (len(KEYS) - len(EVERY_TYPE))  # no mesh, no field
     v = em.validate(model, mujoco.MjData(model), 1)
     assert (v.by_type[0, :, 0] + v.by_type[0, :, 2]).tolist() == want  # MuJoCo's contacts
     assert (v.by_type[0, :, 0] + v.by_type[0, :, 3]).tolist() == want  # the exact test's
@@ -83,8 +84,8 @@ def test_one_margin_rule_in_validate_compare_run_and_replay(tmp_path, capsys, sd
     capsys.readouterr()
     assert main(["run", str(path), "--steps", "1", "--mode", "builtin"]) == 0
     out = capsys.readouterr().out
-    for key in KEYS:  # one line per type in contact
-        assert (f"    {key}: MuJoCo mean {float(contact):.2f}" in out) == contact, key
+    for key, w in zip(KEYS, want):  # one line per type in contact
+        assert (f"    {key}: MuJoCo mean {float(contact):.2f}" in out) == bool(w), key
 
 
 def test_normal_off_flags_mujocos_wrong_normal_and_not_a_tight_one():
@@ -102,7 +103,7 @@ def test_normal_off_flags_mujocos_wrong_normal_and_not_a_tight_one():
     (d,) = v.disagreements
     assert (d.kind, d.right, d.pair_type, d.names) == ("normal_off", "ellipsim", "ellipsoid-ellipsoid", ("a0", "b0"))
     assert d.angle == pytest.approx(angle) and d.sigma_mujoco < d.signed_distance - 1e-4
-    assert v.normal_off.tolist() == [[1, 0, 0, 0, 0]] and v.counts.tolist() == [[1, 0, 0, 0]]  # agree on contact
+    assert v.normal_off.tolist() == [[1] + [0] * (len(KEYS) - 1)] and v.counts.tolist() == [[1, 0, 0, 0]]  # agree on contact
     model.opt.ccd_iterations = 1000
     assert em.validate(model, mujoco.MjData(model), 1).disagreements == []
 

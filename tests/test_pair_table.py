@@ -19,14 +19,29 @@ from ellipsim.native import ext
 
 TYPES = {
     "plane": int(mujoco.mjtGeom.mjGEOM_PLANE),
+    "hfield": context.HFIELD,
     "sphere": context.SPHERE,
     "capsule": context.CAPSULE,
     "ellipsoid": context.ELLIPSOID,
     "cylinder": context.CYLINDER,
     "box": context.BOX,
+    "mesh": context.MESH,
 }
 SIZES = {"sphere": ".12", "capsule": ".08 .15", "ellipsoid": ".1 .15 .2", "cylinder": ".1 .15", "box": ".1 .12 .14"}
 NAMES = {v: k for k, v in TYPES.items()}
+#: the assets of the mesh and height-field geoms: a convex mesh of 12 points, a 6 x 6 field 0.6 m square
+_POINTS = np.random.default_rng(0).normal(size=(12, 3)) * 0.1
+ASSETS = (
+    f'<asset><mesh name="prop" vertex="{" ".join(f"{x:.5f}" for x in _POINTS.ravel())}"/>'
+    '<hfield name="ground" nrow="6" ncol="6" size=".3 .3 .1 .05" '
+    f'elevation="{" ".join(f"{x:.3f}" for x in np.random.default_rng(1).uniform(0, 1, 36))}"/></asset>'
+)
+
+
+def geom_xml(t, pos, attrs=""):
+    """A geom of type `t` (a name of TYPES) at pos: its size, or its mesh or height field."""
+    shape = {"mesh": 'mesh="prop"', "hfield": 'hfield="ground"'}.get(t, f'size="{SIZES.get(t, "5 5 .1")}"')
+    return f'<geom type="{t}" {shape} pos="{pos}" {attrs}/>'
 
 
 NATIVE = pathlib.Path(__file__).resolve().parents[1] / "ellipsim" / "native"
@@ -50,7 +65,8 @@ def test_rows_are_in_mujocos_order_and_name_distinct_words():
     pairs = [(row.type1, row.type2) for row in PAIR_TYPES]
     assert all(t1 <= t2 for t1, t2 in pairs) and len(set(pairs)) == len(pairs)
     fallbacks = [context.FALLBACK_WORDS[row.key] for row in PAIR_TYPES]
-    used = {context.REGISTRY_ADDRESS, context.REGISTRY_ROWS}
+    used = {context.REGISTRY_ADDRESS, context.REGISTRY_ROWS, context.MARK_STACK, context.FREE_STACK}
+    used |= {context.STACK_ALLOC_NUM}
     assert len(set(fallbacks)) == len(fallbacks) and not set(fallbacks) & used
     assert all(0 <= w < context.WORDS for w in fallbacks)
     assert [row.name for row in PAIR_TYPES] == [f"{NAMES[row.type1]} x {NAMES[row.type2]}" for row in PAIR_TYPES]
@@ -66,7 +82,8 @@ def test_the_cpp_context_has_pythons_numbers():
     declared = dict(re.findall(r"\b([A-Z_]+) = (-?[0-9.]+)", header))
     for name in (
         "REGISTRY_ADDRESS", "REGISTRY_ROWS", "FALLBACK_ELLIPSOID", "FALLBACK_SPHERE", "FALLBACK_CAPSULE",
-        "FALLBACK_BOX", "FALLBACK_CYLINDER", "REGISTRY_COLUMNS", "WARM_ADDRESS", "WARM_MASK", "FILTER", "RECORD",
+        "FALLBACK_BOX", "FALLBACK_CYLINDER", "FALLBACK_MESH", "FALLBACK_HFIELD", "MARK_STACK", "FREE_STACK",
+        "STACK_ALLOC_NUM", "REGISTRY_COLUMNS", "WARM_ADDRESS", "WARM_MASK", "HULLS", "HULL_WORDS", "FILTER", "RECORD",
         "NARROW", "SEEN", "DISCARDED", "PASSED", "RECORDED", "SEPARATED", "CONTACTS", "APART", "FALLBACKS",
         "WARM_TIME", "WARM_EPOCH", "WARM_SLOT_WORDS", "WARM_JUMP",
     ):  # fmt: skip
@@ -84,14 +101,13 @@ def test_context_holds_mujocos_function_of_every_row():
 def _model(types, spacing=1.0, extra=""):
     """A model of world geoms of `types` (names of TYPES), one every `spacing` metres along x."""
     geoms_xml = "".join(
-        f'<geom name="g{i}" type="{t}" size="{SIZES.get(t, "5 5 .1")}" pos="{i * spacing} 0 {-1 if t == "plane" else 0}"/>'
-        for i, t in enumerate(types)
+        geom_xml(t, f"{i * spacing} 0 {-1 if t == 'plane' else 0}", f'name="g{i}"') for i, t in enumerate(types)
     )
-    return mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{geoms_xml}</worldbody>{extra}</mujoco>")
+    return mujoco.MjModel.from_xml_string(f"<mujoco>{ASSETS}<worldbody>{geoms_xml}</worldbody>{extra}</mujoco>")
 
 
 def test_every_row_and_no_other_entry_is_installed_and_restored():
-    model = _model(["ellipsoid", "sphere", "capsule", "cylinder", "box", "ellipsoid"])
+    model = _model(["ellipsoid", "sphere", "capsule", "cylinder", "box", "mesh", "hfield", "ellipsoid"])
     table, n = publish.collision_table()
     before = list(table)
     rows = {(row.type1, row.type2) for row in PAIR_TYPES}
@@ -105,8 +121,8 @@ def test_every_row_and_no_other_entry_is_installed_and_restored():
     assert list(table) == before
 
 
-@pytest.mark.parametrize("a", ["sphere", "capsule", "ellipsoid", "cylinder", "box"])
-@pytest.mark.parametrize("b", ["sphere", "capsule", "ellipsoid", "cylinder", "box"])
+@pytest.mark.parametrize("a", ["sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh"])
+@pytest.mark.parametrize("b", ["sphere", "capsule", "ellipsoid", "cylinder", "box", "hfield"])
 def test_a_model_is_handled_exactly_when_a_row_covers_its_pair(a, b):
     t = tuple(sorted((TYPES[a], TYPES[b])))
     model = _model([a, b])
@@ -122,7 +138,7 @@ def test_a_model_is_handled_exactly_when_a_row_covers_its_pair(a, b):
 
 def test_warm_start_slots_count_the_types_of_the_warm_rows():
     warm = {t for row in PAIR_TYPES if row.warm for t in (row.type1, row.type2)}
-    for name in ("sphere", "capsule", "ellipsoid", "cylinder", "box"):
+    for name in ("sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh", "hfield"):
         model = _model([name] * 8)
         expected = 8 * attachment.WARM_SLOTS_PER_GEOM if TYPES[name] in warm else attachment.WARM_SLOTS_MIN
         assert attachment.warm_slots(model) == expected, name
@@ -132,7 +148,7 @@ def test_the_recorder_covers_every_row_and_the_filter_its_rows_in_either_order()
     """The compiled filter in mode "record" records a pair exactly when a row of PAIR_TYPES (either order)
     says ellipsim judges it (judge.judged says the same); in mode "filter" it tests (counts as seen)
     exactly the pairs of FILTER_PAIR_TYPES (the geoms overlap: it discards none)."""
-    names = ["plane", "sphere", "capsule", "ellipsoid", "cylinder", "box", "ellipsoid"]
+    names = ["plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh", "ellipsoid"]
     model = _model(names, spacing=0.015)  # every pair overlapping: the filter discards none
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -161,10 +177,8 @@ def _row_model():
         for j, t in enumerate((row.type1, row.type2)):
             name = NAMES[t]
             pos = f"{2 * k + 0.15 * j} {0.04 * j} {0.03 * j}"
-            body.append(
-                f'<geom type="{name}" size="{SIZES[name]}" pos="{pos}" euler="{20 * j} {35 * j} {10 + 15 * j}"/>'
-            )
-    model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{''.join(body)}</worldbody></mujoco>")
+            body.append(geom_xml(name, pos, "" if name == "hfield" else f'euler="{20 * j} {35 * j} {10 + 15 * j}"'))
+    model = mujoco.MjModel.from_xml_string(f"<mujoco>{ASSETS}<worldbody>{''.join(body)}</worldbody></mujoco>")
     model.opt.ccd_tolerance, model.opt.ccd_iterations = 1e-10, 1000  # MuJoCo's side run tight
     return model, [(2 * k, 2 * k + 1) for k in range(len(PAIR_TYPES))]
 
@@ -192,7 +206,7 @@ class _Markers:
 
 
 def _call(fn, model, data, g1, g2):
-    con = np.zeros(64)
+    con = np.zeros(50 * 10)  # mjMAXCONPAIR mjPreContacts (dist, pos, normal, tangent)
     return fn(model._address, data._address, con.ctypes.data, g1, g2, 0.0), con
 
 
@@ -209,8 +223,8 @@ def test_the_narrow_phase_falls_back_through_each_rows_word():
 
 
 def test_the_narrow_phase_computes_and_counts_every_row():
-    """Attached, each row's pair gets one counted call and a contact within DIST_TOL of MuJoCo's
-    mjc_Convex run tight (ccd_tolerance 1e-10): the row's kernel ran on the geoms in its order."""
+    """Attached, each row's pair gets one counted call and the contacts of MuJoCo's function run tight
+    (ccd_tolerance 1e-10), each within DIST_TOL: the row's kernel ran on the geoms in its order."""
     model, pairs = _row_model()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -223,9 +237,10 @@ def test_the_narrow_phase_computes_and_counts_every_row():
             made, ours = _call(fn, model, data, g1, g2)
             assert att.counters["calls"] == calls + 1, row.name
             want_made, want = _call(theirs[row], model, data, g1, g2)
-            assert made == want_made == 1, row.name
-            assert abs(ours[0] - want[0]) <= DIST_TOL, f"{row.name}: dist {ours[0]} vs MuJoCo's {want[0]}"
-            assert ours[0] < -0.01, row.name  # overlapping by more than 1 cm: the pose means something
+            assert made == want_made >= 1, row.name  # a height field: one per prism the ellipsoid overlaps
+            for k in range(made):
+                assert abs(ours[10 * k] - want[10 * k]) <= DIST_TOL, f"{row.name}: dist {ours[10 * k]} vs {want[10 * k]}"
+            assert ours[0 : 10 * made : 10].min() < -0.01, row.name  # overlapping by more than 1 cm
 
 
 def test_both_engines_read_one_table_whose_codes_are_their_enums_and_rows_the_warp_glues():
@@ -240,18 +255,23 @@ def test_both_engines_read_one_table_whose_codes_are_their_enums_and_rows_the_wa
     for code, name in pair_types.TYPE_NAMES.items():
         assert int(getattr(mujoco.mjtGeom, f"mjGEOM_{name.upper()}")) == code
         assert int(getattr(mjw_types.GeomType, name.upper())) == code
-    assert context.PAIR_TYPES is pair_types.PAIR_TYPES is warp_attachment.PAIR_TYPES
+    assert context.PAIR_TYPES is pair_types.PAIR_TYPES
+    # ellipsim.warp takes the rows marked for it (mesh and height field: not on Warp yet)
+    assert warp_attachment.PAIR_TYPES is pair_types.WARP_PAIR_TYPES
+    assert [r.key for r in PAIR_TYPES if not r.warp] == ["ellipsoid-mesh", "ellipsoid-hfield"]
     header = (NATIVE / "warp" / "narrowphase.hpp").read_text()
     rows = dict(re.findall(r"ROW_(\w+) = (\d+)", re.search(r"constexpr int (ROW_[^;]+);", header).group(1)))
-    for row in PAIR_TYPES:
+    for row in pair_types.WARP_PAIR_TYPES:
         kind = row.kernel.split("/")[1].split("_")[0].upper()  # ellipsoid_pair -> ELLIPSOID, capsule -> CAPSULE
         assert int(rows[kind]) == row.row == getattr(pair_types, f"ROW_{kind}"), row.name
         assert f"#include <ellipsim/{row.kernel}.hpp>" in header, row.kernel
     geom = np.array(
-        [pair_types.SPHERE, pair_types.CAPSULE, pair_types.ELLIPSOID, pair_types.CYLINDER, pair_types.BOX, 0]
-    )
-    pairs = np.array([(i, j) for i in range(6) for j in range(i + 1, 6)] + [(2, 2)], np.int32)
+        [pair_types.SPHERE, pair_types.CAPSULE, pair_types.ELLIPSOID, pair_types.CYLINDER, pair_types.BOX, 0,
+         pair_types.MESH, pair_types.HFIELD]
+    )  # fmt: skip
+    pairs = np.array([(i, j) for i in range(8) for j in range(i + 1, 8)] + [(2, 2)], np.int32)
     take, ordered, rows_taken = warp_attachment._selection(geom, pairs, np.full((len(pairs), 2), -1))
     got = {(int(geom[a]), int(geom[b]), int(r)) for (a, b), r in zip(ordered, rows_taken)}
-    want = {(r.type1, r.type2, r.row) for r in PAIR_TYPES if r.type1 != r.type2} | {(pair_types.ELLIPSOID,) * 2 + (0,)}
+    want = {(r.type1, r.type2, r.row) for r in pair_types.WARP_PAIR_TYPES if r.type1 != r.type2}
+    want |= {(pair_types.ELLIPSOID,) * 2 + (0,)}
     assert got == want and take.sum() == len(want)

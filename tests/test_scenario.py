@@ -419,6 +419,8 @@ def test_compare_writes_json(tmp_path, capsys):
         "ellipsoid-capsule",
         "ellipsoid-box",
         "ellipsoid-cylinder",
+        "ellipsoid-mesh",
+        "ellipsoid-hfield",
     ]
     for key in counters | {"normal_off", "agreement"}:  # the same counters per type, adding up to the totals
         assert sum(c[key] for c in by_type.values()) == report[key], key

@@ -563,6 +563,8 @@ def test_compare_engine_warp_counts_add_up(tmp_path, capsys):
             "ellipsoid-capsule",
             "ellipsoid-box",
             "ellipsoid-cylinder",
+            "ellipsoid-mesh",
+            "ellipsoid-hfield",
         ]
     )
     assert all(set(x) == set(COUNTERS) for x in [*r["by_pair_type"].values(), *c["by_pair_type"].values()])

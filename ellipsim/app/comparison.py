@@ -125,14 +125,17 @@ class Comparison:
                 "  " + _kinds_line(t),
                 "  by pair type:",
             ]
+            none = []
             for key, c in self.by_pair_type().items():
                 if c["pairs"] == 0:
-                    lines.append(f"    {key}: no candidate pairs")
+                    none.append(key)
                     continue
                 lines.append(
                     f"    {key}: {c['pairs']} pairs, contacts MuJoCo {c['mujoco_contacts']} / ellipsim "
                     f"{c['ellipsim_contacts']}; " + _kinds_line(c)
                 )
+            if none:
+                lines.append(f"    no candidate pairs: {', '.join(none)}")
         disagreements = self.disagreements
         if disagreements:
             lines.append("  disagreements (" + "; ".join(f"{k}: {m}" for k, m in KIND_MEANINGS.items()) + "):")

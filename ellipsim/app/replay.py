@@ -1,5 +1,5 @@
 """The animation check: a motion (qpos per frame) played on a model, and which frames bring a pair of
-geoms ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or cylinder) into contact.
+geoms ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field) into contact.
 
     motion = load_motion("walk.csv", model.nq)          # (frames, nq), .npy or .csv
     result = replay(model, motion, fps=30)              # a ReplayResult
@@ -248,8 +248,8 @@ class ReplayResult:
         ]
         if not self.possible:
             lines.append(
-                "  the model has no pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or "
-                "cylinder that may collide): nothing to test"
+                "  the model has no pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, "
+                "convex mesh or height field that may collide): nothing to test"
             )
         lines.append(
             f"  frames with pairs in contact (distance < margin): {len(over)} of {F} ({frame_ranges(over)}); "

@@ -110,7 +110,7 @@ class Frames:
     contact_frame : (K,) int64 frame number of each of MuJoCo's contacts (every geom pair type)
     contact_pos, contact_normal : (K, 3) metres, (K, 3) unit (first row of MuJoCo's contact frame)
     contact_ellipsoids : (K,) bool, the contact is on a pair ellipsim judges (mujoco.judge: an ellipsoid
-        with an ellipsoid, sphere, capsule, box or cylinder)
+        with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field)
     contact_geoms : (K, 2) int64, the contact's two geoms; contact_dist : (K,) float64, MuJoCo's
         distance (metres, negative: penetration)
     builtin_counts : (f,) int64, pairs ellipsim judges on which MuJoCo made a contact with dist < margin

@@ -2,7 +2,7 @@
 
 The scenario runs in N worlds on plain Warp (nothing attached), from per-world layouts as `run --engine
 warp` starts them (warp_run.world_states).  At each compared step, every candidate pair of a type
-ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or cylinder: the model's collision
+ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field: the model's collision
 rules, as ellipsim.warp takes them) of every world whose bounding spheres come within the pair's margin
 gets the exact verdicts of mujoco.validate.judge_contacts on Warp's float32 poses widened to float64:
 the same one margin rule (a contact below the pair's margin on both sides) and the same words as
@@ -75,15 +75,18 @@ class WarpComparison:
             + (f"; {self.unproven} exact maxima unproven" if self.unproven else ""),
             "  by pair type:",
         ]
+        none = []
         for k, key in enumerate(KEYS):
             c = self.counters(k)
             if c["pairs"] == 0:
-                lines.append(f"    {key}: no candidate pairs")
+                none.append(key)
                 continue
             lines.append(
                 f"    {key}: {c['pairs']} pairs, contacts Warp {c['mujoco_contacts']} / exact {c['ellipsim_contacts']}; "
                 + ", ".join(f"{c[kind]} {kind}" for kind in KINDS)
             )
+        if none:
+            lines.append(f"    no candidate pairs: {', '.join(none)}")
         if self.overflow_steps:
             lines.append(f"  warning: Warp's buffers overflowed {self.overflow}")
         if self.disagreements:

@@ -27,6 +27,8 @@ from .context import (
     FALLBACKS,
     FILTER,
     FILTER_PAIR_TYPES,
+    HULL_WORDS,
+    HULLS,
     MAX_ATTACHED,
     NARROW,
     NCOUNTERS,
@@ -117,6 +119,7 @@ def _claim_slot(attachment):
     )
     REGISTRY[slot, WARM_ADDRESS] = a._warm.ctypes.data
     REGISTRY[slot, WARM_MASK] = len(a._warm) - 1 if len(a._warm) > 1 else 0
+    REGISTRY[slot, HULLS] = a._hulls[0].ctypes.data if a._hulls is not None else 0
     REGISTRY[slot, 0] = a.data._address
     REGISTRY[0, 0] = max(REGISTRY[0, 0], slot)
     return slot
@@ -191,6 +194,35 @@ class Attachment:
         self._counters = np.zeros(NCOUNTERS, dtype=np.int64)
         self._pairs = np.zeros((max(capacity, 1), 2), dtype=np.int32)
         self._warm = self._warm_table(model)
+        self._hulls = self._hull_table(model)
+
+    def _hull_table(self, model):
+        """The narrow phase's hull table (context.HULL_WORDS) for `model`'s meshes, and the arrays it points
+        into (kept alive with it), or None: not narrowphase, or no mesh.  Each mesh's hull is MuJoCo's own
+        (mesh_graph, mujoco/hull.py), or, for a mesh MuJoCo keeps without one, the convex hull of its
+        vertices, which is what MuJoCo's support function collides; a mesh with neither (flat) gets nv 0,
+        and MuJoCo's own function."""
+        if self.mode != "narrowphase" or model.nmesh == 0:
+            return None
+        from ..core.pairs.hull import convex_hull
+        from .hull import mesh_hull
+
+        table = np.zeros((model.nmesh, HULL_WORDS), dtype=np.int64)
+        keep = [table]
+        for mesh in range(model.nmesh):
+            try:
+                hull = mesh_hull(model, mesh)
+            except ValueError:
+                start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+                try:
+                    hull = convex_hull(np.asarray(model.mesh_vert[start : start + count], float))
+                except ValueError:
+                    continue
+            arrays = [np.ascontiguousarray(x) for x in hull]
+            keep += arrays
+            v, e, n, f = arrays
+            table[mesh] = (len(v), len(e), len(f), v.ctypes.data, e.ctypes.data, n.ctypes.data, f.ctypes.data, 0)
+        return table, keep
 
     def _warm_table(self, model):
         """The narrow phase's warm-start table (context.WARM_SLOT_WORDS) for `model`, this data's only:
@@ -217,6 +249,7 @@ class Attachment:
             self.__exit__(None, None, None)
         self.model, self.data = model, data
         self._warm = self._warm_table(model)
+        self._hulls = self._hull_table(model)
         if was_open:
             self.__enter__()
         return self

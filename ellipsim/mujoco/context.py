@@ -7,8 +7,12 @@ read from CONTEXT, an int64 array whose address publish.fill_context hands them 
     CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS]       the registry below
     CONTEXT[FALLBACK_ELLIPSOID], CONTEXT[FALLBACK_SPHERE],  MuJoCo's own mjCOLLISIONFUNC entries for
     CONTEXT[FALLBACK_CAPSULE], CONTEXT[FALLBACK_BOX],       ellipsoid x ellipsoid, sphere x ellipsoid,
-    CONTEXT[FALLBACK_CYLINDER]                             capsule x ellipsoid, ellipsoid x box,
-                                                           ellipsoid x cylinder
+    CONTEXT[FALLBACK_CYLINDER], CONTEXT[FALLBACK_MESH],    capsule x ellipsoid, ellipsoid x box,
+    CONTEXT[FALLBACK_HFIELD]                               ellipsoid x cylinder, ellipsoid x mesh,
+                                                           height field x ellipsoid
+    CONTEXT[MARK_STACK], CONTEXT[FREE_STACK],               MuJoCo's mj_markStack, mj_freeStack and
+    CONTEXT[STACK_ALLOC_NUM]                               mj_stackAllocNum (a mesh pair's scratch comes
+                                                           from the data's own arena)
 
 mjModel and mjData they read through MuJoCo's own structs (the headers the extension was built against).
 
@@ -20,23 +24,35 @@ imports nothing but mujoco, numpy and that table.
 import mujoco
 import numpy as np
 
-from ..pair_table import BOX, CAPSULE, CYLINDER, ELLIPSOID, FILTER_PAIR_TYPES, PAIR_TYPES, SPHERE, PairType  # noqa: F401
+from ..pair_table import (  # noqa: F401
+    BOX,
+    CAPSULE,
+    CYLINDER,
+    ELLIPSOID,
+    FILTER_PAIR_TYPES,
+    HFIELD,
+    MESH,
+    PAIR_TYPES,
+    SPHERE,
+    PairType,
+)
 
 REGISTRY_ADDRESS, REGISTRY_ROWS, FALLBACK_ELLIPSOID, FALLBACK_SPHERE = 0, 1, 2, 3
-FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER = 15, 16, 17
-#: words 4-14 and 18-19 are unused (the numba callbacks' struct offsets, before the C++ glue)
+MARK_STACK, FREE_STACK, STACK_ALLOC_NUM = 4, 5, 6
+FALLBACK_CAPSULE, FALLBACK_BOX, FALLBACK_CYLINDER, FALLBACK_MESH, FALLBACK_HFIELD = 15, 16, 17, 18, 19
+#: words 7-14 are unused (the numba callbacks' struct offsets, before the C++ glue)
 WORDS = 20
 CONTEXT = np.zeros(WORDS, dtype=np.int64)  # lives as long as the process: the callbacks hold its address
 
 # Registry of attached datas.  Row 0: [highest slot ever used, ...]; slots 1..: [mjData address
 # (0: free), counters address, mode, pair buffer address, capacity, warm-start table address,
-# warm-start table slots - 1 (0: no table, every pair starts cold)].  A slot's other fields are
+# warm-start table slots - 1 (0: no table, every pair starts cold), hull table address (0: none)].  A slot's other fields are
 # written before its address and only change while that data is detached, and slots never move, so
 # a callback stepping one data never sees another's fields half-written (attachment.py writes them
 # under a lock).
 MAX_ATTACHED = 256
-REGISTRY_COLUMNS = 7
-WARM_ADDRESS, WARM_MASK = 5, 6
+REGISTRY_COLUMNS = 8
+WARM_ADDRESS, WARM_MASK, HULLS = 5, 6, 7
 FILTER, RECORD, NARROW = 1, 2, 3
 REGISTRY = np.zeros((MAX_ATTACHED + 1, REGISTRY_COLUMNS), dtype=np.int64)
 
@@ -60,11 +76,17 @@ WARM_TIME, WARM_EPOCH = 0, 5
 # then starts cold, as on a fresh data, so identical initial states give bit-identical trajectories.
 WARM_SLOT_WORDS = 8
 
+# Hull table of a data attached in mode "narrowphase" whose model has meshes (attachment.py builds it from
+# mujoco/hull.py, the narrow phase's mesh row reads it): HULL_WORDS int64 words per mesh of the model, [nv, ne, nf,
+# vertices address (float64 (nv, 3), the geom's frame), edges address (int32 (ne, 2)), outward normals address
+# (float64 (nf, 3)), triangles address (int32 (nf, 3)), 0]; nv 0: the mesh has no hull (MuJoCo's own function).
+HULL_WORDS = 8
+
 # The pair table both engines' glues read (ellipsim/pair_table.py), its geom codes MuJoCo's (the C++ glue uses
 # MuJoCo's own enum, mjtGeom).
-assert (SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX) == tuple(
+assert (HFIELD, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH) == tuple(
     int(getattr(mujoco.mjtGeom, f"mjGEOM_{name.upper()}"))
-    for name in ("sphere", "capsule", "ellipsoid", "cylinder", "box")
+    for name in ("hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh")
 )
 
 #: The CONTEXT word holding MuJoCo's own mjCOLLISIONFUNC entry for each row of PAIR_TYPES (publish.fill_context),
@@ -75,6 +97,8 @@ FALLBACK_WORDS = {
     "ellipsoid-capsule": FALLBACK_CAPSULE,
     "ellipsoid-box": FALLBACK_BOX,
     "ellipsoid-cylinder": FALLBACK_CYLINDER,
+    "ellipsoid-mesh": FALLBACK_MESH,
+    "ellipsoid-hfield": FALLBACK_HFIELD,
 }
 assert set(FALLBACK_WORDS) == {row.key for row in PAIR_TYPES}
 

@@ -1,4 +1,4 @@
-"""A mesh geom's convex hull as MuJoCo collides it (mjc_Convex reads mesh_graph, built by user_mesh.cc), in the
+"""A mesh geom's convex hull as MuJoCo collides it, and a height field's grid (mjc_Convex reads mesh_graph, built by user_mesh.cc), in the
 form the polytope kernel takes (core/pairs/hull.py).
 
 mesh_graph, per mesh at mesh_graphadr: numvert, numface, vert_edgeadr (numvert), vert_globalid (numvert),
@@ -9,6 +9,7 @@ shifts the geom by mesh_pos).
 
 import numpy as np
 
+from ..core.pairs.height_field import HeightField
 from ..core.pairs.hull import from_triangles
 
 
@@ -33,3 +34,14 @@ def mesh_hull(model, mesh):
     faces = g[2 + 3 * nv + 3 * nf : 2 + 3 * nv + 6 * nf].reshape(nf, 3)
     start, count = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
     return from_triangles(np.asarray(model.mesh_vert[start : start + count], float), faces)
+
+
+def model_height_field(model, hfield):
+    """The HeightField (core/pairs/height_field.py) of height field `hfield` (id) of the MjModel `model`: its
+    elevations (hfield_data, float32 in [0, 1]) and size, as mjc_ConvexHField reads them."""
+    h = int(hfield)
+    if not 0 <= h < model.nhfield:
+        raise ValueError(f"hfield must be an id in [0, {model.nhfield}), got {hfield!r}")
+    nrow, ncol, adr = int(model.hfield_nrow[h]), int(model.hfield_ncol[h]), int(model.hfield_adr[h])
+    elevation = np.asarray(model.hfield_data[adr : adr + nrow * ncol], np.float32).reshape(nrow, ncol)
+    return HeightField(elevation, np.asarray(model.hfield_size[h], np.float64).copy())

@@ -1,5 +1,5 @@
 """The exact verdict on MuJoCo's contact test `signed distance < margin`, for every pair type ellipsim
-handles (context.PAIR_TYPES: ellipsoid with ellipsoid, sphere, capsule, box or cylinder).
+handles (context.PAIR_TYPES: ellipsoid with ellipsoid, sphere, capsule, box, cylinder, mesh or height field).
 
 One rule for every command that checks MuJoCo (validate, compare, replay, run's summary, sweep, the
 Warp compare): a pair is a contact when its distance is below its margin, on both sides -- MuJoCo's
@@ -11,8 +11,10 @@ the geoms' signed distance is < margin.
 
 Ellipsoid and sphere pairs are decided by the exact classify where it settles the question (margin 0,
 and overlapping with a positive margin), else by the proven signed distance (core.distance.
-ellipsoid_pair); capsule, box and cylinder pairs by their proven maxima (core.pairs, the functions the
-narrow phase runs).  A verdict is decided when its maximum is proven global and further than the
+ellipsoid_pair); capsule, box, cylinder and mesh pairs by their proven maxima (core.pairs, the functions the
+narrow phase runs; a mesh through MuJoCo's convex hull of it); a height-field pair by its prisms (MuJoCo's
+cells' triangles extruded to the base, core.pairs.height_field): a contact when one is within the margin, its
+distance the deepest prism's (MuJoCo's contact of smallest dist is the one compared).  A verdict is decided when its maximum is proven global and further than the
 proof's tolerance from the margin.
 """
 
@@ -26,7 +28,7 @@ from ..core.ellipsoids import Ellipsoids, orthonormality_defect
 from ..core.exact.classify import classify
 from ..core.relation import Relation
 from ..core.tolerances import BB_TOL_REL, BB_TOL_ULPS, PAIR_CERT_REL, PAIR_SIGMA_SLACK_ULPS, U
-from .context import BOX, CAPSULE, CYLINDER, ELLIPSOID, PAIR_TYPES, SPHERE
+from .context import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PAIR_TYPES, SPHERE
 
 #: validate's `normal_off` (and the Warp compare's): a contact of the engine whose normal is more than this
 #: many degrees from the exact normal, and whose sigma there (a lower bound on the signed distance) falls
@@ -188,6 +190,12 @@ def verdicts_at(model, pairs, xpos, xmat, threshold, *, measure=None, measure_wi
         at = np.flatnonzero((types[g1] == t) | (types[g2] == t))
         if len(at):
             _shape_pairs(model, pairs[at], xpos[at], xmat[at], threshold[at], name, out, at)
+    at = np.flatnonzero((types[g1] == MESH) | (types[g2] == MESH))
+    if len(at):
+        _mesh_pairs(model, pairs[at], xpos[at], xmat[at], threshold[at], out, at)
+    at = np.flatnonzero((types[g1] == HFIELD) | (types[g2] == HFIELD))
+    if len(at):
+        _hfield_pairs(model, pairs[at], xpos[at], xmat[at], threshold[at], measure[at], out, at)
     return out
 
 
@@ -234,6 +242,82 @@ def _shape_pairs(model, pairs, xpos, xmat, threshold, name, out, at):
     )
 
 
+def _split(model, pairs, xpos, xmat, other):
+    """(the ellipsoids of pairs (k, 2) whose other geom is of type `other`, that geom (k,), its pose (centres,
+    rotations), whether the ellipsoid is the pair's first geom (k,))."""
+    ell_first = model.geom_type[pairs[:, 0]] == ELLIPSOID
+    e, side = np.where(ell_first, pairs[:, 0], pairs[:, 1]), np.where(ell_first, 0, 1)
+    rows = np.arange(len(pairs))
+    a = ellipsoids_at(model, e, xpos[rows, side], xmat[rows, side])
+    return a, np.where(ell_first, pairs[:, 1], pairs[:, 0]), xpos[rows, 1 - side], xmat[rows, 1 - side], ell_first
+
+
+def _mesh_pairs(model, pairs, xpos, xmat, threshold, out, at):
+    from ..core.pairs.shape_distance import shape_distance
+    from .hull import mesh_hull
+
+    a, s, centers, rotations, ell_first = _split(model, pairs, xpos, xmat, MESH)
+    mesh = model.geom_dataid[s]
+    d, n, p, status = (
+        np.empty(len(pairs)),
+        np.empty((len(pairs), 3)),
+        np.empty((len(pairs), 3)),
+        np.empty(len(pairs), np.int8),
+    )
+    for m in np.unique(mesh):  # one hull per mesh, MuJoCo's (mesh_graph)
+        j = np.flatnonzero(mesh == m)
+        d[j], n[j], p[j], status[j] = shape_distance(a[j], "mesh", centers[j], rotations[j], mesh_hull(model, int(m)))
+    n = np.where(ell_first[:, None], n, -n)  # shape_distance's normal points from the ellipsoid
+    scale = np.linalg.norm(centers - a.centers, axis=1) + a.radii.max(axis=1) + model.geom_rbound[s]
+    tol = np.maximum(PAIR_CERT_REL * a.radii.min(axis=1), PAIR_SIGMA_SLACK_ULPS * U * scale)
+    _measured(out, at, d, n, p, status == GLOBAL, tol, threshold, np.ones(len(pairs), bool))
+
+
+def _hfield_pairs(model, pairs, xpos, xmat, threshold, measure, out, at):
+    from ..core.pairs.height_field import hfield_contacts
+    from .hull import model_height_field
+
+    a, s, centers, rotations, ell_first = _split(model, pairs, xpos, xmat, HFIELD)
+    k = len(pairs)
+    d, n, p, proven = np.full(k, np.inf), np.full((k, 3), np.nan), np.full((k, 3), np.nan), np.ones(k, bool)
+    field = model.geom_dataid[s]
+    size = model.hfield_size[field]
+    scale = np.linalg.norm(centers - a.centers, axis=1) + a.radii.max(axis=1) + np.linalg.norm(size, axis=1)
+    tol = np.maximum(PAIR_CERT_REL * a.radii.min(axis=1), PAIR_SIGMA_SLACK_ULPS * U * scale)
+    for f in np.unique(field):
+        j = np.flatnonzero(field == f)
+        hf = model_height_field(model, int(f))
+        # every prism within the threshold + 2 tol: one not among them is proven beyond it; where a distance is
+        # wanted (the engine made a contact), every prism within the ellipsoid's largest diameter of it
+        reach = threshold[j] + 2 * tol[j] + np.where(measure[j], 4 * a.radii[j].max(axis=1), 0.0)
+        every = 2 * (hf.elevation.shape[0] - 1) * (hf.elevation.shape[1] - 1)
+        for cap in (min(256, every), every):  # a pair with cap prisms within reach again, with all of them
+            c = hfield_contacts(a[j], centers[j], rotations[j], hf, reach, maxcon=cap)
+            listed = np.arange(cap) < c.count[:, None]
+            deepest = np.argmin(np.where(listed, c.dist, np.inf), axis=1)
+            r, some = np.arange(len(j)), c.count > 0
+            d[j[some]] = c.dist[r, deepest][some]
+            n[j[some]], p[j[some]] = c.normal[r, deepest][some], c.pos[r, deepest][some]
+            proven[j] = c.count >= 0
+            j, reach = j[c.count == cap], reach[c.count == cap]
+            if len(j) == 0:
+                break
+    n = np.where(ell_first[:, None], -n, n)  # hfield_contacts' normal points from the field
+    measured = np.isfinite(d)
+    _measured(out, at, np.where(measured, d, np.nan), n, p, proven, tol, threshold, measured)
+
+
+def _measured(out, at, d, n, p, proven, tol, threshold, measured):
+    """Write verdicts from proven distances d (nan where none was measured: proven beyond the threshold)."""
+    within = measured & (d < threshold)
+    out.within[at] = within
+    out.decided[at] = proven & (~measured | (np.abs(d - threshold) > tol))
+    out.dist[at], out.normal[at], out.pos[at], out.proven[at], out.tolerance[at] = d, n, p, proven & measured, tol
+    relation = np.where(proven & (d < -tol), Relation.OVERLAPPING, np.where(proven & (d > tol), Relation.SEPARATED, -1))
+    beyond = proven & (threshold + tol > 0)  # not measured: the signed distance is above threshold + tol
+    out.relation[at] = np.where(measured, relation, np.where(beyond, Relation.SEPARATED, -1))
+
+
 def proof_tolerance(a, b):
     """(k,) metres: how close core.distance.ellipsoid_pair proves a GLOBAL signed distance of the pairs
     (a[i], b[i]) to the true one, TOL = max(BB_TOL_REL r_min, (BB_TOL_ULPS u + 6 delta) S) of its
@@ -277,7 +361,8 @@ def ellipsoids_at(model, geoms, xpos, xmat):
 
 def support(model, geoms, R, v):
     """(k,) h_g(v) - v.c_g: the support function of each geom about its centre along unit v (k, 3), for
-    ellipsoid, sphere, capsule, box and cylinder geoms (MuJoCo's sizes) with rotations R (k, 3, 3)."""
+    ellipsoid, sphere, capsule, box, cylinder and mesh geoms (MuJoCo's sizes; a mesh's vertices) with rotations
+    R (k, 3, 3); nan for a height field (a contact's prism is not known: sigma says nothing of it)."""
     geoms = np.asarray(geoms, dtype=np.int64)
     local = np.einsum("kji,kj->ki", np.asarray(R).reshape(-1, 3, 3), v)  # R^T v
     size = model.geom_size[geoms]
@@ -290,6 +375,11 @@ def support(model, geoms, R, v):
     out[box] = np.abs(local[box] * size[box]).sum(axis=1)
     radial = np.sqrt(np.maximum(1.0 - local[:, 2] ** 2, 0.0))
     out[cylinder] = size[cylinder, 0] * radial[cylinder] + size[cylinder, 1] * axial[cylinder]
+    for i in np.flatnonzero(t == MESH):
+        m = model.geom_dataid[geoms[i]]
+        start, count = int(model.mesh_vertadr[m]), int(model.mesh_vertnum[m])
+        out[i] = (np.asarray(model.mesh_vert[start : start + count], float) @ local[i]).max()
+    out[t == HFIELD] = np.nan
     return out
 
 

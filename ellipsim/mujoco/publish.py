@@ -17,7 +17,17 @@ import threading
 import mujoco
 
 from ..native import ext
-from .context import CONTEXT, FALLBACK_WORDS, PAIR_TYPES, REGISTRY, REGISTRY_ADDRESS, REGISTRY_ROWS
+from .context import (
+    CONTEXT,
+    FALLBACK_WORDS,
+    FREE_STACK,
+    MARK_STACK,
+    PAIR_TYPES,
+    REGISTRY,
+    REGISTRY_ADDRESS,
+    REGISTRY_ROWS,
+    STACK_ALLOC_NUM,
+)
 
 _lock = threading.Lock()
 _state = {"filled": False}
@@ -41,7 +51,8 @@ def collision_table():
 
 def fill_context():
     """Write the per-process words the callbacks read (once): the registry, MuJoCo's collision functions for
-    the pairs ellipsim handles (read before ellipsim replaces any), and hand CONTEXT to the callbacks."""
+    the pairs ellipsim handles (read before ellipsim replaces any), its arena functions, and hand CONTEXT to
+    the callbacks."""
     with _lock:
         if _state["filled"]:
             return
@@ -49,5 +60,12 @@ def fill_context():
         CONTEXT[REGISTRY_ADDRESS], CONTEXT[REGISTRY_ROWS] = REGISTRY.ctypes.data, REGISTRY.shape[0]
         for row in PAIR_TYPES:
             CONTEXT[FALLBACK_WORDS[row.key]] = table[row.type1 * ntypes + row.type2]
+        library = mujoco_library()
+        for word, name in (
+            (MARK_STACK, "mj_markStack"),
+            (FREE_STACK, "mj_freeStack"),
+            (STACK_ALLOC_NUM, "mj_stackAllocNum"),
+        ):
+            CONTEXT[word] = ctypes.cast(getattr(library, name), ctypes.c_void_p).value
         ext.mujoco.set_context(CONTEXT.ctypes.data)
         _state["filled"] = True

@@ -118,7 +118,7 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
     """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
 
     At each step, before mj_step, mj_forward runs collision; every candidate pair of a type ellipsim
-    judges (ellipsoid with ellipsoid, sphere, capsule, box or cylinder: those MuJoCo's broad phase
+    judges (ellipsoid with ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field: those MuJoCo's broad phase
     produced, recorded by the callback, which otherwise behaves exactly like MuJoCo, and the model's
     <pair> elements MuJoCo collides: geoms.explicit_pairs) is judged with the pair's margin
     (geoms.pair_margins: the <pair> element's, the geoms' sum, or opt.o_margin under override): MuJoCo
@@ -311,8 +311,8 @@ def no_candidates_reason(model, validation=None):
         return 'the model disables contacts (<option><flag contact="disable"/>): MuJoCo collides nothing'
     if not ellipsoid_pair_possible(model, "narrowphase"):
         return (
-            "the model has no pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box or "
-            "cylinder, by contype/conaffinity or a <pair> element)"
+            "the model has no pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, "
+            "convex mesh or height field, by contype/conaffinity or a <pair> element)"
         )
     return "MuJoCo's broad phase brought no pair ellipsim judges within reach (bounding volumes, margins included)"
 

@@ -43,7 +43,8 @@ import numpy as np
 import warp as wp
 from mujoco_warp._src import types as mjw_types
 
-from ..pair_table import PAIR_TYPES, TYPE_NAMES
+from ..pair_table import TYPE_NAMES
+from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes (mesh and height field: not yet)
 from . import kernels
 
 # The pair table both glues read (ellipsim/pair_table.py); its geom codes are MuJoCo Warp's too.

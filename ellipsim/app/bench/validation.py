@@ -46,22 +46,30 @@ def _mjcf(xml):
     return model, mujoco.MjData(model), None
 
 
+#: the mixed pile's convex mesh (12 points of a lumpy ball about 3 cm across) and its floor's relief (8 x 8)
+_PROP = np.random.default_rng(100).normal(size=(12, 3)) * np.array([0.03, 0.025, 0.02])
+_RELIEF = np.random.default_rng(101).uniform(0.0, 1.0, 64)
+
+
 def mixed_pile_xml(seed=0, per_type=4):
-    """Free ellipsoids among free spheres, capsules, boxes and cylinders dropped into a box of walls (box
-    geoms) on a floor, a few geoms with a 2 mm margin: contacts of every pair type ellipsim judges."""
+    """Free ellipsoids among free spheres, capsules, boxes, cylinders and convex meshes dropped into a box of
+    walls (box geoms) onto a height field (1 cm of relief) on a floor, a few geoms with a 2 mm margin: contacts
+    of every pair type ellipsim judges."""
     rng = np.random.default_rng(seed)
     shapes = [("ellipsoid", "0.05 0.035 0.025"), ("sphere", "0.03"), ("capsule", "0.02 0.04")]
     shapes += [("box", "0.03 0.025 0.02"), ("cylinder", "0.025 0.03"), ("ellipsoid", "0.04 0.03 0.02")]
+    shapes += [("mesh", None)]
     bodies, k = [], 0
     for _ in range(per_type):
         for t, size in shapes:
             x, y = rng.uniform(-0.08, 0.08, 2)
             q = rng.normal(size=4)
             q /= np.linalg.norm(q)
-            margin = ' margin="0.002"' if k % 7 == 3 else ""
+            margin = ' margin="0.002"' if k % 5 == 3 else ""  # every type in turn (7 shapes a round)
+            shape = 'mesh="prop"' if size is None else f'size="{size}"'
             bodies.append(
                 f'<body pos="{x:.4f} {y:.4f} {0.05 + 0.06 * k:.4f}" quat="{" ".join(f"{v:.4f}" for v in q)}">'
-                f'<freejoint/><geom name="{t}{k}" type="{t}" size="{size}"{margin}/></body>'
+                f'<freejoint/><geom name="{t}{k}" type="{t}" {shape}{margin}/></body>'
             )
             k += 1
     walls = "".join(
@@ -73,9 +81,13 @@ def mixed_pile_xml(seed=0, per_type=4):
             (0.15, 0.01, 0, -0.15),
         )
     )
+    assets = (
+        f'<asset><mesh name="prop" vertex="{" ".join(f"{x:.5f}" for x in _PROP.ravel())}"/><hfield name="relief" '
+        f'nrow="8" ncol="8" size="0.15 0.15 0.01 0.005" elevation="{" ".join(f"{x:.4f}" for x in _RELIEF)}"/></asset>'
+    )
     return (
-        f'<mujoco><option timestep="0.002"/><worldbody><geom type="plane" size="1 1 .1"/>{walls}{"".join(bodies)}'
-        "</worldbody></mujoco>"
+        f'<mujoco><option timestep="0.002"/>{assets}<worldbody><geom type="plane" size="1 1 .1"/>'
+        f'<geom type="hfield" hfield="relief"/>{walls}{"".join(bodies)}</worldbody></mujoco>'
     )
 
 

@@ -2,6 +2,7 @@
 vertices, edges, outward face normals and triangles, in its own frame.
 
     hull = convex_hull(points)          # any points; their convex hull (scipy's Qhull)
+    hull = as_hull(hull_or_points)      # a Hull checked, or the convex hull of points
 
 A hull from a MuJoCo model's mesh is ellipsim.mujoco.hull.mesh_hull (MuJoCo's own hull, mesh_graph).
 """
@@ -60,3 +61,34 @@ def convex_hull(points):
     except QhullError:
         raise ValueError("points must span a volume (they are coplanar, collinear or coincident)") from None
     return from_triangles(p, h.simplices)
+
+
+def check_hull(hull):
+    """The Hull's arrays as the kernel reads them (C-contiguous float64 and int32), checked: shapes, finite
+    numbers, unit normals, indices of existing vertices; ValueError naming the field otherwise."""
+    if not isinstance(hull, Hull):
+        raise ValueError(f"hull must be an ellipsim Hull, got {type(hull).__name__}")
+    v = np.ascontiguousarray(hull.vertices, np.float64)
+    n = np.ascontiguousarray(hull.normals, np.float64)
+    e, f = (np.asarray(x) for x in (hull.edges, hull.faces))
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4:
+        raise ValueError(f"hull.vertices must be (nv, 3) with nv >= 4, got shape {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) < 4 or n.shape != f.shape:
+        raise ValueError(f"hull.faces (nf, 3) and hull.normals (nf, 3) must match, got {f.shape} and {n.shape}")
+    if e.ndim != 2 or e.shape[1] != 2 or len(e) < 6:
+        raise ValueError(f"hull.edges must be (ne, 2) with ne >= 6, got shape {e.shape}")
+    for name, x in (("edges", e), ("faces", f)):
+        if not np.issubdtype(x.dtype, np.integer) or x.min() < 0 or x.max() >= len(v):
+            raise ValueError(f"hull.{name} must be integer indices of its {len(v)} vertices")
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(n))):
+        raise ValueError("hull.vertices and hull.normals must be finite")
+    if np.any(np.abs(np.linalg.norm(n, axis=1) - 1.0) > 1e-9):
+        raise ValueError("hull.normals must be unit vectors")
+    return Hull(v, np.ascontiguousarray(e, np.int32), n, np.ascontiguousarray(f, np.int32))
+
+
+def as_hull(hull):
+    """A Hull checked (check_hull), or the convex hull of points (m, 3) (convex_hull)."""
+    if isinstance(hull, Hull):
+        return check_hull(hull)
+    return convex_hull(hull)

@@ -1,26 +1,32 @@
-"""Signed distance of ellipsoids and capsules, boxes or cylinders, batched, with optional exact derivatives.
+"""Signed distance of ellipsoids and capsules, boxes, cylinders or convex meshes, batched, with optional exact
+derivatives.
 
     dist, normal, pos, status = ellipsim.shape_distance(ellipsoids, "box", centers, rotations, sizes)
     dist, normal, pos, status, der = ellipsim.shape_distance(..., derivatives=True)
+    dist, normal, pos, status = ellipsim.shape_distance(ellipsoids, "mesh", centers, rotations, hull)
 
 The narrow phase's proven maxima (capsule.py, box.py, cylinder.py: what ellipsim's MuJoCo glue runs for
 these pair types), with the derivatives of derivatives.py.  The other bodies take MuJoCo's conventions
 (geom_xpos, geom_xmat reshaped to 3x3, geom_size): a box's sizes are its half-sizes; a capsule's and a
-cylinder's are (radius, half-length, ignored), the axis the rotation's third column.
+cylinder's are (radius, half-length, ignored), the axis the rotation's third column.  A mesh is one convex
+hull (hull.py: a Hull, or points whose convex hull it is; MuJoCo collides a mesh through its hull) posed per
+pair (polytope.hpp's proven maximum).
 """
 
 import numpy as np
 
 from ...native import ext
 from .. import threads
-from ..ellipsoids import Ellipsoids, as_poses, check_choice, check_parallel, check_rotations
+from ..ellipsoids import Ellipsoids, _as_real_array, _is_single, as_poses, check_choice, check_parallel, check_rotations
 from . import derivatives as dv
 
 KINDS = ("capsule", "box", "cylinder")
+#: the kinds shape_distance takes: KINDS' (the derivatives' codes) and a convex mesh
+SHAPES = (*KINDS, "mesh")
 
 
 def _check_shapes(kind, centers, rotations, sizes):
-    check_choice("kind", kind, KINDS)
+    check_choice("kind", kind, SHAPES)
     c, rot, s = as_poses(centers, rotations, sizes, "sizes")
     used = 3 if kind == "box" else 2
     nonpos = s[:, :used] <= 0
@@ -33,12 +39,14 @@ def _check_shapes(kind, centers, rotations, sizes):
 
 
 def shape_distance(ellipsoids, kind, centers, rotations, sizes, *, parallel=None, derivatives=False):
-    """Signed distance, contact normal and contact point of each ellipsoid and capsule, box or cylinder.
+    """Signed distance, contact normal and contact point of each ellipsoid and capsule, box, cylinder or mesh.
 
     ellipsoids : Ellipsoids (a batch of length 1 broadcasts)
-    kind : "capsule", "box" or "cylinder", the other bodies' type
+    kind : "capsule", "box", "cylinder" or "mesh", the other bodies' type
     centers (n, 3), rotations (n, 3, 3), sizes (n, 3) : the other bodies, as MuJoCo's geom_xpos, geom_xmat
-        and geom_size (module docstring); one body may be given unbatched, and a batch of 1 broadcasts
+        and geom_size (module docstring); one body may be given unbatched, and a batch of 1 broadcasts.  For
+        "mesh", `sizes` is the mesh: one Hull (hull.py, its vertices in the mesh's frame) or the points whose
+        convex hull it is, posed at each (centre, rotation)
     parallel : run on all cores; default: from PARALLEL_MIN_PAIRS pairs on
     returns : dist (n,) metres (< 0: minus the penetration depth), normal (n, 3) unit, from the ellipsoid
         to the other body, pos (n, 3) the midpoint of the witness points (MuJoCo's contact position),
@@ -51,6 +59,8 @@ def shape_distance(ellipsoids, kind, centers, rotations, sizes, *, parallel=None
     """
     if not isinstance(ellipsoids, Ellipsoids):
         raise ValueError(f"ellipsoids must be an ellipsim.Ellipsoids batch, got {type(ellipsoids).__name__}")
+    if kind == "mesh":
+        return _mesh_distance(ellipsoids, centers, rotations, sizes, parallel, derivatives)
     c, rot, s = _check_shapes(kind, centers, rotations, sizes)
     if not isinstance(derivatives, (bool, np.bool_)):
         raise ValueError(f"derivatives must be True or False, got {derivatives!r}")
@@ -72,3 +82,31 @@ def shape_distance(ellipsoids, kind, centers, rotations, sizes, *, parallel=None
     )
     threads.run(ext.shape_derivatives, n, parallel, *arrays, normal, status == 0, *out)
     return dist, normal, pos, status, out
+
+
+def _mesh_distance(ellipsoids, centers, rotations, mesh, parallel, derivatives):
+    """shape_distance's "mesh" kind: the ellipsoids against one convex hull posed at each (centre, rotation)."""
+    from .hull import as_hull
+
+    if derivatives is not False:
+        raise ValueError("derivatives=True is not available for kind 'mesh' yet (issue 48): pass derivatives=False")
+    hull = as_hull(mesh)
+    single = _is_single(centers)
+    c = _as_real_array("centers", centers, (3,), single)
+    rot = _as_real_array("rotations", rotations, (3, 3), single)
+    if len(c) != len(rot):
+        raise ValueError(f"centers and rotations must have the same length, got {len(c)} and {len(rot)}")
+    check_rotations(rot)
+    ne, nk = len(ellipsoids.centers), len(c)
+    if ne != nk and ne != 1 and nk != 1:
+        raise ValueError(
+            f"ellipsoids and the mesh poses must have the same length or one of them length 1, got {ne} and {nk}"
+        )
+    n = 0 if ne == 0 or nk == 0 else max(ne, nk)
+    dist, normal, pos, status = np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int8)
+    parallel = check_parallel(parallel, n)
+    e = ellipsoids
+    threads.run(
+        ext.mesh_distances, n, parallel, e.centers, e.rotations, e.radii, c, rot, *hull, dist, normal, pos, status
+    )
+    return dist, normal, pos, status

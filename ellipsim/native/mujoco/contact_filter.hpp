@@ -47,7 +47,7 @@ inline Ellipsoid geom_pose(const mjModel* m, const mjData* d, int g) {
 
 inline bool handled_type(int other) {
   return other == mjGEOM_ELLIPSOID || other == mjGEOM_SPHERE || other == mjGEOM_CAPSULE || other == mjGEOM_BOX ||
-         other == mjGEOM_CYLINDER;
+         other == mjGEOM_CYLINDER || other == mjGEOM_MESH || other == mjGEOM_HFIELD;
 }
 
 // 1: discard the pair; 0: keep it (MuJoCo's narrow phase decides).

@@ -16,10 +16,16 @@ namespace ellipsim::glue {
 
 // Context words (context.py): the registry's address and rows, MuJoCo's original collision functions.
 constexpr int REGISTRY_ADDRESS = 0, REGISTRY_ROWS = 1, FALLBACK_ELLIPSOID = 2, FALLBACK_SPHERE = 3;
-constexpr int FALLBACK_CAPSULE = 15, FALLBACK_BOX = 16, FALLBACK_CYLINDER = 17;
+constexpr int FALLBACK_CAPSULE = 15, FALLBACK_BOX = 16, FALLBACK_CYLINDER = 17, FALLBACK_MESH = 18,
+              FALLBACK_HFIELD = 19;
+// MuJoCo's arena functions (mj_markStack, mj_freeStack, mj_stackAllocNum): a mesh's scratch per call.
+constexpr int MARK_STACK = 4, FREE_STACK = 5, STACK_ALLOC_NUM = 6;
 // Registry columns: data address (0: free), counters address, mode, pair buffer, its capacity,
-// warm-start table address, its slots - 1.  Row 0 holds the highest slot ever used.
-constexpr int REGISTRY_COLUMNS = 7, WARM_ADDRESS = 5, WARM_MASK = 6;
+// warm-start table address, its slots - 1, the hull table's address.  Row 0 holds the highest slot ever used.
+constexpr int REGISTRY_COLUMNS = 8, WARM_ADDRESS = 5, WARM_MASK = 6, HULLS = 7;
+// The hull table: HULL_WORDS int64 words per mesh of the model, [nv, ne, nf, vertices (float64 nv x 3),
+// edges (int32 ne x 2), outward normals (float64 nf x 3), triangles (int32 nf x 3), 0]; nv 0: no hull.
+constexpr int HULL_WORDS = 8;
 constexpr std::int64_t FILTER = 1, RECORD = 2, NARROW = 3;
 // Per-data counters (int64 words).
 constexpr int SEEN = 0, DISCARDED = 1, PASSED = 2, RECORDED = 3;

@@ -1,8 +1,10 @@
 // The narrow phase (mode "narrowphase"): an mjfCollision for MuJoCo's table mjCOLLISIONFUNC at every row of
 // context.PAIR_TYPES; ellipsim/mujoco/callbacks.py (narrowphase, _narrow_pair) documents it, this is its C++.
 //
-// MuJoCo indexes the table type1 <= type2 (engine_collision_driver.c swaps a pair by type), so a capsule is g1
-// (its normal is pairs::capsule's flipped) and a box or cylinder is g2.  A pair certified apart beyond the margin
+// MuJoCo indexes the table type1 <= type2 (engine_collision_driver.c swaps a pair by type), so a capsule or a
+// height field is g1 (the capsule's normal is pairs::capsule's flipped) and a box, cylinder or mesh is g2.  A mesh
+// collides through its convex hull (the data's hull table, attachment.py), a height field through the prisms of
+// its cells (pairs/height_field.hpp: up to mjMAXCONPAIR contacts, MuJoCo's mjc_ConvexHField's).  A pair certified apart beyond the margin
 // gets no contact; otherwise the signed distance, normal (from g1 to g2) and contact point of the C++ core fill
 // the mjPreContact as mjc_Convex does (tangent zero: mj_setContact completes the frame).  A maximum that is not
 // proven goes to MuJoCo's original function (the context's fallback words), counted; for two ellipsoids its
@@ -24,6 +26,8 @@
 #include <ellipsim/pairs/box.hpp>
 #include <ellipsim/pairs/capsule.hpp>
 #include <ellipsim/pairs/cylinder.hpp>
+#include <ellipsim/pairs/height_field.hpp>
+#include <ellipsim/pairs/polytope.hpp>
 #include <ellipsim/vec3.hpp>
 
 #include "contact_filter.hpp"
@@ -121,7 +125,11 @@ inline void write_contact(mjPreContact* con, double dist, const Vec3& pos, const
 // MuJoCo's original function for the pair (callbacks._narrow_pair's dispatch on the rows of PAIR_TYPES).
 inline mjfCollision original_function(const std::int64_t* ctx, int t1, int t2) {
   int word;
-  if (t1 == mjGEOM_CAPSULE)
+  if (t1 == mjGEOM_HFIELD)
+    word = FALLBACK_HFIELD;
+  else if (t2 == mjGEOM_MESH)
+    word = FALLBACK_MESH;
+  else if (t1 == mjGEOM_CAPSULE)
     word = FALLBACK_CAPSULE;
   else if (t2 == mjGEOM_BOX)
     word = FALLBACK_BOX;
@@ -177,6 +185,76 @@ __attribute__((noinline)) inline RowResult cylinder_row(const mjModel* m, const 
   }
   const pairs::cylinder::Result r = pairs::cylinder::cylinder_ellipsoid(E, K);  // a deep rim maximum: UNPROVEN
   return {-1, r.status != pairs::cylinder::UNPROVEN && std::isfinite(r.dist), r.dist, r.normal, r.pos};
+}
+
+// A lower bound on the signed distance of E and the hull H posed at (cP, RP): sigma along the centre line (sigma
+// at any unit n is one: polytope.hpp) less its rounding allowance, PAIR_SIGMA_SLACK_ULPS of |e| + the two bodies'
+// radii (rbound: the hull's farthest vertex from its origin, MuJoCo's geom_rbound); -inf for concentric bodies.
+inline double hull_centre_line_bound(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const pairs::polytope::Hull& H,
+                                     double rbound) {
+  const Vec3 e = sub(cP, E.c);
+  const double ee = norm2(e);
+  if (!(ee > 0.0)) return -INFINITY;
+  const double s = 1.0 / std::sqrt(ee);
+  const Vec3 n = {e.x * s, e.y * s, e.z * s};
+  const Vec3 nP = rotate_t(RP, n), nE = rotate_t(E.R, n);  // n in P's frame and in E's
+  double lo = INFINITY;
+  for (int i = 0; i < H.nv; ++i) lo = min2(lo, nP.x * H.v[3 * i] + nP.y * H.v[3 * i + 1] + nP.z * H.v[3 * i + 2]);
+  const double h = std::sqrt(E.r.x * E.r.x * nE.x * nE.x + E.r.y * E.r.y * nE.y * nE.y + E.r.z * E.r.z * nE.z * nE.z);
+  const double scale = std::sqrt(ee) + max2(max3(E.r), rbound);
+  return std::sqrt(ee) + lo - h - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
+}
+
+// The mesh row: g1 the ellipsoid, g2 the mesh, through the mesh's convex hull as MuJoCo collides it (mjc_Convex
+// reads mesh_graph), from this data's hull table (`hulls`, attachment.py); the scratch from MuJoCo's arena.
+__attribute__((noinline)) inline RowResult mesh_row(const mjModel* m, mjData* d, int g1, int g2, mjtNum margin,
+                                                    const std::int64_t* row, const std::int64_t* ctx) noexcept {
+  const std::int64_t counters = row[1];
+  const std::int64_t* hulls = reinterpret_cast<const std::int64_t*>(row[HULLS]);
+  const int mesh = m->geom_dataid[g2];
+  const std::int64_t* h = hulls && mesh >= 0 ? hulls + HULL_WORDS * mesh : nullptr;
+  if (!h || h[0] == 0) return {-1, false, 0.0, {}, {}};  // no hull: MuJoCo's own function, counted
+  const pairs::polytope::Hull H = {int(h[0]), int(h[1]), int(h[2]), reinterpret_cast<const double*>(h[3]),
+                                   reinterpret_cast<const int*>(h[4]), reinterpret_cast<const double*>(h[5]),
+                                   reinterpret_cast<const int*>(h[6])};
+  const Ellipsoid E = geom_ellipsoid(m, d, mjGEOM_ELLIPSOID, g1, 0.0);
+  const mjtNum* c = d->geom_xpos + 3 * g2;
+  const mjtNum* R = d->geom_xmat + 9 * g2;
+  const Vec3 cP = {c[0], c[1], c[2]};
+  const Mat3 RP = {{R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8]}};
+  if (hull_centre_line_bound(E, cP, RP, H, m->geom_rbound[g2]) >= margin) {
+    count(counters, SEPARATED);
+    return {0, true, 0.0, {}, {}};
+  }
+  using MarkStack = void (*)(mjData*);
+  using StackAllocNum = mjtNum* (*)(mjData*, size_t);
+  reinterpret_cast<MarkStack>(static_cast<std::uintptr_t>(ctx[MARK_STACK]))(d);
+  double* scratch = reinterpret_cast<StackAllocNum>(static_cast<std::uintptr_t>(ctx[STACK_ALLOC_NUM]))(
+      d, size_t(3 * H.nv + 3 * H.nf));
+  const pairs::polytope::Result r = pairs::polytope::polytope_ellipsoid(E, cP, RP, H, scratch);  // proven
+  reinterpret_cast<MarkStack>(static_cast<std::uintptr_t>(ctx[FREE_STACK]))(d);
+  return {-1, std::isfinite(r.dist), r.dist, r.normal, r.pos};
+}
+
+// The height-field row: g1 the field, g2 the ellipsoid; up to mjMAXCONPAIR contacts, one per prism the ellipsoid
+// comes within the margin of (pairs/height_field.hpp, in mjc_ConvexHField's order).  Returns the number of
+// contacts, or -1 for MuJoCo's own function (a field with a degenerate prism, or non-finite poses).
+__attribute__((noinline)) inline int hfield_row(const mjModel* m, mjData* d, mjPreContact* con, int g1, int g2,
+                                                mjtNum margin, std::int64_t counters) noexcept {
+  const int hid = m->geom_dataid[g1];
+  const mjtNum* size = m->hfield_size + 4 * hid;
+  const pairs::height_field::Field F = {m->hfield_nrow[hid], m->hfield_ncol[hid], size[0], size[1], size[2],
+                                        size[3], m->hfield_data + m->hfield_adr[hid]};
+  const mjtNum* c = d->geom_xpos + 3 * g1;
+  const mjtNum* R = d->geom_xmat + 9 * g1;
+  const Ellipsoid E = geom_ellipsoid(m, d, mjGEOM_ELLIPSOID, g2, 0.0);
+  int n = 0;
+  const int made = pairs::height_field::contacts(
+      E, {c[0], c[1], c[2]}, {{R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8]}}, F, margin, mjMAXCONPAIR,
+      [&](const pairs::height_field::Contact& k) { write_contact(con + n++, k.dist, k.pos, k.normal); });
+  if (made < 0) return -1;
+  count(counters, made ? CONTACTS : SEPARATED);
+  return made;
 }
 
 // callbacks._narrow_pair's ellipsoid row: two ellipsoids, or a sphere (g1) and an ellipsoid, warm-started from
@@ -250,8 +328,16 @@ __attribute__((noinline)) inline int narrow_pair(const mjModel* m, mjData* d, mj
   const std::int64_t* row = slot ? registry_row(ctx, slot) : nullptr;
   if (!row || row[2] != NARROW) return original(m, d, con, g1, g2, margin);  // not attached: MuJoCo's own
   const std::int64_t counters = row[1];
+  if (t1 == mjGEOM_HFIELD) {  // several contacts
+    const int made = hfield_row(m, d, con, g1, g2, margin, counters);
+    if (made >= 0) return made;
+    count(counters, FALLBACKS);
+    return original(m, d, con, g1, g2, margin);
+  }
   RowResult r;
-  if (t1 == mjGEOM_CAPSULE)
+  if (t2 == mjGEOM_MESH)
+    r = mesh_row(m, d, g1, g2, margin, row, ctx);
+  else if (t1 == mjGEOM_CAPSULE)
     r = capsule_row(m, d, g1, g2, margin, counters);
   else if (t2 == mjGEOM_BOX)
     r = box_row(m, d, g1, g2, margin, counters);

@@ -131,5 +131,6 @@ void bind_time_of_impact(nb::module_& m, nb::module_& testing);
 void bind_mujoco(nb::module_& m, nb::module_& testing);
 void bind_bench(nb::module_& m, nb::module_& testing);
 void bind_cylinder(nb::module_& m, nb::module_& testing);
+void bind_meshes(nb::module_& m, nb::module_& testing);
 
 }  // namespace ellipsim::binding

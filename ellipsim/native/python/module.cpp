@@ -28,6 +28,7 @@ NB_MODULE(_ellipsim, m) {
   ellipsim::binding::bind_mujoco(m, t);
   ellipsim::binding::bind_bench(m, t);
   ellipsim::binding::bind_cylinder(m, t);
+  ellipsim::binding::bind_meshes(m, t);
 
   t.def("multiply_add", &multiply_add, "a"_a, "b"_a, "c"_a);
   nb::dict constants;  // every constant of tolerances.hpp (tests/test_native.py: the same as tolerances.py)

@@ -1,0 +1,175 @@
+// Ellipsoid x height field, as MuJoCo collides them (engine_collision_convex.c, mjc_ConvexHField; issue 48): the
+// field is a grid of elevations, each cell split into two triangles along its (r, c) - (r + 1, c + 1) diagonal and
+// each triangle extruded down to the field's base: a prism, a convex polytope of 6 vertices.  The cells under the
+// ellipsoid's bounding box are visited in MuJoCo's order (rows, then columns, then the cell's two triangles) and
+// every prism the ellipsoid comes within the margin of gives one contact, its exact signed distance, normal and
+// point (polytope.hpp, proven), up to `maxcon` contacts (MuJoCo's mjMAXCONPAIR).
+//
+// MuJoCo's own function raises each prism's top by the margin and grows the ellipsoid by half of it, so with a
+// positive margin its contacts' dist is not the signed distance; here a prism gives a contact exactly when its
+// signed distance from the ellipsoid is below the margin, MuJoCo's rule for every other pair (a contact's dist is
+// the signed distance).  At margin 0 the two make the same contacts (those of the prisms the ellipsoid overlaps).
+// The cell range is the bounding box's grown by the margin, so no prism within the margin is left out.
+#pragma once
+
+#include "../math.hpp"
+
+#include "../tolerances.hpp"
+#include "../vec3.hpp"
+#include "polytope.hpp"
+
+namespace ellipsim::pairs::height_field {
+
+// A height field in its own frame (MuJoCo's hfield_size, hfield_nrow, hfield_ncol, hfield_data): x in
+// [-sx, sx] over ncol columns, y in [-sy, sy] over nrow rows, elevation data[r ncol + c] in [0, 1] scaled by sz,
+// the solid reaching down to z = -base.
+struct Field {
+  int nrow, ncol;
+  double sx, sy, sz, base;
+  const float* data;
+};
+
+// A prism's hull: vertices 0-2 the triangle at the base, 3-5 the same points at their elevations.  Edges: the two
+// triangles', the three vertical ones and a diagonal of each side (the diagonal of its triangulation: only more
+// candidates for the kernel); faces: base, top and each side as two triangles.
+constexpr int NV = 6, NE = 12, NF = 8;
+constexpr int EDGES[2 * NE] = {0, 1, 1, 2, 0, 2, 3, 4, 4, 5, 3, 5, 0, 3, 1, 4, 2, 5, 0, 4, 1, 5, 0, 5};
+constexpr int FACES[3 * NF] = {0, 1, 2, 3, 4, 5, 0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4, 0, 2, 5, 0, 5, 3};
+// The scratch polytope_ellipsoid needs for a prism.
+constexpr int SCRATCH = 3 * NV + 3 * NF;
+
+// One prism: its vertices and outward unit face normals (field frame).
+struct Prism {
+  double v[3 * NV];
+  double normal[3 * NF];
+  bool valid;  // every face has a normal (false: a degenerate prism, e.g. an elevation at the base)
+};
+
+// The grid point (r, c) at its elevation (MuJoCo's addPrismVert: x = dx c - sx, y = dy r - sy).
+ELLIPSIM_HD Vec3 grid_point(const Field& F, int r, int c) {
+  const double dx = (2.0 * F.sx) / (F.ncol - 1), dy = (2.0 * F.sy) / (F.nrow - 1);
+  return {dx * c - F.sx, dy * r - F.sy, double(F.data[r * F.ncol + c]) * F.sz};
+}
+
+// The prism of the triangle (a, b, c) (points at their elevations): normals turned away from its centroid.
+ELLIPSIM_HD Prism make_prism(const Field& F, const Vec3& a, const Vec3& b, const Vec3& c) {
+  Prism P;
+  const Vec3 top[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k) {
+    P.v[3 * k] = P.v[3 * (k + 3)] = top[k].x;
+    P.v[3 * k + 1] = P.v[3 * (k + 3) + 1] = top[k].y;
+    P.v[3 * k + 2] = -F.base;
+    P.v[3 * (k + 3) + 2] = top[k].z;
+  }
+  Vec3 o = {0.0, 0.0, 0.0};
+  for (int k = 0; k < NV; ++k) o = {o.x + P.v[3 * k], o.y + P.v[3 * k + 1], o.z + P.v[3 * k + 2]};
+  o = {o.x / NV, o.y / NV, o.z / NV};
+  P.valid = true;
+  for (int f = 0; f < NF; ++f) {
+    const Vec3 p0 = polytope::vertex(P.v, FACES[3 * f]), p1 = polytope::vertex(P.v, FACES[3 * f + 1]),
+               p2 = polytope::vertex(P.v, FACES[3 * f + 2]);
+    Vec3 n = cross3(sub(p1, p0), sub(p2, p0));
+    const double len = math::sqrt(polytope::dot(n, n));
+    P.valid = P.valid && len > 0.0;
+    n = {n.x / len, n.y / len, n.z / len};
+    if (polytope::dot(n, sub(p0, o)) < 0.0) n = {-n.x, -n.y, -n.z};
+    P.normal[3 * f] = n.x;
+    P.normal[3 * f + 1] = n.y;
+    P.normal[3 * f + 2] = n.z;
+  }
+  return P;
+}
+
+// The cells an ellipsoid's bounding box grown by `grow` covers (field frame): rows [rmin, rmax), columns
+// (cmin, cmax] of triangles as mjc_ConvexHField walks them; `empty` when the box misses the field's solid.
+struct Range {
+  int rmin, rmax, cmin, cmax;
+  double zmin;  // the ellipsoid's lowest point less grow: a prism whose top is below it is beyond the margin
+  bool empty;
+};
+
+// E in the field's frame: centre lc, rotation L (MuJoCo's local_pos, mat); its extent along axis k is
+// sqrt(sum_j (L_kj r_j)^2), the support function at the axis (Schneider & Eberly 10.5.2).
+ELLIPSIM_HD Range cell_range(const Field& F, const Vec3& lc, const Mat3& L, const Vec3& r, double grow) {
+  double ext[3];
+  for (int k = 0; k < 3; ++k) {
+    const double a = L.m[3 * k] * r.x, b = L.m[3 * k + 1] * r.y, c = L.m[3 * k + 2] * r.z;
+    ext[k] = math::sqrt(a * a + b * b + c * c);
+  }
+  const double xmin = lc.x - ext[0] - grow, xmax = lc.x + ext[0] + grow;
+  const double ymin = lc.y - ext[1] - grow, ymax = lc.y + ext[1] + grow;
+  const double zmin = lc.z - ext[2] - grow, zmax = lc.z + ext[2] + grow;
+  Range R = {0, 0, 0, 0, zmin, false};
+  if (xmin > F.sx || xmax < -F.sx || ymin > F.sy || ymax < -F.sy || zmin > F.sz || zmax < -F.base) {
+    R.empty = true;
+    return R;
+  }
+  R.cmin = max2(0, int(math::floor((xmin + F.sx) / (2.0 * F.sx) * (F.ncol - 1))));
+  R.cmax = min2(F.ncol - 1, int(math::ceil((xmax + F.sx) / (2.0 * F.sx) * (F.ncol - 1))));
+  R.rmin = max2(0, int(math::floor((ymin + F.sy) / (2.0 * F.sy) * (F.nrow - 1))));
+  R.rmax = min2(F.nrow - 1, int(math::ceil((ymax + F.sy) / (2.0 * F.sy) * (F.nrow - 1))));
+  return R;
+}
+
+// True when a face normal of the prism proves it beyond the margin: sigma(-m_f) = min_i -m_f.(v_i - lc) -
+// h_E(-m_f) is a lower bound on the signed distance for any unit direction (polytope.hpp's sigma; Schneider &
+// Eberly 10.5.2: h_E(n) = |diag(r) L^T n|), less its rounding allowance (PAIR_SIGMA_SLACK_ULPS of the pair's
+// scale).  Most prisms under the bounding box are apart, and this costs a few dot products, against a solve.
+ELLIPSIM_HD bool apart_by_faces(const Prism& P, const Vec3& lc, const Mat3& L, const Vec3& r, double margin) {
+  double far = 0.0;
+  for (int i = 0; i < NV; ++i)
+    far = max2(far, math::fabs(P.v[3 * i] - lc.x) + math::fabs(P.v[3 * i + 1] - lc.y) + math::fabs(P.v[3 * i + 2] - lc.z));
+  const double slack = tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(r));
+  for (int f = 0; f < NF; ++f) {
+    const Vec3 n = {-P.normal[3 * f], -P.normal[3 * f + 1], -P.normal[3 * f + 2]};
+    double lo = INFINITY;
+    for (int i = 0; i < NV; ++i)
+      lo = min2(lo, n.x * (P.v[3 * i] - lc.x) + n.y * (P.v[3 * i + 1] - lc.y) + n.z * (P.v[3 * i + 2] - lc.z));
+    const Vec3 w = rotate_t(L, n);  // n in E's frame
+    const double h = math::sqrt(r.x * r.x * w.x * w.x + r.y * r.y * w.y * w.y + r.z * r.z * w.z * w.z);
+    if (lo - h - slack >= margin) return true;
+  }
+  return false;
+}
+
+// One contact: signed distance, unit normal from the field to the ellipsoid, point (world frame).
+struct Contact {
+  double dist;
+  Vec3 normal, pos;
+};
+
+// The contacts of the ellipsoid E with the field F posed at (cF, RF) (centre, row-major rotation), in MuJoCo's
+// order: emit(Contact) for each prism within `margin`, at most maxcon; returns how many, or -1 when a prism's
+// distance is not finite (non-finite input: the caller's fallback).
+template <class Emit>
+ELLIPSIM_HD int contacts(const Ellipsoid& E, const Vec3& cF, const Mat3& RF, const Field& F, double margin, int maxcon,
+                         Emit&& emit) {
+  const Vec3 lc = rotate_t(RF, sub(E.c, cF));
+  const Mat3 L = distance::tmatmul(RF, E.R);
+  const Range R = cell_range(F, lc, L, E.r, max2(margin, 0.0));
+  if (R.empty) return 0;
+  double scratch[SCRATCH];
+  int n = 0;
+  for (int r = R.rmin; r < R.rmax; ++r) {
+    for (int c = R.cmin + 1; c <= R.cmax; ++c) {
+      const Vec3 p00 = grid_point(F, r, c - 1), p10 = grid_point(F, r + 1, c - 1);
+      const Vec3 p01 = grid_point(F, r, c), p11 = grid_point(F, r + 1, c);
+      for (int i = 0; i < 2; ++i) {  // addPrismVert's window: (p10, p00, p11), then (p00, p11, p01)
+        const Vec3 a = i == 0 ? p10 : p00, b = i == 0 ? p00 : p11, t = i == 0 ? p11 : p01;
+        if (a.z < R.zmin && b.z < R.zmin && t.z < R.zmin) continue;  // its top below E by more than the margin
+        const Prism P = make_prism(F, a, b, t);
+        if (!P.valid) return -1;
+        if (apart_by_faces(P, lc, L, E.r, margin)) continue;
+        const polytope::Hull H = {NV, NE, NF, P.v, EDGES, P.normal, FACES};
+        const polytope::Result q = polytope::polytope_ellipsoid(E, cF, RF, H, scratch);
+        if (!math::isfinite(q.dist)) return -1;
+        if (!(q.dist < margin)) continue;
+        emit(Contact{q.dist, {-q.normal.x, -q.normal.y, -q.normal.z}, q.pos});
+        if (++n >= maxcon) return n;
+      }
+    }
+  }
+  return n;
+}
+
+}  // namespace ellipsim::pairs::height_field

@@ -1,0 +1,253 @@
+"""Ellipsoid x convex mesh and ellipsoid x height field in MuJoCo C (issue 48): the narrow phase's rows against
+MuJoCo's own functions run tight on a terrain scene (free ellipsoids over a height field among convex mesh
+props), the validation's verdicts on them, and the public forms (shape_distance's "mesh",
+core.pairs.height_field.hfield_contacts) against an independent path: each prism built here with numpy and
+solved as a mesh."""
+
+import ctypes
+
+import mujoco
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation as Rot
+
+import ellipsim
+import ellipsim.mujoco as em
+from ellipsim.core.pairs.height_field import MAX_CONTACTS, HeightField, hfield_contacts
+from ellipsim.core.pairs.hull import Hull, convex_hull
+from ellipsim.mujoco import publish
+from ellipsim.mujoco.context import ELLIPSOID, HFIELD, MESH
+from ellipsim.mujoco.hull import mesh_hull, model_height_field
+from ellipsim.mujoco.judge import KEYS
+from ellipsim.native import ext
+
+NARROW_T = ctypes.CFUNCTYPE(
+    ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double
+)
+PRECONTACT = 10  # doubles per mjPreContact: dist, pos (3), normal (3), tangent (3)
+
+
+def terrain_xml(seed=0, n=12, nrow=30, ncol=30, meshes=4):
+    """Free ellipsoids dropped over a nrow x ncol height field (2 m square, 10 cm of relief, 5 cm base) among
+    `meshes` free convex meshes of 8 to 120 random points."""
+    rng = np.random.default_rng(seed)
+    assets, bodies = [], []
+    for k in range(meshes):
+        points = rng.normal(size=(int(rng.choice([8, 20, 40, 120])), 3)) * rng.uniform(0.05, 0.15, 3)
+        assets.append(f'<mesh name="m{k}" vertex="{" ".join(f"{x:.6f}" for x in points.ravel())}"/>')
+        x, y = rng.uniform(-0.6, 0.6, 2)
+        bodies.append(f'<body pos="{x} {y} 0.35"><freejoint/><geom type="mesh" mesh="m{k}"/></body>')
+    for _ in range(n):
+        x, y = rng.uniform(-0.7, 0.7, 2)
+        r = rng.uniform(0.03, 0.1, 3)
+        z = rng.uniform(0.2, 0.6)
+        bodies.append(
+            f'<body pos="{x} {y} {z}"><freejoint/><geom type="ellipsoid" size="{r[0]} {r[1]} {r[2]}"/></body>'
+        )
+    elevation = " ".join(f"{v:.4f}" for v in rng.uniform(0, 1, nrow * ncol))
+    return (
+        f'<mujoco><option timestep="0.002"/><asset><hfield name="terrain" nrow="{nrow}" ncol="{ncol}" '
+        f'size="1 1 0.1 0.05" elevation="{elevation}"/>{"".join(assets)}</asset>'
+        f'<worldbody><geom type="hfield" hfield="terrain"/>{"".join(bodies)}</worldbody></mujoco>'
+    )
+
+
+def _functions():
+    publish.fill_context()
+    table, n = publish.collision_table()
+    theirs = {t: NARROW_T(table[t[0] * n + t[1]]) for t in ((ELLIPSOID, MESH), (HFIELD, ELLIPSOID))}
+    return NARROW_T(ext.mujoco.NARROWPHASE), theirs
+
+
+def _call(fn, model, data, g1, g2, margin=0.0):
+    con = np.zeros(MAX_CONTACTS * PRECONTACT)
+    k = fn(model._address, data._address, con.ctypes.data, g1, g2, margin)
+    return k, con[: k * PRECONTACT].reshape(-1, PRECONTACT)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_narrow_phase_makes_mujocos_contacts_run_tight(seed):
+    """Along a trajectory of the terrain scene, every ellipsoid x mesh and ellipsoid x height-field pair gets
+    the contacts MuJoCo's own function makes run tight (ccd_tolerance 1e-12, 1000 iterations): the same
+    number, in the same order (the same prisms), each distance within 1e-9 of the ellipsoid's smallest
+    semi-axis, the normals (from geom1 to geom2) within MuJoCo's tight EPA's 1e-4, the points within 1e-4 m."""
+    model = mujoco.MjModel.from_xml_string(terrain_xml(seed))
+    model.opt.ccd_tolerance, model.opt.ccd_iterations = 1e-12, 1000
+    data = mujoco.MjData(model)
+    ours, theirs = _functions()
+    ell = np.flatnonzero(model.geom_type == ELLIPSOID)
+    made = {MESH: 0, HFIELD: 0}
+    with em.attach(model, data, mode="narrowphase") as att:
+        for step in range(300):
+            mujoco.mj_step(model, data)
+            if step % 10:
+                continue
+            for e in ell:
+                for g in np.flatnonzero(np.isin(model.geom_type, (MESH, HFIELD))):
+                    t = int(model.geom_type[g])
+                    g1, g2, key = (e, g, (ELLIPSOID, MESH)) if t == MESH else (g, e, (HFIELD, ELLIPSOID))
+                    k, got = _call(ours, model, data, g1, g2)
+                    kw, want = _call(theirs[key], model, data, g1, g2)
+                    assert k == kw, (step, g1, g2)
+                    made[t] += k
+                    rmin = model.geom_size[e].min()
+                    assert np.all(np.abs(got[:, 0] - want[:, 0]) <= 1e-9 * rmin), (step, g1, g2)
+                    assert np.all(np.abs(got[:, 4:7] - want[:, 4:7]) <= 1e-4), (step, g1, g2)
+                    assert np.all(np.abs(got[:, 1:4] - want[:, 1:4]) <= 1e-4), (step, g1, g2)
+    assert made[HFIELD] > 100 and made[MESH] > 5, made
+    assert att.counters["fallbacks"] == 0 and att.counters["contacts"] > 0
+
+
+def test_attached_runs_are_reproducible_and_make_contacts():
+    """Stepped attached twice from fresh datas: bit-identical trajectories, the same counters, and contacts on
+    the terrain and the props."""
+
+    def run():
+        model = mujoco.MjModel.from_xml_string(terrain_xml(2))
+        data = mujoco.MjData(model)
+        with em.attach(model, data, mode="narrowphase") as att:
+            out = []
+            for _ in range(200):
+                mujoco.mj_step(model, data)
+                out.append(data.qpos.copy())
+            types = model.geom_type[data.contact.geom[: data.ncon]]
+        return np.array(out), att.counters, types
+
+    a, ca, types = run()
+    b, cb, _ = run()
+    np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64))
+    assert ca == cb and ca["contacts"] > 0
+    assert (types == HFIELD).any(axis=1).sum() > 5
+
+
+def test_validate_run_tight_agrees_on_every_mesh_and_height_field_pair():
+    """validate over the terrain scene with MuJoCo run tight: the exact verdicts and MuJoCo's contacts agree on
+    every ellipsoid x mesh and ellipsoid x height-field pair (no contact missing or extra on either side), and
+    both types have contacts."""
+    model = mujoco.MjModel.from_xml_string(terrain_xml(1))
+    model.opt.ccd_tolerance, model.opt.ccd_iterations = 1e-12, 1000
+    v = em.validate(model, mujoco.MjData(model), 300)
+    k_mesh, k_field = KEYS.index("ellipsoid-mesh"), KEYS.index("ellipsoid-hfield")
+    by = v.by_type.sum(axis=0)
+    assert by[k_mesh, 0] > 10 and by[k_field, 0] > 1000, by
+    assert by[k_mesh, 2:].sum() == 0 and by[k_field, 2:].sum() == 0, by
+    assert not [d for d in v.disagreements if d.pair_type in ("ellipsoid-mesh", "ellipsoid-hfield")]
+
+
+# --- the public forms ------------------------------------------------------------------------------------------
+
+
+def _prism_hull(field, r, c, i):
+    """The prism of triangle i of cell (r, c) of the field (mjc_ConvexHField's window), built here."""
+    e, (sx, sy, sz, base) = field.elevation, field.size
+    nrow, ncol = e.shape
+    dx, dy = 2 * sx / (ncol - 1), 2 * sy / (nrow - 1)
+
+    def point(rr, cc):
+        return np.array([dx * cc - sx, dy * rr - sy, float(e[rr, cc]) * sz])
+
+    tri = [point(r + 1, c - 1), point(r, c - 1), point(r + 1, c)] if i == 0 else [
+        point(r, c - 1), point(r + 1, c), point(r, c)
+    ]  # fmt: skip
+    return convex_hull([[p[0], p[1], -base] for p in tri] + tri)
+
+
+def test_hfield_contacts_are_the_prisms_solved_as_meshes():
+    """hfield_contacts on random fields and ellipsoids (posed fields, margins 0 and 5 mm) against every prism
+    of the field solved as a mesh (its hull from scipy) in MuJoCo's order: the same contacts, the distance
+    within 1e-12 of the ellipsoid's smallest semi-axis, normal (flipped) and point to 1e-9."""
+    rng = np.random.default_rng(5)
+    total = 0
+    for trial in range(6):
+        nrow, ncol = rng.integers(3, 7, 2)
+        field = HeightField(rng.uniform(0, 1, (nrow, ncol)).astype(np.float32), np.array([0.3, 0.25, 0.1, 0.05]))
+        cF, RF = rng.normal(size=3) * 0.1, Rot.random(random_state=rng).as_matrix()
+        r = rng.uniform(0.03, 0.12, 3)
+        local = np.array([*rng.uniform(-0.25, 0.25, 2), rng.uniform(0.0, 0.15)])
+        E = ellipsim.Ellipsoids(cF + RF @ local, RF @ Rot.random(random_state=rng).as_matrix(), r)
+        margin = [0.0, 0.005][trial % 2]
+        got = hfield_contacts(E, cF, RF, field, margin)
+        want = []
+        for row in range(nrow - 1):
+            for col in range(1, ncol):
+                for i in range(2):
+                    d, n, p, s = ellipsim.shape_distance(E, "mesh", cF, RF, _prism_hull(field, row, col, i))
+                    assert s[0] == 0
+                    if d[0] < margin:
+                        want.append((d[0], -n[0], p[0]))
+        assert got.count[0] == len(want), trial
+        total += len(want)
+        for k, (d, n, p) in enumerate(want):
+            assert abs(got.dist[0, k] - d) <= 1e-12 * r.min(), (trial, k)
+            np.testing.assert_allclose(got.normal[0, k], n, atol=1e-9)
+            np.testing.assert_allclose(got.pos[0, k], p, atol=1e-9)
+    assert total > 10
+
+
+def test_hfield_contacts_stop_at_maxcon_and_the_model_field_is_mujocos():
+    """A flat ellipsoid sunk into a fine field touches many prisms: maxcon caps them in order (the first ones
+    of the uncapped list); a model's height field is read as MuJoCo stores it."""
+    model = mujoco.MjModel.from_xml_string(terrain_xml(0, nrow=40, ncol=40))
+    field = model_height_field(model, 0)
+    assert field.elevation.shape == (40, 40) and field.elevation.dtype == np.float32
+    np.testing.assert_array_equal(field.size, model.hfield_size[0])
+    E = ellipsim.Ellipsoids(np.array([0.0, 0.0, 0.05]), np.eye(3), np.array([0.3, 0.3, 0.05]))
+    every = hfield_contacts(E, np.zeros(3), np.eye(3), field, maxcon=10_000)
+    capped = hfield_contacts(E, np.zeros(3), np.eye(3), field)
+    assert every.count[0] > MAX_CONTACTS and capped.count[0] == MAX_CONTACTS
+    np.testing.assert_array_equal(capped.dist[0], every.dist[0, :MAX_CONTACTS])
+
+
+def test_shape_distance_mesh_is_the_kernel_and_takes_points_or_a_hull():
+    """shape_distance(..., "mesh", ...) gives the kernel's bits (_ellipsim.testing.polytope_ellipsoid) for a Hull
+    or for its points, broadcasting one pose or one ellipsoid; a MuJoCo mesh's hull is the points' hull."""
+    rng = np.random.default_rng(7)
+    points = rng.normal(size=(30, 3)) * 0.1
+    hull = convex_hull(points)
+    n = 50
+    E = ellipsim.Ellipsoids(rng.normal(size=(n, 3)) * 0.15, Rot.random(n, random_state=rng).as_matrix(),
+                            rng.uniform(0.03, 0.1, (n, 3)))  # fmt: skip
+    cP, RP = rng.normal(size=(n, 3)) * 0.05, Rot.random(n, random_state=rng).as_matrix()
+    d, nrm, p, s = ellipsim.shape_distance(E, "mesh", cP, RP, hull)
+    out = np.empty((n, 9))
+    ext.testing.polytope_ellipsoid(E.centers, E.rotations, E.radii, cP, RP, *hull, out, 0, n)
+    np.testing.assert_array_equal(d, out[:, 1])
+    np.testing.assert_array_equal(nrm, out[:, 2:5])
+    assert (s == 0).all() and (d < 0).sum() > 5
+    d2, *_ = ellipsim.shape_distance(E, "mesh", cP, RP, points)
+    np.testing.assert_array_equal(d2, d)
+    d3, *_ = ellipsim.shape_distance(E[:1], "mesh", cP[0], RP[0], hull)
+    np.testing.assert_array_equal(d3, d[:1])
+    xml = f'<mujoco><asset><mesh name="m" vertex="{" ".join(map(str, points.ravel()))}"/></asset>' \
+          '<worldbody><geom type="mesh" mesh="m"/></worldbody></mujoco>'  # fmt: skip
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    mh = mesh_hull(model, 0)
+    assert len(mh.vertices) == len(hull.vertices)
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), np.zeros((3, 3))), "m >= 4"),
+        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), np.eye(3).tolist() * 2), "span a volume"),
+        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), CUBE._replace(edges=CUBE.edges + 8)), "hull.edges"),
+        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), CUBE, derivatives=True), "derivatives"),
+        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), 2 * np.eye(3), CUBE), "rotations"),
+        (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), "field"), "HeightField"),
+        (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), FIELD._replace(elevation=FIELD.elevation + 2)), "[0, 1]"),
+        (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), FIELD._replace(size=np.array([1, 1, 0.1, -1]))), "field.size"),
+        (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), FIELD, maxcon=0), "maxcon"),
+        (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), FIELD, margin=np.inf), "margin"),
+    ],
+)  # fmt: skip
+def test_mistakes_are_clear_errors(call, message):
+    E = ellipsim.Ellipsoids(np.zeros(3), np.eye(3), np.array([0.1, 0.2, 0.3]))
+    with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        call(E)
+
+
+CUBE = convex_hull(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float) * 0.1)
+FIELD = HeightField(np.zeros((3, 3), np.float32), np.array([1.0, 1.0, 0.1, 0.05]))
+assert isinstance(CUBE, Hull)

@@ -43,7 +43,7 @@ def write(tmp_path, text, name="s.toml"):
 
 def test_shipped_scenarios_load():
     names = scenario.available()
-    assert {"handshake", "pile", "crowd", "tumble", "replay"} <= set(names)
+    assert {"handshake", "pile", "crowd", "tumble", "replay", "terrain"} <= set(names)
     for name in names:
         s = scenario.load(name)
         assert s.duration > 0 and s.steps >= 1 and s.mode in scenario.MODES
@@ -61,6 +61,8 @@ def test_shipped_scenarios_load():
         (GOOD.replace("duration = 0.2", 'duration = "long"'), r"key 'duration' must be a float, got 'long'"),
         (GOOD.replace("figures = 2", "figures = 0"), r"key 'scene.figures' must be positive, got 0"),
         (GOOD.replace('layout = "line"', 'layout = "circle"'), r"key 'scene.layout' must be one of"),
+        (GOOD.replace("figures = 2", "figures = 2\nprops = 3"), r"key 'scene.props' must be a non-negative count"),
+        (GOOD.replace("figures = 2", "figures = 2\nterrain = 1"), r"key 'scene.terrain' must be a bool"),
         (GOOD.replace('kind = "sway"', 'kind = "jump"'), r"key 'control.kind' must be one of"),
         (GOOD + "colour = 1\n", r"unknown key 'control.colour'"),
         (

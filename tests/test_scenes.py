@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 
+import ellipsim.mujoco
 from ellipsim import Ellipsoids, Relation, classify
 from ellipsim.app import scenes as figures
 
@@ -231,6 +232,34 @@ def test_scene_without_floor_and_with_drop_height():
     assert bottom.min() == pytest.approx(0.3, abs=1e-9)
 
 
+def test_terrain_replaces_the_floor_and_its_props_land_on_it():
+    """terrain=True: a height field under and a metre beyond the figures instead of the floor, the lowest limb
+    drop_height above its highest point, `props` free convex meshes; stepped, figures and props come to rest on
+    the terrain (none falls through it), touching it through ellipsoid x height-field contacts."""
+    xml = figures.scene_xml(4, terrain=True, props=5, drop_height=0.05, seed=2)
+    model, data = compiled(xml)
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor") == -1
+    assert model.nhfield == 1 and model.nmesh == 5
+    field = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "terrain")
+    top = model.hfield_size[0, 2]
+    assert top == figures.TERRAIN_RELIEF
+    bottom, _ = z_extents(model, data, ellipsoid_geoms(model))
+    assert bottom.min() == pytest.approx(top + 0.05, abs=1e-9)
+    roots = data.xpos[model.body_rootid[ellipsoid_geoms(model)], :2]
+    assert np.all(np.abs(roots) + 1.0 <= model.hfield_size[0, :2] + 1e-9)
+    props = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
+    assert len(props) == 5
+    with ellipsim.mujoco.attach(model, data, mode="narrowphase") as att:
+        touched = set()
+        for _ in range(600):
+            mujoco.mj_step(model, data)
+            c = data.contact.geom[: data.ncon]
+            touched |= {int(g) for pair in c if field in pair for g in pair if g != field}
+    assert att.counters["contacts"] > 0 and att.counters["fallbacks"] == 0
+    assert set(props) <= touched and len(touched & set(ellipsoid_geoms(model))) >= 4
+    assert data.geom_xpos[props, 2].min() > -model.hfield_size[0, 3]  # none fell through
+
+
 @pytest.mark.parametrize("layout", figures.LAYOUTS)
 def test_layouts_start_separated_and_run(layout):
     n = 4
@@ -326,6 +355,9 @@ def test_chain_xml_coils_and_collides_with_itself(n_links):
         (lambda: figures.scene_xml(2, drop_height=-0.1), "drop_height"),
         (lambda: figures.scene_xml(2, drop_height=float("nan")), "drop_height"),
         (lambda: figures.scene_xml(2, floor="yes"), "floor"),
+        (lambda: figures.scene_xml(2, terrain=1), "terrain"),
+        (lambda: figures.scene_xml(2, terrain=True, props=-1), "props"),
+        (lambda: figures.scene_xml(2, props=3), "props"),  # props lie on the terrain
         (lambda: figures.pile_xml(0), "n_ellipsoids"),
         (lambda: figures.pile_xml(5, bin_half_width=0.0), "bin_half_width"),
         (lambda: figures.pile_xml(5, bin_half_width=0.1), "bin_half_width"),  # smaller than one ellipsoid

@@ -41,7 +41,18 @@ MAX_STEPS = 2**53
 # Keys each table may hold, to name a misspelt one before anything else is checked.
 _TOP_KEYS = ("description", "duration", "timestep", "mode", "kinematic", "gravity", "scene", "control")
 _SCENE_KEYS = {
-    "figures": ("kind", "seed", "figures", "layout", "spacing", "drop_height", "floor", "fixed_roots"),
+    "figures": (
+        "kind",
+        "seed",
+        "figures",
+        "layout",
+        "spacing",
+        "drop_height",
+        "floor",
+        "fixed_roots",
+        "terrain",
+        "props",
+    ),
     "pile": ("kind", "seed", "ellipsoids", "bin_half_width"),
     "mjcf": ("kind", "path", "key", "ctrl"),
 }
@@ -382,6 +393,10 @@ def _scene(c, path):
         out["drop_height"] = c.get("drop_height", float, 0.0)
         out["floor"] = c.get("floor", bool, True)
         out["fixed_roots"] = c.get("fixed_roots", bool, False)
+        out["terrain"] = c.get("terrain", bool, False)
+        out["props"] = c.get("props", int, 0)
+        if out["props"] < 0 or (out["props"] and not out["terrain"]):
+            raise c.error("props", "must be a non-negative count, and needs terrain = true", out["props"])
     else:
         out["ellipsoids"] = c.get("ellipsoids", int, required=True, positive=True)
         out["bin_half_width"] = c.get("bin_half_width", float, 0.5, positive=True)

@@ -272,7 +272,51 @@ def _layout_poses(n, layout, spacing, seed, drop_height):
     return pos, quats
 
 
-def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0, floor=True, fixed_roots=False):
+#: the terrain's relief (metres from its lowest to its highest point), its base below its lowest, its cells (metres)
+TERRAIN_RELIEF, TERRAIN_BASE, TERRAIN_CELL = 0.3, 0.05, 0.05
+
+
+def terrain_elevation(nrow, ncol, seed):
+    """(nrow, ncol) elevations in [0, 1]: a few random smooth hills and hollows (Gaussian bumps) over a gentle
+    slope, normalised: a terrain a figure can stand, roll and slide on."""
+    rng = np.random.default_rng(seed)
+    y, x = np.meshgrid(np.linspace(-1, 1, nrow), np.linspace(-1, 1, ncol), indexing="ij")
+    h = 0.3 * (rng.uniform(-1, 1) * x + rng.uniform(-1, 1) * y)
+    for _ in range(8):
+        cx, cy = rng.uniform(-1, 1, 2)
+        h += rng.uniform(-1, 1) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / rng.uniform(0.02, 0.15))
+    return (h - h.min()) / (h.max() - h.min())
+
+
+def _add_terrain(root, world, pos, props, seed):
+    """Replace the floor by a height field under the figures at `pos` (their roots) and scatter `props` free
+    convex mesh props (8-40 random points, 5-12 cm) between them, dropped with them."""
+    half = np.abs(pos[:, :2]).max(axis=0) + 1.0  # a metre of terrain around the outermost figures
+    ncol, nrow = (int(np.ceil(2 * h / TERRAIN_CELL)) + 1 for h in half)
+    elevation = terrain_elevation(nrow, ncol, seed)
+    asset = root.find("asset")
+    if asset is None:
+        asset = ET.Element("asset")
+        root.insert(list(root).index(root.find("worldbody")), asset)
+    ET.SubElement(
+        asset, "hfield", name="terrain", nrow=str(nrow), ncol=str(ncol),
+        size=mjcf_numbers([half[0], half[1], TERRAIN_RELIEF, TERRAIN_BASE]), elevation=mjcf_numbers(elevation.ravel()),
+    )  # fmt: skip
+    world.insert(0, ET.Element("geom", name="terrain", type="hfield", hfield="terrain", rgba="0.45 0.55 0.4 1"))
+    rng = np.random.default_rng(seed + 1)
+    for k in range(props):
+        points = rng.normal(size=(int(rng.integers(8, 41)), 3)) * rng.uniform(0.05, 0.12, 3)
+        ET.SubElement(asset, "mesh", name=f"prop{k}", vertex=mjcf_numbers(points.ravel()))
+        x, y = rng.uniform(-half[0] + 0.5, half[0] - 0.5), rng.uniform(-half[1] + 0.5, half[1] - 0.5)
+        body = ET.SubElement(world, "body", name=f"prop{k}", pos=mjcf_numbers([x, y, TERRAIN_RELIEF + 0.3]))
+        ET.SubElement(body, "freejoint")
+        ET.SubElement(body, "geom", name=f"prop{k}", type="mesh", mesh=f"prop{k}", rgba="0.6 0.45 0.3 1")
+
+
+def scene_xml(
+    n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0, floor=True, fixed_roots=False, terrain=False,
+    props=0,
+):  # fmt: skip
     """MJCF text of one model with `n_figures` copies of the figure, names prefixed "f{i}_".
 
     layout : "grid" standing on a square grid `spacing` metres apart (x rows, y columns);
@@ -290,6 +334,9 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
     figures but for MuJoCo's broad phase, 4 bytes per pair of bodies.
     layout "facing": two rows facing each other across `spacing` metres (figures 0, 2, ... face +x).
     Figures start with no two of their limbs overlapping.
+    terrain : replace the floor by a height field of smooth hills (TERRAIN_RELIEF high, cells TERRAIN_CELL,
+        a metre beyond the outermost figures; drop_height then counts from its highest point) and scatter
+        `props` free convex mesh props between the figures, dropped with them.
     """
     n = _check_count("n_figures", n_figures)
     if layout not in LAYOUTS:
@@ -301,7 +348,13 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
         raise ValueError(f"floor must be True or False, got {floor!r}")
     if not isinstance(fixed_roots, bool):
         raise ValueError(f"fixed_roots must be True or False, got {fixed_roots!r}")
-    pos, quats = _layout_poses(n, layout, spacing, seed, drop_height)
+    if not isinstance(terrain, bool):
+        raise ValueError(f"terrain must be True or False, got {terrain!r}")
+    if isinstance(props, bool) or not isinstance(props, (int, np.integer)) or props < 0:
+        raise ValueError(f"props must be a non-negative integer, got {props!r}")
+    if props and not terrain:
+        raise ValueError(f"props need terrain=True (they are scattered on it), got props={props!r}")
+    pos, quats = _layout_poses(n, layout, spacing, seed, drop_height + (TERRAIN_RELIEF if terrain else 0.0))
 
     root = ET.fromstring(figure_xml())
     root.set("model", f"oval_figure_scene_{n}")
@@ -313,10 +366,12 @@ def scene_xml(n_figures, *, layout="grid", spacing=0.8, seed=0, drop_height=0.0,
     world = root.find("worldbody")
     figure = next(b for b in world.findall("body") if b.find("freejoint") is not None)
     world.remove(figure)
-    if not floor:
+    if not floor or terrain:
         for geom in world.findall("geom"):
             if geom.get("name") == "floor":
                 world.remove(geom)
+    if terrain:
+        _add_terrain(root, world, pos, props, seed)
     sections = [(s, list(root.find(s))) for s in _FIGURE_SECTIONS if root.find(s) is not None]
     names = _names_in([figure] + [el for _, items in sections for el in items])
     for tag, items in sections:

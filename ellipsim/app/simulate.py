@@ -59,6 +59,8 @@ def build(s):
                     drop_height=sc["drop_height"],
                     floor=sc["floor"],
                     fixed_roots=sc["fixed_roots"],
+                    terrain=sc.get("terrain", False),
+                    props=sc.get("props", 0),
                 )
             else:
                 xml = scenes.pile_xml(sc["ellipsoids"], seed=sc["seed"], bin_half_width=sc["bin_half_width"])

@@ -61,6 +61,9 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         compare_steps=2,
         deep_pairs=3,
         long_seconds=0.05,
+        mesh_pairs=6,
+        mesh_calls=60,
+        terrain_steps=3,
     )
     monkeypatch.setitem(bench.SIZES, "quick", small)
     from ellipsim.app.bench import on_warp
@@ -80,6 +83,10 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         "| capsule x ellipsoid | 100 m away | deep (-0.3) | ellipsim on Warp |",
         "| ellipsoid x box |",
         "## 11. Other pair types, run after run",
+        "## 14. Meshes and height fields",
+        "| ellipsoid x mesh of 500 points | deep |",
+        "| ellipsoid x height field, 30 x 30 | deep |",
+        "mj_step on the terrain scenario's scene",
     ):
         assert section in report
     for png in ("pareto.png", "stress.png", "scaling.png", "table1.png", "mujoco.png"):
@@ -316,3 +323,42 @@ def test_baseline_section_measures_every_public_function_on_both_sides(tmp_path,
     assert {"signed_distance (near contact)", "signed_distance derivatives=True", "time_of_impact"} <= names
     assert {f"mj_step pile of 40 ellipsoids, {mode}" for mode in ("builtin", "filter", "narrowphase")} <= names
     assert "Slower than the baseline in every round: " in report
+
+
+def test_mesh_section_places_its_categories_and_both_sides_make_the_same_contacts():
+    """meshes.py: the mesh poses are at their category's distance (through the kernel), and on penetrating and
+    deep poses both functions make a contact on every pair; on the height field both make the same number."""
+    import mujoco
+    import numpy as np
+
+    import ellipsim
+    from ellipsim.app.bench import meshes
+    from ellipsim.mujoco import publish
+    from ellipsim.mujoco.hull import mesh_hull
+
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(40, 3)) * 0.1
+    table, n = publish.collision_table()
+    convex = table[int(mujoco.mjtGeom.mjGEOM_ELLIPSOID) * n + int(mujoco.mjtGeom.mjGEOM_MESH)]
+    size = {"mesh_calls": 20}
+    for category in meshes.CATEGORIES:
+        model, data, pairs = meshes.mesh_poses(points, category, 10, rng)
+        e, m = pairs[:, 0], pairs[:, 1]
+        E = ellipsim.Ellipsoids(data.geom_xpos[e], data.geom_xmat[e].reshape(-1, 3, 3), model.geom_size[e])
+        d = np.array([
+            ellipsim.shape_distance(E[i : i + 1], "mesh", data.geom_xpos[m[i]], data.geom_xmat[m[i]].reshape(3, 3),
+                                    mesh_hull(model, int(model.geom_dataid[m[i]])))[0][0]
+            for i in range(10)
+        ])  # fmt: skip
+        if category == "separated":
+            assert (d > 5e-7).all()
+        elif category == "touching":
+            assert (np.abs(d) < 1e-12).all()
+        else:
+            assert (d < 0).all()
+            _, _, made, theirs, fallbacks = meshes._time(model, data, pairs, convex, size, rounds=1)
+            assert made == theirs == 10 and fallbacks == 0
+    field = table[int(mujoco.mjtGeom.mjGEOM_HFIELD) * n + int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)]
+    for category, (model, data, pairs) in meshes.field_poses(10, rng).items():
+        _, _, made, theirs, _ = meshes._time(model, data, pairs, field, size, rounds=1)
+        assert made == theirs and (made > 0) == (category != "apart"), category

@@ -27,6 +27,8 @@ each:
    every pair type: disagreements by kind, MuJoCo's normals against the exact ones, the cost per step
 13. baseline: this build against another install (--baseline PYTHON): every public function per pair and
    mj_step per scene and mode, side by side in alternating processes
+14. meshes: ellipsoid x convex mesh (hulls of 8 to 500 points) and x height field against MuJoCo's functions
+   per category; mj_step on the terrain scene, plain and narrowphase
 
 Every number compared in a table is measured in the same run, in interleaved rounds (common.py).
 """
@@ -40,6 +42,7 @@ from . import (
     baseline,
     gradients,
     inside_mujoco,
+    meshes,
     motion,
     on_warp,
     pair_spread,
@@ -66,6 +69,7 @@ SECTIONS = {
     "pairs": pair_spread,
     "validation": validation,
     "baseline": baseline,
+    "meshes": meshes,
 }
 
 

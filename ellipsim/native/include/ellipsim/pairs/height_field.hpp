@@ -51,7 +51,10 @@ ELLIPSIM_HD Vec3 grid_point(const Field& F, int r, int c) {
   return {dx * c - F.sx, dy * r - F.sy, double(F.data[r * F.ncol + c]) * F.sz};
 }
 
-// The prism of the triangle (a, b, c) (points at their elevations): normals turned away from its centroid.
+// The prism of the triangle (a, b, c) (points at their elevations).  Normals: the base's -z; each side's (both its
+// triangles) horizontal, normal to its edge in the plane, away from the third point; the top's the cross product,
+// turned up (elevations are above the base, so the top faces up).  A triangle degenerate in the plane, or a side
+// of zero length: not valid.
 ELLIPSIM_HD Prism make_prism(const Field& F, const Vec3& a, const Vec3& b, const Vec3& c) {
   Prism P;
   const Vec3 top[3] = {a, b, c};
@@ -61,21 +64,26 @@ ELLIPSIM_HD Prism make_prism(const Field& F, const Vec3& a, const Vec3& b, const
     P.v[3 * k + 2] = -F.base;
     P.v[3 * (k + 3) + 2] = top[k].z;
   }
-  Vec3 o = {0.0, 0.0, 0.0};
-  for (int k = 0; k < NV; ++k) o = {o.x + P.v[3 * k], o.y + P.v[3 * k + 1], o.z + P.v[3 * k + 2]};
-  o = {o.x / NV, o.y / NV, o.z / NV};
-  P.valid = true;
-  for (int f = 0; f < NF; ++f) {
-    const Vec3 p0 = polytope::vertex(P.v, FACES[3 * f]), p1 = polytope::vertex(P.v, FACES[3 * f + 1]),
-               p2 = polytope::vertex(P.v, FACES[3 * f + 2]);
-    Vec3 n = cross3(sub(p1, p0), sub(p2, p0));
-    const double len = math::sqrt(polytope::dot(n, n));
-    P.valid = P.valid && len > 0.0;
-    n = {n.x / len, n.y / len, n.z / len};
-    if (polytope::dot(n, sub(p0, o)) < 0.0) n = {-n.x, -n.y, -n.z};
+  auto put = [&](int f, const Vec3& n) {
     P.normal[3 * f] = n.x;
     P.normal[3 * f + 1] = n.y;
     P.normal[3 * f + 2] = n.z;
+  };
+  put(0, {0.0, 0.0, -1.0});
+  Vec3 n = cross3(sub(b, a), sub(c, a));
+  double len = math::sqrt(polytope::dot(n, n));
+  P.valid = len > 0.0 && n.z != 0.0;
+  if (n.z < 0.0) len = -len;
+  put(1, {n.x / len, n.y / len, n.z / len});
+  const int side[3][3] = {{0, 1, 2}, {1, 2, 0}, {0, 2, 1}};  // FACES' sides: edge (j, k), the third point
+  for (int s = 0; s < 3; ++s) {
+    const Vec3 &p = top[side[s][0]], &q = top[side[s][1]], &o = top[side[s][2]];
+    Vec3 m = {q.y - p.y, p.x - q.x, 0.0};  // the edge turned by 90 degrees in the plane
+    const double l = math::sqrt(m.x * m.x + m.y * m.y);
+    P.valid = P.valid && l > 0.0;
+    if (m.x * (o.x - p.x) + m.y * (o.y - p.y) > 0.0) m = {-m.x, -m.y, 0.0};
+    put(2 + 2 * s, {m.x / l, m.y / l, 0.0});
+    put(3 + 2 * s, {m.x / l, m.y / l, 0.0});
   }
   return P;
 }
@@ -111,25 +119,38 @@ ELLIPSIM_HD Range cell_range(const Field& F, const Vec3& lc, const Mat3& L, cons
   return R;
 }
 
-// True when a face normal of the prism proves it beyond the margin: sigma(-m_f) = min_i -m_f.(v_i - lc) -
-// h_E(-m_f) is a lower bound on the signed distance for any unit direction (polytope.hpp's sigma; Schneider &
-// Eberly 10.5.2: h_E(n) = |diag(r) L^T n|), less its rounding allowance (PAIR_SIGMA_SLACK_ULPS of the pair's
-// scale).  Most prisms under the bounding box are apart, and this costs a few dot products, against a solve.
+// sigma(n) = min_i n.(v_i - lc) - h_E(n) at the unit n (field frame): a lower bound on the signed distance of E
+// and the prism for any unit direction (polytope.hpp's sigma; Schneider & Eberly 10.5.2: h_E(n) = |diag(r) L^T n|).
+ELLIPSIM_HD double prism_sigma(const Prism& P, const Vec3& lc, const Mat3& L, const Vec3& r, const Vec3& n) {
+  double lo = INFINITY;
+  for (int i = 0; i < NV; ++i)
+    lo = min2(lo, n.x * (P.v[3 * i] - lc.x) + n.y * (P.v[3 * i + 1] - lc.y) + n.z * (P.v[3 * i + 2] - lc.z));
+  const Vec3 w = rotate_t(L, n);  // n in E's frame
+  return lo - math::sqrt(r.x * r.x * w.x * w.x + r.y * r.y * w.y * w.y + r.z * r.z * w.z * w.z);
+}
+
+// True when a direction proves the prism beyond the margin: sigma less its rounding allowance
+// (PAIR_SIGMA_SLACK_ULPS of the pair's scale) at a face normal, or from E's centre towards the nearest point of
+// the prism's top (the separating direction of a prism beside or below E's side).  Most prisms under the bounding
+// box are apart, and this costs a few dot products, against a solve.
 ELLIPSIM_HD bool apart_by_faces(const Prism& P, const Vec3& lc, const Mat3& L, const Vec3& r, double margin) {
   double far = 0.0;
   for (int i = 0; i < NV; ++i)
     far = max2(far, math::fabs(P.v[3 * i] - lc.x) + math::fabs(P.v[3 * i + 1] - lc.y) + math::fabs(P.v[3 * i + 2] - lc.z));
-  const double slack = tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(r));
-  for (int f = 0; f < NF; ++f) {
-    const Vec3 n = {-P.normal[3 * f], -P.normal[3 * f + 1], -P.normal[3 * f + 2]};
-    double lo = INFINITY;
-    for (int i = 0; i < NV; ++i)
-      lo = min2(lo, n.x * (P.v[3 * i] - lc.x) + n.y * (P.v[3 * i + 1] - lc.y) + n.z * (P.v[3 * i + 2] - lc.z));
-    const Vec3 w = rotate_t(L, n);  // n in E's frame
-    const double h = math::sqrt(r.x * r.x * w.x * w.x + r.y * r.y * w.y * w.y + r.z * r.z * w.z * w.z);
-    if (lo - h - slack >= margin) return true;
+  const double bar = margin + tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(r));
+  auto beyond = [&](int f) {
+    return prism_sigma(P, lc, L, r, {-P.normal[3 * f], -P.normal[3 * f + 1], -P.normal[3 * f + 2]}) >= bar;
+  };
+  if (beyond(1)) return true;  // the top, most often
+  const Vec3 x = polytope::nearest_on_triangle(lc, polytope::vertex(P.v, 3), polytope::vertex(P.v, 4),
+                                               polytope::vertex(P.v, 5));
+  const Vec3 d = sub(x, lc);
+  const double dd = polytope::dot(d, d);
+  if (dd > 0.0) {
+    const double s = 1.0 / math::sqrt(dd);
+    if (prism_sigma(P, lc, L, r, {d.x * s, d.y * s, d.z * s}) >= bar) return true;
   }
-  return false;
+  return beyond(2) || beyond(4) || beyond(6) || beyond(0);  // the sides (two triangles each), the base
 }
 
 // One contact: signed distance, unit normal from the field to the ellipsoid, point (world frame).

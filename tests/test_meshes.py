@@ -251,3 +251,64 @@ def test_mistakes_are_clear_errors(call, message):
 CUBE = convex_hull(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float) * 0.1)
 FIELD = HeightField(np.zeros((3, 3), np.float32), np.array([1.0, 1.0, 0.1, 0.05]))
 assert isinstance(CUBE, Hull)
+
+
+def test_two_models_with_different_meshes_attached_at_once_keep_their_own_hulls():
+    """Two terrain scenes of different meshes and fields, attached together and stepped in turn: each data's
+    trajectory is its solo run's, bit for bit (the hull table is per data, read through its registry row)."""
+
+    def solo(xml, steps):
+        model = mujoco.MjModel.from_xml_string(xml)
+        data = mujoco.MjData(model)
+        with em.attach(model, data, mode="narrowphase"):
+            for _ in range(steps):
+                mujoco.mj_step(model, data)
+        return data.qpos.copy()
+
+    xmls = [terrain_xml(3, n=6, meshes=3), terrain_xml(4, n=6, meshes=2, nrow=20, ncol=25)]
+    want = [solo(x, 150) for x in xmls]
+    models = [mujoco.MjModel.from_xml_string(x) for x in xmls]
+    datas = [mujoco.MjData(m) for m in models]
+    with em.attach(models[0], datas[0], mode="narrowphase"), em.attach(models[1], datas[1], mode="narrowphase"):
+        for _ in range(150):
+            for m, d in zip(models, datas):
+                mujoco.mj_step(m, d)
+    for d, w in zip(datas, want):
+        np.testing.assert_array_equal(d.qpos.view(np.int64), w.view(np.int64))
+
+
+def test_a_mesh_contact_within_the_margin_is_mujocos_rule_and_a_fields_is_its_distance():
+    """With a 1 cm margin: an ellipsoid 5 mm from a mesh gets a contact whose dist is the signed distance (MuJoCo's
+    mjc_Convex run tight gives the same), and one 5 mm above a field's prism a contact per prism within the
+    margin, dist the prism's signed distance (MuJoCo's own field function raises its prisms by the margin
+    instead: module docstring of pairs/height_field.hpp)."""
+    points = np.random.default_rng(8).normal(size=(20, 3)) * 0.1
+    xml = (
+        f'<mujoco><asset><mesh name="m" vertex="{" ".join(f"{x:.6f}" for x in points.ravel())}"/></asset>'
+        '<worldbody><geom name="mesh" type="mesh" mesh="m" margin="0.005"/>'
+        '<body name="e" pos="0 0 0.5"><freejoint/><geom name="e" type="ellipsoid" size=".1 .06 .05" margin="0.005"/>'
+        "</body></worldbody></mujoco>"
+    )
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.opt.ccd_tolerance, model.opt.ccd_iterations = 1e-12, 1000
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    e, m = 1, 0
+    E = ellipsim.Ellipsoids(data.geom_xpos[e], data.geom_xmat[e].reshape(3, 3), model.geom_size[e])
+    d, n, _, _ = ellipsim.shape_distance(
+        E, "mesh", data.geom_xpos[m], data.geom_xmat[m].reshape(3, 3), mesh_hull(model, 0)
+    )
+    data.qpos[:3] += (d[0] - 0.005) * n[0]  # 5 mm apart (n from the ellipsoid), within the 1 cm margin
+    mujoco.mj_forward(model, data)
+    ours, theirs = _functions()
+    k, got = _call(ours, model, data, m, e, 0.01)  # (not attached: MuJoCo's own)
+    kt, want = _call(theirs[(ELLIPSOID, MESH)], model, data, e, m, 0.01)
+    with em.attach(model, data, mode="narrowphase"):
+        k, got = _call(ours, model, data, e, m, 0.01)
+    assert k == kt == 1 and abs(got[0, 0] - 0.005) < 1e-12 and abs(want[0, 0] - 0.005) < 1e-9
+    field = HeightField(np.full((3, 3), 0.5, np.float32), np.array([1.0, 1.0, 0.2, 0.1]))
+    E = ellipsim.Ellipsoids([0.3, 0.2, 0.1 + 0.05 + 0.005], np.eye(3), [0.2, 0.15, 0.05])
+    c = hfield_contacts(E, np.zeros(3), np.eye(3), field, margin=0.01)
+    dist = c.dist[0, : c.count[0]]  # the prism under the lowest point, and its cell's other one within 1 cm
+    assert c.count[0] == 2 and abs(dist.min() - 0.005) < 1e-12 and (dist < 0.01).all()
+    assert hfield_contacts(E, np.zeros(3), np.eye(3), field, margin=0.004).count[0] == 0

@@ -243,7 +243,7 @@ void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Center
   if (static_cast<int>(faces.shape(0)) != H.nf) throw std::invalid_argument("one normal per face");
   for (int k = 0; k < 3 * H.nf; ++k)
     if (H.face[k] < 0 || H.face[k] >= H.nv) throw std::out_of_range("a face names a vertex the hull lacks");
-  std::vector<double> scratch(3 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
+  std::vector<double> scratch(7 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
   double* o = out.data();
   const double *C = CP.data(), *R = RP.data();
   nb::gil_scoped_release release;

@@ -12,7 +12,8 @@
 // at the incumbent) and ub1 = sd(x', P) - rho, x' the support point at n of E shrunk by its rolling radius rho
 // (E = E' + ball(rho): sigma(n) <= min_i n.(p_i - x') - rho <= sd(x', P) - rho for every n; tight when the
 // maximum is at n and no deeper than rho), sd the point-hull signed distance (the nearest triangle outside).
-// Status CERTIFIED when ub1 is within tol.
+// Status CERTIFIED when ub1 is within tol, or else ub2 (box.hpp's): sd(c, E) - t for a ball(c, t) inside P, the
+// largest tangent to P's supporting plane at the witness (closes deep face contacts, and vertex contacts).
 //
 // Otherwise (deep crossings) the case analysis: the global maximum lies in one stratum, an interior critical
 // point of its f_q (a 3-D or 2-D point-ellipsoid problem: point_ellipsoid.hpp's foot3 / foot2, every other root of
@@ -24,9 +25,10 @@
 //
 // The hull: vertices in P's local frame, its edges (vertex pairs), its triangles and their outward normals.  Extra
 // edges (a flat face's diagonals) only add candidates; every edge and face of the hull must be among them.  A
-// candidate's sigma, which reads every vertex, is computed only where its piece's f_q beats the incumbent.  Not
-// here yet: ub2 (a ball inside P) for deep pairs, and pruning of the enumeration by tangent planes over the
-// pieces' normal cones: deep crossings of large hulls cost O(V + E) point-ellipsoid problems.
+// candidate's sigma, which reads every vertex, is computed only where its piece's f_q beats the incumbent.  Before
+// the pieces are solved, each vertex's closed stratum (the negated normal cone at p_i, spanned by the -m_f of
+// its triangles) is tested against the incumbent with one tangent plane of h_E (tangent_cones.hpp): a vertex
+// below is skipped with every edge through it, so deep crossings solve only the pieces near the maximum.
 #pragma once
 
 #include "../math.hpp"
@@ -35,6 +37,7 @@
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
 #include "point_ellipsoid.hpp"
+#include "tangent_cones.hpp"
 
 namespace ellipsim::pairs::polytope {
 
@@ -148,35 +151,86 @@ ELLIPSIM_HD bool edge_beaten(const double* p, int i, int j, double rmin, double 
              rmin * (1.0 - 8.0 * tol::U) <= best;
 }
 
+// The rounding allowance of the tangent tests (box.hpp's below_slack): the support points and the cone corners
+// are off by ulps, sigma by that times its Lipschitz bound, the hull's size + max a.
+ELLIPSIM_HD double below_slack(double size, const Vec3& a2, double best) {
+  return tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (size + math::sqrt(max2(max2(a2.x, a2.y), a2.z)) + math::fabs(best));
+}
+
+// closed[i] = 1 when f_{p_i} <= floor (< 0) on vertex i's whole closed stratum, the cone of the -m_f over the
+// triangles f through i (the normal cone of P at p_i, negated: Schneider, Convex Bodies 2.2), else 0.  One
+// tangent plane a vertex: f_{p_i}(n) <= (p_i - x_i).n for any x_i in E (h_E(n) >= n.x_i), below floor at every
+// corner, so on the cone (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners.
+// ctr: 3 nv numbers of scratch.  O(nf) and nv support points.
+ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, const double* m, double floor,
+                                double* ctr, double* closed) {
+  for (int i = 0; i < 3 * H.nv; ++i) ctr[i] = 0.0;
+  for (int i = 0; i < H.nv; ++i) closed[i] = floor < 0.0 ? 1.0 : 0.0;
+  if (!(floor < 0.0)) return;
+  for (int f = 0; f < H.nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = H.face[3 * f + k];
+      ctr[3 * i] -= m[3 * f];
+      ctr[3 * i + 1] -= m[3 * f + 1];
+      ctr[3 * i + 2] -= m[3 * f + 2];
+    }
+  for (int i = 0; i < H.nv; ++i) {
+    const Vec3 c = vertex(ctr, i);
+    if (!(dot(c, c) > 0.0)) {  // no triangle through i: its cone is unknown, solved
+      closed[i] = 0.0;
+      continue;
+    }
+    const Vec3 x = point_ellipsoid::support(a2, c).s;
+    ctr[3 * i] = p[3 * i] - x.x;
+    ctr[3 * i + 1] = p[3 * i + 1] - x.y;
+    ctr[3 * i + 2] = p[3 * i + 2] - x.z;
+  }
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 c = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]};
+    for (int k = 0; k < 3; ++k) {
+      const int i = H.face[3 * f + k];
+      if (closed[i] != 0.0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor)) closed[i] = 0.0;
+    }
+  }
+}
+
 // The maximum of sigma (top comment) over the hull p (E's frame, nv vertices) and its edges and face normals
-// (normals in E's frame, nf of them): (value, n).
-ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol) {
+// (normals in E's frame, nf of them), from the incumbent start (at least sigma at every face normal: local_max's):
+// (value, n).  A vertex whose closed stratum is below the incumbent (close_vertices) is skipped with every edge
+// through it (an edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}).  scratch: 4 nv
+// numbers.
+ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
+                               const Best& start, double* scratch) {
   const int nv = H.nv;
   const double rmin = math::sqrt(min2(min2(a2.x, a2.y), a2.z));
-  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
-  // the incumbent: every face normal (n = -m_f: the face's vertices minimise n.p) and every piece's global
-  // maximiser
-  for (int f = 0; f < H.nf; ++f)
-    consider(a2, p, nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  Best b = start;
+  double size = 0.0;
+  for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
+  double* closed = scratch + 3 * nv;
+  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), scratch, closed);
+  // the incumbent: every open piece's global maximiser
   for (int i = 0; i < nv; ++i)
-    if (!vertex_beaten(vertex(p, i), rmin, b.value + tol)) consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
+    if (closed[i] == 0.0 && !vertex_beaten(vertex(p, i), rmin, b.value + tol))
+      consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
   for (int k = 0; k < H.ne; ++k) {
-    if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
-    const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
+    const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+    if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
+    const EdgeProblem ep = edge_problem(a2, p, i, j);
     const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
     consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
   }
-  // every other critical point of the pieces whose extended function could beat it
+  // every other critical point of the open pieces whose extended function could beat it
   for (int i = 0; i < nv; ++i) {
     const Vec3 q = vertex(p, i);
-    if (vertex_beaten(q, rmin, b.value + tol)) continue;
+    if (closed[i] != 0.0 || vertex_beaten(q, rmin, b.value + tol)) continue;
     const point_ellipsoid::Foot3 ft = foot3(a2, q);
     if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
     point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); });
   }
   for (int k = 0; k < H.ne; ++k) {
-    if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
-    const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
+    const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+    if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
+    const EdgeProblem ep = edge_problem(a2, p, i, j);
     const double lam = ep.el.lam, mu = ep.el.mu;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
     if (sd_upper2(lam, mu, ep.p.x, ep.p.y, ft.t) <= b.value + tol) continue;
@@ -269,21 +323,23 @@ ELLIPSIM_HD Vec3 nearest_on_triangle(const Vec3& w, const Vec3& a, const Vec3& b
 
 // The signed distance of the point w from the hull (E's frame): inside (below every face plane), minus the
 // distance to the nearest face plane; outside, the distance to the nearest triangle (its nearest point a point
-// of the hull, to rounding: an upper bound whatever the case, exact to rounding).
+// of the hull, to rounding: an upper bound whatever the case, exact to rounding).  Outside, only the triangles
+// whose plane w is above: the nearest point y of P lies on one (w - y is in P's normal cone at y, a non-negative
+// sum of the normals m_g of the faces through y, and |w - y|^2 > 0 makes some m_g.(w - y) > 0; Ericson 5.1.2),
+// and a triangle left out only loosens the bound (each candidate is a point of P).
 ELLIPSIM_HD double sd_point_hull(const Vec3& w, const double* p, const Hull& H, const double* m) {
-  double smax = -INFINITY;
+  double smax = -INFINITY, best = INFINITY;
   for (int f = 0; f < H.nf; ++f) {
     const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
-    smax = max2(smax, dot(mf, w) - dot(mf, vertex(p, H.face[3 * f])));
-  }
-  if (smax <= 0.0) return smax;
-  double best = INFINITY;
-  for (int f = 0; f < H.nf; ++f) {
-    const Vec3 x = nearest_on_triangle(w, vertex(p, H.face[3 * f]), vertex(p, H.face[3 * f + 1]),
-                                       vertex(p, H.face[3 * f + 2]));
+    const Vec3 a = vertex(p, H.face[3 * f]);
+    const double d = dot(mf, w) - dot(mf, a);
+    smax = max2(smax, d);
+    if (!(d > 0.0)) continue;
+    const Vec3 x = nearest_on_triangle(w, a, vertex(p, H.face[3 * f + 1]), vertex(p, H.face[3 * f + 2]));
     const Vec3 z = sub(w, x);
     best = min2(best, dot(z, z));
   }
+  if (smax <= 0.0) return smax;
   return math::sqrt(best);
 }
 
@@ -293,6 +349,46 @@ ELLIPSIM_HD double upper_bound1(const Vec3& a2, const double* p, const Hull& H, 
                                 const Vec3& n) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   return sd_point_hull({s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z}, p, H, m) - rho;
+}
+
+// ub2 (box.hpp's): for a ball(c, t) inside P, sigma(n) <= sd(c, E) - t for every n (P contains the ball, whose
+// signed distance from E is sd(c, E) - t; sd bounded above by sd_upper, weak duality).  c: the witness
+// x = s(n) + value n moved along n (into P) to the centre of the largest ball tangent to x's supporting plane
+// there, t: c's depth below every face plane, deflated by its rounding (a few ulps of |c| + the hull's size);
+// when c is not inside (t < 0), the lowest vertex (t = 0).  Tight for deep face contacts (the ball rolls E's
+// witness), and for deep vertex and edge contacts no deeper than E's curvature radius there.
+ELLIPSIM_HD double upper_bound2(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n,
+                                double value) {
+  const Vec3 s = point_ellipsoid::support(a2, n).s;
+  const Vec3 x = {s.x + value * n.x, s.y + value * n.y, s.z + value * n.z};
+  double reach = INFINITY;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const double den = 1.0 + dot(mf, n);  // the plane's approach along n per unit of radius
+    if (den > 1e-9) reach = min2(reach, (dot(mf, vertex(p, H.face[3 * f])) - dot(mf, x)) / den);
+  }
+  const double r = reach < INFINITY ? max2(reach, 0.0) : 0.0;
+  const Vec3 c = {x.x + r * n.x, x.y + r * n.y, x.z + r * n.z};
+  double t = INFINITY, size = 0.0;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const Vec3 a = vertex(p, H.face[3 * f]);
+    t = min2(t, dot(mf, a) - dot(mf, c));
+    size = max2(size, math::fabs(a.x) + math::fabs(a.y) + math::fabs(a.z));
+  }
+  t -= tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (math::fabs(c.x) + math::fabs(c.y) + math::fabs(c.z) + size);
+  if (t >= 0.0) return sd_upper(a2, c, foot3(a2, c).t) - t;
+  int k = 0;
+  double lo = INFINITY;
+  for (int i = 0; i < H.nv; ++i) {
+    const double v = dot(n, vertex(p, i));
+    if (v < lo) {
+      lo = v;
+      k = i;
+    }
+  }
+  const Vec3 q = vertex(p, k);
+  return sd_upper(a2, q, foot3(a2, q).t);
 }
 
 // (status, dist, normal, pos, ub).
@@ -305,7 +401,7 @@ struct Result {
 
 // For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
 // distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
-// box.hpp), status CERTIFIED or ENUMERATED.  scratch: 3 H.nv + 3 H.nf numbers.
+// box.hpp), status CERTIFIED or ENUMERATED.  scratch: 7 H.nv + 3 H.nf numbers.
 ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
                                       double* scratch) {
   double* p = scratch;
@@ -321,10 +417,11 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
   Best b = local_max(a2, p, H, m);
-  const double ub = upper_bound1(a2, p, H, m, distance::rolling_radius(E.r), b.n);
+  double ub = upper_bound1(a2, p, H, m, distance::rolling_radius(E.r), b.n);
+  if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound2(a2, p, H, m, b.n, b.value));
   int status = CERTIFIED;
   if (!(ub - b.value <= tol)) {
-    b = enumerate_max(a2, p, H, m, tol);
+    b = enumerate_max(a2, p, H, m, tol, b, scratch + 3 * H.nv + 3 * H.nf);
     status = ENUMERATED;
   }
   const point_ellipsoid::Contact c = contact_in_world(E, a2, b.n, b.value);

@@ -242,17 +242,17 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
 
 // --- the certified path (box.hpp's ub1): a local maximum from the face normals, then one bound --------------
 
-// The incumbent from the face normals, refined on the pieces active there: the vertices lowest in n.p (at most 16,
-// within 1e-2 of the hull's size of the lowest) and the edges between them, their global maximisers, for a few
-// rounds while it improves.  Only a start: the proof is ub1's, or the enumeration's.
-ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m) {
+// The incumbent b refined on the pieces active at it: the vertices lowest in n.p (at most 16, within band times
+// the hull's size of the lowest) and the edges between them, their global maximisers, for up to `rounds` rounds
+// while it improves.  Only a start: the proof is ub1's, ub2's or the enumeration's.  mark: nv numbers of scratch,
+// all 0 on entry and on return.
+ELLIPSIM_HD Best refine(const Vec3& a2, const double* p, const Hull& H, Best b, double band, int rounds,
+                        double* mark) {
   const int nv = H.nv;
-  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
-  for (int f = 0; f < H.nf; ++f)
-    consider(a2, p, nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
   double scale = 0.0;
-  for (int i = 0; i < nv; ++i) scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
-  for (int round = 0; round < 8; ++round) {
+  for (int i = 0; i < nv; ++i)
+    scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+  for (int round = 0; round < rounds; ++round) {
     const Best before = b;
     // the (at most 16) vertices lowest in n.p, by insertion into a sorted list
     int active[16];
@@ -270,23 +270,34 @@ ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const
       key[k] = v;
       active[k] = i;
     }
-    while (na > 1 && key[na - 1] > key[0] + 1e-2 * scale) --na;  // within a band of the lowest
-    for (int k = 0; k < na; ++k) consider(a2, p, nv, vertex(p, active[k]), foot3(a2, vertex(p, active[k])).n, b);
-    for (int k = 0; k < H.ne; ++k) {
-      const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-      bool in_i = false, in_j = false;
-      for (int a = 0; a < na; ++a) {
-        in_i = in_i || active[a] == i;
-        in_j = in_j || active[a] == j;
-      }
-      if (!(in_i && in_j)) continue;
-      const EdgeProblem ep = edge_problem(a2, p, i, j);
-      const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
-      consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+    while (na > 1 && key[na - 1] > key[0] + band * scale) --na;  // within a band of the lowest
+    for (int k = 0; k < na; ++k) {
+      mark[active[k]] = 1.0;
+      consider(a2, p, nv, vertex(p, active[k]), foot3(a2, vertex(p, active[k])).n, b);
     }
+    if (na > 1)
+      for (int k = 0; k < H.ne; ++k) {
+        const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+        if (mark[i] == 0.0 || mark[j] == 0.0) continue;
+        const EdgeProblem ep = edge_problem(a2, p, i, j);
+        const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
+        consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+      }
+    for (int k = 0; k < na; ++k) mark[active[k]] = 0.0;
     if (b.value == before.value) break;
   }
   return b;
+}
+
+// The best face normal (n = -m_f: the face's vertices minimise n.p), refined (refine) on a band of rounding width
+// (1e-6 of the size: the contact feature, a face, an edge or a vertex, and its ties); polytope_ellipsoid widens
+// the band when ub1 does not close there.  mark: as refine's.
+ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double* mark) {
+  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
+  for (int f = 0; f < H.nf; ++f)
+    consider(a2, p, H.nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
+  return refine(a2, p, H, b, 1e-6, 16, mark);
 }
 
 // The point of the triangle (a, b, c) nearest to w (Ericson, Real-Time Collision Detection 5.1.5: by the Voronoi
@@ -416,8 +427,16 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   }
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
-  Best b = local_max(a2, p, H, m);
-  double ub = upper_bound1(a2, p, H, m, distance::rolling_radius(E.r), b.n);
+  Best b = local_max(a2, p, H, m, scratch + 6 * H.nv + 3 * H.nf);
+  const double rho = distance::rolling_radius(E.r);
+  double ub = upper_bound1(a2, p, H, m, rho, b.n);
+  if (!(ub - b.value <= tol)) {  // the pieces of a wider band (1e-2 of the hull's size), then ub1 again
+    const Best wide = refine(a2, p, H, b, 1e-2, 8, scratch + 6 * H.nv + 3 * H.nf);
+    if (wide.value > b.value) {
+      b = wide;
+      ub = upper_bound1(a2, p, H, m, rho, b.n);
+    }
+  }
   if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound2(a2, p, H, m, b.n, b.value));
   int status = CERTIFIED;
   if (!(ub - b.value <= tol)) {

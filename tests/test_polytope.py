@@ -98,7 +98,7 @@ def test_extra_edges_and_faces_change_nothing_and_a_bad_edge_is_refused():
     """Every vertex pair as an edge and every face normal twice: only more candidates, the same maximum; an
     edge naming a vertex the hull lacks raises, nothing is read past the arrays."""
     rng = np.random.default_rng(5)
-    V, E, N, F = hull_of(rng.normal(size=(20, 3)) * 0.2)
+    V, E, N, F = hull = hull_of(rng.normal(size=(20, 3)) * 0.2)
     extra = np.array([(i, j) for i in range(len(V)) for j in range(i + 1, len(V))], np.int32)
     args = [
         np.zeros((1, 3)),
@@ -107,7 +107,7 @@ def test_extra_edges_and_faces_change_nothing_and_a_bad_edge_is_refused():
         np.array([[0.1, 0.2, 0.05]]),
         np.eye(3)[None],
     ]
-    _, d, _, _ = kernel(*args, (V, E, N, F))
+    _, d, _, _ = kernel(*args, hull)
     _, d2, _, _ = kernel(*args, (V, extra, np.ascontiguousarray(np.concatenate([N, N])), np.concatenate([F, F])))
     assert abs(d[0] - d2[0]) <= 1e-15 * (1 + abs(d[0]))
     with pytest.raises(IndexError, match="edge names a vertex"):
@@ -211,3 +211,31 @@ def test_deep_crossings_close_by_ub2_and_the_pruned_enumeration_misses_nothing(c
     # in the hull touches the witness, and local maxima that are not global) go to the pruned enumeration
     share = {8: 0.55, 40: 0.55, 120: 0.2, 300: 0.1}[count]
     assert total >= 60 and certified >= share * total, (certified, total)
+
+
+def _mixed_pairs(rng, hull, n):
+    """n poses of the hull around one ellipsoid: apart, touching and deep mixed (E at the origin)."""
+    rE = np.repeat(rng.uniform(0.05, 0.15, 3)[None], n, 0)
+    RE = Rot.random(n, random_state=rng).as_matrix()
+    RP = Rot.random(n, random_state=rng).as_matrix()
+    cP = rng.normal(size=(n, 3)) * 0.15
+    return np.zeros((n, 3)), RE, rE, cP, RP
+
+
+def test_a_pair_is_the_same_alone_in_a_batch_and_in_any_order():
+    """The kernel's scratch is shared by the pairs of a batch: each pair's row bit-identical computed alone, in
+    the batch and in the batch reversed (nothing a pair leaves in the scratch reaches the next)."""
+    rng = np.random.default_rng(7)
+    hull = hull_of(rng.normal(size=(60, 3)) * 0.1)
+    args = _mixed_pairs(rng, hull, 60)
+    n = len(args[0])
+    batch = np.empty((n, 9))
+    ext.testing.polytope_ellipsoid(*args, *hull, batch, 0, n)
+    rev = np.empty((n, 9))
+    ext.testing.polytope_ellipsoid(*(np.ascontiguousarray(a[::-1]) for a in args), *hull, rev, 0, n)
+    assert np.array_equal(batch, rev[::-1])
+    for i in range(0, n, 7):
+        one = np.empty((1, 9))
+        ext.testing.polytope_ellipsoid(*(a[i : i + 1] for a in args), *hull, one, 0, 1)
+        assert np.array_equal(one[0], batch[i]), i
+    assert (batch[:, 0] == ENUMERATED).sum() > 0 and (batch[:, 0] == CERTIFIED).sum() > 0

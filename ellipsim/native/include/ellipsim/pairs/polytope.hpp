@@ -8,12 +8,15 @@
 // n.q - h_E(n), q = p_i), each edge's open arc (n normal to the edge, sigma = f_q in that plane, q the edge's
 // midpoint) and each face's normal point.
 //
-// Certified path: a local maximum (local_max: the face normals, then the global maximisers of the pieces active
-// at the incumbent) and ub1 = sd(x', P) - rho, x' the support point at n of E shrunk by its rolling radius rho
-// (E = E' + ball(rho): sigma(n) <= min_i n.(p_i - x') - rho <= sd(x', P) - rho for every n; tight when the
-// maximum is at n and no deeper than rho), sd the point-hull signed distance (the nearest triangle outside).
-// Status CERTIFIED when ub1 is within tol, or else ub2 (box.hpp's): sd(c, E) - t for a ball(c, t) inside P, the
-// largest tangent to P's supporting plane at the witness (closes deep face contacts, and vertex contacts).
+// Certified path: a local maximum and ub1 = sd(x', P) - rho, x' the support point at n of E shrunk by its rolling
+// radius rho (E = E' + ball(rho): sigma(n) <= min_i n.(p_i - x') - rho <= sd(x', P) - rho for every n; tight when
+// the maximum is at n and no deeper than rho), sd the point-hull signed distance (the nearest triangle outside).
+// With the hull's adjacency the local maximum is found by walking: the lowest vertex by descent along the edges
+// (the simplex method's test), the pieces of the contact feature only, ub1 over the feature's triangles (each
+// point of a triangle is a point of P): no pass over the hull for apart and touching pairs.  Otherwise, or when
+// that does not close, the best face normal and its feature's pieces, a wider band's, the full ub1.  Status
+// CERTIFIED when ub1 is within tol, or else ub2 (box.hpp's): sd(c, E) - t for a ball(c, t) inside P, the largest
+// tangent to P's supporting plane at the witness (closes deep face contacts, and vertex contacts).
 //
 // Otherwise (deep crossings) the case analysis: the global maximum lies in one stratum, an interior critical
 // point of its f_q (a 3-D or 2-D point-ellipsoid problem: point_ellipsoid.hpp's foot3 / foot2, every other root of
@@ -27,8 +30,9 @@
 // edges (a flat face's diagonals) only add candidates; every edge and face of the hull must be among them.  A
 // candidate's sigma, which reads every vertex, is computed only where its piece's f_q beats the incumbent.  Before
 // the pieces are solved, each vertex's closed stratum (the negated normal cone at p_i, spanned by the -m_f of
-// its triangles) is tested against the incumbent with one tangent plane of h_E (tangent_cones.hpp): a vertex
-// below is skipped with every edge through it, so deep crossings solve only the pieces near the maximum.
+// its triangles) is tested against the incumbent with one tangent plane of h_E (tangent_cones.hpp), then by its
+// f_q's global bound, then on the fan of its cone (cone_below's subdivided planes): a vertex below is skipped
+// with every edge through it, so deep crossings solve only the pieces near the maximum.
 #pragma once
 
 #include "../math.hpp"
@@ -57,12 +61,20 @@ constexpr int CERTIFIED = 0, ENUMERATED = 1;
 
 // A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf triangular
 // faces (3 nf vertex indices; a flat face may be several) and their outward unit normals (3 nf numbers).
+// Optionally (nullptr: none) its adjacency, for the fast start and the fans: each vertex i's neighbours
+// adj[adj_start[i] .. adj_start[i + 1]) along the edges and every triangle vface[vface_start[i] ..
+// vface_start[i + 1]) through it, exactly those of edge and face (the descent and the fans' proofs rest on them:
+// the binding builds them from edge and face).
 struct Hull {
   int nv, ne, nf;
   const double* v;
   const int* edge;
   const double* normal;
   const int* face;
+  const int* adj_start = nullptr;
+  const int* adj = nullptr;
+  const int* vface_start = nullptr;
+  const int* vface = nullptr;
 };
 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
@@ -194,11 +206,43 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, 
   }
 }
 
+// f_{p_i} <= floor (< 0) on vertex i's closed stratum, proven on the fan of its cone: for each edge (i, j), the
+// spherical triangle of the cone's centre c (the sum of the corners, inside it) and the normals -m_f, -m_g of two
+// triangles through i and j (every such pair: the cone's boundary arcs are among them, so the fan covers the cone,
+// and every triangle of corners lies in it), each by tangent_cones.hpp's cone_below (up to 4 levels of quarters;
+// xb the tangent point at the incumbent bn).  Needs the triangles through i (vface).
+ELLIPSIM_HD bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, const Vec3& bn,
+                           const Vec3& xb, double floor) {
+  const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
+  Vec3 c = {0.0, 0.0, 0.0};
+  for (int k = k0; k < k1; ++k) {
+    const int f = H.vface[k];
+    c = {c.x - m[3 * f], c.y - m[3 * f + 1], c.z - m[3 * f + 2]};
+  }
+  const Vec3 q = vertex(p, i);
+  const Vec3 axis = {0.0, 0.0, 1.0};  // no disc (r = 0)
+  for (int k = k0; k < k1; ++k) {
+    const int f = H.vface[k];
+    for (int e = 0; e < 3; ++e) {
+      const int j = H.face[3 * f + e];
+      if (j == i) continue;
+      for (int l = k + 1; l < k1; ++l) {
+        const int g = H.vface[l];
+        if (H.face[3 * g] != j && H.face[3 * g + 1] != j && H.face[3 * g + 2] != j) continue;
+        const Vec3 mf = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, mg = {-m[3 * g], -m[3 * g + 1], -m[3 * g + 2]};
+        if (!tangent_cones::cone_below(a2, q, axis, 0.0, bn, xb, c, mf, mg, floor)) return false;
+      }
+    }
+  }
+  return k1 > k0;
+}
+
 // The maximum of sigma (top comment) over the hull p (E's frame, nv vertices) and its edges and face normals
 // (normals in E's frame, nf of them), from the incumbent start (at least sigma at every face normal: local_max's):
-// (value, n).  A vertex whose closed stratum is below the incumbent (close_vertices) is skipped with every edge
-// through it (an edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}).  scratch: 4 nv
-// numbers.
+// (value, n).  A vertex whose closed stratum is below the incumbent is skipped with every edge through it (an
+// edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}): by one tangent plane
+// (close_vertices), by its f's global bound (|q| - r_min, sd_upper), or by the fan of its cone (fan_below, with
+// the adjacency).  scratch: 4 nv numbers.
 ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
                                const Best& start, double* scratch) {
   const int nv = H.nv;
@@ -208,10 +252,23 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
   for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
   double* closed = scratch + 3 * nv;
   close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), scratch, closed);
-  // the incumbent: every open piece's global maximiser
+  // the incumbent: every open vertex's global maximiser
   for (int i = 0; i < nv; ++i)
     if (closed[i] == 0.0 && !vertex_beaten(vertex(p, i), rmin, b.value + tol))
       consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
+  // vertices closed by their global bound, or by their fan
+  const double floor = b.value + tol - below_slack(size, a2, b.value);
+  const Vec3 xb = tangent_cones::tangent_point(a2, {0.0, 0.0, 1.0}, 0.0, b.n);
+  double lowest = INFINITY;  // at the incumbent: a vertex tied there holds it in its cone, its fan cannot close
+  for (int i = 0; i < nv; ++i) lowest = min2(lowest, dot(b.n, vertex(p, i)));
+  for (int i = 0; i < nv; ++i) {
+    if (closed[i] != 0.0) continue;
+    const Vec3 q = vertex(p, i);
+    if (vertex_beaten(q, rmin, b.value + tol) || sd_upper(a2, q, foot3(a2, q).t) <= b.value + tol ||
+        (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
+         fan_below(a2, p, H, m, i, b.n, xb, floor)))
+      closed[i] = 1.0;
+  }
   for (int k = 0; k < H.ne; ++k) {
     const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
     if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
@@ -402,6 +459,130 @@ ELLIPSIM_HD double upper_bound2(const Vec3& a2, const double* p, const Hull& H, 
   return sd_upper(a2, q, foot3(a2, q).t);
 }
 
+// --- the fast start (a hull with its adjacency): the contact feature found by walking the edges -------------
+
+// The vertex lowest in n.p, by descent along the edges from `start`: a vertex no edge descends from minimises the
+// linear function over the polytope (the simplex method's optimality test; Ziegler, Lectures on Polytopes 3.2).
+ELLIPSIM_HD int descend(const double* p, const Hull& H, const Vec3& n, int start) {
+  int i = start;
+  double v = dot(n, vertex(p, i));
+  for (;;) {
+    int next = i;
+    for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
+      const double w = dot(n, vertex(p, H.adj[k]));
+      if (w < v) {
+        v = w;
+        next = H.adj[k];
+      }
+    }
+    if (next == i) return i;
+    i = next;
+  }
+}
+
+// consider with sigma by descent from *low (the incumbent's lowest vertex, moved to the candidate's when it wins).
+ELLIPSIM_HD void consider_walk(const Vec3& a2, const double* p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
+                               int& low) {
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > b.value)) return;
+  const int k = descend(p, H, n, low);
+  const double v = dot(n, vertex(p, k)) - h;
+  if (v > b.value) {
+    b = {v, n};
+    low = k;
+  }
+}
+
+// The vertices within band of the lowest (low) in n.p, at most 16, by a walk along the edges from low (every
+// one is reached: from each, a descending path to low stays in the band), marked in mark; returns their count.
+ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, double band, int* active,
+                        double* mark) {
+  const double top = dot(n, vertex(p, low)) + band;
+  int na = 1;
+  active[0] = low;
+  mark[low] = 1.0;
+  for (int a = 0; a < na; ++a) {
+    const int i = active[a];
+    for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && na < 16; ++k) {
+      const int j = H.adj[k];
+      if (mark[j] == 0.0 && dot(n, vertex(p, j)) <= top) {
+        mark[j] = 1.0;
+        active[na++] = j;
+      }
+    }
+  }
+  return na;
+}
+
+// The incumbent b (its lowest vertex low) refined as refine does but locally: per round the vertices of the
+// contact feature (feature, within band_rel of max(scale, |p_low|_1), at most 16), their global maximisers, the normals of the
+// triangles through them and the edges between them (all_edges: every edge through them; with the triangles, the
+// pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no
+// pass over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.
+ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const double* m, Best b, int& low,
+                             double band_rel, double scale, int rounds, bool all_edges, double* mark) {
+  int active[16];
+  for (int round = 0; round < rounds; ++round) {
+    const Best before = b;
+    const Vec3 pl = vertex(p, low);
+    const double band = band_rel * max2(scale, math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z));
+    const int na = feature(p, H, b.n, low, band, active, mark);
+    for (int a = 0; a < na; ++a) {
+      const int i = active[a];
+      consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low);
+      for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
+        const int f = H.vface[k];
+        consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b, low);
+      }
+      for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
+        const int j = H.adj[k];
+        if (mark[j] != 0.0 ? j <= i : !all_edges) continue;  // an edge between two of the feature's vertices once
+        const EdgeProblem ep = edge_problem(a2, p, i, j);
+        const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
+        consider_walk(a2, p, H, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b, low);
+      }
+    }
+    for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
+    if (b.value == before.value) break;
+  }
+  return b;
+}
+
+// A local maximum from n0 (nonzero): its lowest vertex by descent from vertex 0, then walk_refine on the contact
+// feature (band 1e-6).
+ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n0, int& low,
+                          double* mark) {
+  const Vec3 n = unit(n0);
+  low = descend(p, H, n, 0);
+  const Best b = {dot(n, vertex(p, low)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z), n};
+  return walk_refine(a2, p, H, m, b, low, 1e-6, 0.0, 16, false, mark);
+}
+
+// ub1 (upper_bound1) with the distance bounded by the triangles through the contact feature at n only: each
+// point y of a triangle is a point of P, so sd(x', P) <= |x' - y| whatever x' (inside P, sd < 0); tight when the
+// witness lies on one of them.  mark: as walk_max's.
+ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const double* p, const Hull& H, double rho, const Vec3& n,
+                                     int low, double* mark) {
+  const Vec3 s = point_ellipsoid::support(a2, n).s;
+  const Vec3 w = {s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z};
+  int active[16];
+  const Vec3 pl = vertex(p, low);
+  const int na = feature(p, H, n, low, 1e-6 * (math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z)), active, mark);
+  double best = INFINITY;
+  for (int a = 0; a < na; ++a) {
+    const int i = active[a];
+    for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
+      const int f = H.vface[k];
+      const Vec3 x = nearest_on_triangle(w, vertex(p, H.face[3 * f]), vertex(p, H.face[3 * f + 1]),
+                                         vertex(p, H.face[3 * f + 2]));
+      const Vec3 z = sub(w, x);
+      best = min2(best, dot(z, z));
+    }
+  }
+  for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
+  return math::sqrt(best) - rho;
+}
+
 // (status, dist, normal, pos, ub).
 struct Result {
   int status;
@@ -427,14 +608,51 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   }
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
-  Best b = local_max(a2, p, H, m, scratch + 6 * H.nv + 3 * H.nf);
   const double rho = distance::rolling_radius(E.r);
-  double ub = upper_bound1(a2, p, H, m, rho, b.n);
-  if (!(ub - b.value <= tol)) {  // the pieces of a wider band (1e-2 of the hull's size), then ub1 again
-    const Best wide = refine(a2, p, H, b, 1e-2, 8, scratch + 6 * H.nv + 3 * H.nf);
-    if (wide.value > b.value) {
-      b = wide;
-      ub = upper_bound1(a2, p, H, m, rho, b.n);
+  double* mark = scratch + 6 * H.nv + 3 * H.nf;  // zeroed: the result never hangs on what scratch held
+  for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
+  Best b;
+  double ub = INFINITY;
+  if (H.adj_start != nullptr && H.vface_start != nullptr) {
+    // the fast start, from P's origin's direction; then the best face normal (sigma by descent), the contact
+    // feature's pieces, a wider band's (1e-2 of |p_low|): ub1 over the feature's triangles after each
+    const Vec3 o = rotate_t(E.R, sub(cP, E.c));
+    int low = 0;
+    b = walk_max(a2, p, H, m, dot(o, o) > 0.0 ? o : Vec3{0.0, 0.0, 1.0}, low, mark);
+    b.value = sigma_hull(a2, p, H.nv, b.n);
+    ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+    double scale = 0.0;  // the hull's size from E's centre, as refine's
+    if (!(ub - b.value <= tol))
+      for (int i = 0; i < H.nv; ++i)
+        scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+    for (int stage = 0; stage < 2 && !(ub - b.value <= tol); ++stage) {
+      Best w = b;
+      if (stage == 0) {
+        for (int f = 0; f < H.nf; ++f)
+          consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
+        w = walk_refine(a2, p, H, m, w, low, 1e-6, scale, 16, true, mark);
+      } else {
+        w = walk_refine(a2, p, H, m, w, low, 1e-2, scale, 8, false, mark);
+      }
+      w.value = sigma_hull(a2, p, H.nv, w.n);
+      if (w.value > b.value) {
+        b = w;
+        ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+      } else {
+        low = descend(p, H, b.n, low);  // back to the incumbent's lowest vertex
+      }
+    }
+    // the full ub1: x' inside P (a crossing deeper than rho) is bounded by every face plane
+    if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound1(a2, p, H, m, rho, b.n));
+  } else {
+    b = local_max(a2, p, H, m, mark);
+    ub = upper_bound1(a2, p, H, m, rho, b.n);
+    if (!(ub - b.value <= tol)) {  // the pieces of a wider band (1e-2 of the hull's size), then ub1 again
+      const Best wide = refine(a2, p, H, b, 1e-2, 8, mark);
+      if (wide.value > b.value) {
+        b = wide;
+        ub = upper_bound1(a2, p, H, m, rho, b.n);
+      }
     }
   }
   if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound2(a2, p, H, m, b.n, b.value));

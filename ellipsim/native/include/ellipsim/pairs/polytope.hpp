@@ -252,10 +252,14 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
   for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
   double* closed = scratch + 3 * nv;
   close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), scratch, closed);
-  // the incumbent: every open vertex's global maximiser
+  // the incumbent: every open vertex's global maximiser (its f's global bound sd_upper kept in scratch[3 i]:
+  // close_vertices is done with it; a vertex beaten now stays beaten, the incumbent only rises)
   for (int i = 0; i < nv; ++i)
-    if (closed[i] == 0.0 && !vertex_beaten(vertex(p, i), rmin, b.value + tol))
-      consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
+    if (closed[i] == 0.0 && !vertex_beaten(vertex(p, i), rmin, b.value + tol)) {
+      const point_ellipsoid::Foot3 ft = foot3(a2, vertex(p, i));
+      scratch[3 * i] = sd_upper(a2, vertex(p, i), ft.t);
+      consider(a2, p, nv, vertex(p, i), ft.n, b);
+    }
   // vertices closed by their global bound, or by their fan
   const double floor = b.value + tol - below_slack(size, a2, b.value);
   const Vec3 xb = tangent_cones::tangent_point(a2, {0.0, 0.0, 1.0}, 0.0, b.n);
@@ -264,7 +268,7 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
   for (int i = 0; i < nv; ++i) {
     if (closed[i] != 0.0) continue;
     const Vec3 q = vertex(p, i);
-    if (vertex_beaten(q, rmin, b.value + tol) || sd_upper(a2, q, foot3(a2, q).t) <= b.value + tol ||
+    if (vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol ||
         (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
          fan_below(a2, p, H, m, i, b.n, xb, floor)))
       closed[i] = 1.0;
@@ -279,9 +283,7 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
   // every other critical point of the open pieces whose extended function could beat it
   for (int i = 0; i < nv; ++i) {
     const Vec3 q = vertex(p, i);
-    if (closed[i] != 0.0 || vertex_beaten(q, rmin, b.value + tol)) continue;
-    const point_ellipsoid::Foot3 ft = foot3(a2, q);
-    if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
+    if (closed[i] != 0.0 || vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol) continue;
     point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); });
   }
   for (int k = 0; k < H.ne; ++k) {
@@ -625,7 +627,8 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     if (!(ub - b.value <= tol))
       for (int i = 0; i < H.nv; ++i)
         scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
-    for (int stage = 0; stage < 2 && !(ub - b.value <= tol); ++stage) {
+    // (the wider band only while the incumbent is above -rho: deeper, ub1 over triangles, >= -rho, cannot close)
+    for (int stage = 0; stage < (b.value < -rho ? 1 : 2) && !(ub - b.value <= tol); ++stage) {
       Best w = b;
       if (stage == 0) {
         for (int f = 0; f < H.nf; ++f)

@@ -1,6 +1,7 @@
 """The C++ core's pairs/polytope.hpp (issue 48, first steps: ellipsoid x convex polytope, certified by ub1 or
 by a complete case analysis, through _ellipsim.testing): the box kernel's answer on boxes given as hulls, and the slow reference
-(tests/polytope_reference.py) on random hulls of 8 to 120 points, separated, touching and deep."""
+(tests/polytope_reference.py) on random hulls of 8 to 120 points, separated, touching and deep; deep crossings certified
+by ub2 or enumerated with pruned pieces never below sigma's maximum over a grid, a pair's row independent of its batch."""
 
 import numpy as np
 import pytest
@@ -239,3 +240,25 @@ def test_a_pair_is_the_same_alone_in_a_batch_and_in_any_order():
         ext.testing.polytope_ellipsoid(*(a[i : i + 1] for a in args), *hull, one, 0, 1)
         assert np.array_equal(one[0], batch[i]), i
     assert (batch[:, 0] == ENUMERATED).sum() > 0 and (batch[:, 0] == CERTIFIED).sum() > 0
+
+
+@pytest.mark.slow
+def test_deep_certificates_are_never_below_the_reference():
+    """Deep crossings the kernel certifies (ub1 over every face plane, or ub2's ball in the hull): the certified
+    bound never below the 40-digit reference's maximum (a valid upper bound) and the value within 1e-9 of the
+    smallest semi-axis of it."""
+    rng = np.random.default_rng(9)
+    done = 0
+    while done < 5:
+        m, hull, rE, RE = next(_random_pairs(rng, 1))
+        RP = Rot.random(random_state=rng).as_matrix()
+        cP = rng.uniform(-1, 1, 3) * rE.min() * 0.5
+        one = lambda x: np.asarray(x, float)[None]  # noqa: E731
+        out = np.empty((1, 9))
+        ext.testing.polytope_ellipsoid(one(np.zeros(3)), one(RE), one(rE), one(cP), one(RP), *hull, out, 0, 1)
+        if not (out[0, 0] == CERTIFIED and out[0, 1] < -0.01 * rE.min()) or m > 40:
+            continue
+        ref, _ = reference(np.zeros(3), RE, rE, cP + hull[0] @ RP.T)
+        assert out[0, 8] >= ref - 1e-12 * (1 + abs(ref)), (m, out[0, 8], ref)
+        assert abs(out[0, 1] - ref) <= 1e-9 * rE.min(), (m, out[0, 1], ref)
+        done += 1

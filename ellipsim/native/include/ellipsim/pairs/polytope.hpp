@@ -463,6 +463,11 @@ ELLIPSIM_HD double upper_bound2(const Vec3& a2, const double* p, const Hull& H, 
 
 // --- the fast start (a hull with its adjacency): the contact feature found by walking the edges -------------
 
+// Face f's outward unit normal in E's frame (T: P's axes there), as polytope_ellipsoid writes it into m.
+ELLIPSIM_HD Vec3 face_normal(const Mat3& T, const Hull& H, int f) {
+  return matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
+}
+
 // The vertex lowest in n.p, by descent along the edges from `start`: a vertex no edge descends from minimises the
 // linear function over the polytope (the simplex method's optimality test; Ziegler, Lectures on Polytopes 3.2).
 ELLIPSIM_HD int descend(const double* p, const Hull& H, const Vec3& n, int start) {
@@ -521,7 +526,7 @@ ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, 
 // triangles through them and the edges between them (all_edges: every edge through them; with the triangles, the
 // pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no
 // pass over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.
-ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const double* m, Best b, int& low,
+ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, Best b, int& low,
                              double band_rel, double scale, int rounds, bool all_edges, double* mark) {
   int active[16];
   for (int round = 0; round < rounds; ++round) {
@@ -533,8 +538,8 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
       const int i = active[a];
       consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low);
       for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
-        const int f = H.vface[k];
-        consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b, low);
+        const Vec3 mf = face_normal(T, H, H.vface[k]);
+        consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low);
       }
       for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
         const int j = H.adj[k];
@@ -552,12 +557,12 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
 
 // A local maximum from n0 (nonzero): its lowest vertex by descent from vertex 0, then walk_refine on the contact
 // feature (band 1e-6).
-ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n0, int& low,
+ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, const Vec3& n0, int& low,
                           double* mark) {
   const Vec3 n = unit(n0);
   low = descend(p, H, n, 0);
   const Best b = {dot(n, vertex(p, low)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z), n};
-  return walk_refine(a2, p, H, m, b, low, 1e-6, 0.0, 16, false, mark);
+  return walk_refine(a2, p, H, T, b, low, 1e-6, 0.0, 16, false, mark);
 }
 
 // ub1 (upper_bound1) with the distance bounded by the triangles through the contact feature at n only: each
@@ -602,12 +607,14 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   double* m = scratch + 3 * H.nv;
   to_frame(E, cP, RP, H, p);
   const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
-  for (int f = 0; f < H.nf; ++f) {
-    const Vec3 w = matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
-    m[3 * f] = w.x;
-    m[3 * f + 1] = w.y;
-    m[3 * f + 2] = w.z;
-  }
+  const auto normals = [&]() {  // m: every face normal in E's frame (the walk computes the few it reads)
+    for (int f = 0; f < H.nf; ++f) {
+      const Vec3 w = face_normal(T, H, f);
+      m[3 * f] = w.x;
+      m[3 * f + 1] = w.y;
+      m[3 * f + 2] = w.z;
+    }
+  };
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
   const double rho = distance::rolling_radius(E.r);
@@ -616,13 +623,14 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   Best b;
   double ub = INFINITY;
   if (H.adj_start != nullptr && H.vface_start != nullptr) {
-    // the fast start, from P's origin's direction; then the best face normal (sigma by descent), the contact
+    // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent), the contact
     // feature's pieces, a wider band's (1e-2 of |p_low|): ub1 over the feature's triangles after each
     const Vec3 o = rotate_t(E.R, sub(cP, E.c));
     int low = 0;
-    b = walk_max(a2, p, H, m, dot(o, o) > 0.0 ? o : Vec3{0.0, 0.0, 1.0}, low, mark);
+    b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark);
     b.value = sigma_hull(a2, p, H.nv, b.n);
     ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+    if (!(ub - b.value <= tol)) normals();
     double scale = 0.0;  // the hull's size from E's centre, as refine's
     if (!(ub - b.value <= tol))
       for (int i = 0; i < H.nv; ++i)
@@ -633,9 +641,9 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       if (stage == 0) {
         for (int f = 0; f < H.nf; ++f)
           consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
-        w = walk_refine(a2, p, H, m, w, low, 1e-6, scale, 16, true, mark);
+        w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, true, mark);
       } else {
-        w = walk_refine(a2, p, H, m, w, low, 1e-2, scale, 8, false, mark);
+        w = walk_refine(a2, p, H, T, w, low, 1e-2, scale, 8, false, mark);
       }
       w.value = sigma_hull(a2, p, H.nv, w.n);
       if (w.value > b.value) {
@@ -648,6 +656,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     // the full ub1: x' inside P (a crossing deeper than rho) is bounded by every face plane
     if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound1(a2, p, H, m, rho, b.n));
   } else {
+    normals();
     b = local_max(a2, p, H, m, mark);
     ub = upper_bound1(a2, p, H, m, rho, b.n);
     if (!(ub - b.value <= tol)) {  // the pieces of a wider band (1e-2 of the hull's size), then ub1 again

@@ -649,7 +649,9 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       if (stage == 0) {
         for (int f = 0; f < H.nf; ++f)
           consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
-        w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, true, mark);
+        // every edge through the feature while ub1 may close (above -rho); deeper, the edges between its
+        // vertices: the enumeration, or ub2 at a face or vertex contact, proves the rest
+        w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, !(w.value < -rho), mark);
       } else {
         w = walk_refine(a2, p, H, T, w, low, 1e-2, scale, 8, false, mark);
       }

@@ -530,10 +530,10 @@ ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, 
 }
 
 // The incumbent b (its lowest vertex low) refined as refine does but locally: per round the vertices of the
-// contact feature (feature, within band_rel of max(scale, |p_low|_1), at most 16), their global maximisers, the normals of the
-// triangles through them and the edges between them (all_edges: every edge through them; with the triangles, the
-// pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no
-// pass over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.
+// contact feature (feature, within band_rel of max(scale, |p_low|_1), at most 16), their global maximisers, the
+// normals of the triangles through them and the edges between them (all_edges: every edge through them; with the
+// triangles, the pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no pass
+// over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.
 ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, Best b, int& low,
                              double band_rel, double scale, int rounds, bool all_edges, double* mark) {
   int active[16];
@@ -631,8 +631,9 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   Best b;
   double ub = INFINITY;
   if (H.adj_start != nullptr && H.vface_start != nullptr) {
-    // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent), the contact
-    // feature's pieces, a wider band's (1e-2 of |p_low|): ub1 over the feature's triangles after each
+    // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent),
+    // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
+    // after each
     const Vec3 o = rotate_t(E.R, sub(cP, E.c));
     int low = 0;
     b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark);

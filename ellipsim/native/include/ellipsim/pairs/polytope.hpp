@@ -219,7 +219,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, 
 // triangles through i and j (every such pair: the cone's boundary arcs are among them, so the fan covers the cone,
 // and every triangle of corners lies in it), each by tangent_cones.hpp's cone_below (up to 4 levels of quarters;
 // xb the tangent point at the incumbent bn).  Needs the triangles through i (vface).
-ELLIPSIM_HD bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, const Vec3& bn,
+ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, const Vec3& bn,
                            const Vec3& xb, double floor) {
   const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
   Vec3 c = {0.0, 0.0, 0.0};
@@ -251,7 +251,7 @@ ELLIPSIM_HD bool fan_below(const Vec3& a2, const double* p, const Hull& H, const
 // edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}): by one tangent plane
 // (close_vertices), by its f's global bound (|q| - r_min, sd_upper), or by the fan of its cone (fan_below, with
 // the adjacency).  scratch: 4 nv numbers.
-ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
+ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
                                const Best& start, double* scratch) {
   const int nv = H.nv;
   const double rmin = math::sqrt(min2(min2(a2.x, a2.y), a2.z));
@@ -313,7 +313,7 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
 // the hull's size of the lowest) and the edges between them, their global maximisers, for up to `rounds` rounds
 // while it improves.  Only a start: the proof is ub1's, ub2's or the enumeration's.  mark: nv numbers of scratch,
 // all 0 on entry and on return.
-ELLIPSIM_HD Best refine(const Vec3& a2, const double* p, const Hull& H, Best b, double band, int rounds,
+ELLIPSIM_HD_CALL Best refine(const Vec3& a2, const double* p, const Hull& H, Best b, double band, int rounds,
                         double* mark) {
   const int nv = H.nv;
   double scale = 0.0;
@@ -359,7 +359,7 @@ ELLIPSIM_HD Best refine(const Vec3& a2, const double* p, const Hull& H, Best b, 
 // The best face normal (n = -m_f: the face's vertices minimise n.p), refined (refine) on a band of rounding width
 // (1e-6 of the size: the contact feature, a face, an edge or a vertex, and its ties); polytope_ellipsoid widens
 // the band when ub1 does not close there.  mark: as refine's.
-ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double* mark) {
+ELLIPSIM_HD_CALL Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double* mark) {
   Best b = {-INFINITY, {0.0, 0.0, 1.0}};
   for (int f = 0; f < H.nf; ++f)
     consider(a2, p, H.nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
@@ -423,7 +423,7 @@ ELLIPSIM_HD double sd_point_hull(const Vec3& w, const double* p, const Hull& H, 
 
 // ub1 (box.hpp): E = E' + ball(rho), rho its rolling radius; for any x' in E', sigma(n) <= sd(x', P) - rho
 // for every n; x' = E''s support point at n (tight when the maximum is there and no deeper than rho).
-ELLIPSIM_HD double upper_bound1(const Vec3& a2, const double* p, const Hull& H, const double* m, double rho,
+ELLIPSIM_HD_CALL double upper_bound1(const Vec3& a2, const double* p, const Hull& H, const double* m, double rho,
                                 const Vec3& n) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   return sd_point_hull({s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z}, p, H, m) - rho;
@@ -435,7 +435,7 @@ ELLIPSIM_HD double upper_bound1(const Vec3& a2, const double* p, const Hull& H, 
 // there, t: c's depth below every face plane, deflated by its rounding (a few ulps of |c| + the hull's size);
 // when c is not inside (t < 0), the lowest vertex (t = 0).  Tight for deep face contacts (the ball rolls E's
 // witness), and for deep vertex and edge contacts no deeper than E's curvature radius there.
-ELLIPSIM_HD double upper_bound2(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n,
+ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n,
                                 double value) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   const Vec3 x = {s.x + value * n.x, s.y + value * n.y, s.z + value * n.z};

@@ -235,15 +235,36 @@ void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Center
   if (lo < 0 || hi < lo || hi > n || hi > a.n || hi > static_cast<std::int64_t>(CP.shape(0)) ||
       static_cast<std::int64_t>(RP.shape(0)) != static_cast<std::int64_t>(CP.shape(0)))
     throw std::out_of_range("pair range outside the arrays");
-  const pairs::polytope::Hull H = {int(vertices.shape(0)), int(edges.shape(0)), int(normals.shape(0)),
-                                   vertices.data(),       edges.data(),       normals.data(),
-                                   faces.data()};
+  pairs::polytope::Hull H = {int(vertices.shape(0)), int(edges.shape(0)), int(normals.shape(0)),
+                             vertices.data(),       edges.data(),       normals.data(),
+                             faces.data()};
   for (int k = 0; k < 2 * H.ne; ++k)
     if (H.edge[k] < 0 || H.edge[k] >= H.nv) throw std::out_of_range("an edge names a vertex the hull lacks");
   if (static_cast<int>(faces.shape(0)) != H.nf) throw std::invalid_argument("one normal per face");
   for (int k = 0; k < 3 * H.nf; ++k)
     if (H.face[k] < 0 || H.face[k] >= H.nv) throw std::out_of_range("a face names a vertex the hull lacks");
-  std::vector<double> scratch(3 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
+  // the hull's adjacency (polytope.hpp's Hull), built here from its edges and triangles once per call: each
+  // vertex's neighbours and the triangles through it, as counting sorts
+  std::vector<int> adj_start(H.nv + 1, 0), adj(2 * std::size_t(H.ne)), vface_start(H.nv + 1, 0),
+      vface(3 * std::size_t(H.nf));
+  for (int k = 0; k < 2 * H.ne; ++k) ++adj_start[H.edge[k] + 1];
+  for (int k = 0; k < 3 * H.nf; ++k) ++vface_start[H.face[k] + 1];
+  for (int i = 0; i < H.nv; ++i) adj_start[i + 1] += adj_start[i], vface_start[i + 1] += vface_start[i];
+  {
+    std::vector<int> at(adj_start.begin(), adj_start.end() - 1), fat(vface_start.begin(), vface_start.end() - 1);
+    for (int k = 0; k < H.ne; ++k) {
+      const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+      adj[at[i]++] = j;
+      adj[at[j]++] = i;
+    }
+    for (int f = 0; f < H.nf; ++f)
+      for (int c = 0; c < 3; ++c) vface[fat[H.face[3 * f + c]]++] = f;
+  }
+  H.adj_start = adj_start.data();
+  H.adj = adj.data();
+  H.vface_start = vface_start.data();
+  H.vface = vface.data();
+  std::vector<double> scratch(7 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
   double* o = out.data();
   const double *C = CP.data(), *R = RP.data();
   nb::gil_scoped_release release;

@@ -8,11 +8,15 @@
 // n.q - h_E(n), q = p_i), each edge's open arc (n normal to the edge, sigma = f_q in that plane, q the edge's
 // midpoint) and each face's normal point.
 //
-// Certified path: a local maximum (local_max: the face normals, then the global maximisers of the pieces active
-// at the incumbent) and ub1 = sd(x', P) - rho, x' the support point at n of E shrunk by its rolling radius rho
-// (E = E' + ball(rho): sigma(n) <= min_i n.(p_i - x') - rho <= sd(x', P) - rho for every n; tight when the
-// maximum is at n and no deeper than rho), sd the point-hull signed distance (the nearest triangle outside).
-// Status CERTIFIED when ub1 is within tol.
+// Certified path: a local maximum and ub1 = sd(x', P) - rho, x' the support point at n of E shrunk by its rolling
+// radius rho (E = E' + ball(rho): sigma(n) <= min_i n.(p_i - x') - rho <= sd(x', P) - rho for every n; tight when
+// the maximum is at n and no deeper than rho), sd the point-hull signed distance (the nearest triangle outside).
+// With the hull's adjacency the local maximum is found by walking: the lowest vertex by descent along the edges
+// (the simplex method's test), the pieces of the contact feature only, ub1 over the feature's triangles (each
+// point of a triangle is a point of P): no pass over the hull for apart and touching pairs.  Otherwise, or when
+// that does not close, the best face normal and its feature's pieces, a wider band's, the full ub1.  Status
+// CERTIFIED when ub1 is within tol, or else ub2 (box.hpp's): sd(c, E) - t for a ball(c, t) inside P, the largest
+// tangent to P's supporting plane at the witness (closes deep face contacts, and vertex contacts).
 //
 // Otherwise (deep crossings) the case analysis: the global maximum lies in one stratum, an interior critical
 // point of its f_q (a 3-D or 2-D point-ellipsoid problem: point_ellipsoid.hpp's foot3 / foot2, every other root of
@@ -24,9 +28,11 @@
 //
 // The hull: vertices in P's local frame, its edges (vertex pairs), its triangles and their outward normals.  Extra
 // edges (a flat face's diagonals) only add candidates; every edge and face of the hull must be among them.  A
-// candidate's sigma, which reads every vertex, is computed only where its piece's f_q beats the incumbent.  Not
-// here yet: ub2 (a ball inside P) for deep pairs, and pruning of the enumeration by tangent planes over the
-// pieces' normal cones: deep crossings of large hulls cost O(V + E) point-ellipsoid problems.
+// candidate's sigma, which reads every vertex, is computed only where its piece's f_q beats the incumbent.  Before
+// the pieces are solved, each vertex's closed stratum (the negated normal cone at p_i, spanned by the -m_f of
+// its triangles) is tested against the incumbent with one tangent plane of h_E (tangent_cones.hpp), then by its
+// f_q's global bound, then on the fan of its cone (cone_below's subdivided planes): a vertex below is skipped
+// with every edge through it, so deep crossings solve only the pieces near the maximum.
 #pragma once
 
 #include "../math.hpp"
@@ -35,6 +41,7 @@
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
 #include "point_ellipsoid.hpp"
+#include "tangent_cones.hpp"
 
 namespace ellipsim::pairs::polytope {
 
@@ -54,25 +61,33 @@ constexpr int CERTIFIED = 0, ENUMERATED = 1;
 
 // A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf triangular
 // faces (3 nf vertex indices; a flat face may be several) and their outward unit normals (3 nf numbers).
+// Optionally (nullptr: none) its adjacency, for the fast start and the fans: each vertex i's neighbours
+// adj[adj_start[i] .. adj_start[i + 1]) along the edges and every triangle vface[vface_start[i] ..
+// vface_start[i + 1]) through it, exactly those of edge and face (the descent and the fans' proofs rest on them:
+// the binding builds them from edge and face).
 struct Hull {
   int nv, ne, nf;
   const double* v;
   const int* edge;
   const double* normal;
   const int* face;
+  const int* adj_start = nullptr;
+  const int* adj = nullptr;
+  const int* vface_start = nullptr;
+  const int* vface = nullptr;
 };
 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
 
-// The hull in E's principal frame: p_i = R_E^T (c_P + R_P v_i - c_E), written into p (3 nv numbers).
-ELLIPSIM_HD void to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H, double* p) {
-  const Vec3 d = sub(cP, E.c);
+// The hull in E's principal frame: p_i = e + T v_i, e = R_E^T (c_P - c_E) and T = R_E^T R_P (P's axes in E's
+// frame), written into p (3 nv numbers): one product a vertex.
+ELLIPSIM_HD void to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& T, const Hull& H, double* p) {
+  const Vec3 e = rotate_t(E.R, sub(cP, E.c));
   for (int i = 0; i < H.nv; ++i) {
-    const Vec3 w = matvec(RP, {H.v[3 * i], H.v[3 * i + 1], H.v[3 * i + 2]});
-    const Vec3 q = rotate_t(E.R, {d.x + w.x, d.y + w.y, d.z + w.z});
-    p[3 * i] = q.x;
-    p[3 * i + 1] = q.y;
-    p[3 * i + 2] = q.z;
+    const Vec3 w = matvec(T, {H.v[3 * i], H.v[3 * i + 1], H.v[3 * i + 2]});
+    p[3 * i] = e.x + w.x;
+    p[3 * i + 1] = e.y + w.y;
+    p[3 * i + 2] = e.z + w.z;
   }
 }
 
@@ -80,9 +95,17 @@ ELLIPSIM_HD Vec3 vertex(const double* p, int i) { return {p[3 * i], p[3 * i + 1]
 
 // sigma at the unit n (E's frame).
 ELLIPSIM_HD double sigma_hull(const Vec3& a2, const double* p, int nv, const Vec3& n) {
-  double lo = INFINITY;
-  for (int i = 0; i < nv; ++i) lo = min2(lo, n.x * p[3 * i] + n.y * p[3 * i + 1] + n.z * p[3 * i + 2]);
-  return lo - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  // four running minima (a minimum of the same rounded products whatever the order: the same result)
+  double l0 = INFINITY, l1 = INFINITY, l2 = INFINITY, l3 = INFINITY;
+  int i = 0;
+  for (; i + 4 <= nv; i += 4) {
+    l0 = min2(l0, n.x * p[3 * i] + n.y * p[3 * i + 1] + n.z * p[3 * i + 2]);
+    l1 = min2(l1, n.x * p[3 * i + 3] + n.y * p[3 * i + 4] + n.z * p[3 * i + 5]);
+    l2 = min2(l2, n.x * p[3 * i + 6] + n.y * p[3 * i + 7] + n.z * p[3 * i + 8]);
+    l3 = min2(l3, n.x * p[3 * i + 9] + n.y * p[3 * i + 10] + n.z * p[3 * i + 11]);
+  }
+  for (; i < nv; ++i) l0 = min2(l0, n.x * p[3 * i] + n.y * p[3 * i + 1] + n.z * p[3 * i + 2]);
+  return min2(min2(l0, l1), min2(l2, l3)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
 }
 
 struct Best {
@@ -148,35 +171,133 @@ ELLIPSIM_HD bool edge_beaten(const double* p, int i, int j, double rmin, double 
              rmin * (1.0 - 8.0 * tol::U) <= best;
 }
 
+// The rounding allowance of the tangent tests (box.hpp's below_slack): the support points and the cone corners
+// are off by ulps, sigma by that times its Lipschitz bound, the hull's size + max a.
+ELLIPSIM_HD double below_slack(double size, const Vec3& a2, double best) {
+  return tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (size + math::sqrt(max2(max2(a2.x, a2.y), a2.z)) + math::fabs(best));
+}
+
+// closed[i] = 1 when f_{p_i} <= floor (< 0) on vertex i's whole closed stratum, the cone of the -m_f over the
+// triangles f through i (the normal cone of P at p_i, negated: Schneider, Convex Bodies 2.2), else 0.  One
+// tangent plane a vertex: f_{p_i}(n) <= (p_i - x_i).n for any x_i in E (h_E(n) >= n.x_i), below floor at every
+// corner, so on the cone (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners.
+// ctr: 3 nv numbers of scratch.  O(nf) and nv support points.
+ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, const double* m, double floor,
+                                double* ctr, double* closed) {
+  for (int i = 0; i < 3 * H.nv; ++i) ctr[i] = 0.0;
+  for (int i = 0; i < H.nv; ++i) closed[i] = floor < 0.0 ? 1.0 : 0.0;
+  if (!(floor < 0.0)) return;
+  for (int f = 0; f < H.nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = H.face[3 * f + k];
+      ctr[3 * i] -= m[3 * f];
+      ctr[3 * i + 1] -= m[3 * f + 1];
+      ctr[3 * i + 2] -= m[3 * f + 2];
+    }
+  for (int i = 0; i < H.nv; ++i) {
+    const Vec3 c = vertex(ctr, i);
+    if (!(dot(c, c) > 0.0)) {  // no triangle through i: its cone is unknown, solved
+      closed[i] = 0.0;
+      continue;
+    }
+    const Vec3 x = point_ellipsoid::support(a2, c).s;
+    ctr[3 * i] = p[3 * i] - x.x;
+    ctr[3 * i + 1] = p[3 * i + 1] - x.y;
+    ctr[3 * i + 2] = p[3 * i + 2] - x.z;
+  }
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 c = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]};
+    for (int k = 0; k < 3; ++k) {
+      const int i = H.face[3 * f + k];
+      if (closed[i] != 0.0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor)) closed[i] = 0.0;
+    }
+  }
+}
+
+// f_{p_i} <= floor (< 0) on vertex i's closed stratum, proven on the fan of its cone: for each edge (i, j), the
+// spherical triangle of the cone's centre c (the sum of the corners, inside it) and the normals -m_f, -m_g of two
+// triangles through i and j (every such pair: the cone's boundary arcs are among them, so the fan covers the cone,
+// and every triangle of corners lies in it), each by tangent_cones.hpp's cone_below (up to 4 levels of quarters;
+// xb the tangent point at the incumbent bn).  Needs the triangles through i (vface).
+ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, const Vec3& bn,
+                           const Vec3& xb, double floor) {
+  const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
+  Vec3 c = {0.0, 0.0, 0.0};
+  for (int k = k0; k < k1; ++k) {
+    const int f = H.vface[k];
+    c = {c.x - m[3 * f], c.y - m[3 * f + 1], c.z - m[3 * f + 2]};
+  }
+  const Vec3 q = vertex(p, i);
+  const Vec3 axis = {0.0, 0.0, 1.0};  // no disc (r = 0)
+  for (int k = k0; k < k1; ++k) {
+    const int f = H.vface[k];
+    for (int e = 0; e < 3; ++e) {
+      const int j = H.face[3 * f + e];
+      if (j == i) continue;
+      for (int l = k + 1; l < k1; ++l) {
+        const int g = H.vface[l];
+        if (H.face[3 * g] != j && H.face[3 * g + 1] != j && H.face[3 * g + 2] != j) continue;
+        const Vec3 mf = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, mg = {-m[3 * g], -m[3 * g + 1], -m[3 * g + 2]};
+        if (!tangent_cones::cone_below(a2, q, axis, 0.0, bn, xb, c, mf, mg, floor)) return false;
+      }
+    }
+  }
+  return k1 > k0;
+}
+
 // The maximum of sigma (top comment) over the hull p (E's frame, nv vertices) and its edges and face normals
-// (normals in E's frame, nf of them): (value, n).
-ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol) {
+// (normals in E's frame, nf of them), from the incumbent start (at least sigma at every face normal: local_max's):
+// (value, n).  A vertex whose closed stratum is below the incumbent is skipped with every edge through it (an
+// edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}): by one tangent plane
+// (close_vertices), by its f's global bound (|q| - r_min, sd_upper), or by the fan of its cone (fan_below, with
+// the adjacency).  scratch: 4 nv numbers.
+ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
+                               const Best& start, double* scratch) {
   const int nv = H.nv;
   const double rmin = math::sqrt(min2(min2(a2.x, a2.y), a2.z));
-  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
-  // the incumbent: every face normal (n = -m_f: the face's vertices minimise n.p) and every piece's global
-  // maximiser
-  for (int f = 0; f < H.nf; ++f)
-    consider(a2, p, nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  Best b = start;
+  double size = 0.0;
+  for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
+  double* closed = scratch + 3 * nv;
+  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), scratch, closed);
+  // the incumbent: every open vertex's global maximiser (its f's global bound sd_upper kept in scratch[3 i]:
+  // close_vertices is done with it; a vertex beaten now stays beaten, the incumbent only rises)
   for (int i = 0; i < nv; ++i)
-    if (!vertex_beaten(vertex(p, i), rmin, b.value + tol)) consider(a2, p, nv, vertex(p, i), foot3(a2, vertex(p, i)).n, b);
+    if (closed[i] == 0.0 && !vertex_beaten(vertex(p, i), rmin, b.value + tol)) {
+      const point_ellipsoid::Foot3 ft = foot3(a2, vertex(p, i));
+      scratch[3 * i] = sd_upper(a2, vertex(p, i), ft.t);
+      consider(a2, p, nv, vertex(p, i), ft.n, b);
+    }
+  // vertices closed by their global bound, or by their fan
+  const double floor = b.value + tol - below_slack(size, a2, b.value);
+  const Vec3 xb = tangent_cones::tangent_point(a2, {0.0, 0.0, 1.0}, 0.0, b.n);
+  double lowest = INFINITY;  // at the incumbent: a vertex tied there holds it in its cone, its fan cannot close
+  for (int i = 0; i < nv; ++i) lowest = min2(lowest, dot(b.n, vertex(p, i)));
+  for (int i = 0; i < nv; ++i) {
+    if (closed[i] != 0.0) continue;
+    const Vec3 q = vertex(p, i);
+    if (vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol ||
+        (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
+         fan_below(a2, p, H, m, i, b.n, xb, floor)))
+      closed[i] = 1.0;
+  }
   for (int k = 0; k < H.ne; ++k) {
-    if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
-    const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
+    const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+    if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
+    const EdgeProblem ep = edge_problem(a2, p, i, j);
     const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
     consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
   }
-  // every other critical point of the pieces whose extended function could beat it
+  // every other critical point of the open pieces whose extended function could beat it
   for (int i = 0; i < nv; ++i) {
     const Vec3 q = vertex(p, i);
-    if (vertex_beaten(q, rmin, b.value + tol)) continue;
-    const point_ellipsoid::Foot3 ft = foot3(a2, q);
-    if (sd_upper(a2, q, ft.t) <= b.value + tol) continue;
+    if (closed[i] != 0.0 || vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol) continue;
     point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); });
   }
   for (int k = 0; k < H.ne; ++k) {
-    if (edge_beaten(p, H.edge[2 * k], H.edge[2 * k + 1], rmin, b.value + tol)) continue;
-    const EdgeProblem ep = edge_problem(a2, p, H.edge[2 * k], H.edge[2 * k + 1]);
+    const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+    if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
+    const EdgeProblem ep = edge_problem(a2, p, i, j);
     const double lam = ep.el.lam, mu = ep.el.mu;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
     if (sd_upper2(lam, mu, ep.p.x, ep.p.y, ft.t) <= b.value + tol) continue;
@@ -188,17 +309,17 @@ ELLIPSIM_HD Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, c
 
 // --- the certified path (box.hpp's ub1): a local maximum from the face normals, then one bound --------------
 
-// The incumbent from the face normals, refined on the pieces active there: the vertices lowest in n.p (at most 16,
-// within 1e-2 of the hull's size of the lowest) and the edges between them, their global maximisers, for a few
-// rounds while it improves.  Only a start: the proof is ub1's, or the enumeration's.
-ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m) {
+// The incumbent b refined on the pieces active at it: the vertices lowest in n.p (at most 16, within band times
+// the hull's size of the lowest) and the edges between them, their global maximisers, for up to `rounds` rounds
+// while it improves.  Only a start: the proof is ub1's, ub2's or the enumeration's.  mark: nv numbers of scratch,
+// all 0 on entry and on return.
+ELLIPSIM_HD_CALL Best refine(const Vec3& a2, const double* p, const Hull& H, Best b, double band, int rounds,
+                        double* mark) {
   const int nv = H.nv;
-  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
-  for (int f = 0; f < H.nf; ++f)
-    consider(a2, p, nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
   double scale = 0.0;
-  for (int i = 0; i < nv; ++i) scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
-  for (int round = 0; round < 8; ++round) {
+  for (int i = 0; i < nv; ++i)
+    scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+  for (int round = 0; round < rounds; ++round) {
     const Best before = b;
     // the (at most 16) vertices lowest in n.p, by insertion into a sorted list
     int active[16];
@@ -216,23 +337,34 @@ ELLIPSIM_HD Best local_max(const Vec3& a2, const double* p, const Hull& H, const
       key[k] = v;
       active[k] = i;
     }
-    while (na > 1 && key[na - 1] > key[0] + 1e-2 * scale) --na;  // within a band of the lowest
-    for (int k = 0; k < na; ++k) consider(a2, p, nv, vertex(p, active[k]), foot3(a2, vertex(p, active[k])).n, b);
-    for (int k = 0; k < H.ne; ++k) {
-      const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-      bool in_i = false, in_j = false;
-      for (int a = 0; a < na; ++a) {
-        in_i = in_i || active[a] == i;
-        in_j = in_j || active[a] == j;
-      }
-      if (!(in_i && in_j)) continue;
-      const EdgeProblem ep = edge_problem(a2, p, i, j);
-      const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
-      consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+    while (na > 1 && key[na - 1] > key[0] + band * scale) --na;  // within a band of the lowest
+    for (int k = 0; k < na; ++k) {
+      mark[active[k]] = 1.0;
+      consider(a2, p, nv, vertex(p, active[k]), foot3(a2, vertex(p, active[k])).n, b);
     }
+    if (na > 1)
+      for (int k = 0; k < H.ne; ++k) {
+        const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
+        if (mark[i] == 0.0 || mark[j] == 0.0) continue;
+        const EdgeProblem ep = edge_problem(a2, p, i, j);
+        const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
+        consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
+      }
+    for (int k = 0; k < na; ++k) mark[active[k]] = 0.0;
     if (b.value == before.value) break;
   }
   return b;
+}
+
+// The best face normal (n = -m_f: the face's vertices minimise n.p), refined (refine) on a band of rounding width
+// (1e-6 of the size: the contact feature, a face, an edge or a vertex, and its ties); polytope_ellipsoid widens
+// the band when ub1 does not close there.  mark: as refine's.
+ELLIPSIM_HD_CALL Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double* mark) {
+  Best b = {-INFINITY, {0.0, 0.0, 1.0}};
+  for (int f = 0; f < H.nf; ++f)
+    consider(a2, p, H.nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
+  for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
+  return refine(a2, p, H, b, 1e-6, 16, mark);
 }
 
 // The point of the triangle (a, b, c) nearest to w (Ericson, Real-Time Collision Detection 5.1.5: by the Voronoi
@@ -269,30 +401,201 @@ ELLIPSIM_HD Vec3 nearest_on_triangle(const Vec3& w, const Vec3& a, const Vec3& b
 
 // The signed distance of the point w from the hull (E's frame): inside (below every face plane), minus the
 // distance to the nearest face plane; outside, the distance to the nearest triangle (its nearest point a point
-// of the hull, to rounding: an upper bound whatever the case, exact to rounding).
+// of the hull, to rounding: an upper bound whatever the case, exact to rounding).  Outside, only the triangles
+// whose plane w is above: the nearest point y of P lies on one (w - y is in P's normal cone at y, a non-negative
+// sum of the normals m_g of the faces through y, and |w - y|^2 > 0 makes some m_g.(w - y) > 0; Ericson 5.1.2),
+// and a triangle left out only loosens the bound (each candidate is a point of P).
 ELLIPSIM_HD double sd_point_hull(const Vec3& w, const double* p, const Hull& H, const double* m) {
-  double smax = -INFINITY;
+  double smax = -INFINITY, best = INFINITY;
   for (int f = 0; f < H.nf; ++f) {
     const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
-    smax = max2(smax, dot(mf, w) - dot(mf, vertex(p, H.face[3 * f])));
-  }
-  if (smax <= 0.0) return smax;
-  double best = INFINITY;
-  for (int f = 0; f < H.nf; ++f) {
-    const Vec3 x = nearest_on_triangle(w, vertex(p, H.face[3 * f]), vertex(p, H.face[3 * f + 1]),
-                                       vertex(p, H.face[3 * f + 2]));
+    const Vec3 a = vertex(p, H.face[3 * f]);
+    const double d = dot(mf, w) - dot(mf, a);
+    smax = max2(smax, d);
+    if (!(d > 0.0)) continue;
+    const Vec3 x = nearest_on_triangle(w, a, vertex(p, H.face[3 * f + 1]), vertex(p, H.face[3 * f + 2]));
     const Vec3 z = sub(w, x);
     best = min2(best, dot(z, z));
   }
+  if (smax <= 0.0) return smax;
   return math::sqrt(best);
 }
 
 // ub1 (box.hpp): E = E' + ball(rho), rho its rolling radius; for any x' in E', sigma(n) <= sd(x', P) - rho
 // for every n; x' = E''s support point at n (tight when the maximum is there and no deeper than rho).
-ELLIPSIM_HD double upper_bound1(const Vec3& a2, const double* p, const Hull& H, const double* m, double rho,
+ELLIPSIM_HD_CALL double upper_bound1(const Vec3& a2, const double* p, const Hull& H, const double* m, double rho,
                                 const Vec3& n) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   return sd_point_hull({s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z}, p, H, m) - rho;
+}
+
+// ub2 (box.hpp's): for a ball(c, t) inside P, sigma(n) <= sd(c, E) - t for every n (P contains the ball, whose
+// signed distance from E is sd(c, E) - t; sd bounded above by sd_upper, weak duality).  c: the witness
+// x = s(n) + value n moved along n (into P) to the centre of the largest ball tangent to x's supporting plane
+// there, t: c's depth below every face plane, deflated by its rounding (a few ulps of |c| + the hull's size);
+// when c is not inside (t < 0), the lowest vertex (t = 0).  Tight for deep face contacts (the ball rolls E's
+// witness), and for deep vertex and edge contacts no deeper than E's curvature radius there.
+ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n,
+                                double value) {
+  const Vec3 s = point_ellipsoid::support(a2, n).s;
+  const Vec3 x = {s.x + value * n.x, s.y + value * n.y, s.z + value * n.z};
+  double reach = INFINITY;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const double den = 1.0 + dot(mf, n);  // the plane's approach along n per unit of radius
+    if (den > 1e-9) reach = min2(reach, (dot(mf, vertex(p, H.face[3 * f])) - dot(mf, x)) / den);
+  }
+  const double r = reach < INFINITY ? max2(reach, 0.0) : 0.0;
+  const Vec3 c = {x.x + r * n.x, x.y + r * n.y, x.z + r * n.z};
+  double t = INFINITY, size = 0.0;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const Vec3 a = vertex(p, H.face[3 * f]);
+    t = min2(t, dot(mf, a) - dot(mf, c));
+    size = max2(size, math::fabs(a.x) + math::fabs(a.y) + math::fabs(a.z));
+  }
+  t -= tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (math::fabs(c.x) + math::fabs(c.y) + math::fabs(c.z) + size);
+  if (t >= 0.0) return sd_upper(a2, c, foot3(a2, c).t) - t;
+  int k = 0;
+  double lo = INFINITY;
+  for (int i = 0; i < H.nv; ++i) {
+    const double v = dot(n, vertex(p, i));
+    if (v < lo) {
+      lo = v;
+      k = i;
+    }
+  }
+  const Vec3 q = vertex(p, k);
+  return sd_upper(a2, q, foot3(a2, q).t);
+}
+
+// --- the fast start (a hull with its adjacency): the contact feature found by walking the edges -------------
+
+// Face f's outward unit normal in E's frame (T: P's axes there), as polytope_ellipsoid writes it into m.
+ELLIPSIM_HD Vec3 face_normal(const Mat3& T, const Hull& H, int f) {
+  return matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
+}
+
+// The vertex lowest in n.p, by descent along the edges from `start`: a vertex no edge descends from minimises the
+// linear function over the polytope (the simplex method's optimality test; Ziegler, Lectures on Polytopes 3.2).
+ELLIPSIM_HD int descend(const double* p, const Hull& H, const Vec3& n, int start) {
+  int i = start;
+  double v = dot(n, vertex(p, i));
+  for (;;) {
+    int next = i;
+    for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
+      const double w = dot(n, vertex(p, H.adj[k]));
+      if (w < v) {
+        v = w;
+        next = H.adj[k];
+      }
+    }
+    if (next == i) return i;
+    i = next;
+  }
+}
+
+// consider with sigma by descent from *low (the incumbent's lowest vertex, moved to the candidate's when it wins).
+ELLIPSIM_HD void consider_walk(const Vec3& a2, const double* p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
+                               int& low) {
+  const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+  if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > b.value)) return;
+  const int k = descend(p, H, n, low);
+  const double v = dot(n, vertex(p, k)) - h;
+  if (v > b.value) {
+    b = {v, n};
+    low = k;
+  }
+}
+
+// The vertices within band of the lowest (low) in n.p, at most 16, by a walk along the edges from low (every
+// one is reached: from each, a descending path to low stays in the band), marked in mark; returns their count.
+ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, double band, int* active,
+                        double* mark) {
+  const double top = dot(n, vertex(p, low)) + band;
+  int na = 1;
+  active[0] = low;
+  mark[low] = 1.0;
+  for (int a = 0; a < na; ++a) {
+    const int i = active[a];
+    for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && na < 16; ++k) {
+      const int j = H.adj[k];
+      if (mark[j] == 0.0 && dot(n, vertex(p, j)) <= top) {
+        mark[j] = 1.0;
+        active[na++] = j;
+      }
+    }
+  }
+  return na;
+}
+
+// The incumbent b (its lowest vertex low) refined as refine does but locally: per round the vertices of the
+// contact feature (feature, within band_rel of max(scale, |p_low|_1), at most 16), their global maximisers, the
+// normals of the triangles through them and the edges between them (all_edges: every edge through them; with the
+// triangles, the pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no pass
+// over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.
+ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, Best b, int& low,
+                             double band_rel, double scale, int rounds, bool all_edges, double* mark) {
+  int active[16];
+  for (int round = 0; round < rounds; ++round) {
+    const Best before = b;
+    const Vec3 pl = vertex(p, low);
+    const double band = band_rel * max2(scale, math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z));
+    const int na = feature(p, H, b.n, low, band, active, mark);
+    for (int a = 0; a < na; ++a) {
+      const int i = active[a];
+      consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low);
+      for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
+        const Vec3 mf = face_normal(T, H, H.vface[k]);
+        consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low);
+      }
+      for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
+        const int j = H.adj[k];
+        if (mark[j] != 0.0 ? j <= i : !all_edges) continue;  // an edge between two of the feature's vertices once
+        const EdgeProblem ep = edge_problem(a2, p, i, j);
+        const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
+        consider_walk(a2, p, H, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b, low);
+      }
+    }
+    for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
+    if (b.value == before.value) break;
+  }
+  return b;
+}
+
+// A local maximum from n0 (nonzero): its lowest vertex by descent from vertex 0, then walk_refine on the contact
+// feature (band 1e-6).
+ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, const Vec3& n0, int& low,
+                          double* mark) {
+  const Vec3 n = unit(n0);
+  low = descend(p, H, n, 0);
+  const Best b = {dot(n, vertex(p, low)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z), n};
+  return walk_refine(a2, p, H, T, b, low, 1e-6, 0.0, 16, false, mark);
+}
+
+// ub1 (upper_bound1) with the distance bounded by the triangles through the contact feature at n only: each
+// point y of a triangle is a point of P, so sd(x', P) <= |x' - y| whatever x' (inside P, sd < 0); tight when the
+// witness lies on one of them.  mark: as walk_max's.
+ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const double* p, const Hull& H, double rho, const Vec3& n,
+                                     int low, double* mark) {
+  const Vec3 s = point_ellipsoid::support(a2, n).s;
+  const Vec3 w = {s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z};
+  int active[16];
+  const Vec3 pl = vertex(p, low);
+  const int na = feature(p, H, n, low, 1e-6 * (math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z)), active, mark);
+  double best = INFINITY;
+  for (int a = 0; a < na; ++a) {
+    const int i = active[a];
+    for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
+      const int f = H.vface[k];
+      const Vec3 x = nearest_on_triangle(w, vertex(p, H.face[3 * f]), vertex(p, H.face[3 * f + 1]),
+                                         vertex(p, H.face[3 * f + 2]));
+      const Vec3 z = sub(w, x);
+      best = min2(best, dot(z, z));
+    }
+  }
+  for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
+  return math::sqrt(best) - rho;
 }
 
 // (status, dist, normal, pos, ub).
@@ -305,26 +608,80 @@ struct Result {
 
 // For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
 // distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
-// box.hpp), status CERTIFIED or ENUMERATED.  scratch: 3 H.nv + 3 H.nf numbers.
+// box.hpp), status CERTIFIED or ENUMERATED.  scratch: 7 H.nv + 3 H.nf numbers.
 ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
                                       double* scratch) {
   double* p = scratch;
   double* m = scratch + 3 * H.nv;
-  to_frame(E, cP, RP, H, p);
   const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
-  for (int f = 0; f < H.nf; ++f) {
-    const Vec3 w = matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
-    m[3 * f] = w.x;
-    m[3 * f + 1] = w.y;
-    m[3 * f + 2] = w.z;
-  }
+  to_frame(E, cP, T, H, p);
+  const auto normals = [&]() {  // m: every face normal in E's frame (the walk computes the few it reads)
+    for (int f = 0; f < H.nf; ++f) {
+      const Vec3 w = face_normal(T, H, f);
+      m[3 * f] = w.x;
+      m[3 * f + 1] = w.y;
+      m[3 * f + 2] = w.z;
+    }
+  };
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
-  Best b = local_max(a2, p, H, m);
-  const double ub = upper_bound1(a2, p, H, m, distance::rolling_radius(E.r), b.n);
+  const double rho = distance::rolling_radius(E.r);
+  double* mark = scratch + 6 * H.nv + 3 * H.nf;  // zeroed: the result never hangs on what scratch held
+  for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
+  Best b;
+  double ub = INFINITY;
+  if (H.adj_start != nullptr && H.vface_start != nullptr) {
+    // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent),
+    // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
+    // after each
+    const Vec3 o = rotate_t(E.R, sub(cP, E.c));
+    int low = 0;
+    b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark);
+    b.value = sigma_hull(a2, p, H.nv, b.n);
+    ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+    if (!(ub - b.value <= tol)) normals();
+    double scale = 0.0;  // the hull's size from E's centre, as refine's
+    if (!(ub - b.value <= tol))
+      for (int i = 0; i < H.nv; ++i)
+        scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+    // (the wider band only while the incumbent is above -rho: deeper, ub1 over triangles, >= -rho, cannot close)
+    for (int stage = 0; stage < (b.value < -rho ? 1 : 2) && !(ub - b.value <= tol); ++stage) {
+      Best w = b;
+      if (stage == 0) {
+        for (int f = 0; f < H.nf; ++f)
+          consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
+        // every edge through the feature while ub1 may close (above -rho); deeper, the edges between its
+        // vertices: the enumeration, or ub2 at a face or vertex contact, proves the rest
+        w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, !(w.value < -rho), mark);
+      } else {
+        w = walk_refine(a2, p, H, T, w, low, 1e-2, scale, 8, false, mark);
+      }
+      w.value = sigma_hull(a2, p, H.nv, w.n);
+      if (w.value > b.value) {
+        b = w;
+        ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+      } else {
+        low = descend(p, H, b.n, low);  // back to the incumbent's lowest vertex
+      }
+    }
+    // the full ub1: x' inside P (a crossing deeper than rho) is bounded by every face plane
+    if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound1(a2, p, H, m, rho, b.n));
+  } else {
+    normals();
+    b = local_max(a2, p, H, m, mark);
+    ub = upper_bound1(a2, p, H, m, rho, b.n);
+    if (!(ub - b.value <= tol)) {  // the pieces of a wider band (1e-2 of the hull's size), then ub1 again
+      const Best wide = refine(a2, p, H, b, 1e-2, 8, mark);
+      if (wide.value > b.value) {
+        b = wide;
+        ub = upper_bound1(a2, p, H, m, rho, b.n);
+      }
+    }
+  }
+  if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound2(a2, p, H, m, b.n, b.value));
   int status = CERTIFIED;
   if (!(ub - b.value <= tol)) {
-    b = enumerate_max(a2, p, H, m, tol);
+    b = enumerate_max(a2, p, H, m, tol, b, scratch + 3 * H.nv + 3 * H.nf);
     status = ENUMERATED;
   }
   const point_ellipsoid::Contact c = contact_in_world(E, a2, b.n, b.value);

@@ -103,7 +103,9 @@ def test_normal_off_flags_mujocos_wrong_normal_and_not_a_tight_one():
     (d,) = v.disagreements
     assert (d.kind, d.right, d.pair_type, d.names) == ("normal_off", "ellipsim", "ellipsoid-ellipsoid", ("a0", "b0"))
     assert d.angle == pytest.approx(angle) and d.sigma_mujoco < d.signed_distance - 1e-4
-    assert v.normal_off.tolist() == [[1] + [0] * (len(KEYS) - 1)] and v.counts.tolist() == [[1, 0, 0, 0]]  # agree on contact
+    assert v.normal_off.tolist() == [[1] + [0] * (len(KEYS) - 1)] and v.counts.tolist() == [
+        [1, 0, 0, 0]
+    ]  # agree on contact
     model.opt.ccd_iterations = 1000
     assert em.validate(model, mujoco.MjData(model), 1).disagreements == []
 

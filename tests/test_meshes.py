@@ -312,3 +312,23 @@ def test_a_mesh_contact_within_the_margin_is_mujocos_rule_and_a_fields_is_its_di
     dist = c.dist[0, : c.count[0]]  # the prism under the lowest point, and its cell's other one within 1 cm
     assert c.count[0] == 2 and abs(dist.min() - 0.005) < 1e-12 and (dist < 0.01).all()
     assert hfield_contacts(E, np.zeros(3), np.eye(3), field, margin=0.004).count[0] == 0
+
+
+def test_the_prisms_adjacency_is_the_builders():
+    """pairs/height_field.hpp's constant adjacency of a prism is polytope.hpp's build_adjacency of its edges and
+    triangles (the kernel's descent and fans rest on it being exactly theirs)."""
+    import re
+    from pathlib import Path
+
+    text = (Path(ellipsim.__file__).parent / "native/include/ellipsim/pairs/height_field.hpp").read_text()
+
+    def constant(name):
+        body = re.search(rf"constexpr int {name}\[[^\]]*\] = \{{([^}}]*)\}};", text).group(1)
+        return np.array([int(x) for x in body.split(",")], np.int32)
+
+    edges, faces = constant("EDGES").reshape(-1, 2), constant("FACES").reshape(-1, 3)
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1]], float)
+    out = [np.empty(k, np.int32) for k in (7, 2 * len(edges), 7, 3 * len(faces))]
+    ext.hull_adjacency(points, edges, np.zeros((len(faces), 3)), faces, *out)
+    for name, got in zip(("ADJ_START", "ADJ", "VFACE_START", "VFACE"), out):
+        np.testing.assert_array_equal(constant(name), got, err_msg=name)

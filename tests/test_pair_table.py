@@ -239,7 +239,9 @@ def test_the_narrow_phase_computes_and_counts_every_row():
             want_made, want = _call(theirs[row], model, data, g1, g2)
             assert made == want_made >= 1, row.name  # a height field: one per prism the ellipsoid overlaps
             for k in range(made):
-                assert abs(ours[10 * k] - want[10 * k]) <= DIST_TOL, f"{row.name}: dist {ours[10 * k]} vs {want[10 * k]}"
+                assert abs(ours[10 * k] - want[10 * k]) <= DIST_TOL, (
+                    f"{row.name}: dist {ours[10 * k]} vs {want[10 * k]}"
+                )
             assert ours[0 : 10 * made : 10].min() < -0.01, row.name  # overlapping by more than 1 cm
 
 

@@ -262,3 +262,25 @@ def test_deep_certificates_are_never_below_the_reference():
         assert out[0, 8] >= ref - 1e-12 * (1 + abs(ref)), (m, out[0, 8], ref)
         assert abs(out[0, 1] - ref) <= 1e-9 * rE.min(), (m, out[0, 1], ref)
         done += 1
+
+
+def test_a_cutoff_stops_only_pairs_proven_beyond_it():
+    """With a cutoff (the narrow phase's margin), APART only where the full distance is at least the cutoff, its
+    dist a lower bound on that distance; every other pair's row is the full computation's, bit for bit."""
+    rng = np.random.default_rng(12)
+    n = 400
+    hull = hull_of(rng.normal(size=(40, 3)) * 0.1)
+    cE = np.zeros((n, 3))
+    RE, RP = Rot.random(n, random_state=rng).as_matrix(), Rot.random(n, random_state=rng).as_matrix()
+    rE = rng.uniform(0.03, 0.12, (n, 3))
+    d = rng.normal(size=(n, 3))
+    cP = d / np.linalg.norm(d, axis=1)[:, None] * rng.uniform(0.0, 0.5, n)[:, None]
+    full, cut = np.empty((n, 9)), np.empty((n, 9))
+    ext.testing.polytope_ellipsoid(cE, RE, rE, cP, RP, *hull, full, 0, n)
+    for cutoff in (0.0, 0.01, -0.005):
+        ext.testing.polytope_ellipsoid(cE, RE, rE, cP, RP, *hull, cut, 0, n, cutoff=cutoff)
+        apart = cut[:, 0] == 2
+        assert apart.sum() > 50 and (~apart).sum() > 50
+        assert (full[apart, 1] >= cutoff).all() and (cut[apart, 1] >= cutoff).all()
+        assert (cut[apart, 1] <= full[apart, 1]).all()
+        np.testing.assert_array_equal(cut[~apart].view(np.int64), full[~apart].view(np.int64))

@@ -218,10 +218,11 @@ class Attachment:
                     hull = convex_hull(np.asarray(model.mesh_vert[start : start + count], float))
                 except ValueError:
                     continue
-            arrays = [np.ascontiguousarray(x) for x in hull]
-            keep += arrays
-            v, e, n, f = arrays
-            table[mesh] = (len(v), len(e), len(f), v.ctypes.data, e.ctypes.data, n.ctypes.data, f.ctypes.data, 0)
+            v, e, n, f = (np.ascontiguousarray(x) for x in hull)
+            adjacency = [np.empty(k, np.int32) for k in (len(v) + 1, 2 * len(e), len(v) + 1, 3 * len(f))]
+            ext.hull_adjacency(v, e, n, f, *adjacency)
+            keep += [v, e, n, f, *adjacency]
+            table[mesh] = (len(v), len(e), len(f), *(x.ctypes.data for x in (v, e, n, f, *adjacency)), 0)
         return table, keep
 
     def _warm_table(self, model):

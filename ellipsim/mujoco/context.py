@@ -79,8 +79,10 @@ WARM_SLOT_WORDS = 8
 # Hull table of a data attached in mode "narrowphase" whose model has meshes (attachment.py builds it from
 # mujoco/hull.py, the narrow phase's mesh row reads it): HULL_WORDS int64 words per mesh of the model, [nv, ne, nf,
 # vertices address (float64 (nv, 3), the geom's frame), edges address (int32 (ne, 2)), outward normals address
-# (float64 (nf, 3)), triangles address (int32 (nf, 3)), 0]; nv 0: the mesh has no hull (MuJoCo's own function).
-HULL_WORDS = 8
+# (float64 (nf, 3)), triangles address (int32 (nf, 3)), its adjacency's addresses (int32 adj_start (nv + 1), adj
+# (2 ne), vface_start (nv + 1), vface (3 nf): ext.hull_adjacency, polytope.hpp's build_adjacency), 0]; nv 0: the
+# mesh has no hull (MuJoCo's own function).
+HULL_WORDS = 12
 
 # The pair table both engines' glues read (ellipsim/pair_table.py), its geom codes MuJoCo's (the C++ glue uses
 # MuJoCo's own enum, mjtGeom).

@@ -24,8 +24,9 @@ constexpr int MARK_STACK = 4, FREE_STACK = 5, STACK_ALLOC_NUM = 6;
 // warm-start table address, its slots - 1, the hull table's address.  Row 0 holds the highest slot ever used.
 constexpr int REGISTRY_COLUMNS = 8, WARM_ADDRESS = 5, WARM_MASK = 6, HULLS = 7;
 // The hull table: HULL_WORDS int64 words per mesh of the model, [nv, ne, nf, vertices (float64 nv x 3),
-// edges (int32 ne x 2), outward normals (float64 nf x 3), triangles (int32 nf x 3), 0]; nv 0: no hull.
-constexpr int HULL_WORDS = 8;
+// edges (int32 ne x 2), outward normals (float64 nf x 3), triangles (int32 nf x 3), its adjacency (int32:
+// adj_start, adj, vface_start, vface; polytope::build_adjacency's), 0]; nv 0: no hull.
+constexpr int HULL_WORDS = 12;
 constexpr std::int64_t FILTER = 1, RECORD = 2, NARROW = 3;
 // Per-data counters (int64 words).
 constexpr int SEEN = 0, DISCARDED = 1, PASSED = 2, RECORDED = 3;

@@ -187,24 +187,6 @@ __attribute__((noinline)) inline RowResult cylinder_row(const mjModel* m, const 
   return {-1, r.status != pairs::cylinder::UNPROVEN && std::isfinite(r.dist), r.dist, r.normal, r.pos};
 }
 
-// A lower bound on the signed distance of E and the hull H posed at (cP, RP): sigma along the centre line (sigma
-// at any unit n is one: polytope.hpp) less its rounding allowance, PAIR_SIGMA_SLACK_ULPS of |e| + the two bodies'
-// radii (rbound: the hull's farthest vertex from its origin, MuJoCo's geom_rbound); -inf for concentric bodies.
-inline double hull_centre_line_bound(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const pairs::polytope::Hull& H,
-                                     double rbound) {
-  const Vec3 e = sub(cP, E.c);
-  const double ee = norm2(e);
-  if (!(ee > 0.0)) return -INFINITY;
-  const double s = 1.0 / std::sqrt(ee);
-  const Vec3 n = {e.x * s, e.y * s, e.z * s};
-  const Vec3 nP = rotate_t(RP, n), nE = rotate_t(E.R, n);  // n in P's frame and in E's
-  double lo = INFINITY;
-  for (int i = 0; i < H.nv; ++i) lo = min2(lo, nP.x * H.v[3 * i] + nP.y * H.v[3 * i + 1] + nP.z * H.v[3 * i + 2]);
-  const double h = std::sqrt(E.r.x * E.r.x * nE.x * nE.x + E.r.y * E.r.y * nE.y * nE.y + E.r.z * E.r.z * nE.z * nE.z);
-  const double scale = std::sqrt(ee) + max2(max3(E.r), rbound);
-  return std::sqrt(ee) + lo - h - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * scale;
-}
-
 // The mesh row: g1 the ellipsoid, g2 the mesh, through the mesh's convex hull as MuJoCo collides it (mjc_Convex
 // reads mesh_graph), from this data's hull table (`hulls`, attachment.py); the scratch from MuJoCo's arena.
 __attribute__((noinline)) inline RowResult mesh_row(const mjModel* m, mjData* d, int g1, int g2, mjtNum margin,
@@ -214,25 +196,34 @@ __attribute__((noinline)) inline RowResult mesh_row(const mjModel* m, mjData* d,
   const int mesh = m->geom_dataid[g2];
   const std::int64_t* h = hulls && mesh >= 0 ? hulls + HULL_WORDS * mesh : nullptr;
   if (!h || h[0] == 0) return {-1, false, 0.0, {}, {}};  // no hull: MuJoCo's own function, counted
-  const pairs::polytope::Hull H = {int(h[0]), int(h[1]), int(h[2]), reinterpret_cast<const double*>(h[3]),
-                                   reinterpret_cast<const int*>(h[4]), reinterpret_cast<const double*>(h[5]),
-                                   reinterpret_cast<const int*>(h[6])};
+  const pairs::polytope::Hull H = {int(h[0]),
+                                   int(h[1]),
+                                   int(h[2]),
+                                   reinterpret_cast<const double*>(h[3]),
+                                   reinterpret_cast<const int*>(h[4]),
+                                   reinterpret_cast<const double*>(h[5]),
+                                   reinterpret_cast<const int*>(h[6]),
+                                   reinterpret_cast<const int*>(h[7]),
+                                   reinterpret_cast<const int*>(h[8]),
+                                   reinterpret_cast<const int*>(h[9]),
+                                   reinterpret_cast<const int*>(h[10])};
   const Ellipsoid E = geom_ellipsoid(m, d, mjGEOM_ELLIPSOID, g1, 0.0);
   const mjtNum* c = d->geom_xpos + 3 * g2;
   const mjtNum* R = d->geom_xmat + 9 * g2;
   const Vec3 cP = {c[0], c[1], c[2]};
   const Mat3 RP = {{R[0], R[1], R[2], R[3], R[4], R[5], R[6], R[7], R[8]}};
-  if (hull_centre_line_bound(E, cP, RP, H, m->geom_rbound[g2]) >= margin) {
-    count(counters, SEPARATED);
-    return {0, true, 0.0, {}, {}};
-  }
   using MarkStack = void (*)(mjData*);
   using StackAllocNum = mjtNum* (*)(mjData*, size_t);
   reinterpret_cast<MarkStack>(static_cast<std::uintptr_t>(ctx[MARK_STACK]))(d);
   double* scratch = reinterpret_cast<StackAllocNum>(static_cast<std::uintptr_t>(ctx[STACK_ALLOC_NUM]))(
-      d, size_t(3 * H.nv + 3 * H.nf));
-  const pairs::polytope::Result r = pairs::polytope::polytope_ellipsoid(E, cP, RP, H, scratch);  // proven
+      d, size_t(pairs::polytope::scratch_size(H.nv, H.nf)));
+  // proven (CERTIFIED or ENUMERATED), or APART: its walking start's sigma proves it beyond the margin
+  const pairs::polytope::Result r = pairs::polytope::polytope_ellipsoid(E, cP, RP, H, scratch, margin);
   reinterpret_cast<MarkStack>(static_cast<std::uintptr_t>(ctx[FREE_STACK]))(d);
+  if (r.status == pairs::polytope::APART) {
+    count(counters, SEPARATED);
+    return {0, true, 0.0, {}, {}};
+  }
   return {-1, std::isfinite(r.dist), r.dist, r.normal, r.pos};
 }
 

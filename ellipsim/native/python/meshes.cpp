@@ -1,17 +1,18 @@
 // The bindings of pairs/polytope.hpp and pairs/height_field.hpp for the public API (ellipsim/core/pairs/
 // shape_distance.py's "mesh" kind and height_field.py): a batch of ellipsoids against one convex hull posed per
 // pair, and against one height field posed per pair (every prism within the margin, in MuJoCo's order).
+#include <algorithm>
+
 #include <ellipsim/pairs/height_field.hpp>
 #include <ellipsim/pairs/polytope.hpp>
 
 #include "common.hpp"
+#include "hull.hpp"
 
 namespace ellipsim::binding {
 namespace {
 
 using namespace nb::literals;
-using Edges = In<std::int32_t, nb::shape<-1, 2>>;
-using Faces = In<std::int32_t, nb::shape<-1, 3>>;
 
 // A pose of a batch (centres (n, 3), rotations (n, 3, 3); a batch of one broadcasts).
 struct Poses {
@@ -39,8 +40,8 @@ Poses poses(const Centers<>& C, const Rotations<>& R, std::int64_t lo, std::int6
 // ellipsoids and the hull (vertices, edges, outward normals, triangles: its own frame; the indices checked by
 // the caller, core/pairs/hull.py) posed at (CP, RP), pairs [lo, hi).
 void mesh_distances(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
-                    const Rotations<>& RP, const Centers<>& vertices, const Edges& edges, const Centers<>& normals,
-                    const Faces& faces, Out<double> dist, Rows<3> normal, Rows<3> pos, Out<std::int8_t> status,
+                    const Rotations<>& RP, const Centers<>& vertices, const EdgeArray& edges, const Centers<>& normals,
+                    const FaceArray& faces, Out<double> dist, Rows<3> normal, Rows<3> pos, Out<std::int8_t> status,
                     std::int64_t lo, std::int64_t hi) {
   const auto a = batch(Ce, Re, re);
   const auto n = static_cast<std::int64_t>(dist.shape(0));
@@ -49,10 +50,9 @@ void mesh_distances(const Centers<>& Ce, const Rotations<>& Re, const Centers<>&
     throw std::out_of_range("pair range outside the outputs");
   if (hi > lo && a.n != 1 && a.n < hi) throw std::out_of_range("pair range outside the ellipsoids");
   const Poses P = poses(CP, RP, lo, hi);
-  if (faces.shape(0) != normals.shape(0)) throw std::invalid_argument("one normal per face");
-  const pairs::polytope::Hull H = {int(vertices.shape(0)), int(edges.shape(0)), int(normals.shape(0)), vertices.data(),
-                                   edges.data(),           normals.data(),     faces.data()};
-  std::vector<double> scratch(3 * std::size_t(H.nv) + 3 * std::size_t(H.nf));  // once per call, not per pair
+  const BoundHull hull(vertices, edges, normals, faces);  // checked, its adjacency built: once per call
+  const pairs::polytope::Hull& H = hull.H;
+  std::vector<double> scratch = hull.scratch();
   double *d = dist.data(), *nr = normal.data(), *p = pos.data();
   std::int8_t* s = status.data();
   nb::gil_scoped_release release;
@@ -109,12 +109,30 @@ void hfield_contacts(const Centers<>& Ce, const Rotations<>& Re, const Centers<>
   }
 }
 
+// The hull's adjacency (polytope.hpp's build_adjacency) into adj_start (nv + 1), adj (2 ne), vface_start (nv + 1),
+// vface (3 nf): the MuJoCo glue's hull table holds it (ellipsim/mujoco/attachment.py).
+void hull_adjacency(const Centers<>& vertices, const EdgeArray& edges, const Centers<>& normals, const FaceArray& faces,
+                    Out<std::int32_t> adj_start, Out<std::int32_t> adj, Out<std::int32_t> vface_start,
+                    Out<std::int32_t> vface) {
+  const BoundHull hull(vertices, edges, normals, faces);
+  const pairs::polytope::Hull& H = hull.H;
+  if (adj_start.shape(0) != std::size_t(H.nv + 1) || adj.shape(0) != std::size_t(2 * H.ne) ||
+      vface_start.shape(0) != std::size_t(H.nv + 1) || vface.shape(0) != std::size_t(3 * H.nf))
+    throw std::invalid_argument("adjacency arrays of the wrong sizes");
+  std::copy(hull.adj_start.begin(), hull.adj_start.end(), adj_start.data());
+  std::copy(hull.adj.begin(), hull.adj.end(), adj.data());
+  std::copy(hull.vface_start.begin(), hull.vface_start.end(), vface_start.data());
+  std::copy(hull.vface.begin(), hull.vface.end(), vface.data());
+}
+
 }  // namespace
 
 void bind_meshes(nb::module_& m, nb::module_& t) {
   (void)t;
   m.def("mesh_distances", &mesh_distances, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
         in("edges"), in("normals"), in("faces"), in("dist"), in("normal"), in("pos"), in("status"), "lo"_a, "hi"_a);
+  m.def("hull_adjacency", &hull_adjacency, in("vertices"), in("edges"), in("normals"), in("faces"), in("adj_start"),
+        in("adj"), in("vface_start"), in("vface"));
   m.def("hfield_contacts", &hfield_contacts, in("Ce"), in("Re"), in("re"), in("CF"), in("RF"), in("elevation"),
         in("size"), in("margin"), "maxcon"_a, in("count"), in("dist"), in("normal"), in("pos"), "lo"_a, "hi"_a);
 }

@@ -8,6 +8,7 @@
 #include <ellipsim/pairs/tangent_cones.hpp>
 
 #include "common.hpp"
+#include "hull.hpp"
 
 namespace ellipsim::binding {
 namespace {
@@ -225,46 +226,20 @@ void box_vertex_stages(const InRows<21>& x, Rows<6> out, std::int64_t lo, std::i
 }
 
 // polytope_ellipsoid for the ellipsoids E and one hull (vertices (nv, 3), edges (ne, 2), face normals (nf, 3),
-// triangles (nf, 3), its local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per row.
+// triangles (nf, 3), its local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per
+// row; cutoff polytope_ellipsoid's (a pair proven beyond it: APART).
 void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
-                        const Rotations<>& RP, const Centers<>& vertices, const In<std::int32_t, nb::shape<-1, 2>>& edges,
-                        const Centers<>& normals, const In<std::int32_t, nb::shape<-1, 3>>& faces, Rows<9> out,
-                        std::int64_t lo, std::int64_t hi) {
+                        const Rotations<>& RP, const Centers<>& vertices, const EdgeArray& edges,
+                        const Centers<>& normals, const FaceArray& faces, Rows<9> out,
+                        std::int64_t lo, std::int64_t hi, double cutoff) {
   const auto a = batch(Ce, Re, re);
   const auto n = static_cast<std::int64_t>(out.shape(0));
   if (lo < 0 || hi < lo || hi > n || hi > a.n || hi > static_cast<std::int64_t>(CP.shape(0)) ||
       static_cast<std::int64_t>(RP.shape(0)) != static_cast<std::int64_t>(CP.shape(0)))
     throw std::out_of_range("pair range outside the arrays");
-  pairs::polytope::Hull H = {int(vertices.shape(0)), int(edges.shape(0)), int(normals.shape(0)),
-                             vertices.data(),       edges.data(),       normals.data(),
-                             faces.data()};
-  for (int k = 0; k < 2 * H.ne; ++k)
-    if (H.edge[k] < 0 || H.edge[k] >= H.nv) throw std::out_of_range("an edge names a vertex the hull lacks");
-  if (static_cast<int>(faces.shape(0)) != H.nf) throw std::invalid_argument("one normal per face");
-  for (int k = 0; k < 3 * H.nf; ++k)
-    if (H.face[k] < 0 || H.face[k] >= H.nv) throw std::out_of_range("a face names a vertex the hull lacks");
-  // the hull's adjacency (polytope.hpp's Hull), built here from its edges and triangles once per call: each
-  // vertex's neighbours and the triangles through it, as counting sorts
-  std::vector<int> adj_start(H.nv + 1, 0), adj(2 * std::size_t(H.ne)), vface_start(H.nv + 1, 0),
-      vface(3 * std::size_t(H.nf));
-  for (int k = 0; k < 2 * H.ne; ++k) ++adj_start[H.edge[k] + 1];
-  for (int k = 0; k < 3 * H.nf; ++k) ++vface_start[H.face[k] + 1];
-  for (int i = 0; i < H.nv; ++i) adj_start[i + 1] += adj_start[i], vface_start[i + 1] += vface_start[i];
-  {
-    std::vector<int> at(adj_start.begin(), adj_start.end() - 1), fat(vface_start.begin(), vface_start.end() - 1);
-    for (int k = 0; k < H.ne; ++k) {
-      const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-      adj[at[i]++] = j;
-      adj[at[j]++] = i;
-    }
-    for (int f = 0; f < H.nf; ++f)
-      for (int c = 0; c < 3; ++c) vface[fat[H.face[3 * f + c]]++] = f;
-  }
-  H.adj_start = adj_start.data();
-  H.adj = adj.data();
-  H.vface_start = vface_start.data();
-  H.vface = vface.data();
-  std::vector<double> scratch(7 * std::size_t(H.nv) + 3 * std::size_t(H.nf));
+  const BoundHull hull(vertices, edges, normals, faces);
+  const pairs::polytope::Hull& H = hull.H;
+  std::vector<double> scratch = hull.scratch();
   double* o = out.data();
   const double *C = CP.data(), *R = RP.data();
   nb::gil_scoped_release release;
@@ -273,7 +248,7 @@ void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Center
     const Mat3 Rp = {{R[9 * i], R[9 * i + 1], R[9 * i + 2], R[9 * i + 3], R[9 * i + 4], R[9 * i + 5], R[9 * i + 6],
                       R[9 * i + 7], R[9 * i + 8]}};
     const pairs::polytope::Result r =
-        pairs::polytope::polytope_ellipsoid(E, {C[3 * i], C[3 * i + 1], C[3 * i + 2]}, Rp, H, scratch.data());
+        pairs::polytope::polytope_ellipsoid(E, {C[3 * i], C[3 * i + 1], C[3 * i + 2]}, Rp, H, scratch.data(), cutoff);
     double* row = o + 9 * i;
     row[0] = double(r.status);
     row[1] = r.dist;
@@ -292,7 +267,7 @@ void bind_pairs(nb::module_& m, nb::module_& t) {
   t.def("box_ellipsoid", &box_ellipsoid, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,
         "hi"_a);
   t.def("polytope_ellipsoid", &polytope_ellipsoid, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
-        in("edges"), in("normals"), in("faces"), in("out"), "lo"_a, "hi"_a);
+        in("edges"), in("normals"), in("faces"), in("out"), "lo"_a, "hi"_a, "cutoff"_a = INFINITY);
   t.def("capsule_stages", &capsule_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"),
         "lo"_a, "hi"_a);
   t.def("box_stages", &box_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,

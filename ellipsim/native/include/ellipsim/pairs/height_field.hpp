@@ -35,8 +35,13 @@ struct Field {
 constexpr int NV = 6, NE = 12, NF = 8;
 constexpr int EDGES[2 * NE] = {0, 1, 1, 2, 0, 2, 3, 4, 4, 5, 3, 5, 0, 3, 1, 4, 2, 5, 0, 4, 1, 5, 0, 5};
 constexpr int FACES[3 * NF] = {0, 1, 2, 3, 4, 5, 0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4, 0, 2, 5, 0, 5, 3};
+// Their adjacency, as polytope::build_adjacency makes it from EDGES and FACES (tests/test_meshes.py checks it).
+constexpr int ADJ_START[NV + 1] = {0, 5, 9, 12, 15, 19, 24};
+constexpr int ADJ[2 * NE] = {1, 2, 3, 4, 5, 0, 2, 4, 5, 1, 0, 5, 4, 5, 0, 3, 5, 1, 0, 4, 3, 2, 1, 0};
+constexpr int VFACE_START[NV + 1] = {0, 5, 9, 12, 15, 19, 24};
+constexpr int VFACE[3 * NF] = {0, 2, 3, 6, 7, 0, 2, 4, 5, 0, 4, 6, 1, 3, 7, 1, 2, 3, 5, 1, 4, 5, 6, 7};
 // The scratch polytope_ellipsoid needs for a prism.
-constexpr int SCRATCH = 3 * NV + 3 * NF;
+constexpr int SCRATCH = polytope::scratch_size(NV, NF);
 
 // One prism: its vertices and outward unit face normals (field frame).
 struct Prism {
@@ -181,8 +186,8 @@ ELLIPSIM_HD int contacts(const Ellipsoid& E, const Vec3& cF, const Mat3& RF, con
         const Prism P = make_prism(F, a, b, t);
         if (!P.valid) return -1;
         if (apart_by_faces(P, lc, L, E.r, margin)) continue;
-        const polytope::Hull H = {NV, NE, NF, P.v, EDGES, P.normal, FACES};
-        const polytope::Result q = polytope::polytope_ellipsoid(E, cF, RF, H, scratch);
+        const polytope::Hull H = {NV, NE, NF, P.v, EDGES, P.normal, FACES, ADJ_START, ADJ, VFACE_START, VFACE};
+        const polytope::Result q = polytope::polytope_ellipsoid(E, cF, RF, H, scratch, margin);  // APART: beyond
         if (!math::isfinite(q.dist)) return -1;
         if (!(q.dist < margin)) continue;
         emit(Contact{q.dist, {-q.normal.x, -q.normal.y, -q.normal.z}, q.pos});

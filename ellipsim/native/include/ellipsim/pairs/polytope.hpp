@@ -56,8 +56,8 @@ using point_ellipsoid::sd_upper;
 using point_ellipsoid::sd_upper2;
 
 // How polytope_ellipsoid proved its maximum (box.hpp's): CERTIFIED (ub1 within tol), ENUMERATED (every critical
-// point evaluated).
-constexpr int CERTIFIED = 0, ENUMERATED = 1;
+// point evaluated); or, with a cutoff, APART: a sigma (a lower bound) proves the pair beyond it, dist that bound.
+constexpr int CERTIFIED = 0, ENUMERATED = 1, APART = 2;
 
 // A convex polytope in its local frame: nv vertices (3 nv numbers), ne edges (2 ne vertex indices), nf triangular
 // faces (3 nf vertex indices; a flat face may be several) and their outward unit normals (3 nf numbers).
@@ -76,6 +76,30 @@ struct Hull {
   const int* vface_start = nullptr;
   const int* vface = nullptr;
 };
+
+// The scratch polytope_ellipsoid takes for a hull of nv vertices and nf triangles (numbers).
+ELLIPSIM_HD constexpr int scratch_size(int nv, int nf) { return 7 * nv + 3 * nf; }
+
+// The hull's adjacency from its edges and triangles, by two counting sorts in place (no allocation): adj_start and
+// vface_start nv + 1 numbers, adj 2 ne, vface 3 nf; each vertex's neighbours in the order of the edges naming it,
+// its triangles in the order of the triangles.  The one builder of every caller (the bindings, the MuJoCo glue's
+// hull table, the height field's prisms' table is its output), so one hull has one adjacency.
+ELLIPSIM_HD void build_adjacency(int nv, int ne, int nf, const int* edge, const int* face, int* adj_start, int* adj,
+                                 int* vface_start, int* vface) {
+  for (int i = 0; i <= nv; ++i) adj_start[i] = vface_start[i] = 0;
+  for (int k = 0; k < 2 * ne; ++k) ++adj_start[edge[k] + 1];
+  for (int k = 0; k < 3 * nf; ++k) ++vface_start[face[k] + 1];
+  for (int i = 0; i < nv; ++i) adj_start[i + 1] += adj_start[i], vface_start[i + 1] += vface_start[i];
+  for (int k = 0; k < ne; ++k) {  // adj_start[i] runs to the end of i's range ...
+    const int i = edge[2 * k], j = edge[2 * k + 1];
+    adj[adj_start[i]++] = j;
+    adj[adj_start[j]++] = i;
+  }
+  for (int f = 0; f < nf; ++f)
+    for (int c = 0; c < 3; ++c) vface[vface_start[face[3 * f + c]]++] = f;
+  for (int i = nv; i > 0; --i) adj_start[i] = adj_start[i - 1], vface_start[i] = vface_start[i - 1];  // ... and back
+  adj_start[0] = vface_start[0] = 0;
+}
 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
 
@@ -608,9 +632,12 @@ struct Result {
 
 // For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
 // distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
-// box.hpp), status CERTIFIED or ENUMERATED.  scratch: 7 H.nv + 3 H.nf numbers.
+// box.hpp), status CERTIFIED or ENUMERATED.  scratch: scratch_size(H.nv, H.nf) numbers.  cutoff (the narrow
+// phase's margin): where sigma along the centre line, or at the walking start, less its rounding allowance
+// (PAIR_SIGMA_SLACK_ULPS of the pair's scale, box.hpp's centre_line_bound's), reaches it, APART at once: the pair
+// is proven beyond it, dist that bound.
 ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
-                                      double* scratch) {
+                                      double* scratch, double cutoff = INFINITY) {
   double* p = scratch;
   double* m = scratch + 3 * H.nv;
   const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
@@ -635,8 +662,22 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
     // after each
     const Vec3 o = rotate_t(E.R, sub(cP, E.c));
+    const auto apart = [&](double value) {  // value, a sigma, less its rounding allowance, proves it beyond cutoff
+      if (!(value >= cutoff)) return false;
+      double far = 0.0;
+      for (int i = 0; i < H.nv; ++i)
+        far = max2(far, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+      b.value = value - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(E.r));
+      return b.value >= cutoff;
+    };
+    if (cutoff < INFINITY && dot(o, o) > 0.0) {  // the centre line first: a pair well apart costs one pass
+      b.n = unit(o);
+      if (apart(sigma_hull(a2, p, H.nv, b.n))) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
+    }
     int low = 0;
     b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark);
+    b.value = sigma_hull(a2, p, H.nv, b.n);
+    if (apart(b.value)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     b.value = sigma_hull(a2, p, H.nv, b.n);
     ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
     if (!(ub - b.value <= tol)) normals();

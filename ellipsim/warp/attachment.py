@@ -44,12 +44,12 @@ import warp as wp
 from mujoco_warp._src import types as mjw_types
 
 from ..pair_table import TYPE_NAMES
-from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes (mesh and height field: not yet)
+from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes (mesh: not yet)
 from . import kernels
 
 # The pair table both glues read (ellipsim/pair_table.py); its geom codes are MuJoCo Warp's too.
 assert all(int(getattr(mjw_types.GeomType, name.upper())) == t for t, name in TYPE_NAMES.items())
-COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep")
+COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep", "failed")
 
 
 def _trid(i, j, n):
@@ -207,6 +207,12 @@ class Attachment:
                 m.pair_gap,
                 m.pair_adhesion,
                 m.pair_friction,
+                m.geom_dataid,
+                m.hfield_size,
+                m.hfield_nrow,
+                m.hfield_ncol,
+                m.hfield_adr,
+                m.hfield_data,
                 d.geom_xpos,
                 d.geom_xmat,
                 d.body_awake,

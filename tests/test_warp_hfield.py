@@ -143,3 +143,27 @@ def test_an_attached_terrain_run_writes_the_cpus_field_contacts_in_mujocos_order
         k = att.counters
         assert int(small.nacon.numpy()[0]) > 8 and k["overflow"] > 0
         assert k["contacts"] - k["overflow"] <= 8
+
+
+@SLOW
+def test_compare_engine_warp_judges_warps_own_field_contacts(tmp_path, capsys):
+    """`ellipsim compare --engine warp` on a terrain model (ellipsoids started 15 cm up, on the 10 cm field): the
+    field pairs are candidates now (candidate_pairs reads the same rows) and Warp's own contacts on them are
+    judged exactly, under their pair type."""
+    import json
+    import re
+
+    from ellipsim.app import cli
+
+    xml = re.sub(
+        r'<body pos="(\S+) (\S+) \S+"><freejoint/><geom type="ellipsoid"',
+        r'<body pos="\1 \2 0.15"><freejoint/><geom type="ellipsoid"',
+        terrain_xml(0, n=6, nrow=20, ncol=20, meshes=1),
+    )
+    path, report = tmp_path / "terrain.xml", tmp_path / "warp.json"
+    path.write_text(xml)
+    argv = ["compare", str(path), "--engine", "warp", "--worlds", "2", "--steps", "4", "--json", str(report)]
+    assert cli.main(argv) == 0
+    assert "ellipsoid-hfield:" in capsys.readouterr().out
+    field = json.loads(report.read_text())["by_pair_type"]["ellipsoid-hfield"]
+    assert field["pairs"] == 2 * 4 * 6 and field["mujoco_contacts"] > 0 and field["ellipsim_contacts"] > 0, field

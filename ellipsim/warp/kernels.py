@@ -1,8 +1,8 @@
 """The narrow phase in MuJoCo Warp's kernels: one kernel over all worlds and ellipsim's pairs, whose geometry is
 the C++ core's, compiled into it by Warp (wp.func_native): the functions the CPU API and the MuJoCo C callback
 run (ellipsim/native/warp/narrowphase.hpp calls them: pair_signed_distance, pairs::capsule, pairs::box,
-pairs::cylinder, and the certified filters), every certificate and search of theirs, the spheroid searches
-included.
+pairs::cylinder, pairs::height_field, and the certified filters), every certificate and search of theirs, the
+spheroid searches included.
 
 Reading of a pose: as the CPU reads it.  MuJoCo Warp's float32 geom_xpos, geom_xmat and geom_size widened exactly
 to float64 and used as given (the rotation not orthonormalised), so on the same widened poses this kernel and
@@ -16,7 +16,9 @@ multiply-adds on Warp's CPU JIT or NVRTC) and without fast math (Warp's default;
 Per pair: a certified filter first (the centre line of the capsule, box or cylinder, or of two ellipsoids grown by
 half the cutoff each), proving it apart beyond margin + gap with nothing computed; for two ellipsoids the first
 Newton run then stops at an iterate whose sigma reaches the cutoff (any sigma(n) is a lower bound on the
-distance).  Either is APART: no contact.  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
+distance).  Either is APART: no contact.  A height-field pair is the core's whole function, as MuJoCo C's narrow
+phase calls it: the cells under the ellipsoid, each prism proven apart by sigma or solved, a contact for each
+within margin + gap (up to MuJoCo's 50, into a per-thread buffer, then written one by one).  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
 proof ran out (counted; the best found used, as the CPU API reports it), so a pair left without a contact is
 separated beyond margin + gap whatever its status.
 

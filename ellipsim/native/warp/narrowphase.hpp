@@ -6,7 +6,7 @@
 //
 // Poses are Warp's: vectors with operator[], 3x3 matrices with data[row][col] (wp::vec_t, wp::mat_t), float64,
 // widened from the float32 MuJoCo Warp holds.  A pair's rows as Warp's NXN orders its geoms (lower type first):
-// a capsule is g1 (pairs::capsule's normal flipped), a box or cylinder g2, a sphere g1.
+// a capsule is g1 (pairs::capsule's normal flipped), a box or cylinder g2, a sphere g1, a height field g1.
 #pragma once
 
 #include <ellipsim/distance/ellipsoid_pair.hpp>

@@ -228,6 +228,136 @@ def contact_kernel(enable_sleep, incremental, per_thread):
         for i in range(contact_efc_address_out.shape[1]):
             contact_efc_address_out[cid, i] = -1
 
+    @wp.func
+    def hfield_pair(
+        p1: wp.vec3d,
+        R1: wp.mat33d,
+        p2: wp.vec3d,
+        R2: wp.mat33d,
+        r2: wp.vec3d,
+        hid: int,
+        margin: float,
+        gap: float,
+        geoms: wp.vec2i,
+        pairid: int,
+        worldid: int,
+        geom_condim: wp.array[int],
+        geom_priority: wp.array[int],
+        geom_solmix: wp.array2d[float],
+        geom_solref: wp.array2d[wp.vec2],
+        geom_solimp: wp.array2d[vec5],
+        geom_friction: wp.array2d[wp.vec3],
+        geom_adhesion: wp.array2d[float],
+        pair_dim: wp.array[int],
+        pair_solref: wp.array2d[wp.vec2],
+        pair_solreffriction: wp.array2d[wp.vec2],
+        pair_solimp: wp.array2d[vec5],
+        pair_adhesion: wp.array2d[float],
+        pair_friction: wp.array2d[vec5],
+        hfield_size: wp.array[wp.vec4],
+        hfield_nrow: wp.array[int],
+        hfield_ncol: wp.array[int],
+        hfield_adr: wp.array[int],
+        hfield_data: wp.array[float],
+        naconmax_in: int,
+        contact_dist_out: wp.array[float],
+        contact_pos_out: wp.array[wp.vec3],
+        contact_frame_out: wp.array[wp.mat33],
+        contact_includemargin_out: wp.array[float],
+        contact_friction_out: wp.array[vec5],
+        contact_solref_out: wp.array[wp.vec2],
+        contact_solreffriction_out: wp.array[wp.vec2],
+        contact_solimp_out: wp.array[vec5],
+        contact_dim_out: wp.array[int],
+        contact_geom_out: wp.array[wp.vec2i],
+        contact_efc_address_out: wp.array2d[int],
+        contact_worldid_out: wp.array[int],
+        contact_type_out: wp.array[int],
+        contact_geomcollisionid_out: wp.array[int],
+        contact_adhesion_out: wp.array[float],
+        nacon_out: wp.array[int],
+        counters_out: wp.array[wp.int64],
+    ):
+        # The height-field row: every prism within margin + gap, up to 50, appended one by one.  A function of
+        # its own, so that its buffer (2.8 kB, zeroed where declared) is made only for a field pair: in the
+        # kernel's body every thread zeroed it, +40 ns a pair of every other row on Warp's CPU device.
+        found = HfieldContacts()
+        nfound = wp.int32(0)
+        hfield_contacts(
+            p1,
+            R1,
+            p2,
+            R2,
+            r2,
+            hfield_nrow[hid],
+            hfield_ncol[hid],
+            hfield_size[hid],
+            hfield_data,
+            hfield_adr[hid],
+            F64(margin) + F64(gap),
+            nfound,
+            found,
+        )
+        if nfound < 0:  # a degenerate prism or a non-finite pose: no contacts, counted
+            wp.atomic_add(counters_out, C_FAILED, wp.int64(1))
+            return
+        if nfound == 0:
+            return
+        condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
+            geom_condim,
+            geom_priority,
+            geom_solmix,
+            geom_solref,
+            geom_solimp,
+            geom_friction,
+            geom_adhesion,
+            pair_dim,
+            pair_solref,
+            pair_solreffriction,
+            pair_solimp,
+            pair_adhesion,
+            pair_friction,
+            geoms,
+            pairid,
+            worldid,
+        )
+        for i in range(nfound):
+            dist32 = wp.float32(found[i, 0])
+            if not (dist32 < margin + gap):  # write_contact's test, in float32 as Warp makes it
+                continue
+            append_contact(
+                dist32,
+                wp.vec3d(found[i, 1], found[i, 2], found[i, 3]),
+                wp.vec3d(found[i, 4], found[i, 5], found[i, 6]),
+                margin,
+                geoms,
+                worldid,
+                condim,
+                friction,
+                solref,
+                solreffriction,
+                solimp,
+                adhesion,
+                naconmax_in,
+                contact_dist_out,
+                contact_pos_out,
+                contact_frame_out,
+                contact_includemargin_out,
+                contact_friction_out,
+                contact_solref_out,
+                contact_solreffriction_out,
+                contact_solimp_out,
+                contact_dim_out,
+                contact_geom_out,
+                contact_efc_address_out,
+                contact_worldid_out,
+                contact_type_out,
+                contact_geomcollisionid_out,
+                contact_adhesion_out,
+                nacon_out,
+                counters_out,
+            )
+
     @wp.kernel(module="unique", module_options=MODULE_OPTIONS)
     def ellipsim_contacts(
         # the attachment's pair table: geoms, pair ids, rows (ellipsim/pair_table.py)
@@ -334,31 +464,19 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             R1 = _widen33(geom_xmat_in[worldid, g1])
             R2 = _widen33(geom_xmat_in[worldid, g2])
             r2 = _size(geom_type[g2], geom_size[sid, g2])
-            if pair_row[k] == ROW_HFIELD:  # several contacts: every prism within margin + gap, up to 50
-                hid = geom_dataid[worldid % geom_dataid.shape[0], g1]
-                found = HfieldContacts()
-                nfound = wp.int32(0)
-                hfield_contacts(
+            if pair_row[k] == ROW_HFIELD:  # several contacts (hfield_pair)
+                hfield_pair(
                     p1,
                     R1,
                     p2,
                     R2,
                     r2,
-                    hfield_nrow[hid],
-                    hfield_ncol[hid],
-                    hfield_size[hid],
-                    hfield_data,
-                    hfield_adr[hid],
-                    F64(margin) + F64(gap),
-                    nfound,
-                    found,
-                )
-                if nfound < 0:  # a degenerate prism or a non-finite pose: no contacts, counted
-                    wp.atomic_add(counters_out, C_FAILED, wp.int64(1))
-                    continue
-                if nfound == 0:
-                    continue
-                condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
+                    geom_dataid[worldid % geom_dataid.shape[0], g1],
+                    margin,
+                    gap,
+                    geoms,
+                    pairid[0],
+                    worldid,
                     geom_condim,
                     geom_priority,
                     geom_solmix,
@@ -372,46 +490,30 @@ def contact_kernel(enable_sleep, incremental, per_thread):
                     pair_solimp,
                     pair_adhesion,
                     pair_friction,
-                    geoms,
-                    pairid[0],
-                    worldid,
+                    hfield_size,
+                    hfield_nrow,
+                    hfield_ncol,
+                    hfield_adr,
+                    hfield_data,
+                    naconmax_in,
+                    contact_dist_out,
+                    contact_pos_out,
+                    contact_frame_out,
+                    contact_includemargin_out,
+                    contact_friction_out,
+                    contact_solref_out,
+                    contact_solreffriction_out,
+                    contact_solimp_out,
+                    contact_dim_out,
+                    contact_geom_out,
+                    contact_efc_address_out,
+                    contact_worldid_out,
+                    contact_type_out,
+                    contact_geomcollisionid_out,
+                    contact_adhesion_out,
+                    nacon_out,
+                    counters_out,
                 )
-                for i in range(nfound):
-                    dist32 = wp.float32(found[i, 0])
-                    if not (dist32 < margin + gap):  # write_contact's test, in float32 as Warp makes it
-                        continue
-                    append_contact(
-                        dist32,
-                        wp.vec3d(found[i, 1], found[i, 2], found[i, 3]),
-                        wp.vec3d(found[i, 4], found[i, 5], found[i, 6]),
-                        margin,
-                        geoms,
-                        worldid,
-                        condim,
-                        friction,
-                        solref,
-                        solreffriction,
-                        solimp,
-                        adhesion,
-                        naconmax_in,
-                        contact_dist_out,
-                        contact_pos_out,
-                        contact_frame_out,
-                        contact_includemargin_out,
-                        contact_friction_out,
-                        contact_solref_out,
-                        contact_solreffriction_out,
-                        contact_solimp_out,
-                        contact_dim_out,
-                        contact_geom_out,
-                        contact_efc_address_out,
-                        contact_worldid_out,
-                        contact_type_out,
-                        contact_geomcollisionid_out,
-                        contact_adhesion_out,
-                        nacon_out,
-                        counters_out,
-                    )
                 continue
             # an allowance far above sigma's rounding through M (~u max r_B^2 / h_B, sphere_newton.sigma): past it
             # the pair is proven beyond margin + gap; below it, the distance is computed and Warp's test decides

@@ -18,8 +18,9 @@ incremental pass, which must only add the pairs the first pass skipped); the hoo
 pass it is in, so it reads collision()'s own awake_prev argument from its caller's frame (checked:
 a hook called from anywhere else raises).
 
-Pairs taken: ellipsoid x ellipsoid, sphere x ellipsoid, capsule x ellipsoid, ellipsoid x cylinder and
-ellipsoid x box (every pair type of ellipsim.mujoco's narrow phase), from the model's collision rules
+Pairs taken: ellipsoid x ellipsoid, sphere x ellipsoid, capsule x ellipsoid, ellipsoid x cylinder,
+ellipsoid x box and height field x ellipsoid (the pair table's rows marked warp: every pair type of
+ellipsim.mujoco's narrow phase but the convex mesh), from the model's collision rules
 and its explicit <pair>s (their margin, gap and material), except pairs with a collision sensor (they
 stay with Warp: a sensor reads Warp's own collision record).
 
@@ -44,12 +45,12 @@ import warp as wp
 from mujoco_warp._src import types as mjw_types
 
 from ..pair_table import TYPE_NAMES
-from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes (mesh and height field: not yet)
+from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes (mesh: not yet)
 from . import kernels
 
 # The pair table both glues read (ellipsim/pair_table.py); its geom codes are MuJoCo Warp's too.
 assert all(int(getattr(mjw_types.GeomType, name.upper())) == t for t, name in TYPE_NAMES.items())
-COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep")
+COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep", "failed")
 
 
 def _trid(i, j, n):
@@ -207,6 +208,12 @@ class Attachment:
                 m.pair_gap,
                 m.pair_adhesion,
                 m.pair_friction,
+                m.geom_dataid,
+                m.hfield_size,
+                m.hfield_nrow,
+                m.hfield_ncol,
+                m.hfield_adr,
+                m.hfield_data,
                 d.geom_xpos,
                 d.geom_xmat,
                 d.body_awake,
@@ -264,8 +271,9 @@ class Attachment:
         (maxima not proven global: a branch and bound out of its budget, ellipsoid pairs' or a cylinder
         rim's; the best found is used), overflow (contacts not written
         because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof, sent to the branch and bound; capsule,
-        box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved).  Reading
-        synchronises with the device."""
+        box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved), failed
+        (height-field pairs left without contacts: a degenerate prism or a non-finite distance, where MuJoCo C's
+        narrow phase calls MuJoCo's own function).  Reading synchronises with the device."""
         values = self._counters.numpy()
         return dict(zip(COUNTER_NAMES, (int(v) for v in values)))
 
@@ -296,7 +304,7 @@ class Attachment:
 
 
 def attach(m):
-    """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder and box x ellipsoid pairs of
-    the mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
+    """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder, box and height field x ellipsoid
+    pairs of the mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
     Attachment (a context manager; .detach(), .counters)."""
     return Attachment(m)

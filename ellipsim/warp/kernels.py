@@ -1,8 +1,8 @@
 """The narrow phase in MuJoCo Warp's kernels: one kernel over all worlds and ellipsim's pairs, whose geometry is
 the C++ core's, compiled into it by Warp (wp.func_native): the functions the CPU API and the MuJoCo C callback
 run (ellipsim/native/warp/narrowphase.hpp calls them: pair_signed_distance, pairs::capsule, pairs::box,
-pairs::cylinder, and the certified filters), every certificate and search of theirs, the spheroid searches
-included.
+pairs::cylinder, pairs::height_field, and the certified filters), every certificate and search of theirs, the
+spheroid searches included.
 
 Reading of a pose: as the CPU reads it.  MuJoCo Warp's float32 geom_xpos, geom_xmat and geom_size widened exactly
 to float64 and used as given (the rotation not orthonormalised), so on the same widened poses this kernel and
@@ -16,7 +16,9 @@ multiply-adds on Warp's CPU JIT or NVRTC) and without fast math (Warp's default;
 Per pair: a certified filter first (the centre line of the capsule, box or cylinder, or of two ellipsoids grown by
 half the cutoff each), proving it apart beyond margin + gap with nothing computed; for two ellipsoids the first
 Newton run then stops at an iterate whose sigma reaches the cutoff (any sigma(n) is a lower bound on the
-distance).  Either is APART: no contact.  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
+distance).  Either is APART: no contact.  A height-field pair is the core's whole function, as MuJoCo C's narrow
+phase calls it: the cells under the ellipsoid, each prism proven apart by sigma or solved, a contact for each
+within margin + gap (up to MuJoCo's 50, into a per-thread buffer, then written one by one).  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
 proof ran out (counted; the best found used, as the CPU API reports it), so a pair left without a contact is
 separated beyond margin + gap whatever its status.
 
@@ -30,7 +32,7 @@ import numpy as np
 import warp as wp
 
 # the pair table's geom codes and rows (narrowphase.hpp's ROW_*: which core function a pair runs)
-from ..pair_table import ROW_BOX, ROW_CAPSULE, ROW_CYLINDER, ROW_ELLIPSOID, SPHERE
+from ..pair_table import ROW_BOX, ROW_CAPSULE, ROW_CYLINDER, ROW_ELLIPSOID, ROW_HFIELD, SPHERE
 
 F64 = wp.float64
 
@@ -68,8 +70,13 @@ GLOBAL, UNPROVEN, APART = 0, 1, 2
 PAIRS_PER_THREAD = {"cpu": 16, "cuda": 1}
 
 #: The counters' slots (Attachment.counters names them).
-C_PAIRS, C_CONTACTS, C_UNPROVEN, C_OVERFLOW, C_DEEP = 0, 1, 2, 3, 4
-NCOUNTERS = 5
+C_PAIRS, C_CONTACTS, C_UNPROVEN, C_OVERFLOW, C_DEEP, C_FAILED = 0, 1, 2, 3, 4, 5
+NCOUNTERS = 6
+
+#: A height-field pair's most contacts (MuJoCo's mjMAXCONPAIR; narrowphase.hpp's HFIELD_MAXCON), and the
+#: per-thread buffer the core writes them into: row k (dist, normal from the field to the ellipsoid, pos).
+HFIELD_MAXCON = 50
+HfieldContacts = wp.types.matrix(shape=(HFIELD_MAXCON, 7), dtype=wp.float64)
 
 
 @wp.func_native(
@@ -95,6 +102,30 @@ def pair_contact(
     """narrowphase.hpp's pair_contact: (status, dist, normal from g1 to g2, pos, deep) of one pair, its geoms as
     Warp's NXN orders them; r1, r2 an ellipsoid's semi-axes ((r, r, r) for a sphere: sphere1) or the capsule's,
     box's or cylinder's geom_size; cutoff -inf for the distance of every pair."""
+    ...
+
+
+@wp.func_native(
+    "ellipsim::warp_glue::warp_hfield_contacts(c1, R1, c2, R2, r2, nrow, ncol, size, data, adr, margin, count, out);"
+)
+def hfield_contacts(
+    c1: wp.vec3d,
+    R1: wp.mat33d,
+    c2: wp.vec3d,
+    R2: wp.mat33d,
+    r2: wp.vec3d,
+    nrow: int,
+    ncol: int,
+    size: wp.vec4,
+    data: wp.array[float],
+    adr: int,
+    margin: wp.float64,
+    count: wp.ref[int],
+    out: wp.ref[HfieldContacts],
+):
+    """narrowphase.hpp's warp_hfield_contacts: the field g1 posed at (c1, R1) (MuJoCo Warp's hfield_nrow, _ncol,
+    _size, _data from _adr) and the ellipsoid (c2, R2, r2): pairs::height_field::contacts, every prism within the
+    margin in MuJoCo's order, into out's first count rows (count -1: none computed)."""
     ...
 
 
@@ -134,6 +165,199 @@ def contact_kernel(enable_sleep, incremental, per_thread):
     from mujoco_warp._src.math import make_frame
     from mujoco_warp._src.types import ContactType, SleepState, vec5
 
+    @wp.func
+    def append_contact(
+        dist32: float,
+        normal: wp.vec3d,
+        pos: wp.vec3d,
+        margin: float,
+        geoms: wp.vec2i,
+        worldid: int,
+        condim_in: int,
+        friction: vec5,
+        solref: wp.vec2,
+        solreffriction: wp.vec2,
+        solimp: vec5,
+        adhesion: float,
+        naconmax_in: int,
+        contact_dist_out: wp.array[float],
+        contact_pos_out: wp.array[wp.vec3],
+        contact_frame_out: wp.array[wp.mat33],
+        contact_includemargin_out: wp.array[float],
+        contact_friction_out: wp.array[vec5],
+        contact_solref_out: wp.array[wp.vec2],
+        contact_solreffriction_out: wp.array[wp.vec2],
+        contact_solimp_out: wp.array[vec5],
+        contact_dim_out: wp.array[int],
+        contact_geom_out: wp.array[wp.vec2i],
+        contact_efc_address_out: wp.array2d[int],
+        contact_worldid_out: wp.array[int],
+        contact_type_out: wp.array[int],
+        contact_geomcollisionid_out: wp.array[int],
+        contact_adhesion_out: wp.array[float],
+        nacon_out: wp.array[int],
+        counters_out: wp.array[wp.int64],
+    ):
+        # write_contact's semantics (collision_core.py) for a contact within margin + gap, the slot kept to
+        # count an overflow: the pair table holds no collision-sensor pair and no excluded one (attachment.py),
+        # so a detected contact is a constraint contact, active when dist < margin or adhesive within the gap
+        condim = condim_in
+        if (adhesion != 0.0) and (dist32 >= margin):
+            condim = 1
+        cid = wp.atomic_add(nacon_out, 0, 1)
+        wp.atomic_add(counters_out, C_CONTACTS, wp.int64(1))
+        if cid >= naconmax_in:
+            wp.atomic_add(counters_out, C_OVERFLOW, wp.int64(1))
+            return
+        contact_dist_out[cid] = dist32
+        contact_pos_out[cid] = wp.vec3(wp.float32(pos[0]), wp.float32(pos[1]), wp.float32(pos[2]))
+        contact_frame_out[cid] = make_frame(
+            wp.vec3(wp.float32(normal[0]), wp.float32(normal[1]), wp.float32(normal[2]))
+        )
+        contact_geom_out[cid] = geoms
+        contact_worldid_out[cid] = worldid
+        contact_includemargin_out[cid] = margin
+        contact_dim_out[cid] = condim
+        contact_friction_out[cid] = friction
+        contact_solref_out[cid] = solref
+        contact_solreffriction_out[cid] = solreffriction
+        contact_solimp_out[cid] = solimp
+        contact_adhesion_out[cid] = adhesion
+        contact_type_out[cid] = int(ContactType.CONSTRAINT)
+        contact_geomcollisionid_out[cid] = 0
+        for i in range(contact_efc_address_out.shape[1]):
+            contact_efc_address_out[cid, i] = -1
+
+    @wp.func
+    def hfield_pair(
+        p1: wp.vec3d,
+        R1: wp.mat33d,
+        p2: wp.vec3d,
+        R2: wp.mat33d,
+        r2: wp.vec3d,
+        hid: int,
+        margin: float,
+        gap: float,
+        geoms: wp.vec2i,
+        pairid: int,
+        worldid: int,
+        geom_condim: wp.array[int],
+        geom_priority: wp.array[int],
+        geom_solmix: wp.array2d[float],
+        geom_solref: wp.array2d[wp.vec2],
+        geom_solimp: wp.array2d[vec5],
+        geom_friction: wp.array2d[wp.vec3],
+        geom_adhesion: wp.array2d[float],
+        pair_dim: wp.array[int],
+        pair_solref: wp.array2d[wp.vec2],
+        pair_solreffriction: wp.array2d[wp.vec2],
+        pair_solimp: wp.array2d[vec5],
+        pair_adhesion: wp.array2d[float],
+        pair_friction: wp.array2d[vec5],
+        hfield_size: wp.array[wp.vec4],
+        hfield_nrow: wp.array[int],
+        hfield_ncol: wp.array[int],
+        hfield_adr: wp.array[int],
+        hfield_data: wp.array[float],
+        naconmax_in: int,
+        contact_dist_out: wp.array[float],
+        contact_pos_out: wp.array[wp.vec3],
+        contact_frame_out: wp.array[wp.mat33],
+        contact_includemargin_out: wp.array[float],
+        contact_friction_out: wp.array[vec5],
+        contact_solref_out: wp.array[wp.vec2],
+        contact_solreffriction_out: wp.array[wp.vec2],
+        contact_solimp_out: wp.array[vec5],
+        contact_dim_out: wp.array[int],
+        contact_geom_out: wp.array[wp.vec2i],
+        contact_efc_address_out: wp.array2d[int],
+        contact_worldid_out: wp.array[int],
+        contact_type_out: wp.array[int],
+        contact_geomcollisionid_out: wp.array[int],
+        contact_adhesion_out: wp.array[float],
+        nacon_out: wp.array[int],
+        counters_out: wp.array[wp.int64],
+    ):
+        # The height-field row: every prism within margin + gap, up to 50, appended one by one.  A function of
+        # its own, so that its buffer (2.8 kB, zeroed where declared) is made only for a field pair: in the
+        # kernel's body every thread zeroed it, +40 ns a pair of every other row on Warp's CPU device.
+        found = HfieldContacts()
+        nfound = wp.int32(0)
+        hfield_contacts(
+            p1,
+            R1,
+            p2,
+            R2,
+            r2,
+            hfield_nrow[hid],
+            hfield_ncol[hid],
+            hfield_size[hid],
+            hfield_data,
+            hfield_adr[hid],
+            F64(margin) + F64(gap),
+            nfound,
+            found,
+        )
+        if nfound < 0:  # a degenerate prism or a non-finite pose: no contacts, counted
+            wp.atomic_add(counters_out, C_FAILED, wp.int64(1))
+            return
+        if nfound == 0:
+            return
+        condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
+            geom_condim,
+            geom_priority,
+            geom_solmix,
+            geom_solref,
+            geom_solimp,
+            geom_friction,
+            geom_adhesion,
+            pair_dim,
+            pair_solref,
+            pair_solreffriction,
+            pair_solimp,
+            pair_adhesion,
+            pair_friction,
+            geoms,
+            pairid,
+            worldid,
+        )
+        for i in range(nfound):
+            dist32 = wp.float32(found[i, 0])
+            if not (dist32 < margin + gap):  # write_contact's test, in float32 as Warp makes it
+                continue
+            append_contact(
+                dist32,
+                wp.vec3d(found[i, 1], found[i, 2], found[i, 3]),
+                wp.vec3d(found[i, 4], found[i, 5], found[i, 6]),
+                margin,
+                geoms,
+                worldid,
+                condim,
+                friction,
+                solref,
+                solreffriction,
+                solimp,
+                adhesion,
+                naconmax_in,
+                contact_dist_out,
+                contact_pos_out,
+                contact_frame_out,
+                contact_includemargin_out,
+                contact_friction_out,
+                contact_solref_out,
+                contact_solreffriction_out,
+                contact_solimp_out,
+                contact_dim_out,
+                contact_geom_out,
+                contact_efc_address_out,
+                contact_worldid_out,
+                contact_type_out,
+                contact_geomcollisionid_out,
+                contact_adhesion_out,
+                nacon_out,
+                counters_out,
+            )
+
     @wp.kernel(module="unique", module_options=MODULE_OPTIONS)
     def ellipsim_contacts(
         # the attachment's pair table: geoms, pair ids, rows (ellipsim/pair_table.py)
@@ -162,6 +386,12 @@ def contact_kernel(enable_sleep, incremental, per_thread):
         pair_gap: wp.array2d[float],
         pair_adhesion: wp.array2d[float],
         pair_friction: wp.array2d[vec5],
+        geom_dataid: wp.array2d[int],
+        hfield_size: wp.array[wp.vec4],
+        hfield_nrow: wp.array[int],
+        hfield_ncol: wp.array[int],
+        hfield_adr: wp.array[int],
+        hfield_data: wp.array[float],
         # Data in:
         geom_xpos_in: wp.array2d[wp.vec3],
         geom_xmat_in: wp.array2d[wp.mat33],
@@ -231,6 +461,60 @@ def contact_kernel(enable_sleep, incremental, per_thread):
                 continue
             wp.atomic_add(counters_out, C_PAIRS, wp.int64(1))
             sid = worldid % geom_size.shape[0]
+            R1 = _widen33(geom_xmat_in[worldid, g1])
+            R2 = _widen33(geom_xmat_in[worldid, g2])
+            r2 = _size(geom_type[g2], geom_size[sid, g2])
+            if pair_row[k] == ROW_HFIELD:  # several contacts (hfield_pair)
+                hfield_pair(
+                    p1,
+                    R1,
+                    p2,
+                    R2,
+                    r2,
+                    geom_dataid[worldid % geom_dataid.shape[0], g1],
+                    margin,
+                    gap,
+                    geoms,
+                    pairid[0],
+                    worldid,
+                    geom_condim,
+                    geom_priority,
+                    geom_solmix,
+                    geom_solref,
+                    geom_solimp,
+                    geom_friction,
+                    geom_adhesion,
+                    pair_dim,
+                    pair_solref,
+                    pair_solreffriction,
+                    pair_solimp,
+                    pair_adhesion,
+                    pair_friction,
+                    hfield_size,
+                    hfield_nrow,
+                    hfield_ncol,
+                    hfield_adr,
+                    hfield_data,
+                    naconmax_in,
+                    contact_dist_out,
+                    contact_pos_out,
+                    contact_frame_out,
+                    contact_includemargin_out,
+                    contact_friction_out,
+                    contact_solref_out,
+                    contact_solreffriction_out,
+                    contact_solimp_out,
+                    contact_dim_out,
+                    contact_geom_out,
+                    contact_efc_address_out,
+                    contact_worldid_out,
+                    contact_type_out,
+                    contact_geomcollisionid_out,
+                    contact_adhesion_out,
+                    nacon_out,
+                    counters_out,
+                )
+                continue
             # an allowance far above sigma's rounding through M (~u max r_B^2 / h_B, sphere_newton.sigma): past it
             # the pair is proven beyond margin + gap; below it, the distance is computed and Warp's test decides
             cutoff = F64(margin) + F64(gap) + F64(1e-9) * reach
@@ -243,11 +527,11 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             pair_contact(
                 pair_row[k],
                 p1,
-                _widen33(geom_xmat_in[worldid, g1]),
+                R1,
                 _size(t1, geom_size[sid, g1]),
                 p2,
-                _widen33(geom_xmat_in[worldid, g2]),
-                _size(geom_type[g2], geom_size[sid, g2]),
+                R2,
+                r2,
                 int(t1 == SPHERE),
                 cutoff,
                 status,
@@ -283,34 +567,38 @@ def contact_kernel(enable_sleep, incremental, per_thread):
                 pairid[0],
                 worldid,
             )
-            # write_contact's semantics (collision_core.py), the slot kept to count an overflow: the pair
-            # table holds no collision-sensor pair and no excluded one (attachment.py), so a detected contact
-            # is a constraint contact, active when dist < margin or adhesive within the gap
-            if (adhesion != 0.0) and (dist32 >= margin):
-                condim = 1
-            cid = wp.atomic_add(nacon_out, 0, 1)
-            wp.atomic_add(counters_out, C_CONTACTS, wp.int64(1))
-            if cid >= naconmax_in:
-                wp.atomic_add(counters_out, C_OVERFLOW, wp.int64(1))
-                continue
-            contact_dist_out[cid] = dist32
-            contact_pos_out[cid] = wp.vec3(wp.float32(pos[0]), wp.float32(pos[1]), wp.float32(pos[2]))
-            contact_frame_out[cid] = make_frame(
-                wp.vec3(wp.float32(normal[0]), wp.float32(normal[1]), wp.float32(normal[2]))
+            append_contact(
+                dist32,
+                normal,
+                pos,
+                margin,
+                geoms,
+                worldid,
+                condim,
+                friction,
+                solref,
+                solreffriction,
+                solimp,
+                adhesion,
+                naconmax_in,
+                contact_dist_out,
+                contact_pos_out,
+                contact_frame_out,
+                contact_includemargin_out,
+                contact_friction_out,
+                contact_solref_out,
+                contact_solreffriction_out,
+                contact_solimp_out,
+                contact_dim_out,
+                contact_geom_out,
+                contact_efc_address_out,
+                contact_worldid_out,
+                contact_type_out,
+                contact_geomcollisionid_out,
+                contact_adhesion_out,
+                nacon_out,
+                counters_out,
             )
-            contact_geom_out[cid] = geoms
-            contact_worldid_out[cid] = worldid
-            contact_includemargin_out[cid] = margin
-            contact_dim_out[cid] = condim
-            contact_friction_out[cid] = friction
-            contact_solref_out[cid] = solref
-            contact_solreffriction_out[cid] = solreffriction
-            contact_solimp_out[cid] = solimp
-            contact_adhesion_out[cid] = adhesion
-            contact_type_out[cid] = int(ContactType.CONSTRAINT)
-            contact_geomcollisionid_out[cid] = 0
-            for i in range(contact_efc_address_out.shape[1]):
-                contact_efc_address_out[cid, i] = -1
 
     _KERNELS[key] = ellipsim_contacts
     return ellipsim_contacts
@@ -409,3 +697,70 @@ def cylinder_distances(ce, Re, ra, ck, Rk, rk, device="cpu"):
     """As pair_distances for ellipsoids (ce, Re, ra) and cylinders (ck, Rk, rk: MuJoCo's geom_size,
     (radius, half-length, unused)); the normal from the ellipsoid to the cylinder."""
     return _distances(ROW_CYLINDER, (ce, Re, ra, ck, Rk, rk), device)
+
+
+@wp.kernel
+def _hfield_pairs(
+    cf: wp.array[wp.vec3],
+    Rf: wp.array[wp.mat33],
+    ce: wp.array[wp.vec3],
+    Re: wp.array[wp.mat33],
+    re: wp.array[wp.vec3],
+    nrow: int,
+    ncol: int,
+    size: wp.vec4,
+    data: wp.array[float],
+    margin: wp.float64,
+    count: wp.array[int],
+    out: wp.array3d[wp.float64],
+):
+    i = wp.tid()
+    found = HfieldContacts()
+    n = wp.int32(0)
+    hfield_contacts(
+        _widen3(cf[i]),
+        _widen33(Rf[i]),
+        _widen3(ce[i]),
+        _widen33(Re[i]),
+        _widen3(re[i]),
+        nrow,
+        ncol,
+        size,
+        data,
+        0,
+        margin,
+        n,
+        found,
+    )
+    count[i] = n
+    for k in range(n):
+        for j in range(7):
+            out[i, k, j] = found[k, j]
+
+
+def hfield_pair_contacts(ce, Re, re, cf, Rf, elevation, size, margin=0.0, device="cpu"):
+    """The contact kernel's height-field row on float32 poses: ellipsoids (ce, Re, re) (n, 3), (n, 3, 3), (n, 3)
+    and the field (elevation (nrow, ncol), size (x, y, z, base), float32 as MuJoCo Warp holds them) posed at
+    (cf, Rf), every prism within `margin` (float64, as the kernel's margin + gap) in float64 before the kernel's
+    float32 rounding: (count (n,), dist (n, 50), normal (n, 50, 3) from the field to the ellipsoid, pos (n, 50, 3))
+    as core.pairs.height_field.hfield_contacts returns them (rows past count NaN).  For tests and the bench."""
+    arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in (cf, Rf, ce, Re, re)]
+    n = len(arrays[0])
+    for x, shape in zip(arrays, ((3,), (3, 3), (3,), (3, 3), (3,))):
+        if x.shape != (n, *shape):
+            raise ValueError(f"pose arrays must be (n, 3), (n, 3, 3), (n, 3) for one n, got {x.shape}")
+    e = np.ascontiguousarray(elevation, dtype=np.float32)
+    inputs = [wp.array(x, dtype=t, device=device) for x, t in zip(arrays, (wp.vec3, wp.mat33) * 2 + (wp.vec3,))]
+    count = wp.empty(n, dtype=int, device=device)
+    out = wp.array(np.full((n, HFIELD_MAXCON, 7), np.nan), dtype=wp.float64, device=device)
+    size = wp.vec4(*(float(np.float32(v)) for v in size))
+    data = wp.array(e.ravel(), dtype=float, device=device)
+    wp.launch(
+        _hfield_pairs,
+        dim=n,
+        inputs=[*inputs, e.shape[0], e.shape[1], size, data, float(margin)],
+        outputs=[count, out],
+        device=device,
+    )
+    out = out.numpy()
+    return count.numpy(), out[:, :, 0], out[:, :, 1:4], out[:, :, 4:7]

@@ -12,7 +12,11 @@
    call on a model whose pair is excluded (broad phase and launches with nothing to do), over N;
    plain (Warp's GJK/EPA kernel) and attached (ellipsim's kernel), in interleaved rounds, for the
    ellipsoid, capsule, cylinder and box pairs.
-3. Collision stage and mjw.step per world-step on settled scenes (the 16-figure heap, the pile),
+3. Cost per height field x ellipsoid pair: 8 ellipsoids settled on a 30 x 30 field (MuJoCo C's steps) in N
+   worlds, mjw.collision less the same call with the ellipsoids 5 m up (culled by the bounding spheres), over
+   the pairs; plain (Warp's hfield kernel: GJK/EPA per prism, up to 4 contacts a pair) and attached
+   (pairs/height_field.hpp: a contact per prism within the margin, up to 50), interleaved.
+4. Collision stage and mjw.step per world-step on settled scenes (the 16-figure heap, the pile),
    attached vs plain, interleaved.
 """
 
@@ -256,6 +260,64 @@ def cost_per_pair(size, device, kind):
     )
 
 
+def _field_xml(rng, n):
+    """n ellipsoids (2-10 cm) over a 30 x 30 field 2 m square with 10 cm of relief; only field pairs collide."""
+    bodies = []
+    for _ in range(n):
+        (x, y), r = rng.uniform(-0.7, 0.7, 2), rng.uniform(0.03, 0.1, 3)
+        bodies.append(
+            f'<body pos="{x} {y} 0.3"><freejoint/>'
+            f'<geom type="ellipsoid" size="{r[0]} {r[1]} {r[2]}" contype="1" conaffinity="2"/></body>'
+        )
+    elevation = " ".join(f"{v:.4f}" for v in rng.uniform(0, 1, 900))
+    return (
+        f'<mujoco><asset><hfield name="t" nrow="30" ncol="30" size="1 1 0.1 0.05" elevation="{elevation}"/></asset>'
+        f'<worldbody><geom type="hfield" hfield="t" contype="2" conaffinity="1"/>{"".join(bodies)}</worldbody>'
+        "</mujoco>"
+    )
+
+
+def hfield_cost(size, device, n=8):
+    """Seconds per height field x ellipsoid pair of mjw.collision, plain and attached (module docstring)."""
+    wp, mjw, ew = _warp()
+    nworld = size["warp_worlds"]
+    model, data, _ = settled(_field_xml(np.random.default_rng(6), n), size["warp_settle"])
+    far = mujoco.MjData(model)
+    far.qpos[:] = data.qpos
+    far.qpos[2::7] += 5.0  # every body a free ellipsoid: its z up 5 m
+    runs, fns = {}, {}
+    with wp.ScopedDevice(device):
+        for mode in ("plain", "attached"):
+            m = mjw.put_model(model)
+            att = ew.attach(m) if mode == "attached" else None
+            for where, state in (("settled", data), ("culled", far)):
+                d = mjw.put_data(model, state, nworld=nworld, naconmax=nworld * n * 50)
+                mjw.kinematics(m, d)
+                runs[mode, where] = (m, d, att)
+
+                def fn(m=m, d=d):
+                    mjw.collision(m, d)
+                    wp.synchronize()
+
+                fns[f"{mode} {where}"] = fn
+        for fn in fns.values():
+            fn()  # compile
+        times = interleaved(fns, size["rounds"])
+        contacts = {k: int(runs[k, "settled"][1].nacon.numpy()[0]) // nworld for k in ("plain", "attached")}
+        counters = runs["attached", "settled"][2].counters
+        runs["attached", "settled"][2].detach()
+    per = {k: (times[f"{k} settled"] - times[f"{k} culled"]) / (nworld * n) for k in ("plain", "attached")}
+    return dict(
+        n=n,
+        nworld=nworld,
+        plain=float(np.median(per["plain"])),
+        attached=float(np.median(per["attached"])),
+        ratio=float(np.median(per["attached"] / per["plain"])),
+        contacts=contacts,
+        failed=counters["failed"],
+    )
+
+
 def scenes_rows(size, device):
     wp, mjw, ew = _warp()
     out = []
@@ -329,8 +391,10 @@ def measure(size):
     acc = accuracy(size, device)
     say("warp: cost per pair ...")
     cost = [cost_per_pair(size, device, kind) for kind in COST_KINDS]
+    say("warp: cost per height-field pair ...")
+    field = hfield_cost(size, device)
     rows = scenes_rows(size, device)
-    return dict(device=device, accuracy=acc, cost=cost, scenes=rows)
+    return dict(device=device, accuracy=acc, cost=cost, field=field, scenes=rows)
 
 
 def write(result, size, out, plt):
@@ -373,6 +437,16 @@ def write(result, size, out, plt):
             f"| {PAIR_NAMES[k['kind']]} | {k['empty'] * 1e9:.0f} | {k['plain'] * 1e9:.0f} | {k['attached'] * 1e9:.0f} | "
             f"**{k['ratio']:.2f}x** |"
         )
+    if "field" in r:
+        f = r["field"]
+        L += [
+            "",
+            f"Height field x ellipsoid ({f['nworld']} worlds of {f['n']} ellipsoids settled on a 30 x 30 field, "
+            "mjw.collision less the same call with them culled, over the pairs): Warp's hfield kernel "
+            f"{f['plain'] * 1e6:.1f} us per pair ({f['contacts']['plain']} contacts a world, up to 4 a pair), "
+            f"ellipsim's {f['attached'] * 1e6:.1f} us ({f['contacts']['attached']} contacts a world, one per prism "
+            f"within the margin), **{f['ratio']:.2f}x**; {f['failed']} pairs failed.",
+        ]
     L += [
         "",
         "| scene | worlds | ellipsim pairs per world | contacts (plain / attached) | collision per world-step, plain / "

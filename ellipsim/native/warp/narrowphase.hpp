@@ -6,7 +6,7 @@
 //
 // Poses are Warp's: vectors with operator[], 3x3 matrices with data[row][col] (wp::vec_t, wp::mat_t), float64,
 // widened from the float32 MuJoCo Warp holds.  A pair's rows as Warp's NXN orders its geoms (lower type first):
-// a capsule is g1 (pairs::capsule's normal flipped), a box or cylinder g2, a sphere g1.
+// a capsule is g1 (pairs::capsule's normal flipped), a box or cylinder g2, a sphere g1, a height field g1.
 #pragma once
 
 #include <ellipsim/distance/ellipsoid_pair.hpp>
@@ -14,12 +14,16 @@
 #include <ellipsim/pairs/box.hpp>
 #include <ellipsim/pairs/capsule.hpp>
 #include <ellipsim/pairs/cylinder.hpp>
+#include <ellipsim/pairs/height_field.hpp>
 #include <ellipsim/vec3.hpp>
 
 namespace ellipsim::warp_glue {
 
-// Which core function a pair runs (ellipsim/warp/pairs.py's rows name them).
-constexpr int ROW_ELLIPSOID = 0, ROW_CAPSULE = 1, ROW_BOX = 2, ROW_CYLINDER = 3;
+// Which core function a pair runs (ellipsim/pair_table.py's rows name them; ROW_MESH = 4 is not on Warp).
+constexpr int ROW_ELLIPSOID = 0, ROW_CAPSULE = 1, ROW_BOX = 2, ROW_CYLINDER = 3, ROW_HFIELD = 5;
+
+// A height-field pair's most contacts: MuJoCo's mjMAXCONPAIR, as mujoco/narrowphase.hpp's hfield_row.
+constexpr int HFIELD_MAXCON = 50;
 
 // A pair's status: its maximum proven global, or not (the best found), or proven apart beyond the cutoff by a
 // certified filter (no distance computed).
@@ -114,6 +118,28 @@ ELLIPSIM_HD void warp_pair_contact(int row, const V& c1, const M& R1, const V& r
   put(normal, k.normal);
   put(pos, k.pos);
   deep = k.deep ? 1 : 0;
+}
+
+// The height-field row (not pair_contact's: several contacts): the ellipsoid (c2, R2, r2) with the field g1 posed
+// at (c1, R1), its MuJoCo Warp model data (nrow, ncol, size (x, y, z, base) float32, elevations data[adr ...]), as
+// hfield_row calls pairs::height_field::contacts: every prism within `margin`, in MuJoCo's order, up to
+// HFIELD_MAXCON.  Contact k into row k of out (Warp's matrix HFIELD_MAXCON x 7: dist, normal from the field to the
+// ellipsoid, pos); count their number, or -1 (a degenerate prism or a non-finite distance: no contacts).
+template <typename V, typename M, typename V4, typename A, typename B>
+ELLIPSIM_HD void warp_hfield_contacts(const V& c1, const M& R1, const V& c2, const M& R2, const V& r2, int nrow,
+                                      int ncol, const V4& size, const A& data, int adr, double margin, int& count,
+                                      B& out) {
+  const pairs::height_field::Field F = {nrow, ncol, double(size[0]), double(size[1]), double(size[2]),
+                                        double(size[3]), data.data + adr};
+  const Ellipsoid field = pose(c1, R1, r2);  // its centre and rotation (r2 unused)
+  int k = 0;
+  count = pairs::height_field::contacts(pose(c2, R2, r2), field.c, field.R, F, margin, HFIELD_MAXCON,
+                                        [&](const pairs::height_field::Contact& x) {
+                                          const double row[7] = {x.dist,  x.normal.x, x.normal.y, x.normal.z,
+                                                                 x.pos.x, x.pos.y,    x.pos.z};
+                                          for (int j = 0; j < 7; ++j) out.data[k][j] = row[j];
+                                          ++k;
+                                        });
 }
 
 }  // namespace ellipsim::warp_glue

@@ -288,9 +288,15 @@ def terrain_elevation(nrow, ncol, seed):
     return (h - h.min()) / (h.max() - h.min())
 
 
-def _add_terrain(root, world, pos, props, seed):
+#: the seed of the terrain's hills and props: one terrain whatever the scene's seed (which places the figures),
+#: so that the layouts of several seeds share one model (MuJoCo Warp's worlds: app/warp_run.py)
+TERRAIN_SEED = 7
+
+
+def _add_terrain(root, world, pos, props):
     """Replace the floor by a height field under the figures at `pos` (their roots) and scatter `props` free
-    convex mesh props (8-40 random points, 5-12 cm) between them, dropped with them."""
+    convex mesh props (8-40 random points, 5-12 cm) between them, dropped with them (TERRAIN_SEED)."""
+    seed = TERRAIN_SEED
     half = np.abs(pos[:, :2]).max(axis=0) + 1.0  # a metre of terrain around the outermost figures
     ncol, nrow = (int(np.ceil(2 * h / TERRAIN_CELL)) + 1 for h in half)
     elevation = terrain_elevation(nrow, ncol, seed)
@@ -371,7 +377,7 @@ def scene_xml(
             if geom.get("name") == "floor":
                 world.remove(geom)
     if terrain:
-        _add_terrain(root, world, pos, props, seed)
+        _add_terrain(root, world, pos, props)
     sections = [(s, list(root.find(s))) for s in _FIGURE_SECTIONS if root.find(s) is not None]
     names = _names_in([figure] + [el for _, items in sections for el in items])
     for tag, items in sections:

@@ -22,6 +22,7 @@ SECTIONS = {
     "pairs": "section mujoco's pair-type table measured ten times: median, lowest, highest",
     "validation": "MuJoCo's contacts judged against the exact test: disagreements by kind, normals, cost",
     "baseline": "this build against another install (--baseline PYTHON), function by function, step by step",
+    "meshes": "ellipsoid x convex mesh and x height field against MuJoCo's functions; mj_step on the terrain",
 }
 
 

@@ -172,6 +172,7 @@ ELLIPSIM_HD int contacts(const Ellipsoid& E, const Vec3& cF, const Mat3& RF, con
                          Emit&& emit) {
   const Vec3 lc = rotate_t(RF, sub(E.c, cF));
   const Mat3 L = distance::tmatmul(RF, E.R);
+  if (!math::isfinite(lc.x + lc.y + lc.z + E.r.x + E.r.y + E.r.z + margin)) return -1;  // (no cell of a NaN)
   const Range R = cell_range(F, lc, L, E.r, max2(margin, 0.0));
   if (R.empty) return 0;
   double scratch[SCRATCH];

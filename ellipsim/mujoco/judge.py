@@ -37,7 +37,7 @@ from .context import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PAIR_TYPES
 #: default) of the maximum of sigma, and near a maximum sigma falls by about R theta^2 / 2 at an angle theta
 #: (R the sum of the surfaces' radii of curvature there), so a normal eps-good by sigma lies within
 #: sqrt(2 eps / R) of the exact one: within 1 degree wherever R >= 6.6 mm.  Measured at the default
-#: tolerance (`ellipsim bench --only validation`, bench/results/issue45/report.md): on the pile, 99.9 % of
+#: tolerance (`ellipsim bench --only validation`, bench/results/issue48-validation/report.md): on the pile, 99.9 % of
 #: the 55 021 pairs in contact on both sides within 0.67 deg, and all 42 beyond 1 deg fail the sigma test
 #: too (the crowd: 43 of 30 428, all failing it); on MuJoCo's thin leaves (R down to 0.04 mm) 122 of
 #: 14 726 are beyond 1 deg, 13 of them beyond the tolerance.  The sigma test is what makes a normal wrong;

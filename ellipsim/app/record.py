@@ -251,7 +251,8 @@ def legend(between=None, extra=(), engine="MuJoCo"):
         "",
         f"**{engine}'s contacts**: a point and its normal (from the first geom into the second); hover one for the "
         f"geoms and the depth (or the gap, within the margin)",
-        "- **green**: on a pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field)",
+        "- **green**: on a pair ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, "
+        "convex mesh or height field)",
         "- **black**: every other contact (floor, meshes, ...)",
         "",
         "The camera frames where the contacts happen over the run; the depth plot follows the deepest pairs.",

@@ -1,5 +1,6 @@
 """The animation check: a motion (qpos per frame) played on a model, and which frames bring a pair of
-geoms ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field) into contact.
+geoms ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height
+field) into contact.
 
     motion = load_motion("walk.csv", model.nq)          # (frames, nq), .npy or .csv
     result = replay(model, motion, fps=30)              # a ReplayResult

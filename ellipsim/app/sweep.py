@@ -13,7 +13,8 @@ values: recording_name) and is that recording's id.
 Each variant runs two passes of `steps` steps from the same initial state:
 
 1. plain MuJoCo under mujoco.validate (simulate.validation): every candidate pair of a type
-   ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field) at every step,
+   ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height
+   field) at every step,
    MuJoCo's contact against the exact test, one margin rule on both sides.  Columns pairs,
    mujoco_contacts, ellipsim_contacts, mujoco_extra, mujoco_missed, near_tangent, normal_off: they
    compare MuJoCo's own detection with the exact one, so they come from plain MuJoCo whatever the

@@ -2,8 +2,8 @@
 
 The scenario runs in N worlds on plain Warp (nothing attached), from per-world layouts as `run --engine
 warp` starts them (warp_run.world_states).  At each compared step, every candidate pair of a type
-ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field: the model's collision
-rules, as ellipsim.warp takes them) of every world whose bounding spheres come within the pair's margin
+ellipsim judges (an ellipsoid with an ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field:
+the model's collision rules, as ellipsim.warp takes them) of every world whose bounding spheres come within the pair's margin
 gets the exact verdicts of mujoco.validate.judge_contacts on Warp's float32 poses widened to float64:
 the same one margin rule (a contact below the pair's margin on both sides) and the same words as
 `compare` on MuJoCo C (mujoco_extra, mujoco_missed, near_tangent, normal_off; "mujoco" is the engine,

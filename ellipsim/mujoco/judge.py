@@ -1,5 +1,6 @@
 """The exact verdict on MuJoCo's contact test `signed distance < margin`, for every pair type ellipsim
-handles (context.PAIR_TYPES: ellipsoid with ellipsoid, sphere, capsule, box, cylinder, mesh or height field).
+handles (context.PAIR_TYPES: ellipsoid with ellipsoid, sphere, capsule, box, cylinder, mesh or height
+field).
 
 One rule for every command that checks MuJoCo (validate, compare, replay, run's summary, sweep, the
 Warp compare): a pair is a contact when its distance is below its margin, on both sides -- MuJoCo's
@@ -11,11 +12,11 @@ the geoms' signed distance is < margin.
 
 Ellipsoid and sphere pairs are decided by the exact classify where it settles the question (margin 0,
 and overlapping with a positive margin), else by the proven signed distance (core.distance.
-ellipsoid_pair); capsule, box, cylinder and mesh pairs by their proven maxima (core.pairs, the functions the
-narrow phase runs; a mesh through MuJoCo's convex hull of it); a height-field pair by its prisms (MuJoCo's
-cells' triangles extruded to the base, core.pairs.height_field): a contact when one is within the margin, its
-distance the deepest prism's (MuJoCo's contact of smallest dist is the one compared).  A verdict is decided when its maximum is proven global and further than the
-proof's tolerance from the margin.
+ellipsoid_pair); capsule, box, cylinder and mesh pairs by their proven maxima (core.pairs, the functions
+the narrow phase runs; a mesh through MuJoCo's convex hull of it); a height-field pair by its prisms
+(MuJoCo's cells' triangles extruded to the base, core.pairs.height_field): a contact when one is within the
+margin, its distance the deepest prism's (MuJoCo's contact of smallest dist is the one compared).  A verdict
+is decided when its maximum is proven global and further than the proof's tolerance from the margin.
 """
 
 import dataclasses
@@ -37,8 +38,8 @@ from .context import BOX, CAPSULE, CYLINDER, ELLIPSOID, HFIELD, MESH, PAIR_TYPES
 #: default) of the maximum of sigma, and near a maximum sigma falls by about R theta^2 / 2 at an angle theta
 #: (R the sum of the surfaces' radii of curvature there), so a normal eps-good by sigma lies within
 #: sqrt(2 eps / R) of the exact one: within 1 degree wherever R >= 6.6 mm.  Measured at the default
-#: tolerance (`ellipsim bench --only validation`, bench/results/issue48-validation/report.md): on the pile, 99.9 % of
-#: the 55 021 pairs in contact on both sides within 0.67 deg, and all 42 beyond 1 deg fail the sigma test
+#: tolerance (`ellipsim bench --only validation`, bench/results/issue48-validation/report.md): on the pile,
+#: 99.9 % of the 55 021 pairs in contact on both sides within 0.67 deg, and all 42 beyond 1 deg fail the sigma test
 #: too (the crowd: 43 of 30 428, all failing it); on MuJoCo's thin leaves (R down to 0.04 mm) 122 of
 #: 14 726 are beyond 1 deg, 13 of them beyond the tolerance.  The sigma test is what makes a normal wrong;
 #: the angle keeps the list to normals visibly off.  (Kept here, not in core.tolerances: the shipped

@@ -118,7 +118,8 @@ def validate(model, data, nstep, *, control=None, advance=True, progress=None, b
     """Step plain MuJoCo nstep times and compare, pair by pair, its contacts with ellipsim's verdicts.
 
     At each step, before mj_step, mj_forward runs collision; every candidate pair of a type ellipsim
-    judges (ellipsoid with ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field: those MuJoCo's broad phase
+    judges (ellipsoid with ellipsoid, sphere, capsule, box, cylinder, convex mesh or height field: those
+    MuJoCo's broad phase
     produced, recorded by the callback, which otherwise behaves exactly like MuJoCo, and the model's
     <pair> elements MuJoCo collides: geoms.explicit_pairs) is judged with the pair's margin
     (geoms.pair_margins: the <pair> element's, the geoms' sum, or opt.o_margin under override): MuJoCo

@@ -233,8 +233,8 @@ def test_shape_distance_mesh_is_the_kernel_and_takes_points_or_a_hull():
         (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), np.zeros((3, 3))), "m >= 4"),
         (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), np.eye(3).tolist() * 2), "span a volume"),
         (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), CUBE._replace(edges=CUBE.edges + 8)), "hull.edges"),
-        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), CUBE, derivatives=True), "derivatives"),
         (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), 2 * np.eye(3), CUBE), "rotations"),
+        (lambda E: ellipsim.shape_distance(E, "mesh", np.zeros(3), np.eye(3), CUBE, derivatives=1), "derivatives"),
         (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), "field"), "HeightField"),
         (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), FIELD._replace(elevation=FIELD.elevation + 2)), "[0, 1]"),
         (lambda E: hfield_contacts(E, np.zeros(3), np.eye(3), FIELD._replace(size=np.array([1, 1, 0.1, -1]))), "field.size"),
@@ -332,3 +332,76 @@ def test_the_prisms_adjacency_is_the_builders():
     ext.hull_adjacency(points, edges, np.zeros((len(faces), 3)), faces, *out)
     for name, got in zip(("ADJ_START", "ADJ", "VFACE_START", "VFACE"), out):
         np.testing.assert_array_equal(constant(name), got, err_msg=name)
+
+
+# --- derivatives -----------------------------------------------------------------------------------------------
+
+SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+
+
+def test_mesh_derivatives_of_a_box_given_as_a_hull_are_the_box_kernels():
+    """200 boxes given as their hulls (triangulated faces: diagonals as extra edges): the same DerivativeStatus and
+    ContactFeature (FACE, EDGE, VERTEX) as shape_distance(..., "box", derivatives=True), and the same derivatives
+    with respect to the ellipsoid and the box's pose (columns 0-14) to 1e-12; the mesh's size columns zero."""
+    rng = np.random.default_rng(4)
+    n = 200
+    rE, sK = rng.uniform(0.05, 0.3, (n, 3)), rng.uniform(0.05, 0.3, (n, 3))
+    RE, RK = Rot.random(n, random_state=rng).as_matrix(), Rot.random(n, random_state=rng).as_matrix()
+    cE = rng.uniform(-0.1, 0.1, (n, 3))
+    cK = cE + rng.normal(size=(n, 3)) * 0.25
+    E = ellipsim.Ellipsoids(cE, RE, rE)
+    *_, box = ellipsim.shape_distance(E, "box", cK, RK, sK, derivatives=True)
+    features = set()
+    for i in range(n):
+        *_, mesh = ellipsim.shape_distance(
+            E[i : i + 1], "mesh", cK[i], RK[i], convex_hull(SIGNS * sK[i]), derivatives=True
+        )
+        assert (mesh.status[0], mesh.feature[0]) == (box.status[i], box.feature[i]), i
+        features.add(int(mesh.feature[0]))
+        np.testing.assert_allclose(mesh.dist[0, :15], box.dist[i, :15], atol=1e-12)
+        np.testing.assert_allclose(mesh.normal[0, :, :15], box.normal[i, :, :15], atol=1e-12)
+        np.testing.assert_allclose(mesh.pos[0, :, :15], box.pos[i, :, :15], atol=1e-12)
+        assert not mesh.dist[0, 15:].any() and not mesh.pos[0, :, 15:].any()
+    assert features == {ellipsim.ContactFeature.FACE, ellipsim.ContactFeature.EDGE, ellipsim.ContactFeature.VERTEX}
+
+
+def test_mesh_derivatives_are_the_finite_differences_and_one_sided_at_a_faces_edge():
+    """Random hulls of 30 points, 100 poses apart and deep: d dist, d normal, d pos with respect to the ellipsoid's
+    centre, rotation and semi-axes and the hull's centre and rotation within 1e-6 of central differences
+    (h = 1e-6); a sphere over a cube's top edge, its witness on the edge: ONE_SIDED, as the box kernel says."""
+    rng = np.random.default_rng(3)
+    hull = convex_hull(rng.normal(size=(30, 3)) * 0.1)
+    n = 100
+    E = ellipsim.Ellipsoids(rng.normal(size=(n, 3)) * 0.15, Rot.random(n, random_state=rng).as_matrix(),
+                            rng.uniform(0.03, 0.1, (n, 3)))  # fmt: skip
+    cP, RP = rng.normal(size=(n, 3)) * 0.05, Rot.random(n, random_state=rng).as_matrix()
+    d, _, _, _, der = ellipsim.shape_distance(E, "mesh", cP, RP, hull, derivatives=True)
+    assert (der.status <= 1).all() and (d < 0).sum() > 20 and (d > 0).sum() > 20
+    h = 1e-6
+    for col in range(15):
+        block, axis = divmod(col, 3)
+        e = np.eye(3)[axis]
+        sides = []
+        for sign in (1, -1):
+            c, R, r, c2, R2 = E.centers.copy(), E.rotations.copy(), E.radii.copy(), cP.copy(), RP.copy()
+            turn = Rot.from_rotvec(sign * h * e).as_matrix()
+            if block == 0:
+                c[:, axis] += sign * h
+            elif block == 1:
+                R = turn @ R
+            elif block == 2:
+                r[:, axis] += sign * h
+            elif block == 3:
+                c2[:, axis] += sign * h
+            else:
+                R2 = turn @ R2
+            sides.append(ellipsim.shape_distance(ellipsim.Ellipsoids(c, R, r), "mesh", c2, R2, hull)[:3])
+        (dp, np_, pp), (dm, nm, pm) = sides
+        np.testing.assert_allclose(der.dist[:, col], (dp - dm) / (2 * h), atol=1e-6, err_msg=str(col))
+        np.testing.assert_allclose(der.normal[:, :, col], (np_ - nm) / (2 * h), atol=1e-6, err_msg=str(col))
+        np.testing.assert_allclose(der.pos[:, :, col], (pp - pm) / (2 * h), atol=1e-6, err_msg=str(col))
+    ball = ellipsim.Ellipsoids([0.1, 0.03, 0.2], np.eye(3), [0.05, 0.05, 0.05])
+    *_, box = ellipsim.shape_distance(ball, "box", np.zeros(3), np.eye(3), [0.1, 0.1, 0.1], derivatives=True)
+    *_, mesh = ellipsim.shape_distance(ball, "mesh", np.zeros(3), np.eye(3), convex_hull(SIGNS * 0.1), derivatives=True)
+    assert box.status[0] == mesh.status[0] == ellipsim.DerivativeStatus.ONE_SIDED
+    assert box.feature[0] == mesh.feature[0]

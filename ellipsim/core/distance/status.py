@@ -27,11 +27,12 @@ class DerivativeStatus(IntEnum):
 
 
 class ContactFeature(IntEnum):
-    """shape_distance(..., derivatives=True)'s feature of the capsule, box or cylinder that carries the contact."""
+    """shape_distance(..., derivatives=True)'s feature of the capsule, box, cylinder or mesh that carries the
+    contact."""
 
-    FACE = 0  #: a box face
-    EDGE = 1  #: a box edge
-    VERTEX = 2  #: a box vertex
+    FACE = 0  #: a box's or a mesh's face
+    EDGE = 1  #: a box's or a mesh's edge
+    VERTEX = 2  #: a box's or a mesh's vertex
     SIDE = 3  #: a capsule's or a cylinder's side
     END = 4  #: a capsule's hemispherical end
     CAP = 5  #: a cylinder's flat cap

@@ -55,7 +55,8 @@ def shape_distance(ellipsoids, kind, centers, rotations, sizes, *, parallel=None
     derivatives : also return a fifth result, derivatives.ShapeDerivatives: d dist, d normal and d pos
         with respect to the ellipsoid's centre, rotation vector and semi-axes and the other body's centre,
         rotation vector and sizes (18 columns, derivatives.PARAMETERS), a DerivativeStatus and the
-        ContactFeature per pair (derivatives.py: ONE_SIDED where the contact sits where two features meet)
+        ContactFeature per pair (derivatives.py: ONE_SIDED where the contact sits where two features meet);
+        for a mesh its FACE, EDGE or VERTEX, and its size columns zero
     """
     if not isinstance(ellipsoids, Ellipsoids):
         raise ValueError(f"ellipsoids must be an ellipsim.Ellipsoids batch, got {type(ellipsoids).__name__}")
@@ -88,8 +89,8 @@ def _mesh_distance(ellipsoids, centers, rotations, mesh, parallel, derivatives):
     """shape_distance's "mesh" kind: the ellipsoids against one convex hull posed at each (centre, rotation)."""
     from .hull import as_hull
 
-    if derivatives is not False:
-        raise ValueError("derivatives=True is not available for kind 'mesh' yet (issue 48): pass derivatives=False")
+    if not isinstance(derivatives, (bool, np.bool_)):
+        raise ValueError(f"derivatives must be True or False, got {derivatives!r}")
     hull = as_hull(mesh)
     single = _is_single(centers)
     c = _as_real_array("centers", centers, (3,), single)
@@ -109,4 +110,11 @@ def _mesh_distance(ellipsoids, centers, rotations, mesh, parallel, derivatives):
     threads.run(
         ext.mesh_distances, n, parallel, e.centers, e.rotations, e.radii, c, rot, *hull, dist, normal, pos, status
     )
-    return dist, normal, pos, status
+    if not derivatives:
+        return dist, normal, pos, status
+    out = dv.ShapeDerivatives(
+        np.empty((n, 18)), np.empty((n, 3, 18)), np.empty((n, 3, 18)), np.empty(n, np.int8), np.empty(n, np.int8)
+    )
+    arrays = (e.centers, e.rotations, e.radii, c, rot, *hull, normal, status == 0)
+    threads.run(ext.mesh_derivatives, n, parallel, *arrays, *out)
+    return dist, normal, pos, status, out

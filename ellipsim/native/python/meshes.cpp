@@ -3,6 +3,7 @@
 // pair, and against one height field posed per pair (every prism within the margin, in MuJoCo's order).
 #include <algorithm>
 
+#include <ellipsim/pairs/derivatives.hpp>
 #include <ellipsim/pairs/height_field.hpp>
 #include <ellipsim/pairs/polytope.hpp>
 
@@ -109,6 +110,43 @@ void hfield_contacts(const Centers<>& Ce, const Rotations<>& Re, const Centers<>
   }
 }
 
+// d dist, d normal, d pos (18 columns: pairs/derivatives.hpp's, the mesh's size columns zero), the
+// DerivativeStatus and the ContactFeature (FACE, EDGE, VERTEX) of the ellipsoids and the hull posed at (CP, RP), at
+// their normals (from the ellipsoid), pairs [lo, hi).
+void mesh_derivatives(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
+                      const Rotations<>& RP, const Centers<>& vertices, const EdgeArray& edges,
+                      const Centers<>& normals, const FaceArray& faces, const Centers<>& normal,
+                      const In<bool, nb::ndim<1>>& proven,
+                      nb::ndarray<double, nb::shape<-1, 18>, nb::c_contig, nb::device::cpu> grad,
+                      nb::ndarray<double, nb::shape<-1, 3, 18>, nb::c_contig, nb::device::cpu> jn,
+                      nb::ndarray<double, nb::shape<-1, 3, 18>, nb::c_contig, nb::device::cpu> jp,
+                      Out<std::int8_t> status, Out<std::int8_t> feature, std::int64_t lo, std::int64_t hi) {
+  const auto a = batch(Ce, Re, re);
+  const auto n = static_cast<std::int64_t>(status.shape(0));
+  if (lo < 0 || hi < lo || hi > n || static_cast<std::int64_t>(normal.shape(0)) != n ||
+      static_cast<std::int64_t>(proven.shape(0)) != n || static_cast<std::int64_t>(grad.shape(0)) != n ||
+      static_cast<std::int64_t>(jn.shape(0)) != n || static_cast<std::int64_t>(jp.shape(0)) != n ||
+      static_cast<std::int64_t>(feature.shape(0)) != n)
+    throw std::out_of_range("pair range outside the outputs");
+  if (hi > lo && a.n != 1 && a.n < hi) throw std::out_of_range("pair range outside the ellipsoids");
+  const Poses P = poses(CP, RP, lo, hi);
+  const BoundHull hull(vertices, edges, normals, faces);
+  const pairs::polytope::Hull& H = hull.H;
+  const double* nr = normal.data();
+  const bool* pr = proven.data();
+  double *g = grad.data(), *jnd = jn.data(), *jpd = jp.data();
+  std::int8_t *s = status.data(), *f = feature.data();
+  nb::gil_scoped_release release;
+  for (std::int64_t i = lo; i < hi; ++i) {
+    const Ellipsoid E = load(a.C, a.R, a.r, a.n > 1 ? i : 0);
+    const pairs::derivatives::Result r = pairs::derivatives::mesh_pair(
+        E, P.c(i), P.rot(i), H, {nr[3 * i], nr[3 * i + 1], nr[3 * i + 2]}, pr[i], g + 18 * i, jnd + 54 * i,
+        jpd + 54 * i);
+    s[i] = static_cast<std::int8_t>(r.status);
+    f[i] = static_cast<std::int8_t>(r.feature);
+  }
+}
+
 // The hull's adjacency (polytope.hpp's build_adjacency) into adj_start (nv + 1), adj (2 ne), vface_start (nv + 1),
 // vface (3 nf): the MuJoCo glue's hull table holds it (ellipsim/mujoco/attachment.py).
 void hull_adjacency(const Centers<>& vertices, const EdgeArray& edges, const Centers<>& normals, const FaceArray& faces,
@@ -131,6 +169,9 @@ void bind_meshes(nb::module_& m, nb::module_& t) {
   (void)t;
   m.def("mesh_distances", &mesh_distances, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
         in("edges"), in("normals"), in("faces"), in("dist"), in("normal"), in("pos"), in("status"), "lo"_a, "hi"_a);
+  m.def("mesh_derivatives", &mesh_derivatives, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
+        in("edges"), in("normals"), in("faces"), in("normal"), in("proven"), in("grad"), in("jn"), in("jp"),
+        in("status"), in("feature"), "lo"_a, "hi"_a);
   m.def("hull_adjacency", &hull_adjacency, in("vertices"), in("edges"), in("normals"), in("faces"), in("adj_start"),
         in("adj"), in("vface_start"), in("vface"));
   m.def("hfield_contacts", &hfield_contacts, in("Ce"), in("Re"), in("re"), in("CF"), in("RF"), in("elevation"),

@@ -37,6 +37,7 @@
 #include "../tolerances.hpp"
 #include "../vec3.hpp"
 #include "box.hpp"
+#include "polytope.hpp"
 
 namespace ellipsim::pairs::derivatives {
 
@@ -62,8 +63,8 @@ using distance::derivatives::write_nan;
 constexpr int ONE_SIDED = 4;
 // The feature of K that carries the contact (status.hpp's ContactFeature by name).
 constexpr int FACE = 0, EDGE = 1, VERTEX = 2, SIDE = 3, END = 4, CAP = 5, RIM = 6;
-// The kernel's codes for K's type.
-constexpr int CAPSULE = 0, BOX = 1, CYLINDER = 2;
+// The kernel's codes for K's type (MESH: a convex hull, mesh_pair).
+constexpr int CAPSULE = 0, BOX = 1, CYLINDER = 2, MESH = 3;
 
 // _Z: the zero vector.
 ELLIPSIM_HD Vec3 zero() { return {0.0, 0.0, 0.0}; }
@@ -222,22 +223,14 @@ struct Result {
   int status, feature;
 };
 
-// _pair: the derivatives of one pair at its maximiser `normal` (world, unit) into its rows grad (18), jn and jp
-// (3 x 18, row-major); E and K as MuJoCo's geoms (K's sizes geom_size), kind CAPSULE, BOX or CYLINDER.
-ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const Vec3& normal, bool proven, double* grad,
-                        double* jn, double* jp) {
-  const Vec3 &ce = E.c, &ck = K.c;
-  const Mat3 &Re = E.R, &Rk = K.R;
-  Vec3 sk = K.r;
-  if (kind != BOX) sk = {sk.x, sk.y, 0.0};  // (a capsule's or cylinder's third size is not theirs)
-  const double sc = unit_scale(E.r, sk);     // a power of two (exact), as distance/derivatives.hpp
-  const Vec3 re = scaled(E.r, sc);
-  sk = scaled(sk, sc);
-  const Vec3 d = {(ck.x - ce.x) * sc, (ck.y - ce.y) * sc, (ck.z - ce.z) * sc};
-  Axes V = {{column(Rk, 0), column(Rk, 1), column(Rk, 2)}};
-  if (kind != BOX) V.v[2] = unit(V.v[2]);
+// _pair's common part: the derivatives at the maximiser `normal` (world, unit) on the stratum st, in the units
+// scaled by sc (re, sk, d = sc (c_K - c_E)); V K's axes (a box's size columns), one_sided(mu0, mu1, slack): the
+// multipliers at the edge of the feature's normal cone (the header's ONE_SIDED).
+template <typename OneSided>
+ELLIPSIM_HD Result pair_on(const Mat3& Re, const Vec3& re, const Vec3& d, double sc, int kind, const Axes& V,
+                           const Vec3& sk, const Stratum& st, const Vec3& normal, bool proven, double* grad, double* jn,
+                           double* jp, OneSided&& one_sided) {
   Vec3 n = normal;
-  const Stratum st = stratum(kind, n, V, sk);
   const int f = st.f, k = st.k, pt = st.pt;
   const Vec3 &g0 = st.g0, &g1 = st.g1, &w = st.w, &u = st.u;
   const double rho = st.rho;
@@ -276,12 +269,7 @@ ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const 
   const Reduced& R = L.R;
   const double mu0 = dot(g0, gs), mu1 = dot(g1, gs);  // grad sigma = sigma n + G^T mu
   int status = s > 0.0 ? SMOOTH : BRANCH;
-  const double slack = tol::DERIV_KINK_REL * S;
-  if (k == 2 && f == CAP) {
-    if (math::sqrt(mu0 * mu0 + mu1 * mu1) >= st.bound0 - slack) status = ONE_SIDED;
-  } else if ((k >= 1 && math::fabs(mu0) >= st.bound0 - slack) || (k == 2 && math::fabs(mu1) >= st.bound1 - slack)) {
-    status = ONE_SIDED;
-  }
+  if (one_sided(mu0, mu1, tol::DERIV_KINK_REL * S)) status = ONE_SIDED;
   const PNorm p = pnorm(n, pt, u);
   const double npn = p.npn;
   const Vec3& Pn = p.Pn;
@@ -338,6 +326,7 @@ ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const 
         b = axpy(-mu1, dr1, b);
       }
       c0 = iu, c1 = 1.0, c2 = iu;
+    } else if (kind == MESH) {  // (a mesh has no size columns: zero)
     } else if (kind == BOX) {  // a half-size: w moves along a free axis
       const Vec3& va = V.v[axis];
       const double cj = dot(n, va);
@@ -370,6 +359,148 @@ ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const 
     jp[2 * COLUMNS + j] = (q.z + Jdn.z + 0.5 * (dd * n.z + s * dn.z)) * c2;
   }
   return {status, f};
+}
+
+// _pair: the derivatives of one pair at its maximiser `normal` (world, unit) into its rows grad (18), jn and jp
+// (3 x 18, row-major); E and K as MuJoCo's geoms (K's sizes geom_size), kind CAPSULE, BOX or CYLINDER.
+ELLIPSIM_HD Result pair(const Ellipsoid& E, const Ellipsoid& K, int kind, const Vec3& normal, bool proven, double* grad,
+                        double* jn, double* jp) {
+  const Vec3 &ce = E.c, &ck = K.c;
+  const Mat3& Rk = K.R;
+  Vec3 sk = K.r;
+  if (kind != BOX) sk = {sk.x, sk.y, 0.0};  // (a capsule's or cylinder's third size is not theirs)
+  const double sc = unit_scale(E.r, sk);     // a power of two (exact), as distance/derivatives.hpp
+  const Vec3 re = scaled(E.r, sc);
+  sk = scaled(sk, sc);
+  const Vec3 d = {(ck.x - ce.x) * sc, (ck.y - ce.y) * sc, (ck.z - ce.z) * sc};
+  Axes V = {{column(Rk, 0), column(Rk, 1), column(Rk, 2)}};
+  if (kind != BOX) V.v[2] = unit(V.v[2]);
+  const Stratum st = stratum(kind, normal, V, sk);
+  return pair_on(E.R, re, d, sc, kind, V, sk, st, normal, proven, grad, jn, jp,
+                 [&](double mu0, double mu1, double slack) {
+                   const int f = st.f, k = st.k;
+                   if (k == 2 && f == CAP) return math::sqrt(mu0 * mu0 + mu1 * mu1) >= st.bound0 - slack;
+                   return (k >= 1 && math::fabs(mu0) >= st.bound0 - slack) ||
+                          (k == 2 && math::fabs(mu1) >= st.bound1 - slack);
+                 });
+}
+
+// --- a convex hull (issue 48): sigma(n) = n.d - h_E(n) - h_P(-n), h_P(-n) = -min_i n.q_i (q_i = R_P v_i, P's
+// vertices about its centre): on a stratum h_P(-n) = n.w, w = -q at the feature (the header's form, rho 0).
+
+// The hull's stratum at the unit n (world), q_i = sc R_P v_i: the lowest vertex i0 in n.q, its edges whose
+// direction is within DERIV_KINK_COS of normal to n: none, a VERTEX (w = -q_i0); one, an EDGE (w = minus its
+// midpoint, g0 its direction, bound0 half its length: the multiplier is the witness's offset along it); more, a
+// FACE (the triangle through i0 whose normal is nearest -n: w = -q_i0, rows g0 along one of its edges and
+// g1 = m x g0; its one-sided test is mesh_pair's, in the face's polygon).
+struct HullStratum {
+  Stratum st;
+  int i0, face;
+};
+
+ELLIPSIM_HD Vec3 hull_point(const Mat3& RP, const polytope::Hull& H, int i, double sc) {
+  const Vec3 q = matvec(RP, {H.v[3 * i], H.v[3 * i + 1], H.v[3 * i + 2]});
+  return {q.x * sc, q.y * sc, q.z * sc};
+}
+
+ELLIPSIM_HD HullStratum hull_stratum(const Vec3& n, const Mat3& RP, const polytope::Hull& H, double sc) {
+  const Vec3 Z = zero();
+  int i0 = 0;
+  double lo = INFINITY;
+  for (int i = 0; i < H.nv; ++i) {
+    const double v = dot(n, hull_point(RP, H, i, sc));
+    if (v < lo) lo = v, i0 = i;
+  }
+  const Vec3 q0 = hull_point(RP, H, i0, sc);
+  int active = 0, j0 = -1;
+  for (int a = H.adj_start[i0]; a < H.adj_start[i0 + 1]; ++a) {
+    const Vec3 u = unit(sub(hull_point(RP, H, H.adj[a], sc), q0));
+    if (math::fabs(dot(n, u)) <= tol::DERIV_KINK_COS) ++active, j0 = H.adj[a];
+  }
+  if (active == 0) return {{VERTEX, 0, Z, Z, {-q0.x, -q0.y, -q0.z}, 0.0, 0, Z, 0.0, 0.0}, i0, -1};
+  if (active == 1) {
+    const Vec3 q1 = hull_point(RP, H, j0, sc);
+    const Vec3 e = sub(q1, q0);
+    const Vec3 mid = {0.5 * (q0.x + q1.x), 0.5 * (q0.y + q1.y), 0.5 * (q0.z + q1.z)};
+    return {{EDGE, 1, unit(e), Z, {-mid.x, -mid.y, -mid.z}, 0.0, 0, Z, 0.5 * math::sqrt(norm2(e)), 0.0}, i0, -1};
+  }
+  int face = -1;
+  double best = -INFINITY;
+  for (int a = H.vface_start[i0]; a < H.vface_start[i0 + 1]; ++a) {
+    const int fc = H.vface[a];
+    const Vec3 m = matvec(RP, {H.normal[3 * fc], H.normal[3 * fc + 1], H.normal[3 * fc + 2]});
+    if (-dot(m, n) > best) best = -dot(m, n), face = fc;
+  }
+  const Vec3 m = matvec(RP, {H.normal[3 * face], H.normal[3 * face + 1], H.normal[3 * face + 2]});
+  const int other = H.face[3 * face] == i0 ? H.face[3 * face + 1] : H.face[3 * face];
+  const Vec3 g0 = unit(sub(hull_point(RP, H, other, sc), q0));
+  return {{FACE, 2, g0, cross(m, g0), {-q0.x, -q0.y, -q0.z}, 0.0, 0, Z, 0.0, 0.0}, i0, face};
+}
+
+// The distance of the point y (in the face's plane) from the boundary of the face polygon: the triangles
+// coplanar with `face` (normals within 1e-9), their edges that only one of them has; negative outside it.
+ELLIPSIM_HD double face_margin(const Mat3& RP, const polytope::Hull& H, int face, double sc, const Vec3& y) {
+  const Vec3 m0 = {H.normal[3 * face], H.normal[3 * face + 1], H.normal[3 * face + 2]};
+  auto coplanar = [&](int g) {
+    return H.normal[3 * g] * m0.x + H.normal[3 * g + 1] * m0.y + H.normal[3 * g + 2] * m0.z >= 1.0 - 1e-9;
+  };
+  const Vec3 m = matvec(RP, m0);
+  double edge_min = INFINITY;
+  bool inside = false;
+  for (int g = 0; g < H.nf; ++g) {
+    if (!coplanar(g)) continue;
+    const int* t = H.face + 3 * g;
+    bool in_g = true;
+    for (int c = 0; c < 3; ++c) {
+      const int a = t[c], b = t[(c + 1) % 3];
+      const Vec3 pa = hull_point(RP, H, a, sc), pb = hull_point(RP, H, b, sc), pc = hull_point(RP, H, t[(c + 2) % 3], sc);
+      const Vec3 e = sub(pb, pa);
+      Vec3 out = cross(e, m);  // in the plane, normal to the edge: turned away from the third vertex
+      if (dot(out, sub(pc, pa)) > 0.0) out = {-out.x, -out.y, -out.z};
+      const double side = dot(unit(out), sub(y, pa));  // > 0: beyond this edge
+      in_g = in_g && side <= 0.0;
+      bool shared = false;  // an edge of two coplanar triangles is inside the polygon
+      for (int h = 0; h < H.nf && !shared; ++h) {
+        if (h == g || !coplanar(h)) continue;
+        const int* u = H.face + 3 * h;
+        for (int c2 = 0; c2 < 3; ++c2)
+          shared = shared || ((u[c2] == a && u[(c2 + 1) % 3] == b) || (u[c2] == b && u[(c2 + 1) % 3] == a));
+      }
+      if (!shared) {  // the distance to this boundary segment
+        const double tt = max2(0.0, min2(1.0, dot(sub(y, pa), e) / norm2(e)));
+        const Vec3 x = {pa.x + tt * e.x, pa.y + tt * e.y, pa.z + tt * e.z};
+        edge_min = min2(edge_min, math::sqrt(norm2(sub(y, x))));
+      }
+    }
+    inside = inside || in_g;
+  }
+  return inside ? edge_min : -edge_min;
+}
+
+// The derivatives of the ellipsoid E and the hull H posed at (cP, RP) at their maximiser `normal` (from E to P), as
+// pair's (P's size columns zero): the feature VERTEX, EDGE or FACE of P; ONE_SIDED where the witness is within
+// DERIV_KINK_REL S of the feature's boundary (an edge's end, the face polygon's boundary).
+ELLIPSIM_HD Result mesh_pair(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const polytope::Hull& H,
+                             const Vec3& normal, bool proven, double* grad, double* jn, double* jp) {
+  double rb = 0.0;
+  for (int i = 0; i < H.nv; ++i) rb = max2(rb, math::sqrt(norm2(Vec3{H.v[3 * i], H.v[3 * i + 1], H.v[3 * i + 2]})));
+  Vec3 sk = {rb, rb, rb};
+  const double sc = unit_scale(E.r, sk);
+  const Vec3 re = scaled(E.r, sc);
+  sk = scaled(sk, sc);
+  const Vec3 d = {(cP.x - E.c.x) * sc, (cP.y - E.c.y) * sc, (cP.z - E.c.z) * sc};
+  const Axes V = {{column(RP, 0), column(RP, 1), column(RP, 2)}};
+  const HullStratum hs = hull_stratum(normal, RP, H, sc);
+  const Stratum& st = hs.st;
+  return pair_on(E.R, re, d, sc, MESH, V, sk, st, normal, proven, grad, jn, jp,
+                 [&](double mu0, double mu1, double slack) {
+                   if (st.k == 1) return math::fabs(mu0) >= st.bound0 - slack;
+                   if (st.k < 2) return false;
+                   const Vec3 q0 = {-st.w.x, -st.w.y, -st.w.z};  // the witness: q_i0 - mu0 g0 - mu1 g1 in the plane
+                   const Vec3 y = {q0.x - mu0 * st.g0.x - mu1 * st.g1.x, q0.y - mu0 * st.g0.y - mu1 * st.g1.y,
+                                   q0.z - mu0 * st.g0.z - mu1 * st.g1.z};
+                   return face_margin(RP, H, hs.face, sc, y) <= slack;
+                 });
 }
 
 }  // namespace ellipsim::pairs::derivatives

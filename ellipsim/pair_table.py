@@ -55,9 +55,9 @@ PAIR_TYPES = (
     PairType("capsule x ellipsoid", "ellipsoid-capsule", CAPSULE, ELLIPSOID, False, True, "pairs/capsule", ROW_CAPSULE, True),
     PairType("ellipsoid x box", "ellipsoid-box", ELLIPSOID, BOX, False, False, "pairs/box", ROW_BOX, True),
     PairType("ellipsoid x cylinder", "ellipsoid-cylinder", ELLIPSOID, CYLINDER, False, False, "pairs/cylinder", ROW_CYLINDER, True),
-    PairType("ellipsoid x mesh", "ellipsoid-mesh", ELLIPSOID, MESH, False, False, "pairs/polytope", ROW_MESH, False),
+    PairType("ellipsoid x mesh", "ellipsoid-mesh", ELLIPSOID, MESH, False, False, "pairs/polytope", ROW_MESH, True),
     PairType("hfield x ellipsoid", "ellipsoid-hfield", HFIELD, ELLIPSOID, False, False, "pairs/height_field", ROW_HFIELD, True),
 )  # fmt: skip
 FILTER_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.filter)
-#: the rows ellipsim.warp takes from MuJoCo Warp (mesh pairs are not on Warp yet: issue 48)
+#: the rows ellipsim.warp takes from MuJoCo Warp (all; a mesh's hull over the mesh row's size stays with Warp)
 WARP_PAIR_TYPES = tuple(row for row in PAIR_TYPES if row.warp)

@@ -83,6 +83,7 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         "| capsule x ellipsoid | 100 m away | deep (-0.3) | ellipsim on Warp |",
         "| ellipsoid x box |",
         "Height field x ellipsoid (2 worlds of 8 ellipsoids",
+        "Convex mesh x ellipsoid (2 worlds of 8 ellipsoids",
         "## 11. Other pair types, run after run",
         "## 14. Meshes and height fields",
         "| ellipsoid x mesh of 500 points | deep |",

@@ -258,14 +258,14 @@ def test_both_engines_read_one_table_whose_codes_are_their_enums_and_rows_the_wa
         assert int(getattr(mujoco.mjtGeom, f"mjGEOM_{name.upper()}")) == code
         assert int(getattr(mjw_types.GeomType, name.upper())) == code
     assert context.PAIR_TYPES is pair_types.PAIR_TYPES
-    # ellipsim.warp takes the rows marked for it (mesh: not on Warp yet)
+    # ellipsim.warp takes the rows marked for it: every row (a mesh's hull over the mesh row's size: attach's)
     assert warp_attachment.PAIR_TYPES is pair_types.WARP_PAIR_TYPES
-    assert [r.key for r in PAIR_TYPES if not r.warp] == ["ellipsoid-mesh"]
+    assert [r.key for r in PAIR_TYPES if not r.warp] == []
     header = (NATIVE / "warp" / "narrowphase.hpp").read_text()
     rows = dict(re.findall(r"ROW_(\w+) = (\d+)", re.search(r"constexpr int (ROW_[^;]+);", header).group(1)))
     for row in pair_types.WARP_PAIR_TYPES:
         kind = row.kernel.split("/")[1].split("_")[0].upper()  # ellipsoid_pair -> ELLIPSOID, capsule -> CAPSULE
-        kind = {"HEIGHT": "HFIELD"}.get(kind, kind)  # height_field -> HFIELD
+        kind = {"HEIGHT": "HFIELD", "POLYTOPE": "MESH"}.get(kind, kind)  # height_field -> HFIELD, polytope -> MESH
         assert int(rows[kind]) == row.row == getattr(pair_types, f"ROW_{kind}"), row.name
         assert f"#include <ellipsim/{row.kernel}.hpp>" in header, row.kernel
     geom = np.array(
@@ -273,8 +273,14 @@ def test_both_engines_read_one_table_whose_codes_are_their_enums_and_rows_the_wa
          pair_types.MESH, pair_types.HFIELD]
     )  # fmt: skip
     pairs = np.array([(i, j) for i in range(8) for j in range(i + 1, 8)] + [(2, 2)], np.int32)
-    take, ordered, rows_taken = warp_attachment._selection(geom, pairs, np.full((len(pairs), 2), -1))
+    every = np.ones(len(geom), bool)
+    take, ordered, rows_taken = warp_attachment._selection(geom, pairs, np.full((len(pairs), 2), -1), every)
     got = {(int(geom[a]), int(geom[b]), int(r)) for (a, b), r in zip(ordered, rows_taken)}
     want = {(r.type1, r.type2, r.row) for r in pair_types.WARP_PAIR_TYPES if r.type1 != r.type2}
     want |= {(pair_types.ELLIPSOID,) * 2 + (0,)}
     assert got == want and take.sum() == len(want)
+    # a mesh geom not taken (its hull over the mesh row's size): its pairs stay with Warp
+    take, ordered, rows_taken = warp_attachment._selection(
+        geom, pairs, np.full((len(pairs), 2), -1), geom != pair_types.MESH
+    )
+    assert pair_types.ROW_MESH not in set(rows_taken) and take.sum() == len(want) - 1

@@ -210,7 +210,7 @@ class WarpRun:
             lines.append(
                 f"  ellipsim on Warp: {k['pairs']} pairs evaluated, {k['contacts']} contacts, {k['unproven']} unproven "
                 f"maxima, {k['overflow']} contacts over naconmax"
-                + (f", {k['failed']} height-field pairs failed (no contacts)" if k.get("failed") else "")
+                + (f", {k['failed']} height-field or mesh pairs failed (no contacts)" if k.get("failed") else "")
             )
         if self.overflow_frames:
             lines.append(f"  warning: Warp's buffers overflowed at {self.overflow_frames} frames: {self.overflow}")

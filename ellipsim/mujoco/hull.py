@@ -10,7 +10,7 @@ shifts the geom by mesh_pos).
 import numpy as np
 
 from ..core.pairs.height_field import HeightField
-from ..core.pairs.hull import from_triangles
+from ..core.pairs.hull import mesh_graph_hull
 
 
 def mesh_hull(model, mesh):
@@ -29,11 +29,8 @@ def mesh_hull(model, mesh):
     adr = int(model.mesh_graphadr[mid])
     if adr < 0:
         raise ValueError(f"mesh {mid} has no convex hull in the model (mesh_graphadr -1)")
-    g = model.mesh_graph[adr:]
-    nv, nf = int(g[0]), int(g[1])
-    faces = g[2 + 3 * nv + 3 * nf : 2 + 3 * nv + 6 * nf].reshape(nf, 3)
     start, count = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
-    return from_triangles(np.asarray(model.mesh_vert[start : start + count], float), faces)
+    return mesh_graph_hull(model.mesh_graph, adr, model.mesh_vert, start, count)
 
 
 def model_height_field(model, hfield):

@@ -19,10 +19,15 @@ pass it is in, so it reads collision()'s own awake_prev argument from its caller
 a hook called from anywhere else raises).
 
 Pairs taken: ellipsoid x ellipsoid, sphere x ellipsoid, capsule x ellipsoid, ellipsoid x cylinder,
-ellipsoid x box and height field x ellipsoid (the pair table's rows marked warp: every pair type of
-ellipsim.mujoco's narrow phase but the convex mesh), from the model's collision rules
+ellipsoid x box, ellipsoid x mesh and height field x ellipsoid (the pair table's rows marked warp: every pair
+type of ellipsim.mujoco's narrow phase), from the model's collision rules
 and its explicit <pair>s (their margin, gap and material), except pairs with a collision sensor (they
-stay with Warp: a sensor reads Warp's own collision record).
+stay with Warp: a sensor reads Warp's own collision record).  A mesh pair is taken when its mesh has MuJoCo's
+own hull (mesh_graph; the one MuJoCo C's narrow phase runs) of at most kernels.MAX_HULL_VERTICES = 64 vertices
+(in every world's geom_dataid): the mesh row's per-thread scratch is sized for that; a larger hull, or a mesh
+without one, stays with Warp's GJK/EPA.  The hulls are built once at attach (core.pairs.hull.mesh_graph_hull,
+mujoco/hull.py's mesh_hull's reader, on the Model's mesh_graph and float32 mesh_vert; the core's adjacency
+builder) and uploaded.
 
 Graph capture: the hook launches one kernel (two on a model with surface velocities) on arrays made at
 attach (pair table, counters) and the model's and data's own; it makes
@@ -44,8 +49,9 @@ import numpy as np
 import warp as wp
 from mujoco_warp._src import types as mjw_types
 
-from ..pair_table import TYPE_NAMES
-from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes (mesh: not yet)
+from ..core.pairs.hull import mesh_graph_hull
+from ..pair_table import MESH, ROW_MESH, TYPE_NAMES
+from ..pair_table import WARP_PAIR_TYPES as PAIR_TYPES  # the rows it takes
 from . import kernels
 
 # The pair table both glues read (ellipsim/pair_table.py); its geom codes are MuJoCo Warp's too.
@@ -64,15 +70,49 @@ def _upper_tri(n, i, j):
     return i * (2 * n - i - 1) // 2 + j - i - 1
 
 
-def _selection(geom_type, pairs, pairid):
+def mesh_hulls(m):
+    """The hull the mesh row takes for each mesh id of the mujoco_warp Model m, or None (the mesh's pairs stay
+    with Warp): MuJoCo's own hull (core.pairs.hull.mesh_graph_hull, the reader of mujoco/hull.py's mesh_hull, on
+    the Model's mesh_graph and float32 mesh_vert), at most kernels.MAX_HULL_VERTICES vertices and MAX_HULL_FACES
+    triangles."""
+    graph, graphadr, vert = m.mesh_graph.numpy(), m.mesh_graphadr.numpy(), m.mesh_vert.numpy()
+    vertadr, vertnum = m.mesh_vertadr.numpy(), m.mesh_vertnum.numpy()
+    hulls = []
+    for mesh in range(len(vertadr)):
+        try:
+            hull = mesh_graph_hull(graph, int(graphadr[mesh]), vert, int(vertadr[mesh]), int(vertnum[mesh]))
+        except ValueError:  # no hull in the model (or a degenerate triangle): Warp's
+            hull = None
+        if hull is not None and (
+            len(hull.vertices) > kernels.MAX_HULL_VERTICES or len(hull.faces) > kernels.MAX_HULL_FACES
+        ):
+            hull = None
+        hulls.append(hull)
+    return hulls
+
+
+def _mesh_geoms_taken(m, hulls):
+    """Per geom of m: False for a mesh geom whose mesh, in any world's geom_dataid, has no hull in `hulls`."""
+    geom_type = m.geom_type.numpy()
+    dataid = m.geom_dataid.numpy().reshape(-1, len(geom_type))
+    ok = np.ones(len(geom_type), bool)
+    for g in np.flatnonzero(geom_type == MESH):
+        ok[g] = all(0 <= i < len(hulls) and hulls[i] is not None for i in dataid[:, g])
+    return ok
+
+
+def _selection(geom_type, pairs, pairid, geom_taken):
     """(mask over the model's filtered pair table of the pairs taken, those pairs (k, 2) int32 with their
     geoms ordered as _add_geom_pair orders them: the lower type first, the normal from the first, and each
-    pair's row of PAIR_TYPES' `row` column (k,) int32)."""
+    pair's row of PAIR_TYPES' `row` column (k,) int32).  geom_taken: per geom, False for a mesh whose pairs
+    stay with Warp (_mesh_geoms_taken)."""
     t1, t2 = geom_type[pairs[:, 0]], geom_type[pairs[:, 1]]
     lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
     row = np.full(len(pairs), -1, np.int32)
     for r in PAIR_TYPES:
         row[(lo == r.type1) & (hi == r.type2)] = r.row
+    mesh = np.where(t1 == MESH, pairs[:, 0], pairs[:, 1])
+    row[(row == ROW_MESH) & ~geom_taken[mesh]] = -1  # a hull over the scratch's size, or none: Warp's
     take = (row >= 0) & (pairid[:, 0] >= -1) & (pairid[:, 1] == -1)  # default and explicit pairs, no sensor
     ordered = np.where((t1 > t2)[:, None], pairs[:, ::-1], pairs)[take]
     return take, ordered.astype(np.int32).reshape(-1, 2), row[take]
@@ -82,7 +122,8 @@ def candidate_pairs(m, *, pair_ids=False):
     """The pairs attach(m) would take from the mujoco_warp Model m, as Attachment.pairs, without attaching;
     pair_ids: also their pair ids (k, 2): entry 0 the explicit <pair>'s index (its margin, gap) or -1."""
     pairid = m.nxn_pairid_filtered.numpy()
-    take, ordered, _ = _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), pairid)
+    taken = _mesh_geoms_taken(m, mesh_hulls(m))
+    take, ordered, _ = _selection(m.geom_type.numpy(), m.nxn_geom_pair_filtered.numpy(), pairid, taken)
     return (ordered, pairid[take].reshape(-1, 2)) if pair_ids else ordered
 
 
@@ -129,7 +170,15 @@ class Attachment:
         geom_type = m.geom_type.numpy()
         pairs = m.nxn_geom_pair_filtered.numpy()
         pairid = m.nxn_pairid_filtered.numpy()
-        take, ordered, rows = _selection(geom_type, pairs, pairid)
+        hulls = mesh_hulls(m)
+        take, ordered, rows = _selection(geom_type, pairs, pairid, _mesh_geoms_taken(m, hulls))
+        # only the hulls of the meshes whose pairs are taken
+        used = {
+            int(i)
+            for g in np.unique(ordered[rows == ROW_MESH][:, 1])
+            for i in m.geom_dataid.numpy().reshape(-1, len(geom_type))[:, g]
+        }
+        self._hulls = kernels.hull_arrays([h if i in used else None for i, h in enumerate(hulls)], device)
         lo, hi = np.sort(geom_type[pairs[take]].reshape(-1, 2), axis=1).T
         self.pairs = ordered
         self.npairs = len(self.pairs)
@@ -187,6 +236,7 @@ class Attachment:
                 self._pair_geom,
                 self._pair_id,
                 self._pair_row,
+                *self._hulls,
                 m.geom_type,
                 m.geom_bodyid,
                 m.geom_size,
@@ -271,9 +321,9 @@ class Attachment:
         (maxima not proven global: a branch and bound out of its budget, ellipsoid pairs' or a cylinder
         rim's; the best found is used), overflow (contacts not written
         because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof, sent to the branch and bound; capsule,
-        box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved), failed
-        (height-field pairs left without contacts: a degenerate prism or a non-finite distance, where MuJoCo C's
-        narrow phase calls MuJoCo's own function).  Reading synchronises with the device."""
+        box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved; mesh
+        pairs enumerated), failed (height-field pairs left without contacts: a degenerate prism or a non-finite
+        distance; mesh pairs with a non-finite distance: where MuJoCo C's narrow phase calls MuJoCo's own function).  Reading synchronises with the device."""
         values = self._counters.numpy()
         return dict(zip(COUNTER_NAMES, (int(v) for v in values)))
 
@@ -304,7 +354,8 @@ class Attachment:
 
 
 def attach(m):
-    """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder, box and height field x ellipsoid
-    pairs of the mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
+    """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder, box, convex mesh (a hull of at most
+    kernels.MAX_HULL_VERTICES = 64 vertices; larger ones stay with Warp) and height field x ellipsoid pairs of the
+    mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
     Attachment (a context manager; .detach(), .counters)."""
     return Attachment(m)

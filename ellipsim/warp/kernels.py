@@ -1,7 +1,7 @@
 """The narrow phase in MuJoCo Warp's kernels: one kernel over all worlds and ellipsim's pairs, whose geometry is
 the C++ core's, compiled into it by Warp (wp.func_native): the functions the CPU API and the MuJoCo C callback
 run (ellipsim/native/warp/narrowphase.hpp calls them: pair_signed_distance, pairs::capsule, pairs::box,
-pairs::cylinder, pairs::height_field, and the certified filters), every certificate and search of theirs, the
+pairs::cylinder, pairs::polytope (meshes), pairs::height_field, and the certified filters), every certificate and search of theirs, the
 spheroid searches included.
 
 Reading of a pose: as the CPU reads it.  MuJoCo Warp's float32 geom_xpos, geom_xmat and geom_size widened exactly
@@ -18,7 +18,10 @@ half the cutoff each), proving it apart beyond margin + gap with nothing compute
 Newton run then stops at an iterate whose sigma reaches the cutoff (any sigma(n) is a lower bound on the
 distance).  Either is APART: no contact.  A height-field pair is the core's whole function, as MuJoCo C's narrow
 phase calls it: the cells under the ellipsoid, each prism proven apart by sigma or solved, a contact for each
-within margin + gap (up to MuJoCo's 50, into a per-thread buffer, then written one by one).  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
+within margin + gap (up to MuJoCo's 50, into a per-thread buffer, then written one by one).  A mesh pair is
+pairs::polytope's polytope_ellipsoid on the mesh's hull (MuJoCo's own, uploaded at attach), cutoff margin + gap
+(its walking start's sigma proves a pair apart: APART), its scratch a local array for the largest hull taken
+(narrowphase.hpp's MAX_HULL_VERTICES).  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
 proof ran out (counted; the best found used, as the CPU API reports it), so a pair left without a contact is
 separated beyond margin + gap whatever its status.
 
@@ -32,7 +35,7 @@ import numpy as np
 import warp as wp
 
 # the pair table's geom codes and rows (narrowphase.hpp's ROW_*: which core function a pair runs)
-from ..pair_table import ROW_BOX, ROW_CAPSULE, ROW_CYLINDER, ROW_ELLIPSOID, ROW_HFIELD, SPHERE
+from ..pair_table import ROW_BOX, ROW_CAPSULE, ROW_CYLINDER, ROW_ELLIPSOID, ROW_HFIELD, ROW_MESH, SPHERE
 
 F64 = wp.float64
 
@@ -77,6 +80,14 @@ NCOUNTERS = 6
 #: per-thread buffer the core writes them into: row k (dist, normal from the field to the ellipsoid, pos).
 HFIELD_MAXCON = 50
 HfieldContacts = wp.types.matrix(shape=(HFIELD_MAXCON, 7), dtype=wp.float64)
+
+#: The largest mesh hull the mesh row takes (narrowphase.hpp's MAX_HULL_VERTICES; at most 2 nv - 4 triangles):
+#: its per-thread scratch, 7 nv + 3 nf float64 (6.6 kB), is sized for it; larger hulls stay with Warp's GJK.
+MAX_HULL_VERTICES = 64
+MAX_HULL_FACES = 2 * MAX_HULL_VERTICES - 4
+#: The hull table's columns (narrowphase.hpp's HULL_*): nv, ne, nf, then offsets of the vertices and normals into
+#: the float64 array, of the edges, faces, adj_start, adj, vface_start, vface into the int32 one.
+HULL_COLUMNS = 11
 
 
 @wp.func_native(
@@ -126,6 +137,33 @@ def hfield_contacts(
     """narrowphase.hpp's warp_hfield_contacts: the field g1 posed at (c1, R1) (MuJoCo Warp's hfield_nrow, _ncol,
     _size, _data from _adr) and the ellipsoid (c2, R2, r2): pairs::height_field::contacts, every prism within the
     margin in MuJoCo's order, into out's first count rows (count -1: none computed)."""
+    ...
+
+
+@wp.func_native(
+    "ellipsim::warp_glue::warp_mesh_contact(c1, R1, r1, c2, R2, table, mesh, real, ints, cutoff, status, dist, "
+    "normal, pos, deep);"
+)
+def mesh_contact(
+    c1: wp.vec3d,
+    R1: wp.mat33d,
+    r1: wp.vec3d,
+    c2: wp.vec3d,
+    R2: wp.mat33d,
+    table: wp.array[int],
+    mesh: int,
+    real: wp.array[wp.float64],
+    ints: wp.array[int],
+    cutoff: wp.float64,
+    status: wp.ref[int],
+    dist: wp.ref[wp.float64],
+    normal: wp.ref[wp.vec3d],
+    pos: wp.ref[wp.vec3d],
+    deep: wp.ref[int],
+):
+    """narrowphase.hpp's warp_mesh_contact: the ellipsoid g1 (c1, R1, r1) and mesh `mesh`'s hull (row of the hull
+    table, into real and ints) posed at (c2, R2): polytope_ellipsoid's (status GLOBAL, APART or -1 for a
+    non-finite distance, dist, normal from the ellipsoid to the mesh, pos, deep: ENUMERATED)."""
     ...
 
 
@@ -364,6 +402,10 @@ def contact_kernel(enable_sleep, incremental, per_thread):
         pair_geom: wp.array[wp.vec2i],
         pair_id: wp.array[wp.vec2i],
         pair_row: wp.array[int],
+        # the attachment's mesh hulls (a row of HULL_COLUMNS per mesh id, the arrays it points into)
+        hull_table: wp.array[int],
+        hull_real: wp.array[wp.float64],
+        hull_int: wp.array[int],
         # Model:
         geom_type: wp.array[int],
         geom_bodyid: wp.array[int],
@@ -524,22 +566,44 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             normal = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
             pos = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
             deep = wp.int32(0)
-            pair_contact(
-                pair_row[k],
-                p1,
-                R1,
-                _size(t1, geom_size[sid, g1]),
-                p2,
-                R2,
-                r2,
-                int(t1 == SPHERE),
-                cutoff,
-                status,
-                dist,
-                normal,
-                pos,
-                deep,
-            )
+            if pair_row[k] == ROW_MESH:  # the mesh g2: its hull, cutoff margin + gap (the core's own allowance)
+                mesh_contact(
+                    p1,
+                    R1,
+                    _size(t1, geom_size[sid, g1]),
+                    p2,
+                    R2,
+                    hull_table,
+                    geom_dataid[worldid % geom_dataid.shape[0], g2],
+                    hull_real,
+                    hull_int,
+                    F64(margin) + F64(gap),
+                    status,
+                    dist,
+                    normal,
+                    pos,
+                    deep,
+                )
+                if status < 0:  # a non-finite distance: no contact, counted
+                    wp.atomic_add(counters_out, C_FAILED, wp.int64(1))
+                    continue
+            else:
+                pair_contact(
+                    pair_row[k],
+                    p1,
+                    R1,
+                    _size(t1, geom_size[sid, g1]),
+                    p2,
+                    R2,
+                    r2,
+                    int(t1 == SPHERE),
+                    cutoff,
+                    status,
+                    dist,
+                    normal,
+                    pos,
+                    deep,
+                )
             if status == APART:
                 continue  # proven beyond margin + gap: Warp would make no contact either
             if status != GLOBAL:
@@ -764,3 +828,109 @@ def hfield_pair_contacts(ce, Re, re, cf, Rf, elevation, size, margin=0.0, device
     )
     out = out.numpy()
     return count.numpy(), out[:, :, 0], out[:, :, 1:4], out[:, :, 4:7]
+
+
+def hull_arrays(hulls, device="cpu"):
+    """The mesh row's hull table for `hulls` (one per mesh id: a core.pairs.hull.Hull, or None for a mesh the
+    attachment does not take, nv 0), each hull's adjacency built by the core's one builder (ext.hull_adjacency,
+    as MuJoCo C's attach builds it): (table (nmesh * HULL_COLUMNS) int32, real float64, ints int32) Warp arrays
+    on `device` (never empty: Warp takes no zero-size pointer for granted)."""
+    from ..native import ext
+
+    table = np.zeros((max(len(hulls), 1), HULL_COLUMNS), np.int32)
+    real, ints = [np.zeros(1)], [np.zeros(1, np.int32)]
+    nreal, nint = 1, 1
+    for mesh, hull in enumerate(hulls):
+        if hull is None:
+            continue
+        v, e, n, f = (np.ascontiguousarray(x) for x in hull)
+        if len(v) > MAX_HULL_VERTICES or len(f) > MAX_HULL_FACES:
+            raise ValueError(f"mesh {mesh}'s hull has {len(v)} vertices, {len(f)} faces: over the mesh row's scratch")
+        adjacency = [np.empty(k, np.int32) for k in (len(v) + 1, 2 * len(e), len(v) + 1, 3 * len(f))]
+        ext.hull_adjacency(v, e, n, f, *adjacency)
+        offsets = []
+        for x in (v, n):
+            offsets.append(nreal)
+            real.append(np.ravel(x).astype(np.float64))
+            nreal += real[-1].size
+        for x in (e, f, *adjacency):
+            offsets.append(nint)
+            ints.append(np.ravel(x).astype(np.int32))
+            nint += ints[-1].size
+        table[mesh] = (len(v), len(e), len(f), *offsets)
+    return (
+        wp.array(table.ravel(), dtype=int, device=device),
+        wp.array(np.concatenate(real), dtype=wp.float64, device=device),
+        wp.array(np.concatenate(ints), dtype=int, device=device),
+    )
+
+
+@wp.kernel
+def _mesh_pairs(
+    ce: wp.array[wp.vec3],
+    Re: wp.array[wp.mat33],
+    re: wp.array[wp.vec3],
+    cm: wp.array[wp.vec3],
+    Rm: wp.array[wp.mat33],
+    table: wp.array[int],
+    real: wp.array[wp.float64],
+    ints: wp.array[int],
+    cutoff: wp.float64,
+    dist: wp.array[wp.float64],
+    normal: wp.array[wp.vec3d],
+    pos: wp.array[wp.vec3d],
+    status: wp.array[int],
+    deep: wp.array[int],
+):
+    i = wp.tid()
+    st = wp.int32(0)
+    v = F64(0.0)
+    nrm = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+    p = wp.vec3d(F64(0.0), F64(0.0), F64(0.0))
+    dp = wp.int32(0)
+    mesh_contact(
+        _widen3(ce[i]),
+        _widen33(Re[i]),
+        _widen3(re[i]),
+        _widen3(cm[i]),
+        _widen33(Rm[i]),
+        table,
+        0,
+        real,
+        ints,
+        cutoff,
+        st,
+        v,
+        nrm,
+        p,
+        dp,
+    )
+    dist[i] = v
+    normal[i] = nrm
+    pos[i] = p
+    status[i] = st
+    deep[i] = dp
+
+
+def mesh_distances(ce, Re, re, cm, Rm, hull, cutoff=np.inf, device="cpu"):
+    """The contact kernel's mesh row on float32 poses: ellipsoids (ce, Re, re) (n, 3), (n, 3, 3), (n, 3) and one
+    hull (core.pairs.hull.Hull, its vertices float64 in the mesh's frame) posed at (cm, Rm), in float64 before the
+    kernel's float32 rounding: (dist, normal from the ellipsoid to the mesh, pos, status GLOBAL / APART / -1, deep)
+    as numpy arrays.  cutoff: as the kernel's margin + gap (inf: every pair's distance).  For tests and the bench."""
+    arrays = [np.ascontiguousarray(x, dtype=np.float32) for x in (ce, Re, re, cm, Rm)]
+    n = len(arrays[0])
+    for x, shape in zip(arrays, ((3,), (3, 3), (3,), (3,), (3, 3))):
+        if x.shape != (n, *shape):
+            raise ValueError(f"pose arrays must be (n, 3), (n, 3, 3), (n, 3) for one n, got {x.shape}")
+    inputs = [
+        wp.array(x, dtype=t, device=device) for x, t in zip(arrays, (wp.vec3, wp.mat33, wp.vec3, wp.vec3, wp.mat33))
+    ]
+    outputs = [wp.empty(n, dtype=t, device=device) for t in (wp.float64, wp.vec3d, wp.vec3d, int, int)]
+    wp.launch(
+        _mesh_pairs,
+        dim=n,
+        inputs=[*inputs, *hull_arrays([hull], device), float(cutoff)],
+        outputs=outputs,
+        device=device,
+    )
+    return tuple(x.numpy() for x in outputs)

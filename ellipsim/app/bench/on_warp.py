@@ -16,7 +16,9 @@
    worlds, mjw.collision less the same call with the ellipsoids 5 m up (culled by the bounding spheres), over
    the pairs; plain (Warp's hfield kernel: GJK/EPA per prism, up to 4 contacts a pair) and attached
    (pairs/height_field.hpp: a contact per prism within the margin, up to 50), interleaved.
-4. Collision stage and mjw.step per world-step on settled scenes (the 16-figure heap, the pile),
+4. Cost per convex mesh x ellipsoid pair, as 3: 8 ellipsoids settled on a static mesh slab (MuJoCo's hull of
+   40 points); plain (Warp's GJK/EPA) and attached (pairs/polytope.hpp on the same hull).
+5. Collision stage and mjw.step per world-step on settled scenes (the 16-figure heap, the pile),
    attached vs plain, interleaved.
 """
 
@@ -279,9 +281,39 @@ def _field_xml(rng, n):
 
 def hfield_cost(size, device, n=8):
     """Seconds per height field x ellipsoid pair of mjw.collision, plain and attached (module docstring)."""
+    return _settled_cost(_field_xml(np.random.default_rng(6), n), n, size, device)
+
+
+def _mesh_xml(rng, n):
+    """n ellipsoids (3-10 cm) over a static convex mesh slab (MuJoCo's hull of 40 points, 2 m square, 10 cm
+    thick); only mesh pairs collide."""
+    points = np.c_[rng.uniform(-1, 1, (40, 2)), rng.uniform(-0.05, 0.05, 40)]
+    vertex = " ".join(f"{x:.6f}" for x in points.ravel())
+    bodies = []
+    for _ in range(n):
+        (x, y), r = rng.uniform(-0.5, 0.5, 2), rng.uniform(0.03, 0.1, 3)
+        bodies.append(
+            f'<body pos="{x} {y} 0.3"><freejoint/>'
+            f'<geom type="ellipsoid" size="{r[0]} {r[1]} {r[2]}" contype="1" conaffinity="2"/></body>'
+        )
+    return (
+        f'<mujoco><asset><mesh name="slab" vertex="{vertex}"/></asset>'
+        f'<worldbody><geom type="mesh" mesh="slab" contype="2" conaffinity="1"/>{"".join(bodies)}</worldbody>'
+        "</mujoco>"
+    )
+
+
+def mesh_cost(size, device, n=8):
+    """Seconds per convex mesh x ellipsoid pair of mjw.collision (8 ellipsoids settled on a mesh slab), plain
+    (Warp's GJK/EPA) and attached (pairs/polytope.hpp on MuJoCo's hull), as hfield_cost."""
+    return _settled_cost(_mesh_xml(np.random.default_rng(7), n), n, size, device)
+
+
+def _settled_cost(xml, n, size, device):
+    """hfield_cost's and mesh_cost's measure: n free ellipsoids settled against one static geom (MuJoCo C's steps)."""
     wp, mjw, ew = _warp()
     nworld = size["warp_worlds"]
-    model, data, _ = settled(_field_xml(np.random.default_rng(6), n), size["warp_settle"])
+    model, data, _ = settled(xml, size["warp_settle"])
     far = mujoco.MjData(model)
     far.qpos[:] = data.qpos
     far.qpos[2::7] += 5.0  # every body a free ellipsoid: its z up 5 m
@@ -393,8 +425,10 @@ def measure(size):
     cost = [cost_per_pair(size, device, kind) for kind in COST_KINDS]
     say("warp: cost per height-field pair ...")
     field = hfield_cost(size, device)
+    say("warp: cost per mesh pair ...")
+    mesh = mesh_cost(size, device)
     rows = scenes_rows(size, device)
-    return dict(device=device, accuracy=acc, cost=cost, field=field, scenes=rows)
+    return dict(device=device, accuracy=acc, cost=cost, field=field, mesh=mesh, scenes=rows)
 
 
 def write(result, size, out, plt):
@@ -446,6 +480,15 @@ def write(result, size, out, plt):
             f"{f['plain'] * 1e6:.1f} us per pair ({f['contacts']['plain']} contacts a world, up to 4 a pair), "
             f"ellipsim's {f['attached'] * 1e6:.1f} us ({f['contacts']['attached']} contacts a world, one per prism "
             f"within the margin), **{f['ratio']:.2f}x**; {f['failed']} pairs failed.",
+        ]
+    if "mesh" in r:
+        f = r["mesh"]
+        L += [
+            "",
+            f"Convex mesh x ellipsoid ({f['nworld']} worlds of {f['n']} ellipsoids settled on a mesh slab, the hull "
+            "of 40 points, mjw.collision less the same call with them culled, over the pairs): Warp's GJK/EPA "
+            f"{f['plain'] * 1e6:.2f} us per pair ({f['contacts']['plain']} contacts a world), ellipsim's "
+            f"{f['attached'] * 1e6:.2f} us ({f['contacts']['attached']} contacts a world), **{f['ratio']:.2f}x**.",
         ]
     L += [
         "",

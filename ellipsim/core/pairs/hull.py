@@ -46,6 +46,20 @@ def from_triangles(vertices, triangles):
     return Hull(V, np.ascontiguousarray(edges), np.ascontiguousarray(n), np.ascontiguousarray(T.astype(np.int32)))
 
 
+def mesh_graph_hull(mesh_graph, graphadr, mesh_vert, vertadr, vertnum):
+    """The Hull of one mesh as MuJoCo collides it, from a model's arrays (MuJoCo's MjModel or MuJoCo Warp's Model,
+    as numpy): its convex graph at graphadr in mesh_graph (numvert, numface, vert_edgeadr (numvert), vert_globalid
+    (numvert), edge_localid (numvert + 3 numface), face_globalid (3 numface): the hull's triangles as indices into
+    the mesh's vertices) and its vertices mesh_vert[vertadr : vertadr + vertnum] (float32, in the geom's frame)
+    widened.  ValueError when the mesh has no graph (graphadr -1) or a degenerate triangle."""
+    if graphadr < 0:
+        raise ValueError("the mesh has no convex hull in the model (mesh_graphadr -1)")
+    g = np.asarray(mesh_graph)[graphadr:]
+    nv, nf = int(g[0]), int(g[1])
+    faces = g[2 + 3 * nv + 3 * nf : 2 + 3 * nv + 6 * nf].reshape(nf, 3)
+    return from_triangles(np.asarray(mesh_vert[vertadr : vertadr + vertnum], float), faces)
+
+
 def convex_hull(points):
     """The Hull of the convex hull of points (m, 3), m >= 4 not all in a plane; ValueError naming the
     argument otherwise."""

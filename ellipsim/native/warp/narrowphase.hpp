@@ -6,7 +6,7 @@
 //
 // Poses are Warp's: vectors with operator[], 3x3 matrices with data[row][col] (wp::vec_t, wp::mat_t), float64,
 // widened from the float32 MuJoCo Warp holds.  A pair's rows as Warp's NXN orders its geoms (lower type first):
-// a capsule is g1 (pairs::capsule's normal flipped), a box or cylinder g2, a sphere g1, a height field g1.
+// a capsule is g1 (pairs::capsule's normal flipped), a box or cylinder g2, a sphere g1, a height field g1, a mesh g2.
 #pragma once
 
 #include <ellipsim/distance/ellipsoid_pair.hpp>
@@ -15,12 +15,23 @@
 #include <ellipsim/pairs/capsule.hpp>
 #include <ellipsim/pairs/cylinder.hpp>
 #include <ellipsim/pairs/height_field.hpp>
+#include <ellipsim/pairs/polytope.hpp>
 #include <ellipsim/vec3.hpp>
 
 namespace ellipsim::warp_glue {
 
-// Which core function a pair runs (ellipsim/pair_table.py's rows name them; ROW_MESH = 4 is not on Warp).
-constexpr int ROW_ELLIPSOID = 0, ROW_CAPSULE = 1, ROW_BOX = 2, ROW_CYLINDER = 3, ROW_HFIELD = 5;
+// Which core function a pair runs (ellipsim/pair_table.py's rows name them).
+constexpr int ROW_ELLIPSOID = 0, ROW_CAPSULE = 1, ROW_BOX = 2, ROW_CYLINDER = 3, ROW_MESH = 4, ROW_HFIELD = 5;
+
+// The largest mesh hull the mesh row takes (vertices; a closed triangulated hull has at most 2 nv - 4 triangles):
+// its scratch is a fixed local array of that size (ellipsim/warp/attachment.py leaves larger hulls to Warp).
+constexpr int MAX_HULL_VERTICES = 64;
+constexpr int MAX_HULL_FACES = 2 * MAX_HULL_VERTICES - 4;
+
+// The columns of the attachment's hull table (one row per mesh): the counts, then each array's offset into the
+// concatenated hull arrays (vertices and normals into the float64 one, the rest into the int32 one).
+constexpr int HULL_NV = 0, HULL_NE = 1, HULL_NF = 2, HULL_V = 3, HULL_NORMAL = 4, HULL_EDGE = 5, HULL_FACE = 6,
+              HULL_ADJ_START = 7, HULL_ADJ = 8, HULL_VFACE_START = 9, HULL_VFACE = 10, HULL_COLUMNS = 11;
 
 // A height-field pair's most contacts: MuJoCo's mjMAXCONPAIR, as mujoco/narrowphase.hpp's hfield_row.
 constexpr int HFIELD_MAXCON = 50;
@@ -140,6 +151,33 @@ ELLIPSIM_HD void warp_hfield_contacts(const V& c1, const M& R1, const V& c2, con
                                           for (int j = 0; j < 7; ++j) out.data[k][j] = row[j];
                                           ++k;
                                         });
+}
+
+// The mesh row (mujoco/narrowphase.hpp's mesh_row's function): the ellipsoid g1 (c1, R1, r1) and the mesh g2
+// posed at (c2, R2), its hull row `mesh` of the attachment's table (HULL_*) into the concatenated arrays real
+// (float64) and ints (int32).  pairs::polytope::polytope_ellipsoid with the cutoff; status GLOBAL (deep 1 where
+// ENUMERATED: its certificate did not close), APART (proven beyond the cutoff), or -1 (a non-finite distance,
+// where MuJoCo C's narrow phase calls MuJoCo's own function).  A call of its own (ELLIPSIM_HD_CALL): its scratch,
+// a local array for the largest hull, is made only for a mesh pair.
+template <typename V, typename M, typename T, typename R, typename I>
+ELLIPSIM_HD_CALL void warp_mesh_contact(const V& c1, const M& R1, const V& r1, const V& c2, const M& R2,
+                                        const T& table, int mesh, const R& real, const I& ints, double cutoff,
+                                        int& status, double& dist, V& normal, V& pos, int& deep) {
+  const int* h = table.data + HULL_COLUMNS * mesh;
+  const double* x = real.data;
+  const int* k = ints.data;
+  const pairs::polytope::Hull H = {h[HULL_NV],          h[HULL_NE],          h[HULL_NF],
+                                   x + h[HULL_V],       k + h[HULL_EDGE],    x + h[HULL_NORMAL],
+                                   k + h[HULL_FACE],    k + h[HULL_ADJ_START], k + h[HULL_ADJ],
+                                   k + h[HULL_VFACE_START], k + h[HULL_VFACE]};
+  double scratch[pairs::polytope::scratch_size(MAX_HULL_VERTICES, MAX_HULL_FACES)];  // (not zeroed: not read)
+  const Ellipsoid P = pose(c2, R2, r1);  // the mesh's centre and rotation (r1 unused)
+  const pairs::polytope::Result r = pairs::polytope::polytope_ellipsoid(pose(c1, R1, r1), P.c, P.R, H, scratch, cutoff);
+  deep = r.status == pairs::polytope::ENUMERATED ? 1 : 0;
+  status = r.status == pairs::polytope::APART ? APART : math::isfinite(r.dist) ? GLOBAL : -1;
+  dist = r.dist;
+  put(normal, r.normal);
+  put(pos, r.pos);
 }
 
 }  // namespace ellipsim::warp_glue

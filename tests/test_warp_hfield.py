@@ -167,3 +167,17 @@ def test_compare_engine_warp_judges_warps_own_field_contacts(tmp_path, capsys):
     assert "ellipsoid-hfield:" in capsys.readouterr().out
     field = json.loads(report.read_text())["by_pair_type"]["ellipsoid-hfield"]
     assert field["pairs"] == 2 * 4 * 6 and field["mujoco_contacts"] > 0 and field["ellipsim_contacts"] > 0, field
+
+
+def test_warps_own_field_overflow_is_explained_not_called_another_buffer():
+    """Warp's height-field collider past 50 prisms on a pair it keeps (a mesh rock on the terrain): run's line says
+    which collider and why, and d.overflow is cleared."""
+    import types
+
+    from ellipsim.app import warp_run
+
+    with wp.ScopedDevice("cpu"):
+        d = types.SimpleNamespace(overflow=wp.array([int(mjw.OverflowType.HFIELD), 0], dtype=int))
+        line = warp_run.overflow(d, types.SimpleNamespace(naconmax=10, nconmax=5, njmax=8))
+        assert "height-field collider met more than 50 prisms" in line and "another" not in line
+        assert not d.overflow.numpy().any() and warp_run.overflow(d, None) == ""

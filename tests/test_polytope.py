@@ -284,3 +284,24 @@ def test_a_cutoff_stops_only_pairs_proven_beyond_it():
         assert (full[apart, 1] >= cutoff).all() and (cut[apart, 1] >= cutoff).all()
         assert (cut[apart, 1] <= full[apart, 1]).all()
         np.testing.assert_array_equal(cut[~apart].view(np.int64), full[~apart].view(np.int64))
+
+
+def test_float32_rotations_still_certify_shallow_pairs():
+    """Poses as MuJoCo Warp holds them (float32, widened: rotations orthonormal only to ~6e-8): shallow pairs
+    (depth below the rolling radius) still close by ub1, whose face planes come from the vertices in E's frame (a
+    normal turned by a non-orthonormal T misses its face by ~1e-7 and no certificate closed: every such pair went to
+    the case analysis)."""
+    rng = np.random.default_rng(21)
+    n = 200
+    hull = hull_of(rng.normal(size=(40, 3)) * [0.2, 0.2, 0.05])
+    rE = rng.uniform(0.05, 0.1, (n, 3))
+    RE, RP = Rot.random(n, random_state=rng).as_matrix(), Rot.random(n, random_state=rng).as_matrix()
+    cE = np.zeros((n, 3))
+    d = rng.normal(size=(n, 3))
+    cP = d / np.linalg.norm(d, axis=1)[:, None] * 0.6
+    _, dist, nrm, _ = kernel(cE, RE, rE, cP, RP, hull)
+    rho = rE.min(1) ** 2 / rE.max(1)
+    cP = cP - nrm * (dist + rng.uniform(0.05, 0.5, n) * rho)[:, None]  # depth below rho
+    f32 = lambda x: np.asarray(x, np.float32).astype(np.float64)  # noqa: E731
+    status, dist, _, _ = kernel(f32(cE), f32(RE), f32(rE), f32(cP), f32(RP), hull)
+    assert (dist < 0).all() and (status == CERTIFIED).all(), np.bincount(status)

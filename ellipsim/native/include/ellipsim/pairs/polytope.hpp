@@ -496,8 +496,14 @@ ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const double* p, const Hull
 // --- the fast start (a hull with its adjacency): the contact feature found by walking the edges -------------
 
 // Face f's outward unit normal in E's frame (T: P's axes there), as polytope_ellipsoid writes it into m.
-ELLIPSIM_HD Vec3 face_normal(const Mat3& T, const Hull& H, int f) {
-  return matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
+ELLIPSIM_HD Vec3 face_normal(const Mat3& T, const Hull& H, const double* p, int f) {
+  // from the triangle's vertices in E's frame: its true plane there whatever T (a float32 rotation is orthonormal
+  // only to ~6e-8, and T n_f then misses the face's normal by that much: the inside test and the bounds need the
+  // plane itself), turned as T n_f
+  const Vec3 a = vertex(p, H.face[3 * f]), b = vertex(p, H.face[3 * f + 1]), c = vertex(p, H.face[3 * f + 2]);
+  const Vec3 m = unit(cross3(sub(b, a), sub(c, a)));
+  const Vec3 t = matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
+  return dot(m, t) < 0.0 ? Vec3{-m.x, -m.y, -m.z} : m;
 }
 
 // The vertex lowest in n.p, by descent along the edges from `start`: a vertex no edge descends from minimises the
@@ -570,7 +576,7 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
       const int i = active[a];
       consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low);
       for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
-        const Vec3 mf = face_normal(T, H, H.vface[k]);
+        const Vec3 mf = face_normal(T, H, p, H.vface[k]);
         consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low);
       }
       for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
@@ -644,7 +650,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   to_frame(E, cP, T, H, p);
   const auto normals = [&]() {  // m: every face normal in E's frame (the walk computes the few it reads)
     for (int f = 0; f < H.nf; ++f) {
-      const Vec3 w = face_normal(T, H, f);
+      const Vec3 w = face_normal(T, H, p, f);
       m[3 * f] = w.x;
       m[3 * f + 1] = w.y;
       m[3 * f + 2] = w.z;

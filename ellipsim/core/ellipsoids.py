@@ -71,6 +71,24 @@ def as_poses(centers, rotations, sizes, sizes_name):
     return c, rot, s
 
 
+def as_shape_poses(ellipsoids, centers, rotations, what):
+    """(centres (k, 3), rotations (k, 3, 3), n pairs) of one shape posed per pair against `ellipsoids` (one pose
+    may come unbatched; a batch of 1 on either side broadcasts): shapes checked, rotations orthonormal, lengths
+    matching; ValueError naming the argument otherwise.  `what` names the shape in the messages."""
+    single = _is_single(centers)
+    c = _as_real_array("centers", centers, (3,), single)
+    rot = _as_real_array("rotations", rotations, (3, 3), single)
+    if len(c) != len(rot):
+        raise ValueError(f"centers and rotations must have the same length, got {len(c)} and {len(rot)}")
+    check_rotations(rot)
+    ne, nk = len(ellipsoids.centers), len(c)
+    if ne != nk and ne != 1 and nk != 1:
+        raise ValueError(
+            f"ellipsoids and the {what} poses must have the same length or one of them length 1, got {ne} and {nk}"
+        )
+    return c, rot, 0 if ne == 0 or nk == 0 else max(ne, nk)
+
+
 def check_rotations(rot):
     """ValueError naming the first of rotations (n, 3, 3) that is not orthonormal to ORTHONORMAL_TOL."""
     defect = orthonormality_defect(rot)

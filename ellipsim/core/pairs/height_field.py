@@ -18,7 +18,7 @@ import numpy as np
 
 from ...native import ext
 from .. import threads
-from ..ellipsoids import Ellipsoids, _as_real_array, _is_single, check_parallel, check_rotations
+from ..ellipsoids import Ellipsoids, as_shape_poses, check_parallel
 
 #: MuJoCo's mjMAXCONPAIR: its height-field function's most contacts per pair
 MAX_CONTACTS = 50
@@ -65,20 +65,9 @@ def hfield_contacts(ellipsoids, centers, rotations, field, margin=0.0, *, maxcon
     if not isinstance(ellipsoids, Ellipsoids):
         raise ValueError(f"ellipsoids must be an ellipsim.Ellipsoids batch, got {type(ellipsoids).__name__}")
     f = check_field(field)
-    single = _is_single(centers)
-    c = _as_real_array("centers", centers, (3,), single)
-    rot = _as_real_array("rotations", rotations, (3, 3), single)
-    if len(c) != len(rot):
-        raise ValueError(f"centers and rotations must have the same length, got {len(c)} and {len(rot)}")
-    check_rotations(rot)
+    c, rot, n = as_shape_poses(ellipsoids, centers, rotations, "field")
     if isinstance(maxcon, bool) or not isinstance(maxcon, (int, np.integer)) or maxcon < 1:
         raise ValueError(f"maxcon must be a positive integer, got {maxcon!r}")
-    ne, nk = len(ellipsoids.centers), len(c)
-    if ne != nk and ne != 1 and nk != 1:
-        raise ValueError(
-            f"ellipsoids and the field poses must have the same length or one of them length 1, got {ne} and {nk}"
-        )
-    n = 0 if ne == 0 or nk == 0 else max(ne, nk)
     m = np.asarray(margin, dtype=np.float64)
     if m.ndim > 1 or (m.ndim == 1 and len(m) != n) or not np.all(np.isfinite(m)):
         raise ValueError(f"margin must be a finite number or (n,) = ({n},) of them, got {margin!r}")

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...native import ext
 from .. import threads
-from ..ellipsoids import Ellipsoids, _as_real_array, _is_single, as_poses, check_choice, check_parallel, check_rotations
+from ..ellipsoids import Ellipsoids, as_poses, as_shape_poses, check_choice, check_parallel, check_rotations
 from . import derivatives as dv
 
 KINDS = ("capsule", "box", "cylinder")
@@ -92,18 +92,7 @@ def _mesh_distance(ellipsoids, centers, rotations, mesh, parallel, derivatives):
     if not isinstance(derivatives, (bool, np.bool_)):
         raise ValueError(f"derivatives must be True or False, got {derivatives!r}")
     hull = as_hull(mesh)
-    single = _is_single(centers)
-    c = _as_real_array("centers", centers, (3,), single)
-    rot = _as_real_array("rotations", rotations, (3, 3), single)
-    if len(c) != len(rot):
-        raise ValueError(f"centers and rotations must have the same length, got {len(c)} and {len(rot)}")
-    check_rotations(rot)
-    ne, nk = len(ellipsoids.centers), len(c)
-    if ne != nk and ne != 1 and nk != 1:
-        raise ValueError(
-            f"ellipsoids and the mesh poses must have the same length or one of them length 1, got {ne} and {nk}"
-        )
-    n = 0 if ne == 0 or nk == 0 else max(ne, nk)
+    c, rot, n = as_shape_poses(ellipsoids, centers, rotations, "mesh")
     dist, normal, pos, status = np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int8)
     parallel = check_parallel(parallel, n)
     e = ellipsoids

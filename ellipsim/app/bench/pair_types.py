@@ -102,7 +102,7 @@ def measure(size, n=None, seed=0):
             model, pairs = _model(kind, *poses(kind, category, n, rng))
             data = mujoco.MjData(model)
             mujoco.mj_kinematics(model, data)
-            con = np.zeros(64)
+            con = np.zeros(50 * 10)  # room for mjMAXCONPAIR mjPreContacts (10 doubles each)
             m, d, c = model._address, data._address, con.ctypes.data
             with attach(model, data, mode="narrowphase", warm_start=False) as att:
                 _calls(ours, m, d, c, pairs, 1)

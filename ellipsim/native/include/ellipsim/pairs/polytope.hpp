@@ -104,15 +104,19 @@ ELLIPSIM_HD void build_adjacency(int nv, int ne, int nf, const int* edge, const 
 ELLIPSIM_HD double dot(const Vec3& x, const Vec3& y) { return x.x * y.x + x.y * y.y + x.z * y.z; }
 
 // The hull in E's principal frame: p_i = e + T v_i, e = R_E^T (c_P - c_E) and T = R_E^T R_P (P's axes in E's
-// frame), written into p (3 nv numbers): one product a vertex.
-ELLIPSIM_HD void to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& T, const Hull& H, double* p) {
+// frame), written into p (3 nv numbers): one product a vertex.  Returns max_i |p_i|_1 (the rounding scale of a
+// sigma over them).
+ELLIPSIM_HD double to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& T, const Hull& H, double* p) {
   const Vec3 e = rotate_t(E.R, sub(cP, E.c));
+  double far = 0.0;
   for (int i = 0; i < H.nv; ++i) {
     const Vec3 w = matvec(T, {H.v[3 * i], H.v[3 * i + 1], H.v[3 * i + 2]});
     p[3 * i] = e.x + w.x;
     p[3 * i + 1] = e.y + w.y;
     p[3 * i + 2] = e.z + w.z;
+    far = max2(far, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
   }
+  return far;
 }
 
 ELLIPSIM_HD Vec3 vertex(const double* p, int i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
@@ -526,16 +530,18 @@ ELLIPSIM_HD int descend(const double* p, const Hull& H, const Vec3& n, int start
 }
 
 // consider with sigma by descent from *low (the incumbent's lowest vertex, moved to the candidate's when it wins).
-ELLIPSIM_HD void consider_walk(const Vec3& a2, const double* p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
-                               int& low) {
+// Returns whether the incumbent reached stop (the walk's callers then stop: the pair is proven apart).
+ELLIPSIM_HD bool consider_walk(const Vec3& a2, const double* p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
+                               int& low, double stop = INFINITY) {
   const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
-  if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > b.value)) return;
+  if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > b.value)) return false;
   const int k = descend(p, H, n, low);
   const double v = dot(n, vertex(p, k)) - h;
   if (v > b.value) {
     b = {v, n};
     low = k;
   }
+  return b.value >= stop;
 }
 
 // The vertices within band of the lowest (low) in n.p, at most 16, by a walk along the edges from low (every
@@ -563,28 +569,32 @@ ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, 
 // contact feature (feature, within band_rel of max(scale, |p_low|_1), at most 16), their global maximisers, the
 // normals of the triangles through them and the edges between them (all_edges: every edge through them; with the
 // triangles, the pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no pass
-// over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.
+// over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.  Ends early once the incumbent
+// reaches stop (a separated pair needs only a sigma beyond its cutoff, not the maximum: GJK's early exit).
 ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, Best b, int& low,
-                             double band_rel, double scale, int rounds, bool all_edges, double* mark) {
+                             double band_rel, double scale, int rounds, bool all_edges, double* mark,
+                             double stop = INFINITY) {
   int active[16];
-  for (int round = 0; round < rounds; ++round) {
+  bool done = b.value >= stop;
+  for (int round = 0; round < rounds && !done; ++round) {
     const Best before = b;
     const Vec3 pl = vertex(p, low);
     const double band = band_rel * max2(scale, math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z));
     const int na = feature(p, H, b.n, low, band, active, mark);
-    for (int a = 0; a < na; ++a) {
+    for (int a = 0; a < na && !done; ++a) {
       const int i = active[a];
-      consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low);
-      for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
+      done = consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low, stop);
+      for (int k = H.vface_start[i]; k < H.vface_start[i + 1] && !done; ++k) {
         const Vec3 mf = face_normal(T, H, p, H.vface[k]);
-        consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low);
+        done = consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low, stop);
       }
-      for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
+      for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && !done; ++k) {
         const int j = H.adj[k];
         if (mark[j] != 0.0 ? j <= i : !all_edges) continue;  // an edge between two of the feature's vertices once
         const EdgeProblem ep = edge_problem(a2, p, i, j);
         const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
-        consider_walk(a2, p, H, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b, low);
+        done = consider_walk(a2, p, H, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b,
+                             low, stop);
       }
     }
     for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
@@ -594,13 +604,13 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
 }
 
 // A local maximum from n0 (nonzero): its lowest vertex by descent from vertex 0, then walk_refine on the contact
-// feature (band 1e-6).
+// feature (band 1e-6), ending early at stop.
 ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, const Vec3& n0, int& low,
-                          double* mark) {
+                          double* mark, double stop = INFINITY) {
   const Vec3 n = unit(n0);
   low = descend(p, H, n, 0);
   const Best b = {dot(n, vertex(p, low)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z), n};
-  return walk_refine(a2, p, H, T, b, low, 1e-6, 0.0, 16, false, mark);
+  return walk_refine(a2, p, H, T, b, low, 1e-6, 0.0, 16, false, mark, stop);
 }
 
 // ub1 (upper_bound1) with the distance bounded by the triangles through the contact feature at n only: each
@@ -647,7 +657,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   double* p = scratch;
   double* m = scratch + 3 * H.nv;
   const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
-  to_frame(E, cP, T, H, p);
+  const double far = to_frame(E, cP, T, H, p);
   const auto normals = [&]() {  // m: every face normal in E's frame (the walk computes the few it reads)
     for (int f = 0; f < H.nf; ++f) {
       const Vec3 w = face_normal(T, H, p, f);
@@ -668,12 +678,10 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
     // after each
     const Vec3 o = rotate_t(E.R, sub(cP, E.c));
+    const double slack = tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(E.r));
     const auto apart = [&](double value) {  // value, a sigma, less its rounding allowance, proves it beyond cutoff
       if (!(value >= cutoff)) return false;
-      double far = 0.0;
-      for (int i = 0; i < H.nv; ++i)
-        far = max2(far, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
-      b.value = value - tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(E.r));
+      b.value = value - slack;
       return b.value >= cutoff;
     };
     if (cutoff < INFINITY && dot(o, o) > 0.0) {  // the centre line first: a pair well apart costs one pass
@@ -681,7 +689,9 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       if (apart(sigma_hull(a2, p, H.nv, b.n))) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     }
     int low = 0;
-    b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark);
+    // the walk stops at a sigma (by descent) beyond cutoff + 2 slack: its full pass then proves the pair apart
+    b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark,
+                 cutoff + 2.0 * slack);
     b.value = sigma_hull(a2, p, H.nv, b.n);
     if (apart(b.value)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     b.value = sigma_hull(a2, p, H.nv, b.n);

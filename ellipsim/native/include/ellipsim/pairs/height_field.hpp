@@ -134,28 +134,40 @@ ELLIPSIM_HD double prism_sigma(const Prism& P, const Vec3& lc, const Mat3& L, co
   return lo - math::sqrt(r.x * r.x * w.x * w.x + r.y * r.y * w.y * w.y + r.z * r.z * w.z * w.z);
 }
 
-// True when a direction proves the prism beyond the margin: sigma less its rounding allowance
+// The pre-test: apart when a direction proves the prism beyond the margin, sigma less its rounding allowance
 // (PAIR_SIGMA_SLACK_ULPS of the pair's scale) at a face normal, or from E's centre towards the nearest point of
 // the prism's top (the separating direction of a prism beside or below E's side).  Most prisms under the bounding
-// box are apart, and this costs a few dot products, against a solve.
-ELLIPSIM_HD bool apart_by_faces(const Prism& P, const Vec3& lc, const Mat3& L, const Vec3& r, double margin) {
+// box are apart, and this costs a few dot products, against a solve.  Otherwise n: the direction of the largest
+// sigma tried (field frame), the solve's start.
+struct PreTest {
+  bool apart;
+  Vec3 n;
+};
+
+ELLIPSIM_HD PreTest apart_by_faces(const Prism& P, const Vec3& lc, const Mat3& L, const Vec3& r, double margin) {
   double far = 0.0;
   for (int i = 0; i < NV; ++i)
     far = max2(far, math::fabs(P.v[3 * i] - lc.x) + math::fabs(P.v[3 * i + 1] - lc.y) + math::fabs(P.v[3 * i + 2] - lc.z));
   const double bar = margin + tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(r));
-  auto beyond = [&](int f) {
-    return prism_sigma(P, lc, L, r, {-P.normal[3 * f], -P.normal[3 * f + 1], -P.normal[3 * f + 2]}) >= bar;
+  PreTest t = {false, {0.0, 0.0, 1.0}};
+  double best = -INFINITY;
+  auto beyond = [&](const Vec3& n) {
+    const double v = prism_sigma(P, lc, L, r, n);
+    if (v > best) best = v, t.n = n;
+    return t.apart = v >= bar;
   };
-  if (beyond(1)) return true;  // the top, most often
+  auto face = [&](int f) { return Vec3{-P.normal[3 * f], -P.normal[3 * f + 1], -P.normal[3 * f + 2]}; };
+  if (beyond(face(1))) return t;  // the top, most often
   const Vec3 x = polytope::nearest_on_triangle(lc, polytope::vertex(P.v, 3), polytope::vertex(P.v, 4),
                                                polytope::vertex(P.v, 5));
   const Vec3 d = sub(x, lc);
   const double dd = polytope::dot(d, d);
   if (dd > 0.0) {
     const double s = 1.0 / math::sqrt(dd);
-    if (prism_sigma(P, lc, L, r, {d.x * s, d.y * s, d.z * s}) >= bar) return true;
+    if (beyond({d.x * s, d.y * s, d.z * s})) return t;
   }
-  return beyond(2) || beyond(4) || beyond(6) || beyond(0);  // the sides (two triangles each), the base
+  (void)(beyond(face(2)) || beyond(face(4)) || beyond(face(6)) || beyond(face(0)));  // the sides (two triangles each), base
+  return t;
 }
 
 // One contact: signed distance, unit normal from the field to the ellipsoid, point (world frame).
@@ -186,9 +198,11 @@ ELLIPSIM_HD int contacts(const Ellipsoid& E, const Vec3& cF, const Mat3& RF, con
         if (a.z < R.zmin && b.z < R.zmin && t.z < R.zmin) continue;  // its top below E by more than the margin
         const Prism P = make_prism(F, a, b, t);
         if (!P.valid) return -1;
-        if (apart_by_faces(P, lc, L, E.r, margin)) continue;
+        const PreTest pre = apart_by_faces(P, lc, L, E.r, margin);
+        if (pre.apart) continue;
         const polytope::Hull H = {NV, NE, NF, P.v, EDGES, P.normal, FACES, ADJ_START, ADJ, VFACE_START, VFACE};
-        const polytope::Result q = polytope::polytope_ellipsoid(E, cF, RF, H, scratch, margin);  // APART: beyond
+        const polytope::Result q =  // APART: beyond; the walk from the pre-test's best direction
+            polytope::polytope_ellipsoid(E, cF, RF, H, scratch, margin, matvec(RF, pre.n));
         if (!math::isfinite(q.dist)) return -1;
         if (!(q.dist < margin)) continue;
         emit(Contact{q.dist, {-q.normal.x, -q.normal.y, -q.normal.z}, q.pos});

@@ -651,9 +651,11 @@ struct Result {
 // box.hpp), status CERTIFIED or ENUMERATED.  scratch: scratch_size(H.nv, H.nf) numbers.  cutoff (the narrow
 // phase's margin): where sigma along the centre line, or at the walking start, less its rounding allowance
 // (PAIR_SIGMA_SLACK_ULPS of the pair's scale, box.hpp's centre_line_bound's), reaches it, APART at once: the pair
-// is proven beyond it, dist that bound.
+// is proven beyond it, dist that bound.  start (world frame, from E towards P; 0: none): the walk's first
+// direction instead of E's normal nearest P's origin, for a caller that knows a better one (the height field's
+// prisms, whose origin is the field's); the centre line is then not tried.
 ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
-                                      double* scratch, double cutoff = INFINITY) {
+                                      double* scratch, double cutoff = INFINITY, Vec3 start = {0.0, 0.0, 0.0}) {
   double* p = scratch;
   double* m = scratch + 3 * H.nv;
   const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
@@ -684,14 +686,15 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       b.value = value - slack;
       return b.value >= cutoff;
     };
-    if (cutoff < INFINITY && dot(o, o) > 0.0) {  // the centre line first: a pair well apart costs one pass
+    const bool given = dot(start, start) > 0.0;
+    if (!given && cutoff < INFINITY && dot(o, o) > 0.0) {  // the centre line first: a pair well apart, one pass
       b.n = unit(o);
       if (apart(sigma_hull(a2, p, H.nv, b.n))) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     }
     int low = 0;
+    const Vec3 n0 = given ? rotate_t(E.R, start) : dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0};
     // the walk stops at a sigma (by descent) beyond cutoff + 2 slack: its full pass then proves the pair apart
-    b = walk_max(a2, p, H, T, dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0}, low, mark,
-                 cutoff + 2.0 * slack);
+    b = walk_max(a2, p, H, T, n0, low, mark, cutoff + 2.0 * slack);
     b.value = sigma_hull(a2, p, H.nv, b.n);
     if (apart(b.value)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     b.value = sigma_hull(a2, p, H.nv, b.n);

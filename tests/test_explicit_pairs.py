@@ -194,7 +194,7 @@ def test_pair_margin_and_gap_at_known_distances():
     with em.attach(model, data, mode="narrowphase") as att:
         assert att.installed
         mujoco.mj_forward(model, data)  # one collision pass
-    assert att.counters == {"calls": 4, "separated": 1, "apart": 0, "contacts": 3, "fallbacks": 0}
+    assert att.counters == {"calls": 4, "separated": 1, "apart": 0, "contacts": 3, "fallbacks": 0, "capped": 0}
     ours, theirs = handled_contacts(model, data), handled_contacts(model, plain)
     g = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i): i for i in range(model.ngeom)}
     sphere_pair = (g["b3"], g["a3"])  # geom1 the sphere: MuJoCo orders a pair's geoms by type

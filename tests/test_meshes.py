@@ -198,6 +198,27 @@ def test_hfield_contacts_stop_at_maxcon_and_the_model_field_is_mujocos():
     np.testing.assert_array_equal(capped.dist[0], every.dist[0, :MAX_CONTACTS])
 
 
+def test_narrow_phase_counts_the_height_field_calls_that_hit_the_cap():
+    """An attached data's height-field call that makes mjMAXCONPAIR contacts is counted as capped (nothing the
+    cap drops goes unsaid); a call under the cap is not."""
+    xml = terrain_xml(0, n=0, nrow=40, ncol=40, meshes=0).replace(
+        "</worldbody>",
+        '<body pos="0 0 {z}"><freejoint/><geom type="ellipsoid" size="0.3 0.3 0.05"/></body></worldbody>',
+    )
+    for z, capped in ((0.05, 1), (0.14, 0)):  # sunk flat into the field (254 prisms); resting on its tops (6)
+        model = mujoco.MjModel.from_xml_string(xml.format(z=z))
+        data = mujoco.MjData(model)
+        with em.attach(model, data, mode="narrowphase") as att:
+            mujoco.mj_forward(model, data)
+            counters = att.counters
+        field = model_height_field(model, 0)
+        E = ellipsim.Ellipsoids(data.geom_xpos[1], data.geom_xmat[1].reshape(3, 3), model.geom_size[1])
+        every = hfield_contacts(E, data.geom_xpos[0], data.geom_xmat[0].reshape(3, 3), field, maxcon=10_000)
+        assert (every.count[0] > MAX_CONTACTS) == bool(capped) and counters["capped"] == capped
+        assert every.count[0] > 0
+        assert data.ncon == min(int(every.count[0]), MAX_CONTACTS) and counters["fallbacks"] == 0
+
+
 def test_shape_distance_mesh_is_the_kernel_and_takes_points_or_a_hull():
     """shape_distance(..., "mesh", ...) gives the kernel's bits (_ellipsim.testing.polytope_ellipsoid) for a Hull
     or for its points, broadcasting one pose or one ellipsoid; a MuJoCo mesh's hull is the points' hull."""

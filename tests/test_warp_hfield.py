@@ -146,6 +146,26 @@ def test_an_attached_terrain_run_writes_the_cpus_field_contacts_in_mujocos_order
 
 
 @SLOW
+def test_an_attached_field_pair_at_the_cap_is_counted_as_on_the_cpu():
+    """A flat ellipsoid sunk into a 40 x 40 field (254 prisms within the margin) makes 50 contacts a world on
+    Warp, and each world's call is counted as capped, as MuJoCo C's narrow phase counts it; one resting on the
+    tops (6 prisms) is not."""
+    xml = terrain_xml(0, n=0, nrow=40, ncol=40, meshes=0).replace(
+        "</worldbody>",
+        '<body pos="0 0 {z}"><freejoint/><geom type="ellipsoid" size="0.3 0.3 0.05"/></body></worldbody>',
+    )
+    for z, made, capped in ((0.05, kernels.HFIELD_MAXCON, 2), (0.14, 6, 0)):
+        mjm = mujoco.MjModel.from_xml_string(xml.format(z=z))
+        m = mjw.put_model(mjm)
+        d = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=2, naconmax=400)
+        with ew.attach(m) as att:
+            mjw.forward(m, d)
+            counters = att.counters
+        assert int(d.nacon.numpy()[0]) == 2 * made and counters["capped"] == capped, counters
+        assert counters["overflow"] == 0 and counters["failed"] == 0
+
+
+@SLOW
 def test_compare_engine_warp_judges_warps_own_field_contacts(tmp_path, capsys):
     """`ellipsim compare --engine warp` on a terrain model (ellipsoids started 15 cm up, on the 10 cm field): the
     field pairs are candidates now (candidate_pairs reads the same rows) and Warp's own contacts on them are

@@ -207,6 +207,11 @@ class Run:
                 f"  narrow phase: {c['calls']} pairs = {c['separated']} certified apart + {c['apart']} measured beyond "
                 f"the margin + {c['contacts']} contacts + {c['fallbacks']} fallbacks to MuJoCo"
             )
+            if c["capped"]:
+                lines.append(
+                    f"  {c['capped']} height-field pairs made MuJoCo's most contacts (mjMAXCONPAIR, 50): "
+                    "prisms beyond those made none"
+                )
         if self.between is not None:
             lines += capture.between_lines(self.between, self.between_candidates, self.between_seconds, show, "frames")
         elif between_asked:

@@ -23,6 +23,7 @@ from ..native import ext
 from . import publish
 from .context import (
     APART,
+    CAPPED,
     CONTACTS,
     FALLBACKS,
     FILTER,
@@ -261,7 +262,9 @@ class Attachment:
 
         filter: seen = discarded + passed candidate pairs; narrowphase: calls = separated (proven apart
         beyond the margin, no contact) + apart (their signed distance measured beyond the margin, no
-        contact) + contacts + fallbacks (to MuJoCo's function).
+        contact) + contacts + fallbacks (to MuJoCo's function), and capped: the height-field calls among
+        the contacts that made MuJoCo's most, mjMAXCONPAIR (50): their further prisms within the margin
+        made no contact, as in MuJoCo's own function.
         """
         c = [int(x) for x in self._counters]
         if self.mode == "narrowphase":
@@ -272,6 +275,7 @@ class Attachment:
                 "apart": c[APART],
                 "contacts": c[CONTACTS],
                 "fallbacks": c[FALLBACKS],
+                "capped": c[CAPPED],
             }
         return {"seen": c[0], "discarded": c[1], "passed": c[2]}
 

@@ -60,11 +60,12 @@ REGISTRY = np.zeros((MAX_ATTACHED + 1, REGISTRY_COLUMNS), dtype=np.int64)
 # apart (measured apart beyond the margin), fallbacks: every call adds 1 to exactly one of words
 # 1-4, so the number of calls is their sum (one atomic add per call, not two); record: the number
 # of recorded pairs in word RECORDED.  Narrowphase words 0 and 5 are the warm-start table's clock:
-# the data's time at the last call that read the table (float64 bits) and the table's epoch.
-NCOUNTERS = 6
+# the data's time at the last call that read the table (float64 bits) and the table's epoch; word
+# CAPPED counts the height-field calls that made mjMAXCONPAIR contacts (a call of contacts besides).
+NCOUNTERS = 7
 SEEN, DISCARDED, PASSED, RECORDED = 0, 1, 2, 3
 SEPARATED, CONTACTS, APART, FALLBACKS = 1, 2, 3, 4
-WARM_TIME, WARM_EPOCH = 0, 5
+WARM_TIME, WARM_EPOCH, CAPPED = 0, 5, 6
 
 # Warm-start table of a data attached in mode "narrowphase" (attachment.py owns it, the narrow phase reads
 # and writes it): WARM_SLOT_WORDS int64/float64 words per slot, [key << 1 | in contact, normal x, y, z,

@@ -56,7 +56,7 @@ from . import kernels
 
 # The pair table both glues read (ellipsim/pair_table.py); its geom codes are MuJoCo Warp's too.
 assert all(int(getattr(mjw_types.GeomType, name.upper())) == t for t, name in TYPE_NAMES.items())
-COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep", "failed")
+COUNTER_NAMES = ("pairs", "contacts", "unproven", "overflow", "deep", "failed", "capped")
 
 
 def _trid(i, j, n):
@@ -323,7 +323,9 @@ class Attachment:
         because d.naconmax was reached), deep (ellipsoid pairs beyond the shallow-contact proof, sent to the branch and bound; capsule,
         box and cylinder pairs whose certificates did not close and whose pieces were all bounded or solved; mesh
         pairs enumerated), failed (height-field pairs left without contacts: a degenerate prism or a non-finite
-        distance; mesh pairs with a non-finite distance: where MuJoCo C's narrow phase calls MuJoCo's own function).  Reading synchronises with the device."""
+        distance; mesh pairs with a non-finite distance: where MuJoCo C's narrow phase calls MuJoCo's own function), capped
+        (height-field pairs that made mjMAXCONPAIR (50) contacts: their further prisms within the margin made none).
+        Reading synchronises with the device."""
         values = self._counters.numpy()
         return dict(zip(COUNTER_NAMES, (int(v) for v in values)))
 

@@ -73,8 +73,8 @@ GLOBAL, UNPROVEN, APART = 0, 1, 2
 PAIRS_PER_THREAD = {"cpu": 16, "cuda": 1}
 
 #: The counters' slots (Attachment.counters names them).
-C_PAIRS, C_CONTACTS, C_UNPROVEN, C_OVERFLOW, C_DEEP, C_FAILED = 0, 1, 2, 3, 4, 5
-NCOUNTERS = 6
+C_PAIRS, C_CONTACTS, C_UNPROVEN, C_OVERFLOW, C_DEEP, C_FAILED, C_CAPPED = 0, 1, 2, 3, 4, 5, 6
+NCOUNTERS = 7
 
 #: A height-field pair's most contacts (MuJoCo's mjMAXCONPAIR; narrowphase.hpp's HFIELD_MAXCON), and the
 #: per-thread buffer the core writes them into: row k (dist, normal from the field to the ellipsoid, pos).
@@ -341,6 +341,8 @@ def contact_kernel(enable_sleep, incremental, per_thread):
             return
         if nfound == 0:
             return
+        if nfound == HFIELD_MAXCON:  # its further prisms within the margin made no contact
+            wp.atomic_add(counters_out, C_CAPPED, wp.int64(1))
         condim, friction, solref, solreffriction, solimp, adhesion = contact_material_params(
             geom_condim,
             geom_priority,

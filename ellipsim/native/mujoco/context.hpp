@@ -31,7 +31,7 @@ constexpr std::int64_t FILTER = 1, RECORD = 2, NARROW = 3;
 // Per-data counters (int64 words).
 constexpr int SEEN = 0, DISCARDED = 1, PASSED = 2, RECORDED = 3;
 constexpr int SEPARATED = 1, CONTACTS = 2, APART = 3, FALLBACKS = 4;
-constexpr int WARM_TIME = 0, WARM_EPOCH = 5;
+constexpr int WARM_TIME = 0, WARM_EPOCH = 5, CAPPED = 6;
 constexpr int WARM_SLOT_WORDS = 8;
 constexpr double WARM_JUMP = 1.5;
 

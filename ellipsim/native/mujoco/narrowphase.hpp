@@ -245,6 +245,7 @@ __attribute__((noinline)) inline int hfield_row(const mjModel* m, mjData* d, mjP
       [&](const pairs::height_field::Contact& k) { write_contact(con + n++, k.dist, k.pos, k.normal); });
   if (made < 0) return -1;
   count(counters, made ? CONTACTS : SEPARATED);
+  if (made == mjMAXCONPAIR) count(counters, CAPPED);  // its further prisms within the margin made no contact
   return made;
 }
 

@@ -675,6 +675,8 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
   Best b;
   double ub = INFINITY;
+  int low = 0;
+  bool faces = true;  // b is at least sigma (by descent) at every face normal: enumerate_max's start
   if (H.adj_start != nullptr && H.vface_start != nullptr) {
     // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent),
     // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
@@ -691,7 +693,6 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       b.n = unit(o);
       if (apart(sigma_hull(a2, p, H.nv, b.n))) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     }
-    int low = 0;
     const Vec3 n0 = given ? rotate_t(E.R, start) : dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0};
     // the walk stops at a sigma (by descent) beyond cutoff + 2 slack: its full pass then proves the pair apart
     b = walk_max(a2, p, H, T, n0, low, mark, cutoff + 2.0 * slack);
@@ -700,19 +701,20 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     b.value = sigma_hull(a2, p, H.nv, b.n);
     ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
     if (!(ub - b.value <= tol)) normals();
-    double scale = 0.0;  // the hull's size from E's centre, as refine's
-    if (!(ub - b.value <= tol))
-      for (int i = 0; i < H.nv; ++i)
-        scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
-    // (the wider band only while the incumbent is above -rho: deeper, ub1 over triangles, >= -rho, cannot close)
-    for (int stage = 0; stage < (b.value < -rho ? 1 : 2) && !(ub - b.value <= tol); ++stage) {
+    const double scale = far;  // the hull's size from E's centre, as refine's
+    // The two stages only while the incumbent is above -rho.  Deeper, ub1 over triangles (>= -rho) cannot close,
+    // nor can any tangent plane of E near a maximum below -rho (along the sphere the plane's bound rises as
+    // value cos(angle)); ub2 closes deep face contacts from the walk's own maximum, and the enumeration starts
+    // from it (after the face normals' pass it needs): the feature's pieces cost more than they save there
+    // (bench meshes, deep: 15-20% a pair).
+    faces = !(b.value < -rho);
+    for (int stage = 0; stage < (faces ? 2 : 0) && !(ub - b.value <= tol); ++stage) {
       Best w = b;
       if (stage == 0) {
         for (int f = 0; f < H.nf; ++f)
           consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
-        // every edge through the feature while ub1 may close (above -rho); deeper, the edges between its
-        // vertices: the enumeration, or ub2 at a face or vertex contact, proves the rest
-        w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, !(w.value < -rho), mark);
+        // every edge through the feature (ub1 may close: above -rho)
+        w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, true, mark);
       } else {
         w = walk_refine(a2, p, H, T, w, low, 1e-2, scale, 8, false, mark);
       }
@@ -741,6 +743,11 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound2(a2, p, H, m, b.n, b.value));
   int status = CERTIFIED;
   if (!(ub - b.value <= tol)) {
+    if (!faces) {
+      for (int f = 0; f < H.nf; ++f)
+        consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b, low);
+      b.value = sigma_hull(a2, p, H.nv, b.n);
+    }
     b = enumerate_max(a2, p, H, m, tol, b, scratch + 3 * H.nv + 3 * H.nf);
     status = ENUMERATED;
   }

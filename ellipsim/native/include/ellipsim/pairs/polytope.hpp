@@ -545,19 +545,20 @@ ELLIPSIM_HD bool consider_walk(const Vec3& a2, const double* p, const Hull& H, c
 }
 
 // The vertices within band of the lowest (low) in n.p, at most 16, by a walk along the edges from low (every
-// one is reached: from each, a descending path to low stays in the band), marked in mark; returns their count.
+// one is reached: from each, a descending path to low stays in the band), marked in mark (1 added: a mark's odd
+// part is membership, walk_refine keeps the round it tried a vertex in the rest); returns their count.
 ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, double band, int* active,
                         double* mark) {
   const double top = dot(n, vertex(p, low)) + band;
   int na = 1;
   active[0] = low;
-  mark[low] = 1.0;
+  mark[low] += 1.0;
   for (int a = 0; a < na; ++a) {
     const int i = active[a];
     for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && na < 16; ++k) {
       const int j = H.adj[k];
-      if (mark[j] == 0.0 && dot(n, vertex(p, j)) <= top) {
-        mark[j] = 1.0;
+      if ((int(mark[j]) & 1) == 0 && dot(n, vertex(p, j)) <= top) {
+        mark[j] += 1.0;
         active[na++] = j;
       }
     }
@@ -571,10 +572,14 @@ ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, 
 // triangles, the pieces bounding their strata), sigma by descent (consider_walk).  O(feature) a round, no pass
 // over the hull.  mark: nv numbers of scratch, all 0 on entry and on return.  Ends early once the incumbent
 // reaches stop (a separated pair needs only a sigma beyond its cutoff, not the maximum: GJK's early exit).
+// A piece tried in an earlier round is not tried again (the incumbent only rises, so it cannot win now): a
+// vertex's maximiser and triangles once (mark holds 2 (round + 1) for the first 64 vertices tried), an edge
+// once its ends were tried in the same round, both in that round's feature (or, all_edges, its end tried).
 ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, Best b, int& low,
                              double band_rel, double scale, int rounds, bool all_edges, double* mark,
                              double stop = INFINITY) {
-  int active[16];
+  int active[16], seen[64], ns = 0;
+  const auto round_of = [&](int i) { return (int(mark[i]) >> 1) - 1; };  // the round i's pieces were tried, or -1
   bool done = b.value >= stop;
   for (int round = 0; round < rounds && !done; ++round) {
     const Best before = b;
@@ -583,23 +588,34 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
     const int na = feature(p, H, b.n, low, band, active, mark);
     for (int a = 0; a < na && !done; ++a) {
       const int i = active[a];
-      done = consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low, stop);
-      for (int k = H.vface_start[i]; k < H.vface_start[i + 1] && !done; ++k) {
-        const Vec3 mf = face_normal(T, H, p, H.vface[k]);
-        done = consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low, stop);
+      const int ri = round_of(i);
+      if (ri < 0) {
+        done = consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low, stop);
+        for (int k = H.vface_start[i]; k < H.vface_start[i + 1] && !done; ++k) {
+          const Vec3 mf = face_normal(T, H, p, H.vface[k]);
+          done = consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low, stop);
+        }
+        if (ns < 64) {
+          seen[ns++] = i;
+          mark[i] += 2.0 * (round + 1);
+        }
       }
       for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && !done; ++k) {
         const int j = H.adj[k];
-        if (mark[j] != 0.0 ? j <= i : !all_edges) continue;  // an edge between two of the feature's vertices once
+        const bool in = (int(mark[j]) & 1) != 0;
+        if (in ? j <= i : !all_edges) continue;  // an edge between two of the feature's vertices once
+        const int rj = round_of(j);
+        if (ri >= 0 && (all_edges || (in && rj == ri))) continue;  // tried in round ri
         const EdgeProblem ep = edge_problem(a2, p, i, j);
         const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
         done = consider_walk(a2, p, H, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b,
                              low, stop);
       }
     }
-    for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
+    for (int a = 0; a < na; ++a) mark[active[a]] -= 1.0;
     if (b.value == before.value) break;
   }
+  for (int k = 0; k < ns; ++k) mark[seen[k]] = 0.0;
   return b;
 }
 

@@ -225,19 +225,25 @@ ELLIPSIM_HD Vec3 local_max(const Vec3& a2, const Vec3& e, const Axes& V, const V
   return n;
 }
 
-// Signed distance of the point w to the box {sum_j c_j v_j : |c_j| <= r_j}, for axes orthonormal to rounding or
-// only to ~1e-7 (float32 rotations, where the formula |w.v_j| - r_j is off by that much of the box's size): w's
-// coordinates c = G^-1 V w by one correction step (G = V V^T, error O(defect^2)); outside, |w - x| for the
-// box's point x = sum_j clamp(c_j) v_j (a point of the body: a bound whatever the rounding); inside, minus the
-// distance to the nearest face plane, (r_j - |c_j|) face_cosines_j.
-ELLIPSIM_HD double sd_point_box(const Vec3& w, const Axes& V, const Vec3& r) {
+// The coordinates c of the point w along axes orthonormal to rounding or only to ~1e-7 (float32 rotations, where
+// w.v_j is off by that much of |w|): c = G^-1 V w by one correction step (G = V V^T, error O(defect^2)).
+ELLIPSIM_HD Vec3 coordinates(const Vec3& w, const Axes& V) {
   const Vec3 &V0 = V.v[0], &V1 = V.v[1], &V2 = V.v[2];
   const double v0 = dot(w, V0), v1 = dot(w, V1), v2 = dot(w, V2);
   const double g01 = dot(V0, V1), g02 = dot(V0, V2), g12 = dot(V1, V2);
   const double g00 = dot(V0, V0), g11 = dot(V1, V1), g22 = dot(V2, V2);
-  const double c0 = 2.0 * v0 - (g00 * v0 + g01 * v1 + g02 * v2);
-  const double c1 = 2.0 * v1 - (g01 * v0 + g11 * v1 + g12 * v2);
-  const double c2 = 2.0 * v2 - (g02 * v0 + g12 * v1 + g22 * v2);
+  return {2.0 * v0 - (g00 * v0 + g01 * v1 + g02 * v2), 2.0 * v1 - (g01 * v0 + g11 * v1 + g12 * v2),
+          2.0 * v2 - (g02 * v0 + g12 * v1 + g22 * v2)};
+}
+
+// Signed distance of the point w to the box {sum_j c_j v_j : |c_j| <= r_j}, for axes orthonormal to rounding or
+// only to ~1e-7 (the formula |w.v_j| - r_j is then off by that much of the box's size): w's coordinates c
+// (coordinates); outside, |w - x| for the box's point x = sum_j clamp(c_j) v_j (a point of the body: a bound
+// whatever the rounding); inside, minus the distance to the nearest face plane, (r_j - |c_j|) face_cosines_j.
+ELLIPSIM_HD double sd_point_box(const Vec3& w, const Axes& V, const Vec3& r) {
+  const Vec3 &V0 = V.v[0], &V1 = V.v[1], &V2 = V.v[2];
+  const Vec3 c = coordinates(w, V);
+  const double c0 = c.x, c1 = c.y, c2 = c.z;
   const double d0 = math::fabs(c0) - r.x, d1 = math::fabs(c1) - r.y, d2 = math::fabs(c2) - r.z;
   if (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
     const Vec3 f = face_cosines(V);
@@ -258,16 +264,19 @@ ELLIPSIM_HD double upper_bound1(const Vec3& a2, const Vec3& e, const Axes& V, co
   return sd_point_box(w, V, r) - rho;
 }
 
-// ub2 of the top comment: the witness e - s - value n clamped into the box; for a face contact the largest ball
-// inside the box tangent to that face there.
+// ub2 of the top comment: the witness e - s - value n clamped into the box (its coordinates along the axes:
+// with axes orthonormal only to ~1e-7, y.v_j misses a vertex witness's r_j by ~1e-7 of the size, and the ball
+// then sits that far inside the vertex); for a face contact the largest ball inside the box tangent to that face
+// there.
 ELLIPSIM_HD double upper_bound2(const Vec3& a2, const Vec3& e, const Axes& V, const Vec3& r, const Vec3& n,
                                 double value) {
   const Vec3 &V0 = V.v[0], &V1 = V.v[1], &V2 = V.v[2];
   const Vec3 s = support(a2, n).s;
   const Vec3 y = {e.x - s.x - value * n.x, e.y - s.y - value * n.y, e.z - s.z - value * n.z};
-  double c0 = min2(max2(dot(y, V0), -r.x), r.x);
-  double c1 = min2(max2(dot(y, V1), -r.y), r.y);
-  double c2 = min2(max2(dot(y, V2), -r.z), r.z);
+  const Vec3 cy = coordinates(y, V);
+  double c0 = min2(max2(cy.x, -r.x), r.x);
+  double c1 = min2(max2(cy.y, -r.y), r.y);
+  double c2 = min2(max2(cy.z, -r.z), r.z);
   const double m0 = math::fabs(dot(n, V0)), m1 = math::fabs(dot(n, V1)), m2 = math::fabs(dot(n, V2));
   double t = 0.0;
   if (m1 + m2 < 1e-12) {  // a face contact: n along one axis, the others within rounding of zero

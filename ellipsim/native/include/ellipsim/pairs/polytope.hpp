@@ -693,6 +693,10 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   double ub = INFINITY;
   int low = 0;
   bool faces = true;  // b is at least sigma (by descent) at every face normal: enumerate_max's start
+  const auto face_pass = [&](Best& w) {  // every face normal, sigma by descent
+    for (int f = 0; f < H.nf; ++f)
+      consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
+  };
   if (H.adj_start != nullptr && H.vface_start != nullptr) {
     // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent),
     // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
@@ -712,9 +716,9 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     const Vec3 n0 = given ? rotate_t(E.R, start) : dot(o, o) > 0.0 ? foot3(a2, o).n : Vec3{0.0, 0.0, 1.0};
     // the walk stops at a sigma (by descent) beyond cutoff + 2 slack: its full pass then proves the pair apart
     b = walk_max(a2, p, H, T, n0, low, mark, cutoff + 2.0 * slack);
-    b.value = sigma_hull(a2, p, H.nv, b.n);
-    if (apart(b.value)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
-    b.value = sigma_hull(a2, p, H.nv, b.n);
+    const double walked = sigma_hull(a2, p, H.nv, b.n);
+    if (apart(walked)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
+    b.value = walked;
     ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
     if (!(ub - b.value <= tol)) normals();
     const double scale = far;  // the hull's size from E's centre, as refine's
@@ -727,8 +731,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     for (int stage = 0; stage < (faces ? 2 : 0) && !(ub - b.value <= tol); ++stage) {
       Best w = b;
       if (stage == 0) {
-        for (int f = 0; f < H.nf; ++f)
-          consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
+        face_pass(w);
         // every edge through the feature (ub1 may close: above -rho)
         w = walk_refine(a2, p, H, T, w, low, 1e-6, scale, 16, true, mark);
       } else {
@@ -760,8 +763,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
   int status = CERTIFIED;
   if (!(ub - b.value <= tol)) {
     if (!faces) {
-      for (int f = 0; f < H.nf; ++f)
-        consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b, low);
+      face_pass(b);
       b.value = sigma_hull(a2, p, H.nv, b.n);
     }
     b = enumerate_max(a2, p, H, m, tol, b, scratch + 3 * H.nv + 3 * H.nf);

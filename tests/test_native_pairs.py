@@ -136,9 +136,9 @@ def test_a_batch_of_one_broadcasts_and_a_range_writes_only_its_slice():
         out = run(name, P, 60, 7, 41)  # rows outside [7, 41) keep their fill
         assert np.all(out[:7] == 7.0) and np.all(out[41:] == 7.0)
         assert_same_bits(out[7:41], full[7:41], name)
-    x = np.abs(np.random.default_rng(1).normal(size=(60, 23)))
+    x = np.abs(np.random.default_rng(1).normal(size=(60, 24)))
     for name in ROWS:
-        rows = (np.ascontiguousarray(x[:, : 13 if name.startswith("point") else 23]),)
+        rows = (np.ascontiguousarray(x[:, : 13 if name.startswith("point") else 24]),)
         out = run(name, rows, 60, 7, 41)
         assert np.all(out[:7] == 7.0) and np.all(out[41:] == 7.0)
         assert_same_bits(out[7:41], run(name, rows, 60)[7:41], name)
@@ -283,7 +283,8 @@ def test_point_ellipsoid_on_arbitrary_floats(x):
 
 def _tangent_rows():
     """test_tangent_cones' inputs: a box's eight octants on deep poses (r = 0; the incumbent the kernel's own
-    normal) and a cylinder's quarter lunes (r > 0), each at floors from below to well above f's maximum."""
+    normal; bare planes and the rolling ball's) and a cylinder's quarter lunes (r > 0), each at floors from below
+    to well above f's maximum."""
     from test_box import make_poses
 
     rng = np.random.default_rng(7)
@@ -300,7 +301,8 @@ def _tangent_rows():
             q = e - (s * r) @ V
             top = float(bn @ q - np.sqrt(bn * bn @ a2))
             for floor in (top - 1e-9 * scale, top + 1e-3 * scale, top + 0.02 * scale, top + 0.2 * scale, -1e-12):
-                rows.append(np.concatenate([a2, q, [0.0, 0.0, 1.0], [0.0], bn, *(s[:, None] * V), [floor]]))
+                for rho in (0.0, a2.min() / np.sqrt(a2.max())):  # the bare planes, the rolling ball's
+                    rows.append(np.concatenate([a2, q, [0.0, 0.0, 1.0], [0.0], bn, *(s[:, None] * V), [floor, rho]]))
     for _ in range(16):
         a2 = rng.uniform(0.02, 0.3, 3) ** 2
         u = rng.normal(size=3)
@@ -318,7 +320,7 @@ def _tangent_rows():
             for k in range(4):
                 ca, cb = (math.cos(t) * w1 + math.sin(t) * w2 for t in (k * math.pi / 2, (k + 1) * math.pi / 2))
                 for floor in (-0.3 * scale, -0.1 * scale, -0.02 * scale, -1e-3 * scale):
-                    rows.append(np.concatenate([a2, q, u, [r], bn, sg * u, ca, cb, [floor]]))
+                    rows.append(np.concatenate([a2, q, u, [r], bn, sg * u, ca, cb, [floor, 0.0]]))
     return np.ascontiguousarray(rows)
 
 
@@ -330,6 +332,6 @@ def test_tangent_cones_on_box_octants_and_cylinder_lunes():
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.lists(st.one_of(finite, st.floats(-1, 1)), min_size=23, max_size=23))
+@given(st.lists(st.one_of(finite, st.floats(-1, 1)), min_size=24, max_size=24))
 def test_tangent_cones_on_arbitrary_floats(x):
     check_rows("tangent_cones_stages", np.array([x]))

@@ -20,14 +20,14 @@ def _row(kernel, x, columns):
     return out[0].tolist()
 
 
-def cone_below(a2, q, u, r, bn, a, b, c, floor):
-    """tangent_cones.hpp's cone_below at xb = tangent_point(a2, u, r, bn)."""
-    return _row(ext.testing.tangent_cones_stages, (a2, q, u, r, bn, a, b, c, floor), 7)[3] == 1.0
+def cone_below(a2, q, u, r, bn, a, b, c, floor, rho=0.0):
+    """tangent_cones.hpp's cone_below at xb = tangent_point(a2, u, r, bn) (rho: its rolling-ball planes)."""
+    return _row(ext.testing.tangent_cones_stages, (a2, q, u, r, bn, a, b, c, floor, rho), 7)[3] == 1.0
 
 
 def arc_below(a2, q, u, r, bn, a, b, floor):
     """tangent_cones.hpp's arc_below at xb = tangent_point(a2, u, r, bn)."""
-    return _row(ext.testing.tangent_cones_stages, (a2, q, u, r, bn, a, b, a, floor), 7)[4] == 1.0
+    return _row(ext.testing.tangent_cones_stages, (a2, q, u, r, bn, a, b, a, floor, 0.0), 7)[4] == 1.0
 
 
 def box_frame(E, K):
@@ -132,3 +132,33 @@ def test_cylinder_quarter_lunes_never_close_above_their_floor():
                 c, a = _check_cones(rng, a2, u, r, q, np.array(n0), corners, scale)
                 closed, arcs, tried = closed + c, arcs + a, tried + 1
     assert tried == 128 and closed > 0.8 * tried and arcs > 2.5 * tried
+
+
+def test_rolling_ball_planes_never_close_above_their_floor_and_never_lose_to_the_bare_planes():
+    """cone_below with rho, E's rolling radius (the polytope's fans): E holds a ball of radius rho tangent at each
+    boundary point, so a node's plane gains rho (1 - cos) away from its tangent point.  On random deep cones
+    (the floor below -rho, where it applies) it never closes a cone above the sampled maximum of f, closes every
+    cone the bare planes close, and more of them at a tight floor."""
+    rng = np.random.default_rng(11)
+    tight = bare = ball = 0
+    for _ in range(200):
+        r = np.sort(rng.uniform(0.03, 0.2, 3))
+        a2 = tuple(r**2)
+        rho = r[0] ** 2 / r[2]
+        q = rng.normal(size=3) * 0.05
+        centre = rng.normal(size=3)
+        centre /= np.linalg.norm(centre)
+        corners = centre + 0.35 * rng.normal(size=(3, 3))
+        top = float(np.max(_f(_cone_samples(rng, corners, 4000), q, a2, NO_AXIS, 0.0)))
+        if not top < -1.5 * rho:
+            continue
+        a, b, c = (tuple(x) for x in corners)
+        bn = tuple(centre)
+        args = (a2, tuple(q), NO_AXIS, 0.0, bn, a, b, c)
+        scale = float(np.linalg.norm(q) + r[2])
+        assert not cone_below(*args, top - 1e-9 * scale, rho)
+        floor = top + 2e-4 * scale
+        plain, rolled = cone_below(*args, floor), cone_below(*args, floor, rho)
+        assert rolled or not plain
+        tight, bare, ball = tight + 1, bare + plain, ball + rolled
+    assert tight > 100 and ball >= bare + 5

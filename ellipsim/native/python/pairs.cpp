@@ -193,11 +193,11 @@ void point_ellipsoid_stages(const InRows<13>& x, Rows<56> out, std::int64_t lo, 
   });
 }
 
-// The stages of tangent_cones.hpp on x = (a2, q, u (3 each), r, bn, a, b, c (3 each), floor): xb =
-// tangent_point(a2, u, r, bn) (3), cone_below(a2, q, u, r, bn, xb, a, b, c, floor), arc_below on (a, b), (b, c)
-// and (c, a): 7 columns (1.0 for true).
-void tangent_cones_stages(const InRows<23>& x, Rows<7> out, std::int64_t lo, std::int64_t hi) {
-  rows<23, 7>(x, out, lo, hi, [](const double* in, double* o) {
+// The stages of tangent_cones.hpp on x = (a2, q, u (3 each), r, bn, a, b, c (3 each), floor, rho): xb =
+// tangent_point(a2, u, r, bn) (3), cone_below(a2, q, u, r, bn, xb, a, b, c, floor, rho), arc_below on (a, b),
+// (b, c) and (c, a): 7 columns (1.0 for true).
+void tangent_cones_stages(const InRows<24>& x, Rows<7> out, std::int64_t lo, std::int64_t hi) {
+  rows<24, 7>(x, out, lo, hi, [](const double* in, double* o) {
     using namespace pairs::tangent_cones;
     const Vec3 a2 = vec(in), q = vec(in + 3), u = vec(in + 6);
     const double r = in[9];
@@ -205,7 +205,7 @@ void tangent_cones_stages(const InRows<23>& x, Rows<7> out, std::int64_t lo, std
     const double floor = in[22];
     const Vec3 xb = tangent_point(a2, u, r, bn);
     put(o, xb);
-    o[3] = cone_below(a2, q, u, r, bn, xb, a, b, c, floor) ? 1.0 : 0.0;
+    o[3] = cone_below(a2, q, u, r, bn, xb, a, b, c, floor, in[23]) ? 1.0 : 0.0;
     o[4] = arc_below(a2, q, u, r, bn, xb, a, b, floor) ? 1.0 : 0.0;
     o[5] = arc_below(a2, q, u, r, bn, xb, b, c, floor) ? 1.0 : 0.0;
     o[6] = arc_below(a2, q, u, r, bn, xb, c, a, floor) ? 1.0 : 0.0;

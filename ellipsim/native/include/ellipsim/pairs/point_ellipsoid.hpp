@@ -540,10 +540,11 @@ ELLIPSIM_HD PoleNormal pole_normal(const Vec3& a2, const Vec3& q, int i, double 
 // --- every critical point a piece's maximum may be (box.hpp's and polytope.hpp's enumerations) -----------------
 
 // f(n) at every other critical point of f_q on the sphere that can be a local maximum: the roots of the secular
-// equation (secular_roots) and the pole limits (pole_normal), in that order.
+// equation (secular_roots; the largest, foot3's, only if `largest`: a caller that has considered foot3's normal
+// leaves it out) and the pole limits (pole_normal), in that order.
 template <typename F>
-ELLIPSIM_HD void other_critical_normals(const Vec3& a2, const Vec3& q, F&& f) {
-  const Roots roots = secular_roots(a2, q);
+ELLIPSIM_HD void other_critical_normals(const Vec3& a2, const Vec3& q, F&& f, bool largest = true) {
+  const Roots roots = secular_roots(a2, q, largest);
   for (int m = 0; m < 3; ++m) {
     const double t = roots.t[m];
     if (t == t) f(unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}));
@@ -558,12 +559,14 @@ ELLIPSIM_HD void other_critical_normals(const Vec3& a2, const Vec3& q, F&& f) {
 
 // The same in a plane (w1, w2), for E's projection there (ellipse: project_ellipse) and the projected point p
 // (along the ellipse's axes, third coordinate 0): the 2-D roots through the 3-D enumeration with a third axis
-// longer than both (its term vanishes, the kept roots are the 2-D ones); f gets 3-D unit normals.
+// longer than both (its term vanishes, the kept roots are the 2-D ones); f gets 3-D unit normals.  largest: as
+// other_critical_normals' (foot2's root).
 template <typename F>
-ELLIPSIM_HD void other_critical_normals2(const Ellipse& el, const Vec3& p, const Vec3& w1, const Vec3& w2, F&& f) {
+ELLIPSIM_HD void other_critical_normals2(const Ellipse& el, const Vec3& p, const Vec3& w1, const Vec3& w2, F&& f,
+                                         bool largest = true) {
   const double lam = el.lam, mu = el.mu;
   const Vec3 b3 = {lam, mu, 2.0 * max2(lam, mu)};
-  const Roots roots = secular_roots(b3, p);
+  const Roots roots = secular_roots(b3, p, largest);
   for (int m = 0; m < 3; ++m) {
     const double t = roots.t[m];
     if (t == t) {

@@ -208,13 +208,14 @@ ELLIPSIM_HD double below_slack(double size, const Vec3& a2, double best) {
 // closed[i] = 1 when f_{p_i} <= floor (< 0) on vertex i's whole closed stratum, the cone of the -m_f over the
 // triangles f through i (the normal cone of P at p_i, negated: Schneider, Convex Bodies 2.2), else 0.  One
 // tangent plane a vertex: f_{p_i}(n) <= (p_i - x_i).n for any x_i in E (h_E(n) >= n.x_i), below floor at every
-// corner, so on the cone (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners.
-// ctr: 3 nv numbers of scratch.  O(nf) and nv support points.
+// corner, so on the cone (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners, with
+// the rolling ball of radius rho there (tangent_cones.hpp node_below).  ctr: 3 nv numbers of scratch.  O(nf) and nv support points.
 ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, const double* m, double floor,
-                                double* ctr, double* closed) {
+                                double rho, double* ctr, double* closed) {
   for (int i = 0; i < 3 * H.nv; ++i) ctr[i] = 0.0;
   for (int i = 0; i < H.nv; ++i) closed[i] = floor < 0.0 ? 1.0 : 0.0;
   if (!(floor < 0.0)) return;
+  const double ball = floor + rho < 0.0 ? rho : 0.0;
   for (int f = 0; f < H.nf; ++f)
     for (int k = 0; k < 3; ++k) {
       const int i = H.face[3 * f + k];
@@ -229,15 +230,16 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, 
       continue;
     }
     const Vec3 x = point_ellipsoid::support(a2, c).s;
-    ctr[3 * i] = p[3 * i] - x.x;
-    ctr[3 * i + 1] = p[3 * i + 1] - x.y;
-    ctr[3 * i + 2] = p[3 * i + 2] - x.z;
+    const double s = ball / math::sqrt(dot(c, c));  // the rolling ball's second order (tangent_cones node_below)
+    ctr[3 * i] = p[3 * i] - x.x + s * c.x;
+    ctr[3 * i + 1] = p[3 * i + 1] - x.y + s * c.y;
+    ctr[3 * i + 2] = p[3 * i + 2] - x.z + s * c.z;
   }
   for (int f = 0; f < H.nf; ++f) {
     const Vec3 c = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]};
     for (int k = 0; k < 3; ++k) {
       const int i = H.face[3 * f + k];
-      if (closed[i] != 0.0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor)) closed[i] = 0.0;
+      if (closed[i] != 0.0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor + ball)) closed[i] = 0.0;
     }
   }
 }
@@ -246,9 +248,10 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, 
 // spherical triangle of the cone's centre c (the sum of the corners, inside it) and the normals -m_f, -m_g of two
 // triangles through i and j (every such pair: the cone's boundary arcs are among them, so the fan covers the cone,
 // and every triangle of corners lies in it), each by tangent_cones.hpp's cone_below (up to 4 levels of quarters;
-// xb the tangent point at the incumbent bn).  Needs the triangles through i (vface).
+// xb the tangent point at the incumbent bn; rho E's rolling radius, for its second-order planes).  Needs the
+// triangles through i (vface).
 ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, const Vec3& bn,
-                           const Vec3& xb, double floor) {
+                           const Vec3& xb, double floor, double rho) {
   const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
   Vec3 c = {0.0, 0.0, 0.0};
   for (int k = k0; k < k1; ++k) {
@@ -266,7 +269,7 @@ ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, 
         const int g = H.vface[l];
         if (H.face[3 * g] != j && H.face[3 * g + 1] != j && H.face[3 * g + 2] != j) continue;
         const Vec3 mf = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, mg = {-m[3 * g], -m[3 * g + 1], -m[3 * g + 2]};
-        if (!tangent_cones::cone_below(a2, q, axis, 0.0, bn, xb, c, mf, mg, floor)) return false;
+        if (!tangent_cones::cone_below(a2, q, axis, 0.0, bn, xb, c, mf, mg, floor, rho)) return false;
       }
     }
   }
@@ -280,23 +283,17 @@ ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, 
 // (close_vertices), by its f's global bound (|q| - r_min, sd_upper), or by the fan of its cone (fan_below, with
 // the adjacency).  scratch: 4 nv numbers.
 ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
-                               const Best& start, double* scratch) {
+                               double rolling, const Best& start, double* scratch) {
   const int nv = H.nv;
+  const double rho = rolling * (1.0 - 4.0 * tol::U);  // inside E whatever its rounding
   const double rmin = math::sqrt(min2(min2(a2.x, a2.y), a2.z));
   Best b = start;
   double size = 0.0;
   for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
   double* closed = scratch + 3 * nv;
-  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), scratch, closed);
-  // the incumbent: every open vertex's global maximiser (its f's global bound sd_upper kept in scratch[3 i]:
-  // close_vertices is done with it; a vertex beaten now stays beaten, the incumbent only rises)
-  for (int i = 0; i < nv; ++i)
-    if (closed[i] == 0.0 && !vertex_beaten(vertex(p, i), rmin, b.value + tol)) {
-      const point_ellipsoid::Foot3 ft = foot3(a2, vertex(p, i));
-      scratch[3 * i] = sd_upper(a2, vertex(p, i), ft.t);
-      consider(a2, p, nv, vertex(p, i), ft.n, b);
-    }
-  // vertices closed by their global bound, or by their fan
+  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), rho, scratch, closed);
+  // vertices closed by their f's global bound |q| - r_min, or by their fan (deep crossings: a vertex's own
+  // global bound, sd(q, E) >= 0 for a vertex outside E, never closes it; its stratum's fan does)
   const double floor = b.value + tol - below_slack(size, a2, b.value);
   const Vec3 xb = tangent_cones::tangent_point(a2, {0.0, 0.0, 1.0}, 0.0, b.n);
   double lowest = INFINITY;  // at the incumbent: a vertex tied there holds it in its cone, its fan cannot close
@@ -304,33 +301,37 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull&
   for (int i = 0; i < nv; ++i) {
     if (closed[i] != 0.0) continue;
     const Vec3 q = vertex(p, i);
-    if (vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol ||
+    if (vertex_beaten(q, rmin, b.value + tol) ||
         (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
-         fan_below(a2, p, H, m, i, b.n, xb, floor)))
+         fan_below(a2, p, H, m, i, b.n, xb, floor, rho)))
       closed[i] = 1.0;
   }
-  for (int k = 0; k < H.ne; ++k) {
-    const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-    if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
-    const EdgeProblem ep = edge_problem(a2, p, i, j);
-    const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
-    consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
-  }
-  // every other critical point of the open pieces whose extended function could beat it
+  // every open vertex's global maximiser (the incumbent only rises, so what closed stays closed), its f's global
+  // bound sd_upper kept in scratch[3 i] (close_vertices is done with it)
+  for (int i = 0; i < nv; ++i)
+    if (closed[i] == 0.0) {
+      const point_ellipsoid::Foot3 ft = foot3(a2, vertex(p, i));
+      scratch[3 * i] = sd_upper(a2, vertex(p, i), ft.t);
+      consider(a2, p, nv, vertex(p, i), ft.n, b);
+    }
+  // every other critical point of the open vertices whose f could beat it
   for (int i = 0; i < nv; ++i) {
     const Vec3 q = vertex(p, i);
     if (closed[i] != 0.0 || vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol) continue;
-    point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); });
+    point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); }, false);
   }
+  // each open edge (an arc between two open vertices): its great circle's maximiser, then every other critical
+  // point there when the circle's bound sd_upper2 beats the incumbent
   for (int k = 0; k < H.ne; ++k) {
     const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
     if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
     const EdgeProblem ep = edge_problem(a2, p, i, j);
     const double lam = ep.el.lam, mu = ep.el.mu;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
+    consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
     if (sd_upper2(lam, mu, ep.p.x, ep.p.y, ft.t) <= b.value + tol) continue;
     point_ellipsoid::other_critical_normals2(ep.el, ep.p, ep.pl.b1, ep.pl.b2,
-                                             [&](const Vec3& n) { consider(a2, p, nv, ep.q, n, b); });
+                                             [&](const Vec3& n) { consider(a2, p, nv, ep.q, n, b); }, false);
   }
   return b;
 }
@@ -766,7 +767,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       face_pass(b);
       b.value = sigma_hull(a2, p, H.nv, b.n);
     }
-    b = enumerate_max(a2, p, H, m, tol, b, scratch + 3 * H.nv + 3 * H.nf);
+    b = enumerate_max(a2, p, H, m, tol, rho, b, scratch + 3 * H.nv + 3 * H.nf);
     status = ENUMERATED;
   }
   const point_ellipsoid::Contact c = contact_in_world(E, a2, b.n, b.value);

@@ -65,10 +65,22 @@ ELLIPSIM_HD bool holds(const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& 
 
 // f <= floor on the cone a, b, c: the plane at the incumbent bn (xb its tangent point; r > 0: not tried, the
 // cylinder's rim incumbent is smooth) when the cone holds it, else (or then) the plane at the cone's centre.
+// rho > 0 (r = 0 only; E = E' + ball(rho), rho its rolling radius, so E holds the ball of radius rho tangent at
+// each boundary point x, centre x - rho m, m the unit normal there): h_E(n) >= n.(x - rho m) + rho for unit n,
+// f(n) <= (q - x + rho m).n - rho, the plane's test against floor + rho when that is < 0.  It never loses to the
+// bare plane (at a corner it asks rho (|c| - m.c) >= 0 less) and gains rho (1 - cos) away from m: the second
+// order a plane misses (box.hpp's ub1, E' + ball(rho)).
 ELLIPSIM_HD bool node_below(const Vec3& a2, const Vec3& q, const Vec3& u, double r, const Vec3& bn, const Vec3& xb,
-                            const Vec3& a, const Vec3& b, const Vec3& c, double floor) {
-  if (r == 0.0 && holds(bn, a, b, c) && plane_below(q, xb, a, b, c, floor)) return true;
-  return plane_below(q, tangent_point(a2, u, r, add(add(a, b), c)), a, b, c, floor);
+                            const Vec3& a, const Vec3& b, const Vec3& c, double floor, double rho = 0.0) {
+  const double k = r == 0.0 && floor + rho < 0.0 ? rho : 0.0;
+  if (r == 0.0 && holds(bn, a, b, c) &&
+      plane_below({q.x + k * bn.x, q.y + k * bn.y, q.z + k * bn.z}, xb, a, b, c, floor + k))
+    return true;
+  const Vec3 m = add(add(a, b), c);
+  const Vec3 x = tangent_point(a2, u, r, m);
+  if (k == 0.0) return plane_below(q, x, a, b, c, floor);
+  const double s = k / math::sqrt(dot(m, m));
+  return plane_below({q.x + s * m.x, q.y + s * m.y, q.z + s * m.z}, x, a, b, c, floor + k);
 }
 
 // A cone by its three corners.
@@ -86,28 +98,28 @@ ELLIPSIM_HD Cone quarter(const Vec3& a, const Vec3& b, const Vec3& c, int k) {
 }
 
 // True when f <= floor on the whole closed cone of a, b, c (top comment), proven on up to 4 levels of quarters;
-// false when floor >= 0 or a leaf does not close.  xb = tangent_point(bn), unused when r > 0.
+// false when floor >= 0 or a leaf does not close.  xb = tangent_point(bn), unused when r > 0; rho: node_below's.
 ELLIPSIM_HD bool cone_below(const Vec3& a2, const Vec3& q, const Vec3& u, double r, const Vec3& bn, const Vec3& xb,
-                            const Vec3& a, Vec3 b, Vec3 c, double floor) {
+                            const Vec3& a, Vec3 b, Vec3 c, double floor, double rho = 0.0) {
   if (!(floor < 0.0)) return false;
   if (dot(cross3(a, b), c) < 0.0) {
     const Vec3 t = b;
     b = c;
     c = t;
   }
-  if (node_below(a2, q, u, r, bn, xb, a, b, c, floor)) return true;
+  if (node_below(a2, q, u, r, bn, xb, a, b, c, floor, rho)) return true;
   for (int k1 = 0; k1 < 4; ++k1) {  // the 4 levels written out (no recursion in a kernel)
     const Cone n1 = quarter(a, b, c, k1);
-    if (node_below(a2, q, u, r, bn, xb, n1.a, n1.b, n1.c, floor)) continue;
+    if (node_below(a2, q, u, r, bn, xb, n1.a, n1.b, n1.c, floor, rho)) continue;
     for (int k2 = 0; k2 < 4; ++k2) {
       const Cone n2 = quarter(n1.a, n1.b, n1.c, k2);
-      if (node_below(a2, q, u, r, bn, xb, n2.a, n2.b, n2.c, floor)) continue;
+      if (node_below(a2, q, u, r, bn, xb, n2.a, n2.b, n2.c, floor, rho)) continue;
       for (int k3 = 0; k3 < 4; ++k3) {
         const Cone n3 = quarter(n2.a, n2.b, n2.c, k3);
-        if (node_below(a2, q, u, r, bn, xb, n3.a, n3.b, n3.c, floor)) continue;
+        if (node_below(a2, q, u, r, bn, xb, n3.a, n3.b, n3.c, floor, rho)) continue;
         for (int k4 = 0; k4 < 4; ++k4) {
           const Cone n4 = quarter(n3.a, n3.b, n3.c, k4);
-          if (!node_below(a2, q, u, r, bn, xb, n4.a, n4.b, n4.c, floor)) return false;
+          if (!node_below(a2, q, u, r, bn, xb, n4.a, n4.b, n4.c, floor, rho)) return false;
         }
       }
     }

@@ -248,10 +248,10 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, 
 // spherical triangle of the cone's centre c (the sum of the corners, inside it) and the normals -m_f, -m_g of two
 // triangles through i and j (every such pair: the cone's boundary arcs are among them, so the fan covers the cone,
 // and every triangle of corners lies in it), each by tangent_cones.hpp's cone_below (up to 4 levels of quarters;
-// xb the tangent point at the incumbent bn; rho E's rolling radius, for its second-order planes).  Needs the
-// triangles through i (vface).
-ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, const Vec3& bn,
-                           const Vec3& xb, double floor, double rho) {
+// rho E's rolling radius, for its second-order planes; no incumbent plane: a vertex not tied at the incumbent
+// has it outside its cone).  Needs the triangles through i (vface).
+ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, double floor,
+                                double rho) {
   const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
   Vec3 c = {0.0, 0.0, 0.0};
   for (int k = k0; k < k1; ++k) {
@@ -259,7 +259,7 @@ ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, 
     c = {c.x - m[3 * f], c.y - m[3 * f + 1], c.z - m[3 * f + 2]};
   }
   const Vec3 q = vertex(p, i);
-  const Vec3 axis = {0.0, 0.0, 1.0};  // no disc (r = 0)
+  const Vec3 axis = {0.0, 0.0, 1.0}, none = {0.0, 0.0, 0.0};  // no disc (r = 0), no incumbent
   for (int k = k0; k < k1; ++k) {
     const int f = H.vface[k];
     for (int e = 0; e < 3; ++e) {
@@ -269,7 +269,7 @@ ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, 
         const int g = H.vface[l];
         if (H.face[3 * g] != j && H.face[3 * g + 1] != j && H.face[3 * g + 2] != j) continue;
         const Vec3 mf = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, mg = {-m[3 * g], -m[3 * g + 1], -m[3 * g + 2]};
-        if (!tangent_cones::cone_below(a2, q, axis, 0.0, bn, xb, c, mf, mg, floor, rho)) return false;
+        if (!tangent_cones::cone_below(a2, q, axis, 0.0, none, none, c, mf, mg, floor, rho)) return false;
       }
     }
   }
@@ -295,7 +295,6 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull&
   // vertices closed by their f's global bound |q| - r_min, or by their fan (deep crossings: a vertex's own
   // global bound, sd(q, E) >= 0 for a vertex outside E, never closes it; its stratum's fan does)
   const double floor = b.value + tol - below_slack(size, a2, b.value);
-  const Vec3 xb = tangent_cones::tangent_point(a2, {0.0, 0.0, 1.0}, 0.0, b.n);
   double lowest = INFINITY;  // at the incumbent: a vertex tied there holds it in its cone, its fan cannot close
   for (int i = 0; i < nv; ++i) lowest = min2(lowest, dot(b.n, vertex(p, i)));
   for (int i = 0; i < nv; ++i) {
@@ -303,7 +302,7 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull&
     const Vec3 q = vertex(p, i);
     if (vertex_beaten(q, rmin, b.value + tol) ||
         (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
-         fan_below(a2, p, H, m, i, b.n, xb, floor, rho)))
+         fan_below(a2, p, H, m, i, floor, rho)))
       closed[i] = 1.0;
   }
   // every open vertex's global maximiser (the incumbent only rises, so what closed stays closed), its f's global
@@ -720,7 +719,8 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
     const double walked = sigma_hull(a2, p, H.nv, b.n);
     if (apart(walked)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     b.value = walked;
-    ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+    // (over triangles, ub1 >= -rho: below -rho - tol it cannot close, and is not computed)
+    if (!(b.value < -rho - tol)) ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
     if (!(ub - b.value <= tol)) normals();
     const double scale = far;  // the hull's size from E's centre, as refine's
     // The two stages only while the incumbent is above -rho.  Deeper, ub1 over triangles (>= -rho) cannot close,

@@ -63,8 +63,9 @@ ELLIPSIM_HD bool holds(const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& 
   return dot(cross3(a, b), n) >= eps && dot(cross3(b, c), n) >= eps && dot(cross3(c, a), n) >= eps;
 }
 
-// f <= floor on the cone a, b, c: the plane at the incumbent bn (xb its tangent point; r > 0: not tried, the
-// cylinder's rim incumbent is smooth) when the cone holds it, else (or then) the plane at the cone's centre.
+// f <= floor on the cone a, b, c: the plane at the incumbent bn (xb its tangent point; r > 0 or bn = 0: not
+// tried, the cylinder's rim incumbent is smooth) when the cone holds it, else (or then) the plane at the cone's
+// centre.
 // rho > 0 (r = 0 only; E = E' + ball(rho), rho its rolling radius, so E holds the ball of radius rho tangent at
 // each boundary point x, centre x - rho m, m the unit normal there): h_E(n) >= n.(x - rho m) + rho for unit n,
 // f(n) <= (q - x + rho m).n - rho, the plane's test against floor + rho when that is < 0.  It never loses to the
@@ -73,7 +74,8 @@ ELLIPSIM_HD bool holds(const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& 
 ELLIPSIM_HD bool node_below(const Vec3& a2, const Vec3& q, const Vec3& u, double r, const Vec3& bn, const Vec3& xb,
                             const Vec3& a, const Vec3& b, const Vec3& c, double floor, double rho = 0.0) {
   const double k = r == 0.0 && floor + rho < 0.0 ? rho : 0.0;
-  if (r == 0.0 && holds(bn, a, b, c) &&
+  const bool incumbent = bn.x != 0.0 || bn.y != 0.0 || bn.z != 0.0;  // bn = 0: none (a caller's cones miss it)
+  if (r == 0.0 && incumbent && holds(bn, a, b, c) &&
       plane_below({q.x + k * bn.x, q.y + k * bn.y, q.z + k * bn.z}, xb, a, b, c, floor + k))
     return true;
   const Vec3 m = add(add(a, b), c);

@@ -46,19 +46,22 @@ def _poses(seed, n):
     ]  # fmt: skip
 
 
-@pytest.mark.parametrize("npoints", [8, 40, 300])
+@pytest.mark.parametrize("npoints", [8, 40, 300, 1200])
 @pytest.mark.parametrize("cutoff", [np.inf, 0.0, 0.005])
 def test_the_mesh_row_is_the_cpus_shape_distance_bit_for_bit(npoints, cutoff):
-    """Hulls of 8, 40 and 300 random points (the last about 60 vertices): every pair the row does not prove
-    beyond the cutoff has shape_distance's distance, normal and point on the float32 poses widened, bit for bit;
-    a pair it proves beyond has a distance at least the cutoff on the CPU."""
+    """Hulls of 8, 40 and 300 random points (the last about 60 vertices: stored in the row's scratch) and of 200
+    points on an ellipsoid (200 vertices: the posed path): every pair the row does not prove beyond the cutoff has
+    shape_distance's distance, normal and point on the float32 poses widened, bit for bit; a pair it proves
+    beyond has a distance at least the cutoff on the CPU."""
     rng = np.random.default_rng(npoints)
     points = rng.normal(size=(npoints, 3)) * [0.1, 0.07, 0.05]
     if npoints == 300:  # points near a sphere: most are the hull's vertices
         points = points / np.linalg.norm(points, axis=1)[:, None] * 0.08
         points = points[:60]
+    if npoints == 1200:
+        points = points[:200] / np.linalg.norm(points[:200], axis=1)[:, None] * [0.1, 0.08, 0.06]
     hull = convex_hull(points)
-    assert len(hull.vertices) <= kernels.MAX_HULL_VERTICES
+    assert (len(hull.vertices) <= kernels.MAX_HULL_VERTICES) == (npoints != 1200), len(hull.vertices)
     ce, Re, re, cm, Rm = _poses(npoints, 400)
     dist, normal, pos, status, deep = kernels.mesh_distances(ce, Re, re, cm, Rm, hull, cutoff=cutoff)
     E = ellipsim.Ellipsoids(_wide(ce), _wide(Re), _wide(re))
@@ -75,6 +78,25 @@ def test_the_mesh_row_is_the_cpus_shape_distance_bit_for_bit(npoints, cutoff):
     else:
         assert (~solved).sum() > 50  # proven apart at the walking start
     assert deep.sum() > 0 or npoints == 8  # enumerated (deep crossings) among them
+
+
+def test_the_posed_path_is_the_stored_paths_bits():
+    """The core's polytope_ellipsoid_posed (no hull stored: what the mesh row runs above MAX_HULL_VERTICES) gives
+    polytope_ellipsoid's bits (the CPU's shape_distance) on every pair of hulls of 8 to 120 points, both run on
+    the CPU through ext.testing."""
+    from ellipsim.native import ext
+
+    rng = np.random.default_rng(5)
+    for npoints in (8, 40, 120):
+        hull = convex_hull(rng.normal(size=(npoints, 3)) * [0.1, 0.07, 0.05])
+        ce, Re, re, cm, Rm = (_wide(x) for x in _poses(npoints, 300))
+        args = (ce, Re, re, cm, Rm, *(np.ascontiguousarray(x) for x in hull))
+        for cutoff in (np.inf, 0.0):
+            stored, posed = (np.empty((len(ce), 9)) for _ in range(2))
+            ext.testing.polytope_ellipsoid(*args, stored, 0, len(ce), cutoff=cutoff)
+            ext.testing.polytope_ellipsoid(*args, posed, 0, len(ce), cutoff=cutoff, posed=True)
+            assert_same_bits(posed, stored, f"{npoints} points, cutoff {cutoff}")
+            assert len(np.unique(stored[:, 0])) == (2 if cutoff == np.inf else 3)  # every status among them
 
 
 def _terrain(nworld=2, naconmax=4000):
@@ -134,11 +156,11 @@ def test_an_attached_terrain_run_writes_the_cpus_mesh_contacts_and_drops_none():
     assert counters["overflow"] == 0 and counters["failed"] == 0, counters
 
 
-def test_a_hull_over_the_rows_scratch_stays_with_warp():
-    """A mesh of 100 points on a sphere (100 hull vertices, over MAX_HULL_VERTICES) beside one of 20: the large
-    one's ellipsoid pairs stay in Warp's own pair table, the small one's are ellipsim's."""
+def test_a_hull_over_the_rows_limit_stays_with_warp():
+    """A mesh of 3100 points on a sphere (3100 hull vertices, over MAX_POSED_HULL_VERTICES) beside one of 20: the
+    large one's ellipsoid pairs stay in Warp's own pair table, the small one's are ellipsim's."""
     rng = np.random.default_rng(3)
-    big = rng.normal(size=(100, 3))
+    big = rng.normal(size=(3100, 3))
     big = 0.1 * big / np.linalg.norm(big, axis=1)[:, None]
     small = rng.normal(size=(20, 3)) * 0.05
     vert = lambda p: " ".join(f"{x:.6f}" for x in p.ravel())  # noqa: E731
@@ -150,6 +172,7 @@ def test_a_hull_over_the_rows_scratch_stays_with_warp():
     m = mjw.put_model(mjm)
     hulls = attachment.mesh_hulls(m)
     assert hulls[0] is None and len(hulls[1].vertices) <= kernels.MAX_HULL_VERTICES
+    assert mjm.mesh_graph[mjm.mesh_graphadr[0]] > kernels.MAX_POSED_HULL_VERTICES  # MuJoCo's hull: every point
     big_geom, small_geom, ell = 0, 1, 2
     with ew.attach(m) as att:
         taken = {(int(a), int(b)) for a, b in att.pairs}
@@ -159,8 +182,9 @@ def test_a_hull_over_the_rows_scratch_stays_with_warp():
 
 
 def test_the_glues_hull_limits_and_table_are_the_headers():
-    """kernels.py's MAX_HULL_VERTICES, MAX_HULL_FACES and HULL_COLUMNS are narrowphase.hpp's (the scratch's size and
-    the table's layout); a hull over them is refused by hull_arrays, naming the mesh."""
+    """kernels.py's MAX_HULL_VERTICES, MAX_HULL_FACES, MAX_POSED_HULL_VERTICES and HULL_COLUMNS are
+    narrowphase.hpp's (the scratch's size and the table's layout); a hull over the posed limit is refused by
+    hull_arrays, naming the mesh."""
     import re
 
     header = (kernels.NATIVE / "warp" / "narrowphase.hpp").read_text()
@@ -168,6 +192,8 @@ def test_the_glues_hull_limits_and_table_are_the_headers():
     assert "MAX_HULL_FACES = 2 * MAX_HULL_VERTICES - 4;" in header
     assert kernels.MAX_HULL_FACES == 2 * kernels.MAX_HULL_VERTICES - 4
     assert int(re.search(r"HULL_COLUMNS = (\d+);", header).group(1)) == kernels.HULL_COLUMNS
-    points = np.random.default_rng(0).normal(size=(100, 3))
-    with pytest.raises(ValueError, match="mesh 1's hull has 100 vertices"):
+    posed = int(re.search(r"MAX_POSED_HULL_VERTICES = (\d+);", header).group(1))
+    assert posed == kernels.MAX_POSED_HULL_VERTICES
+    points = np.random.default_rng(0).normal(size=(3100, 3))
+    with pytest.raises(ValueError, match="mesh 1's hull has 3100 vertices"):
         kernels.hull_arrays([None, convex_hull(points / np.linalg.norm(points, axis=1)[:, None])])

@@ -23,9 +23,10 @@ ellipsoid x box, ellipsoid x mesh and height field x ellipsoid (the pair table's
 type of ellipsim.mujoco's narrow phase), from the model's collision rules
 and its explicit <pair>s (their margin, gap and material), except pairs with a collision sensor (they
 stay with Warp: a sensor reads Warp's own collision record).  A mesh pair is taken when its mesh has MuJoCo's
-own hull (mesh_graph; the one MuJoCo C's narrow phase runs) of at most kernels.MAX_HULL_VERTICES = 64 vertices
-(in every world's geom_dataid): the mesh row's per-thread scratch is sized for that; a larger hull, or a mesh
-without one, stays with Warp's GJK/EPA.  The hulls are built once at attach (core.pairs.hull.mesh_graph_hull,
+own hull (mesh_graph; the one MuJoCo C's narrow phase runs) of at most kernels.MAX_POSED_HULL_VERTICES = 3000
+vertices (in every world's geom_dataid): up to kernels.MAX_HULL_VERTICES = 64 the mesh row stores the hull in the
+ellipsoid's frame in its per-thread scratch, above it runs the core's posed path (the same bits, two bytes of
+scratch a vertex); a larger hull, or a mesh without one, stays with Warp's GJK/EPA.  The hulls are built once at attach (core.pairs.hull.mesh_graph_hull,
 mujoco/hull.py's mesh_hull's reader, on the Model's mesh_graph and float32 mesh_vert; the core's adjacency
 builder) and uploaded.
 
@@ -73,8 +74,7 @@ def _upper_tri(n, i, j):
 def mesh_hulls(m):
     """The hull the mesh row takes for each mesh id of the mujoco_warp Model m, or None (the mesh's pairs stay
     with Warp): MuJoCo's own hull (core.pairs.hull.mesh_graph_hull, the reader of mujoco/hull.py's mesh_hull, on
-    the Model's mesh_graph and float32 mesh_vert), at most kernels.MAX_HULL_VERTICES vertices and MAX_HULL_FACES
-    triangles."""
+    the Model's mesh_graph and float32 mesh_vert), at most kernels.MAX_POSED_HULL_VERTICES vertices."""
     graph, graphadr, vert = m.mesh_graph.numpy(), m.mesh_graphadr.numpy(), m.mesh_vert.numpy()
     vertadr, vertnum = m.mesh_vertadr.numpy(), m.mesh_vertnum.numpy()
     hulls = []
@@ -83,9 +83,7 @@ def mesh_hulls(m):
             hull = mesh_graph_hull(graph, int(graphadr[mesh]), vert, int(vertadr[mesh]), int(vertnum[mesh]))
         except ValueError:  # no hull in the model (or a degenerate triangle): Warp's
             hull = None
-        if hull is not None and (
-            len(hull.vertices) > kernels.MAX_HULL_VERTICES or len(hull.faces) > kernels.MAX_HULL_FACES
-        ):
+        if hull is not None and len(hull.vertices) > kernels.MAX_POSED_HULL_VERTICES:
             hull = None
         hulls.append(hull)
     return hulls
@@ -357,7 +355,7 @@ class Attachment:
 
 def attach(m):
     """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder, box, convex mesh (a hull of at most
-    kernels.MAX_HULL_VERTICES = 64 vertices; larger ones stay with Warp) and height field x ellipsoid pairs of the
+    kernels.MAX_POSED_HULL_VERTICES = 3000 vertices; larger ones stay with Warp) and height field x ellipsoid pairs of the
     mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
     Attachment (a context manager; .detach(), .counters)."""
     return Attachment(m)

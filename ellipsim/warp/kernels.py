@@ -20,8 +20,10 @@ distance).  Either is APART: no contact.  A height-field pair is the core's whol
 phase calls it: the cells under the ellipsoid, each prism proven apart by sigma or solved, a contact for each
 within margin + gap (up to MuJoCo's 50, into a per-thread buffer, then written one by one).  A mesh pair is
 pairs::polytope's polytope_ellipsoid on the mesh's hull (MuJoCo's own, uploaded at attach), cutoff margin + gap
-(its walking start's sigma proves a pair apart: APART), its scratch a local array for the largest hull taken
-(narrowphase.hpp's MAX_HULL_VERTICES).  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
+(its walking start's sigma proves a pair apart: APART), its scratch a local array for a hull of up to
+narrowphase.hpp's MAX_HULL_VERTICES, stored in the ellipsoid's frame there; a larger hull (up to
+MAX_POSED_HULL_VERTICES) runs polytope_ellipsoid_posed, each vertex and normal computed where read (the same
+bits), its flags in that array.  Else the signed distance, status GLOBAL, or UNPROVEN where the core's
 proof ran out (counted; the best found used, as the CPU API reports it), so a pair left without a contact is
 separated beyond margin + gap whatever its status.
 
@@ -81,10 +83,12 @@ NCOUNTERS = 7
 HFIELD_MAXCON = 50
 HfieldContacts = wp.types.matrix(shape=(HFIELD_MAXCON, 7), dtype=wp.float64)
 
-#: The largest mesh hull the mesh row takes (narrowphase.hpp's MAX_HULL_VERTICES; at most 2 nv - 4 triangles):
-#: its per-thread scratch, 7 nv + 3 nf float64 (6.6 kB), is sized for it; larger hulls stay with Warp's GJK.
+#: The largest mesh hull the mesh row stores (narrowphase.hpp's MAX_HULL_VERTICES; at most 2 nv - 4 triangles):
+#: its per-thread scratch, 6 nv + 3 nf float64 and 2 nv bytes (6.2 kB), is sized for it.  Larger hulls run posed
+#: (2 bytes a vertex of that scratch), up to MAX_POSED_HULL_VERTICES; larger still stay with Warp's GJK.
 MAX_HULL_VERTICES = 64
 MAX_HULL_FACES = 2 * MAX_HULL_VERTICES - 4
+MAX_POSED_HULL_VERTICES = 3000
 #: The hull table's columns (narrowphase.hpp's HULL_*): nv, ne, nf, then offsets of the vertices and normals into
 #: the float64 array, of the edges, faces, adj_start, adj, vface_start, vface into the int32 one.
 HULL_COLUMNS = 11
@@ -846,8 +850,8 @@ def hull_arrays(hulls, device="cpu"):
         if hull is None:
             continue
         v, e, n, f = (np.ascontiguousarray(x) for x in hull)
-        if len(v) > MAX_HULL_VERTICES or len(f) > MAX_HULL_FACES:
-            raise ValueError(f"mesh {mesh}'s hull has {len(v)} vertices, {len(f)} faces: over the mesh row's scratch")
+        if len(v) > MAX_POSED_HULL_VERTICES:
+            raise ValueError(f"mesh {mesh}'s hull has {len(v)} vertices: over the mesh row's {MAX_POSED_HULL_VERTICES}")
         adjacency = [np.empty(k, np.int32) for k in (len(v) + 1, 2 * len(e), len(v) + 1, 3 * len(f))]
         ext.hull_adjacency(v, e, n, f, *adjacency)
         offsets = []

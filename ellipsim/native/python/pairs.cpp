@@ -227,11 +227,12 @@ void box_vertex_stages(const InRows<21>& x, Rows<6> out, std::int64_t lo, std::i
 
 // polytope_ellipsoid for the ellipsoids E and one hull (vertices (nv, 3), edges (ne, 2), face normals (nf, 3),
 // triangles (nf, 3), its local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per
-// row; cutoff polytope_ellipsoid's (a pair proven beyond it: APART).
+// row; cutoff polytope_ellipsoid's (a pair proven beyond it: APART); posed: polytope_ellipsoid_posed instead (the
+// hull never stored, as MuJoCo Warp's mesh row runs a large hull).
 void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
                         const Rotations<>& RP, const Centers<>& vertices, const EdgeArray& edges,
                         const Centers<>& normals, const FaceArray& faces, Rows<9> out,
-                        std::int64_t lo, std::int64_t hi, double cutoff) {
+                        std::int64_t lo, std::int64_t hi, double cutoff, bool posed) {
   const auto a = batch(Ce, Re, re);
   const auto n = static_cast<std::int64_t>(out.shape(0));
   if (lo < 0 || hi < lo || hi > n || hi > a.n || hi > static_cast<std::int64_t>(CP.shape(0)) ||
@@ -240,6 +241,7 @@ void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Center
   const BoundHull hull(vertices, edges, normals, faces);
   const pairs::polytope::Hull& H = hull.H;
   std::vector<double> scratch = hull.scratch();
+  std::vector<unsigned char> flags(pairs::polytope::posed_flags_size(H.nv));
   double* o = out.data();
   const double *C = CP.data(), *R = RP.data();
   nb::gil_scoped_release release;
@@ -247,8 +249,10 @@ void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Center
     const Ellipsoid E = load(a.C, a.R, a.r, i);
     const Mat3 Rp = {{R[9 * i], R[9 * i + 1], R[9 * i + 2], R[9 * i + 3], R[9 * i + 4], R[9 * i + 5], R[9 * i + 6],
                       R[9 * i + 7], R[9 * i + 8]}};
+    const Vec3 c = {C[3 * i], C[3 * i + 1], C[3 * i + 2]};
     const pairs::polytope::Result r =
-        pairs::polytope::polytope_ellipsoid(E, {C[3 * i], C[3 * i + 1], C[3 * i + 2]}, Rp, H, scratch.data(), cutoff);
+        posed ? pairs::polytope::polytope_ellipsoid_posed(E, c, Rp, H, flags.data(), cutoff)
+              : pairs::polytope::polytope_ellipsoid(E, c, Rp, H, scratch.data(), cutoff);
     double* row = o + 9 * i;
     row[0] = double(r.status);
     row[1] = r.dist;
@@ -267,7 +271,7 @@ void bind_pairs(nb::module_& m, nb::module_& t) {
   t.def("box_ellipsoid", &box_ellipsoid, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,
         "hi"_a);
   t.def("polytope_ellipsoid", &polytope_ellipsoid, in("Ce"), in("Re"), in("re"), in("CP"), in("RP"), in("vertices"),
-        in("edges"), in("normals"), in("faces"), in("out"), "lo"_a, "hi"_a, "cutoff"_a = INFINITY);
+        in("edges"), in("normals"), in("faces"), in("out"), "lo"_a, "hi"_a, "cutoff"_a = INFINITY, "posed"_a = false);
   t.def("capsule_stages", &capsule_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"),
         "lo"_a, "hi"_a);
   t.def("box_stages", &box_stages, in("Ce"), in("Re"), in("re"), in("Ck"), in("Rk"), in("sk"), in("out"), "lo"_a,

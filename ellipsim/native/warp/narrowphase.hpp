@@ -23,10 +23,16 @@ namespace ellipsim::warp_glue {
 // Which core function a pair runs (ellipsim/pair_table.py's rows name them).
 constexpr int ROW_ELLIPSOID = 0, ROW_CAPSULE = 1, ROW_BOX = 2, ROW_CYLINDER = 3, ROW_MESH = 4, ROW_HFIELD = 5;
 
-// The largest mesh hull the mesh row takes (vertices; a closed triangulated hull has at most 2 nv - 4 triangles):
-// its scratch is a fixed local array of that size (ellipsim/warp/attachment.py leaves larger hulls to Warp).
+// The largest mesh hull the mesh row stores in E's frame (vertices; a closed triangulated hull has at most
+// 2 nv - 4 triangles): its scratch is a fixed local array of that size.  A larger hull runs posed
+// (polytope_ellipsoid_posed: vertices and normals computed where read, the same bits), its two flags a vertex in
+// the same array, up to MAX_POSED_HULL_VERTICES (ellipsim/warp/attachment.py leaves larger hulls to Warp).
 constexpr int MAX_HULL_VERTICES = 64;
 constexpr int MAX_HULL_FACES = 2 * MAX_HULL_VERTICES - 4;
+constexpr int HULL_SCRATCH = pairs::polytope::scratch_size(MAX_HULL_VERTICES, MAX_HULL_FACES);
+constexpr int MAX_POSED_HULL_VERTICES = 3000;
+static_assert(pairs::polytope::posed_flags_size(MAX_POSED_HULL_VERTICES) <= 8 * HULL_SCRATCH,
+              "a posed hull's flags fit the stored hull's scratch");
 
 // The columns of the attachment's hull table (one row per mesh): the counts, then each array's offset into the
 // concatenated hull arrays (vertices and normals into the float64 one, the rest into the int32 one).
@@ -155,7 +161,8 @@ ELLIPSIM_HD void warp_hfield_contacts(const V& c1, const M& R1, const V& c2, con
 
 // The mesh row (mujoco/narrowphase.hpp's mesh_row's function): the ellipsoid g1 (c1, R1, r1) and the mesh g2
 // posed at (c2, R2), its hull row `mesh` of the attachment's table (HULL_*) into the concatenated arrays real
-// (float64) and ints (int32).  pairs::polytope::polytope_ellipsoid with the cutoff; status GLOBAL (deep 1 where
+// (float64) and ints (int32).  pairs::polytope::polytope_ellipsoid with the cutoff (posed above MAX_HULL_VERTICES
+// or MAX_HULL_FACES); status GLOBAL (deep 1 where
 // ENUMERATED: its certificate did not close), APART (proven beyond the cutoff), or -1 (a non-finite distance,
 // where MuJoCo C's narrow phase calls MuJoCo's own function).  A call of its own (ELLIPSIM_HD_CALL): its scratch,
 // a local array for the largest hull, is made only for a mesh pair.
@@ -170,9 +177,14 @@ ELLIPSIM_HD_CALL void warp_mesh_contact(const V& c1, const M& R1, const V& r1, c
                                    x + h[HULL_V],       k + h[HULL_EDGE],    x + h[HULL_NORMAL],
                                    k + h[HULL_FACE],    k + h[HULL_ADJ_START], k + h[HULL_ADJ],
                                    k + h[HULL_VFACE_START], k + h[HULL_VFACE]};
-  double scratch[pairs::polytope::scratch_size(MAX_HULL_VERTICES, MAX_HULL_FACES)];  // (not zeroed: not read)
+  double scratch[HULL_SCRATCH];  // (not zeroed: not read)
   const Ellipsoid P = pose(c2, R2, r1);  // the mesh's centre and rotation (r1 unused)
-  const pairs::polytope::Result r = pairs::polytope::polytope_ellipsoid(pose(c1, R1, r1), P.c, P.R, H, scratch, cutoff);
+  const Ellipsoid E = pose(c1, R1, r1);
+  const bool stored = H.nv <= MAX_HULL_VERTICES && H.nf <= MAX_HULL_FACES;
+  const pairs::polytope::Result r =
+      stored ? pairs::polytope::polytope_ellipsoid(E, P.c, P.R, H, scratch, cutoff)
+             : pairs::polytope::polytope_ellipsoid_posed(E, P.c, P.R, H, reinterpret_cast<unsigned char*>(scratch),
+                                                         cutoff);
   deep = r.status == pairs::polytope::ENUMERATED ? 1 : 0;
   status = r.status == pairs::polytope::APART ? APART : math::isfinite(r.dist) ? GLOBAL : -1;
   dist = r.dist;

@@ -77,8 +77,12 @@ struct Hull {
   const int* vface = nullptr;
 };
 
-// The scratch polytope_ellipsoid takes for a hull of nv vertices and nf triangles (numbers).
-ELLIPSIM_HD constexpr int scratch_size(int nv, int nf) { return 7 * nv + 3 * nf; }
+// The scratch polytope_ellipsoid takes for a hull of nv vertices and nf triangles (numbers): the hull and its
+// normals in E's frame, the no-adjacency path's cone centres (3 nv each), then two bytes a vertex (flags).
+ELLIPSIM_HD constexpr int scratch_size(int nv, int nf) { return 6 * nv + 3 * nf + (2 * nv + 7) / 8; }
+
+// The bytes polytope_ellipsoid_posed takes for a hull of nv vertices (its only scratch: two flags a vertex).
+ELLIPSIM_HD constexpr int posed_flags_size(int nv) { return 2 * nv; }
 
 // The hull's adjacency from its edges and triangles, by two counting sorts in place (no allocation): adj_start and
 // vface_start nv + 1 numbers, adj 2 ne, vface 3 nf; each vertex's neighbours in the order of the edges naming it,
@@ -121,6 +125,41 @@ ELLIPSIM_HD double to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& T, c
 
 ELLIPSIM_HD Vec3 vertex(const double* p, int i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
 
+// The hull in E's frame without storing it (polytope_ellipsoid_posed: O(1) scratch for a hull of any size, as
+// MuJoCo Warp needs per thread): vertex i computed as to_frame writes it (the same bits), a face's normal as
+// face_normal computes it.  Every function below takes either the stored arrays (p, m: const double*) or this.
+struct Posed {
+  Vec3 e;
+  Mat3 T;
+  const Hull* H;
+};
+
+ELLIPSIM_HD Vec3 vertex(const Posed& P, int i) {
+  const double* v = P.H->v;
+  const Vec3 w = matvec(P.T, {v[3 * i], v[3 * i + 1], v[3 * i + 2]});
+  return {P.e.x + w.x, P.e.y + w.y, P.e.z + w.z};
+}
+
+// Face f's outward normal from the stored normals (m: 3 nf numbers).
+ELLIPSIM_HD Vec3 normal_of(const double* m, int f) { return {m[3 * f], m[3 * f + 1], m[3 * f + 2]}; }
+
+// Face f's outward unit normal in E's frame (T: P's axes there), as polytope_ellipsoid writes it into m.
+template <class V>
+ELLIPSIM_HD Vec3 face_normal(const Mat3& T, const Hull& H, const V& p, int f) {
+  // from the triangle's vertices in E's frame: its true plane there whatever T (a float32 rotation is orthonormal
+  // only to ~6e-8, and T n_f then misses the face's normal by that much: the inside test and the bounds need the
+  // plane itself), turned as T n_f
+  const Vec3 a = vertex(p, H.face[3 * f]), b = vertex(p, H.face[3 * f + 1]), c = vertex(p, H.face[3 * f + 2]);
+  const Vec3 m = unit(cross3(sub(b, a), sub(c, a)));
+  const Vec3 t = matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
+  return dot(m, t) < 0.0 ? Vec3{-m.x, -m.y, -m.z} : m;
+}
+
+// Face f's outward normal, posed: face_normal's.
+ELLIPSIM_HD Vec3 normal_of(const Posed& P, int f) { return face_normal(P.T, *P.H, P, f); }
+
+ELLIPSIM_HD Vec3 flip(const Vec3& w) { return {-w.x, -w.y, -w.z}; }
+
 // sigma at the unit n (E's frame).
 ELLIPSIM_HD double sigma_hull(const Vec3& a2, const double* p, int nv, const Vec3& n) {
   // four running minima (a minimum of the same rounded products whatever the order: the same result)
@@ -136,6 +175,15 @@ ELLIPSIM_HD double sigma_hull(const Vec3& a2, const double* p, int nv, const Vec
   return min2(min2(l0, l1), min2(l2, l3)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
 }
 
+ELLIPSIM_HD double sigma_hull(const Vec3& a2, const Posed& P, int nv, const Vec3& n) {
+  double lo = INFINITY;
+  for (int i = 0; i < nv; ++i) {
+    const Vec3 q = vertex(P, i);
+    lo = min2(lo, n.x * q.x + n.y * q.y + n.z * q.z);
+  }
+  return lo - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
+}
+
 struct Best {
   double value;
   Vec3 n;
@@ -144,7 +192,8 @@ struct Best {
 // A candidate n of a piece whose point is q (a vertex, an edge's midpoint, a face's vertex): sigma(n) <= f_q(n) =
 // n.q - h_E(n) (the minimum over the vertices is at most the one at q), so sigma, which reads every vertex, is
 // evaluated only where f_q beats the incumbent.
-ELLIPSIM_HD void consider(const Vec3& a2, const double* p, int nv, const Vec3& q, const Vec3& n, Best& best) {
+template <class V>
+ELLIPSIM_HD void consider(const Vec3& a2, const V& p, int nv, const Vec3& q, const Vec3& n, Best& best) {
   const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
   if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > best.value)) return;
   const double v = sigma_hull(a2, p, nv, n);
@@ -171,7 +220,8 @@ struct EdgeProblem {
   Vec3 q;  // the midpoint
 };
 
-ELLIPSIM_HD EdgeProblem edge_problem(const Vec3& a2, const double* p, int i, int j) {
+template <class V>
+ELLIPSIM_HD EdgeProblem edge_problem(const Vec3& a2, const V& p, int i, int j) {
   const Vec3 pi = vertex(p, i), pj = vertex(p, j);
   const Plane pl = normal_plane(sub(pj, pi));
   const point_ellipsoid::Ellipse el = project_ellipse(a2, pl.b1, pl.b2);
@@ -189,7 +239,8 @@ ELLIPSIM_HD bool vertex_beaten(const Vec3& q, double rmin, double best) {
   return math::sqrt(dot(q, q)) * (1.0 + 8.0 * tol::U) - rmin * (1.0 - 8.0 * tol::U) <= best;
 }
 
-ELLIPSIM_HD bool edge_beaten(const double* p, int i, int j, double rmin, double best) {
+template <class V>
+ELLIPSIM_HD bool edge_beaten(const V& p, int i, int j, double rmin, double best) {
   const Vec3 pi = vertex(p, i), pj = vertex(p, j);
   const Vec3 u = unit(sub(pj, pi));
   const Vec3 q = {0.5 * (pi.x + pj.x), 0.5 * (pi.y + pj.y), 0.5 * (pi.z + pj.z)};
@@ -209,37 +260,68 @@ ELLIPSIM_HD double below_slack(double size, const Vec3& a2, double best) {
 // triangles f through i (the normal cone of P at p_i, negated: Schneider, Convex Bodies 2.2), else 0.  One
 // tangent plane a vertex: f_{p_i}(n) <= (p_i - x_i).n for any x_i in E (h_E(n) >= n.x_i), below floor at every
 // corner, so on the cone (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners, with
-// the rolling ball of radius rho there (tangent_cones.hpp node_below).  ctr: 3 nv numbers of scratch.  O(nf) and nv support points.
-ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, const double* m, double floor,
-                                double rho, double* ctr, double* closed) {
-  for (int i = 0; i < 3 * H.nv; ++i) ctr[i] = 0.0;
-  for (int i = 0; i < H.nv; ++i) closed[i] = floor < 0.0 ? 1.0 : 0.0;
+// the rolling ball of radius rho there (tangent_cones.hpp node_below).  With the adjacency, vertex by vertex over
+// its triangles; without, by passes over the triangles with ctr (3 nv numbers of scratch; the same sums, in the
+// same order).  O(nf) and nv support points.
+template <class V, class M>
+ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const M& m, double floor, double rho,
+                                double* ctr, unsigned char* closed) {
+  for (int i = 0; i < H.nv; ++i) closed[i] = floor < 0.0 ? 1 : 0;
   if (!(floor < 0.0)) return;
   const double ball = floor + rho < 0.0 ? rho : 0.0;
-  for (int f = 0; f < H.nf; ++f)
+  // the plane of vertex i (its cone's centre c): (p_i - x + s c).n, s c = rho c / |c| the rolling ball's
+  const auto plane = [&](int i, const Vec3& c) {
+    const Vec3 x = point_ellipsoid::support(a2, c).s, q = vertex(p, i);
+    const double s = ball / math::sqrt(dot(c, c));
+    return Vec3{q.x - x.x + s * c.x, q.y - x.y + s * c.y, q.z - x.z + s * c.z};
+  };
+  if (H.vface_start != nullptr) {
+    for (int i = 0; i < H.nv; ++i) {
+      const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
+      Vec3 c = {0.0, 0.0, 0.0};
+      for (int k = k0; k < k1; ++k) {
+        const Vec3 mf = normal_of(m, H.vface[k]);
+        c = {c.x - mf.x, c.y - mf.y, c.z - mf.z};
+      }
+      if (!(dot(c, c) > 0.0)) {  // no triangle through i: its cone is unknown, solved
+        closed[i] = 0;
+        continue;
+      }
+      const Vec3 g = plane(i, c);
+      for (int k = k0; k < k1 && closed[i] != 0; ++k) {
+        const Vec3 mf = normal_of(m, H.vface[k]);
+        if (!tangent_cones::corner_below(g, {-mf.x, -mf.y, -mf.z}, floor + ball)) closed[i] = 0;
+      }
+    }
+    return;
+  }
+  for (int i = 0; i < 3 * H.nv; ++i) ctr[i] = 0.0;
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 mf = normal_of(m, f);
     for (int k = 0; k < 3; ++k) {
       const int i = H.face[3 * f + k];
-      ctr[3 * i] -= m[3 * f];
-      ctr[3 * i + 1] -= m[3 * f + 1];
-      ctr[3 * i + 2] -= m[3 * f + 2];
+      ctr[3 * i] -= mf.x;
+      ctr[3 * i + 1] -= mf.y;
+      ctr[3 * i + 2] -= mf.z;
     }
+  }
   for (int i = 0; i < H.nv; ++i) {
     const Vec3 c = vertex(ctr, i);
-    if (!(dot(c, c) > 0.0)) {  // no triangle through i: its cone is unknown, solved
-      closed[i] = 0.0;
+    if (!(dot(c, c) > 0.0)) {
+      closed[i] = 0;
       continue;
     }
-    const Vec3 x = point_ellipsoid::support(a2, c).s;
-    const double s = ball / math::sqrt(dot(c, c));  // the rolling ball's second order (tangent_cones node_below)
-    ctr[3 * i] = p[3 * i] - x.x + s * c.x;
-    ctr[3 * i + 1] = p[3 * i + 1] - x.y + s * c.y;
-    ctr[3 * i + 2] = p[3 * i + 2] - x.z + s * c.z;
+    const Vec3 g = plane(i, c);
+    ctr[3 * i] = g.x;
+    ctr[3 * i + 1] = g.y;
+    ctr[3 * i + 2] = g.z;
   }
   for (int f = 0; f < H.nf; ++f) {
-    const Vec3 c = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]};
+    const Vec3 mf = normal_of(m, f);
+    const Vec3 c = {-mf.x, -mf.y, -mf.z};
     for (int k = 0; k < 3; ++k) {
       const int i = H.face[3 * f + k];
-      if (closed[i] != 0.0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor + ball)) closed[i] = 0.0;
+      if (closed[i] != 0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor + ball)) closed[i] = 0;
     }
   }
 }
@@ -250,25 +332,29 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const double* p, const Hull& H, 
 // and every triangle of corners lies in it), each by tangent_cones.hpp's cone_below (up to 4 levels of quarters;
 // rho E's rolling radius, for its second-order planes; no incumbent plane: a vertex not tied at the incumbent
 // has it outside its cone).  Needs the triangles through i (vface).
-ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, const double* m, int i, double floor,
+template <class V, class M>
+ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const V& p, const Hull& H, const M& m, int i, double floor,
                                 double rho) {
   const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];
   Vec3 c = {0.0, 0.0, 0.0};
   for (int k = k0; k < k1; ++k) {
-    const int f = H.vface[k];
-    c = {c.x - m[3 * f], c.y - m[3 * f + 1], c.z - m[3 * f + 2]};
+    const Vec3 w = normal_of(m, H.vface[k]);
+    c = {c.x - w.x, c.y - w.y, c.z - w.z};
   }
   const Vec3 q = vertex(p, i);
   const Vec3 axis = {0.0, 0.0, 1.0}, none = {0.0, 0.0, 0.0};  // no disc (r = 0), no incumbent
   for (int k = k0; k < k1; ++k) {
     const int f = H.vface[k];
+    const Vec3 wf = normal_of(m, f);
+    const Vec3 mf = {-wf.x, -wf.y, -wf.z};
     for (int e = 0; e < 3; ++e) {
       const int j = H.face[3 * f + e];
       if (j == i) continue;
       for (int l = k + 1; l < k1; ++l) {
         const int g = H.vface[l];
         if (H.face[3 * g] != j && H.face[3 * g + 1] != j && H.face[3 * g + 2] != j) continue;
-        const Vec3 mf = {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, mg = {-m[3 * g], -m[3 * g + 1], -m[3 * g + 2]};
+        const Vec3 wg = normal_of(m, g);
+        const Vec3 mg = {-wg.x, -wg.y, -wg.z};
         if (!tangent_cones::cone_below(a2, q, axis, 0.0, none, none, c, mf, mg, floor, rho)) return false;
       }
     }
@@ -282,48 +368,56 @@ ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const double* p, const Hull& H, 
 // edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}): by one tangent plane
 // (close_vertices), by its f's global bound (|q| - r_min, sd_upper), or by the fan of its cone (fan_below, with
 // the adjacency).  scratch: 4 nv numbers.
-ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double tol,
-                               double rolling, const Best& start, double* scratch) {
+template <class V, class M>
+ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const V& p, const Hull& H, const M& m, double tol, double rolling,
+                                    const Best& start, double* ctr, unsigned char* closed) {
   const int nv = H.nv;
   const double rho = rolling * (1.0 - 4.0 * tol::U);  // inside E whatever its rounding
   const double rmin = math::sqrt(min2(min2(a2.x, a2.y), a2.z));
   Best b = start;
   double size = 0.0;
   for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
-  double* closed = scratch + 3 * nv;
-  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), rho, scratch, closed);
+  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), rho, ctr, closed);
   // vertices closed by their f's global bound |q| - r_min, or by their fan (deep crossings: a vertex's own
   // global bound, sd(q, E) >= 0 for a vertex outside E, never closes it; its stratum's fan does)
   const double floor = b.value + tol - below_slack(size, a2, b.value);
   double lowest = INFINITY;  // at the incumbent: a vertex tied there holds it in its cone, its fan cannot close
   for (int i = 0; i < nv; ++i) lowest = min2(lowest, dot(b.n, vertex(p, i)));
   for (int i = 0; i < nv; ++i) {
-    if (closed[i] != 0.0) continue;
+    if (closed[i] != 0) continue;
     const Vec3 q = vertex(p, i);
     if (vertex_beaten(q, rmin, b.value + tol) ||
         (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
          fan_below(a2, p, H, m, i, floor, rho)))
-      closed[i] = 1.0;
+      closed[i] = 1;
   }
   // every open vertex's global maximiser (the incumbent only rises, so what closed stays closed), its f's global
-  // bound sd_upper kept in scratch[3 i] (close_vertices is done with it)
+  // bound sd_upper kept for the first OPEN_KEPT open vertices (recomputed for any further one)
+  constexpr int OPEN_KEPT = 16;
+  double kept[OPEN_KEPT];
+  int nopen = 0;
   for (int i = 0; i < nv; ++i)
-    if (closed[i] == 0.0) {
-      const point_ellipsoid::Foot3 ft = foot3(a2, vertex(p, i));
-      scratch[3 * i] = sd_upper(a2, vertex(p, i), ft.t);
-      consider(a2, p, nv, vertex(p, i), ft.n, b);
+    if (closed[i] == 0) {
+      const Vec3 q = vertex(p, i);
+      const point_ellipsoid::Foot3 ft = foot3(a2, q);
+      if (nopen < OPEN_KEPT) kept[nopen] = sd_upper(a2, q, ft.t);
+      ++nopen;
+      consider(a2, p, nv, q, ft.n, b);
     }
   // every other critical point of the open vertices whose f could beat it
-  for (int i = 0; i < nv; ++i) {
+  for (int i = 0, k = 0; i < nv; ++i) {
+    if (closed[i] != 0) continue;
     const Vec3 q = vertex(p, i);
-    if (closed[i] != 0.0 || vertex_beaten(q, rmin, b.value + tol) || scratch[3 * i] <= b.value + tol) continue;
+    const double bound = k < OPEN_KEPT ? kept[k] : sd_upper(a2, q, foot3(a2, q).t);
+    ++k;
+    if (vertex_beaten(q, rmin, b.value + tol) || bound <= b.value + tol) continue;
     point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); }, false);
   }
   // each open edge (an arc between two open vertices): its great circle's maximiser, then every other critical
   // point there when the circle's bound sd_upper2 beats the incumbent
   for (int k = 0; k < H.ne; ++k) {
     const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-    if (closed[i] != 0.0 || closed[j] != 0.0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
+    if (closed[i] != 0 || closed[j] != 0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
     const EdgeProblem ep = edge_problem(a2, p, i, j);
     const double lam = ep.el.lam, mu = ep.el.mu;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
@@ -341,12 +435,13 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const double* p, const Hull&
 // the hull's size of the lowest) and the edges between them, their global maximisers, for up to `rounds` rounds
 // while it improves.  Only a start: the proof is ub1's, ub2's or the enumeration's.  mark: nv numbers of scratch,
 // all 0 on entry and on return.
-ELLIPSIM_HD_CALL Best refine(const Vec3& a2, const double* p, const Hull& H, Best b, double band, int rounds,
-                        double* mark) {
+template <class V>
+ELLIPSIM_HD_CALL Best refine(const Vec3& a2, const V& p, const Hull& H, Best b, double band, int rounds,
+                             unsigned char* mark) {
   const int nv = H.nv;
   double scale = 0.0;
   for (int i = 0; i < nv; ++i)
-    scale = max2(scale, math::fabs(p[3 * i]) + math::fabs(p[3 * i + 1]) + math::fabs(p[3 * i + 2]));
+    scale = max2(scale, math::fabs(vertex(p, i).x) + math::fabs(vertex(p, i).y) + math::fabs(vertex(p, i).z));
   for (int round = 0; round < rounds; ++round) {
     const Best before = b;
     // the (at most 16) vertices lowest in n.p, by insertion into a sorted list
@@ -367,18 +462,18 @@ ELLIPSIM_HD_CALL Best refine(const Vec3& a2, const double* p, const Hull& H, Bes
     }
     while (na > 1 && key[na - 1] > key[0] + band * scale) --na;  // within a band of the lowest
     for (int k = 0; k < na; ++k) {
-      mark[active[k]] = 1.0;
+      mark[active[k]] = 1;
       consider(a2, p, nv, vertex(p, active[k]), foot3(a2, vertex(p, active[k])).n, b);
     }
     if (na > 1)
       for (int k = 0; k < H.ne; ++k) {
         const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-        if (mark[i] == 0.0 || mark[j] == 0.0) continue;
+        if (mark[i] == 0 || mark[j] == 0) continue;
         const EdgeProblem ep = edge_problem(a2, p, i, j);
         const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
         consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
       }
-    for (int k = 0; k < na; ++k) mark[active[k]] = 0.0;
+    for (int k = 0; k < na; ++k) mark[active[k]] = 0;
     if (b.value == before.value) break;
   }
   return b;
@@ -387,11 +482,12 @@ ELLIPSIM_HD_CALL Best refine(const Vec3& a2, const double* p, const Hull& H, Bes
 // The best face normal (n = -m_f: the face's vertices minimise n.p), refined (refine) on a band of rounding width
 // (1e-6 of the size: the contact feature, a face, an edge or a vertex, and its ties); polytope_ellipsoid widens
 // the band when ub1 does not close there.  mark: as refine's.
-ELLIPSIM_HD_CALL Best local_max(const Vec3& a2, const double* p, const Hull& H, const double* m, double* mark) {
+template <class V, class M>
+ELLIPSIM_HD_CALL Best local_max(const Vec3& a2, const V& p, const Hull& H, const M& m, unsigned char* mark) {
   Best b = {-INFINITY, {0.0, 0.0, 1.0}};
   for (int f = 0; f < H.nf; ++f)
-    consider(a2, p, H.nv, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, b);
-  for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
+    consider(a2, p, H.nv, vertex(p, H.face[3 * f]), flip(normal_of(m, f)), b);
+  for (int i = 0; i < H.nv; ++i) mark[i] = 0;
   return refine(a2, p, H, b, 1e-6, 16, mark);
 }
 
@@ -433,10 +529,11 @@ ELLIPSIM_HD Vec3 nearest_on_triangle(const Vec3& w, const Vec3& a, const Vec3& b
 // whose plane w is above: the nearest point y of P lies on one (w - y is in P's normal cone at y, a non-negative
 // sum of the normals m_g of the faces through y, and |w - y|^2 > 0 makes some m_g.(w - y) > 0; Ericson 5.1.2),
 // and a triangle left out only loosens the bound (each candidate is a point of P).
-ELLIPSIM_HD double sd_point_hull(const Vec3& w, const double* p, const Hull& H, const double* m) {
+template <class V, class M>
+ELLIPSIM_HD double sd_point_hull(const Vec3& w, const V& p, const Hull& H, const M& m) {
   double smax = -INFINITY, best = INFINITY;
   for (int f = 0; f < H.nf; ++f) {
-    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const Vec3 mf = normal_of(m, f);
     const Vec3 a = vertex(p, H.face[3 * f]);
     const double d = dot(mf, w) - dot(mf, a);
     smax = max2(smax, d);
@@ -451,8 +548,9 @@ ELLIPSIM_HD double sd_point_hull(const Vec3& w, const double* p, const Hull& H, 
 
 // ub1 (box.hpp): E = E' + ball(rho), rho its rolling radius; for any x' in E', sigma(n) <= sd(x', P) - rho
 // for every n; x' = E''s support point at n (tight when the maximum is there and no deeper than rho).
-ELLIPSIM_HD_CALL double upper_bound1(const Vec3& a2, const double* p, const Hull& H, const double* m, double rho,
-                                const Vec3& n) {
+template <class V, class M>
+ELLIPSIM_HD_CALL double upper_bound1(const Vec3& a2, const V& p, const Hull& H, const M& m, double rho,
+                                     const Vec3& n) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   return sd_point_hull({s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z}, p, H, m) - rho;
 }
@@ -463,13 +561,14 @@ ELLIPSIM_HD_CALL double upper_bound1(const Vec3& a2, const double* p, const Hull
 // there, t: c's depth below every face plane, deflated by its rounding (a few ulps of |c| + the hull's size);
 // when c is not inside (t < 0), the lowest vertex (t = 0).  Tight for deep face contacts (the ball rolls E's
 // witness), and for deep vertex and edge contacts no deeper than E's curvature radius there.
-ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const double* p, const Hull& H, const double* m, const Vec3& n,
-                                double value) {
+template <class V, class M>
+ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const V& p, const Hull& H, const M& m, const Vec3& n,
+                                     double value) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   const Vec3 x = {s.x + value * n.x, s.y + value * n.y, s.z + value * n.z};
   double reach = INFINITY;
   for (int f = 0; f < H.nf; ++f) {
-    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const Vec3 mf = normal_of(m, f);
     const double den = 1.0 + dot(mf, n);  // the plane's approach along n per unit of radius
     if (den > 1e-9) reach = min2(reach, (dot(mf, vertex(p, H.face[3 * f])) - dot(mf, x)) / den);
   }
@@ -477,7 +576,7 @@ ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const double* p, const Hull
   const Vec3 c = {x.x + r * n.x, x.y + r * n.y, x.z + r * n.z};
   double t = INFINITY, size = 0.0;
   for (int f = 0; f < H.nf; ++f) {
-    const Vec3 mf = {m[3 * f], m[3 * f + 1], m[3 * f + 2]};
+    const Vec3 mf = normal_of(m, f);
     const Vec3 a = vertex(p, H.face[3 * f]);
     t = min2(t, dot(mf, a) - dot(mf, c));
     size = max2(size, math::fabs(a.x) + math::fabs(a.y) + math::fabs(a.z));
@@ -499,20 +598,10 @@ ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const double* p, const Hull
 
 // --- the fast start (a hull with its adjacency): the contact feature found by walking the edges -------------
 
-// Face f's outward unit normal in E's frame (T: P's axes there), as polytope_ellipsoid writes it into m.
-ELLIPSIM_HD Vec3 face_normal(const Mat3& T, const Hull& H, const double* p, int f) {
-  // from the triangle's vertices in E's frame: its true plane there whatever T (a float32 rotation is orthonormal
-  // only to ~6e-8, and T n_f then misses the face's normal by that much: the inside test and the bounds need the
-  // plane itself), turned as T n_f
-  const Vec3 a = vertex(p, H.face[3 * f]), b = vertex(p, H.face[3 * f + 1]), c = vertex(p, H.face[3 * f + 2]);
-  const Vec3 m = unit(cross3(sub(b, a), sub(c, a)));
-  const Vec3 t = matvec(T, {H.normal[3 * f], H.normal[3 * f + 1], H.normal[3 * f + 2]});
-  return dot(m, t) < 0.0 ? Vec3{-m.x, -m.y, -m.z} : m;
-}
-
 // The vertex lowest in n.p, by descent along the edges from `start`: a vertex no edge descends from minimises the
 // linear function over the polytope (the simplex method's optimality test; Ziegler, Lectures on Polytopes 3.2).
-ELLIPSIM_HD int descend(const double* p, const Hull& H, const Vec3& n, int start) {
+template <class V>
+ELLIPSIM_HD int descend(const V& p, const Hull& H, const Vec3& n, int start) {
   int i = start;
   double v = dot(n, vertex(p, i));
   for (;;) {
@@ -531,7 +620,8 @@ ELLIPSIM_HD int descend(const double* p, const Hull& H, const Vec3& n, int start
 
 // consider with sigma by descent from *low (the incumbent's lowest vertex, moved to the candidate's when it wins).
 // Returns whether the incumbent reached stop (the walk's callers then stop: the pair is proven apart).
-ELLIPSIM_HD bool consider_walk(const Vec3& a2, const double* p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
+template <class V>
+ELLIPSIM_HD bool consider_walk(const Vec3& a2, const V& p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
                                int& low, double stop = INFINITY) {
   const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
   if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > b.value)) return false;
@@ -547,18 +637,19 @@ ELLIPSIM_HD bool consider_walk(const Vec3& a2, const double* p, const Hull& H, c
 // The vertices within band of the lowest (low) in n.p, at most 16, by a walk along the edges from low (every
 // one is reached: from each, a descending path to low stays in the band), marked in mark (1 added: a mark's odd
 // part is membership, walk_refine keeps the round it tried a vertex in the rest); returns their count.
-ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, double band, int* active,
-                        double* mark) {
+template <class V>
+ELLIPSIM_HD int feature(const V& p, const Hull& H, const Vec3& n, int low, double band, int* active,
+                        unsigned char* mark) {
   const double top = dot(n, vertex(p, low)) + band;
   int na = 1;
   active[0] = low;
-  mark[low] += 1.0;
+  mark[low] += 1;
   for (int a = 0; a < na; ++a) {
     const int i = active[a];
     for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && na < 16; ++k) {
       const int j = H.adj[k];
-      if ((int(mark[j]) & 1) == 0 && dot(n, vertex(p, j)) <= top) {
-        mark[j] += 1.0;
+      if ((mark[j] & 1) == 0 && dot(n, vertex(p, j)) <= top) {
+        mark[j] += 1;
         active[na++] = j;
       }
     }
@@ -575,11 +666,12 @@ ELLIPSIM_HD int feature(const double* p, const Hull& H, const Vec3& n, int low, 
 // A piece tried in an earlier round is not tried again (the incumbent only rises, so it cannot win now): a
 // vertex's maximiser and triangles once (mark holds 2 (round + 1) for the first 64 vertices tried), an edge
 // once its ends were tried in the same round, both in that round's feature (or, all_edges, its end tried).
-ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, Best b, int& low,
-                             double band_rel, double scale, int rounds, bool all_edges, double* mark,
+template <class V>
+ELLIPSIM_HD Best walk_refine(const Vec3& a2, const V& p, const Hull& H, const Mat3& T, Best b, int& low,
+                             double band_rel, double scale, int rounds, bool all_edges, unsigned char* mark,
                              double stop = INFINITY) {
   int active[16], seen[64], ns = 0;
-  const auto round_of = [&](int i) { return (int(mark[i]) >> 1) - 1; };  // the round i's pieces were tried, or -1
+  const auto round_of = [&](int i) { return (mark[i] >> 1) - 1; };  // the round i's pieces were tried, or -1
   bool done = b.value >= stop;
   for (int round = 0; round < rounds && !done; ++round) {
     const Best before = b;
@@ -597,12 +689,12 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
         }
         if (ns < 64) {
           seen[ns++] = i;
-          mark[i] += 2.0 * (round + 1);
+          mark[i] += (unsigned char)(2 * (round + 1));
         }
       }
       for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && !done; ++k) {
         const int j = H.adj[k];
-        const bool in = (int(mark[j]) & 1) != 0;
+        const bool in = (mark[j] & 1) != 0;
         if (in ? j <= i : !all_edges) continue;  // an edge between two of the feature's vertices once
         const int rj = round_of(j);
         if (ri >= 0 && (all_edges || (in && rj == ri))) continue;  // tried in round ri
@@ -612,17 +704,18 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const double* p, const Hull& H, con
                              low, stop);
       }
     }
-    for (int a = 0; a < na; ++a) mark[active[a]] -= 1.0;
+    for (int a = 0; a < na; ++a) mark[active[a]] -= 1;
     if (b.value == before.value) break;
   }
-  for (int k = 0; k < ns; ++k) mark[seen[k]] = 0.0;
+  for (int k = 0; k < ns; ++k) mark[seen[k]] = 0;
   return b;
 }
 
 // A local maximum from n0 (nonzero): its lowest vertex by descent from vertex 0, then walk_refine on the contact
 // feature (band 1e-6), ending early at stop.
-ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const Mat3& T, const Vec3& n0, int& low,
-                          double* mark, double stop = INFINITY) {
+template <class V>
+ELLIPSIM_HD Best walk_max(const Vec3& a2, const V& p, const Hull& H, const Mat3& T, const Vec3& n0, int& low,
+                          unsigned char* mark, double stop = INFINITY) {
   const Vec3 n = unit(n0);
   low = descend(p, H, n, 0);
   const Best b = {dot(n, vertex(p, low)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z), n};
@@ -632,8 +725,9 @@ ELLIPSIM_HD Best walk_max(const Vec3& a2, const double* p, const Hull& H, const 
 // ub1 (upper_bound1) with the distance bounded by the triangles through the contact feature at n only: each
 // point y of a triangle is a point of P, so sd(x', P) <= |x' - y| whatever x' (inside P, sd < 0); tight when the
 // witness lies on one of them.  mark: as walk_max's.
-ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const double* p, const Hull& H, double rho, const Vec3& n,
-                                     int low, double* mark) {
+template <class V>
+ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const V& p, const Hull& H, double rho, const Vec3& n,
+                                     int low, unsigned char* mark) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   const Vec3 w = {s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z};
   int active[16];
@@ -650,7 +744,7 @@ ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const double* p, const Hull
       best = min2(best, dot(z, z));
     }
   }
-  for (int a = 0; a < na; ++a) mark[active[a]] = 0.0;
+  for (int a = 0; a < na; ++a) mark[active[a]] = 0;
   return math::sqrt(best) - rho;
 }
 
@@ -662,40 +756,36 @@ struct Result {
   double ub;
 };
 
-// For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
-// distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
-// box.hpp), status CERTIFIED or ENUMERATED.  scratch: scratch_size(H.nv, H.nf) numbers.  cutoff (the narrow
-// phase's margin): where sigma along the centre line, or at the walking start, less its rounding allowance
-// (PAIR_SIGMA_SLACK_ULPS of the pair's scale, box.hpp's centre_line_bound's), reaches it, APART at once: the pair
-// is proven beyond it, dist that bound.  start (world frame, from E towards P; 0: none): the walk's first
-// direction instead of E's normal nearest P's origin, for a caller that knows a better one (the height field's
-// prisms, whose origin is the field's); the centre line is then not tried.
-ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
-                                      double* scratch, double cutoff = INFINITY, Vec3 start = {0.0, 0.0, 0.0}) {
-  double* p = scratch;
-  double* m = scratch + 3 * H.nv;
-  const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
-  const double far = to_frame(E, cP, T, H, p);
-  const auto normals = [&]() {  // m: every face normal in E's frame (the walk computes the few it reads)
-    for (int f = 0; f < H.nf; ++f) {
-      const Vec3 w = face_normal(T, H, p, f);
-      m[3 * f] = w.x;
-      m[3 * f + 1] = w.y;
-      m[3 * f + 2] = w.z;
-    }
-  };
+// m: every face normal in E's frame, stored (the walk computes the few it reads); posed: nothing to store.
+ELLIPSIM_HD void fill_normals(const Mat3& T, const Hull& H, const double* p, double* m) {
+  for (int f = 0; f < H.nf; ++f) {
+    const Vec3 w = face_normal(T, H, p, f);
+    m[3 * f] = w.x;
+    m[3 * f + 1] = w.y;
+    m[3 * f + 2] = w.z;
+  }
+}
+
+ELLIPSIM_HD void fill_normals(const Mat3&, const Hull&, const Posed&, const Posed&) {}
+
+// polytope_ellipsoid's body on the hull p and normals m in E's frame (stored, or Posed), far the rounding scale
+// max_i |p_i|_1, T P's axes in E's frame; ctr: the no-adjacency path's 3 nv numbers, flags 2 nv bytes.
+template <class V, class M>
+ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, const Hull& H, const V& p, M m,
+                         double far, double* ctr, unsigned char* flags, double cutoff, Vec3 start) {
+  const auto normals = [&]() { fill_normals(T, H, p, m); };
   const Vec3 a2 = {E.r.x * E.r.x, E.r.y * E.r.y, E.r.z * E.r.z};
   const double tol = tol::PAIR_CERT_REL * min2(min2(E.r.x, E.r.y), E.r.z);
   const double rho = distance::rolling_radius(E.r);
-  double* mark = scratch + 6 * H.nv + 3 * H.nf;  // zeroed: the result never hangs on what scratch held
-  for (int i = 0; i < H.nv; ++i) mark[i] = 0.0;
+  unsigned char* mark = flags + H.nv;  // zeroed: the result never hangs on what scratch held
+  for (int i = 0; i < H.nv; ++i) mark[i] = 0;
   Best b;
   double ub = INFINITY;
   int low = 0;
   bool faces = true;  // b is at least sigma (by descent) at every face normal: enumerate_max's start
   const auto face_pass = [&](Best& w) {  // every face normal, sigma by descent
     for (int f = 0; f < H.nf; ++f)
-      consider_walk(a2, p, H, vertex(p, H.face[3 * f]), {-m[3 * f], -m[3 * f + 1], -m[3 * f + 2]}, w, low);
+      consider_walk(a2, p, H, vertex(p, H.face[3 * f]), flip(normal_of(m, f)), w, low);
   };
   if (H.adj_start != nullptr && H.vface_start != nullptr) {
     // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent),
@@ -767,11 +857,44 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
       face_pass(b);
       b.value = sigma_hull(a2, p, H.nv, b.n);
     }
-    b = enumerate_max(a2, p, H, m, tol, rho, b, scratch + 3 * H.nv + 3 * H.nf);
+    b = enumerate_max(a2, p, H, m, tol, rho, b, ctr, flags);
     status = ENUMERATED;
   }
   const point_ellipsoid::Contact c = contact_in_world(E, a2, b.n, b.value);
   return {status, b.value, c.normal, c.pos, status == CERTIFIED ? ub : INFINITY};
+}
+
+// For the ellipsoid E and the hull H posed at (cP, RP) (centre metres, rotation row-major): dist the signed
+// distance (sigma at the returned normal), normal unit from E to P, pos the midpoint of the witness points (as
+// box.hpp), status CERTIFIED or ENUMERATED.  scratch: scratch_size(H.nv, H.nf) numbers.  cutoff (the narrow
+// phase's margin): where sigma along the centre line, or at the walking start, less its rounding allowance
+// (PAIR_SIGMA_SLACK_ULPS of the pair's scale, box.hpp's centre_line_bound's), reaches it, APART at once: the pair
+// is proven beyond it, dist that bound.  start (world frame, from E towards P; 0: none): the walk's first
+// direction instead of E's normal nearest P's origin, for a caller that knows a better one (the height field's
+// prisms, whose origin is the field's); the centre line is then not tried.
+ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
+                                      double* scratch, double cutoff = INFINITY, Vec3 start = {0.0, 0.0, 0.0}) {
+  double* p = scratch;
+  const Mat3 T = distance::tmatmul(E.R, RP);  // P's axes in E's frame
+  const double far = to_frame(E, cP, T, H, p);
+  return solve(E, cP, T, H, static_cast<const double*>(p), scratch + 3 * H.nv, far, scratch + 3 * H.nv + 3 * H.nf,
+               reinterpret_cast<unsigned char*>(scratch + 6 * H.nv + 3 * H.nf), cutoff, start);
+}
+
+// polytope_ellipsoid with the hull never stored (Posed: each vertex and face normal computed where read, the same
+// bits): scratch only flags, posed_flags_size(H.nv) bytes, so a hull of any size fits a GPU thread (MuJoCo Warp's
+// meshes).  H must have its adjacency.  More arithmetic than the stored path (a vertex a product, a normal three).
+ELLIPSIM_HD Result polytope_ellipsoid_posed(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
+                                            unsigned char* flags, double cutoff = INFINITY,
+                                            Vec3 start = {0.0, 0.0, 0.0}) {
+  const Mat3 T = distance::tmatmul(E.R, RP);
+  const Posed P = {rotate_t(E.R, sub(cP, E.c)), T, &H};
+  double far = 0.0;
+  for (int i = 0; i < H.nv; ++i) {
+    const Vec3 q = vertex(P, i);
+    far = max2(far, math::fabs(q.x) + math::fabs(q.y) + math::fabs(q.z));
+  }
+  return solve(E, cP, T, H, P, P, far, nullptr, flags, cutoff, start);
 }
 
 }  // namespace ellipsim::pairs::polytope

@@ -17,7 +17,8 @@
    the pairs; plain (Warp's hfield kernel: GJK/EPA per prism, up to 4 contacts a pair) and attached
    (pairs/height_field.hpp: a contact per prism within the margin, up to 50), interleaved.
 4. Cost per convex mesh x ellipsoid pair, as 3: 8 ellipsoids settled on a static mesh slab (MuJoCo's hull of
-   40 points); plain (Warp's GJK/EPA) and attached (pairs/polytope.hpp on the same hull).
+   40 points), then on a 300-vertex spheroid (the mesh row's posed path); plain (Warp's GJK/EPA) and attached
+   (pairs/polytope.hpp on the same hull).
 5. Collision stage and mjw.step per world-step on settled scenes (the 16-figure heap, the pile),
    attached vs plain, interleaved.
 """
@@ -284,10 +285,15 @@ def hfield_cost(size, device, n=8):
     return _settled_cost(_field_xml(np.random.default_rng(6), n), n, size, device)
 
 
-def _mesh_xml(rng, n):
+def _mesh_xml(rng, n, large=False):
     """n ellipsoids (3-10 cm) over a static convex mesh slab (MuJoCo's hull of 40 points, 2 m square, 10 cm
-    thick); only mesh pairs collide."""
-    points = np.c_[rng.uniform(-1, 1, (40, 2)), rng.uniform(-0.05, 0.05, 40)]
+    thick), or, large, a flat spheroid (1 m by 5 cm semi-axes) of 300 points on its surface (a hull of 300
+    vertices: the mesh row's posed path); only mesh pairs collide."""
+    if large:
+        u = rng.normal(size=(300, 3))
+        points = u / np.linalg.norm(u, axis=1)[:, None] * [1.0, 1.0, 0.05]
+    else:
+        points = np.c_[rng.uniform(-1, 1, (40, 2)), rng.uniform(-0.05, 0.05, 40)]
     vertex = " ".join(f"{x:.6f}" for x in points.ravel())
     bodies = []
     for _ in range(n):
@@ -303,10 +309,11 @@ def _mesh_xml(rng, n):
     )
 
 
-def mesh_cost(size, device, n=8):
-    """Seconds per convex mesh x ellipsoid pair of mjw.collision (8 ellipsoids settled on a mesh slab), plain
-    (Warp's GJK/EPA) and attached (pairs/polytope.hpp on MuJoCo's hull), as hfield_cost."""
-    return _settled_cost(_mesh_xml(np.random.default_rng(7), n), n, size, device)
+def mesh_cost(size, device, n=8, large=False):
+    """Seconds per convex mesh x ellipsoid pair of mjw.collision (8 ellipsoids settled on a mesh slab, or on the
+    300-vertex spheroid: _mesh_xml), plain (Warp's GJK/EPA) and attached (pairs/polytope.hpp on MuJoCo's hull),
+    as hfield_cost."""
+    return _settled_cost(_mesh_xml(np.random.default_rng(7), n, large), n, size, device)
 
 
 def _settled_cost(xml, n, size, device):
@@ -427,8 +434,10 @@ def measure(size):
     field = hfield_cost(size, device)
     say("warp: cost per mesh pair ...")
     mesh = mesh_cost(size, device)
+    say("warp: cost per pair on a 300-vertex hull ...")
+    large = mesh_cost(size, device, large=True)
     rows = scenes_rows(size, device)
-    return dict(device=device, accuracy=acc, cost=cost, field=field, mesh=mesh, scenes=rows)
+    return dict(device=device, accuracy=acc, cost=cost, field=field, mesh=mesh, mesh_large=large, scenes=rows)
 
 
 def write(result, size, out, plt):
@@ -487,6 +496,15 @@ def write(result, size, out, plt):
             "",
             f"Convex mesh x ellipsoid ({f['nworld']} worlds of {f['n']} ellipsoids settled on a mesh slab, the hull "
             "of 40 points, mjw.collision less the same call with them culled, over the pairs): Warp's GJK/EPA "
+            f"{f['plain'] * 1e6:.2f} us per pair ({f['contacts']['plain']} contacts a world), ellipsim's "
+            f"{f['attached'] * 1e6:.2f} us ({f['contacts']['attached']} contacts a world), **{f['ratio']:.2f}x**.",
+        ]
+    if "mesh_large" in r:
+        f = r["mesh_large"]
+        L += [
+            "",
+            f"The same on a hull of 300 vertices (a flat spheroid, 1 m by 5 cm; over the 64 the mesh row stores, so "
+            "the core's posed path: each vertex and normal computed where read): Warp's GJK/EPA "
             f"{f['plain'] * 1e6:.2f} us per pair ({f['contacts']['plain']} contacts a world), ellipsim's "
             f"{f['attached'] * 1e6:.2f} us ({f['contacts']['attached']} contacts a world), **{f['ratio']:.2f}x**.",
         ]

@@ -125,8 +125,8 @@ ELLIPSIM_HD double to_frame(const Ellipsoid& E, const Vec3& cP, const Mat3& T, c
 
 ELLIPSIM_HD Vec3 vertex(const double* p, int i) { return {p[3 * i], p[3 * i + 1], p[3 * i + 2]}; }
 
-// The hull in E's frame without storing it (polytope_ellipsoid_posed: O(1) scratch for a hull of any size, as
-// MuJoCo Warp needs per thread): vertex i computed as to_frame writes it (the same bits), a face's normal as
+// The hull in E's frame without storing it (polytope_ellipsoid_posed: two bytes of scratch a vertex, so a large
+// hull fits a MuJoCo Warp thread): vertex i computed as to_frame writes it (the same bits), a face's normal as
 // face_normal computes it.  Every function below takes either the stored arrays (p, m: const double*) or this.
 struct Posed {
   Vec3 e;
@@ -882,7 +882,7 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
 }
 
 // polytope_ellipsoid with the hull never stored (Posed: each vertex and face normal computed where read, the same
-// bits): scratch only flags, posed_flags_size(H.nv) bytes, so a hull of any size fits a GPU thread (MuJoCo Warp's
+// bits): scratch only flags, posed_flags_size(H.nv) bytes, so a large hull fits a GPU thread (MuJoCo Warp's
 // meshes).  H must have its adjacency.  More arithmetic than the stored path (a vertex a product, a normal three).
 ELLIPSIM_HD Result polytope_ellipsoid_posed(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
                                             unsigned char* flags, double cutoff = INFINITY,

@@ -288,10 +288,18 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
         continue;
       }
       const Vec3 g = plane(i, c);
-      for (int k = k0; k < k1 && closed[i] != 0; ++k) {
-        const Vec3 mf = normal_of(m, H.vface[k]);
-        if (!tangent_cones::corner_below(g, {-mf.x, -mf.y, -mf.z}, floor + ball)) closed[i] = 0;
+      int miss = -1;  // the first corner above the floor
+      for (int k = k0; k < k1 && miss < 0; ++k)
+        if (!tangent_cones::corner_below(g, flip(normal_of(m, H.vface[k])), floor + ball)) miss = k;
+      if (miss < 0 || ball == 0.0) {
+        closed[i] = miss < 0 ? 1 : 0;
+        continue;
       }
+      // with the rolling ball, the plane tangent at that corner instead (tangent_cones node_below's retry)
+      const Vec3 w = flip(normal_of(m, H.vface[miss]));
+      const Vec3 gw = plane(i, w);
+      for (int k = k0; k < k1 && closed[i] != 0; ++k)
+        if (!tangent_cones::corner_below(gw, flip(normal_of(m, H.vface[k])), floor + ball)) closed[i] = 0;
     }
     return;
   }

@@ -869,8 +869,10 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
         low = descend(p, H, b.n, low);  // back to the incumbent's lowest vertex
       }
     }
-    // the full ub1: x' inside P (a crossing deeper than rho) is bounded by every face plane
-    if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound1(a2, p, H, m, rho, b.n));
+    // the full ub1: x' inside P (a crossing deeper than rho) is bounded by every face plane; not where the walk
+    // was skipped (deeper than E's largest semi-axis ub2 closes what ub1 would: bench meshes, deep, 2-3% fewer
+    // instructions)
+    if (!skipped && !(ub - b.value <= tol)) ub = min2(ub, upper_bound1(a2, p, H, m, rho, b.n));
   } else {
     normals();
     b = local_max(a2, p, H, m, mark);

@@ -226,9 +226,9 @@ void box_vertex_stages(const InRows<21>& x, Rows<6> out, std::int64_t lo, std::i
 }
 
 // polytope_ellipsoid for the ellipsoids E and one hull (vertices (nv, 3), edges (ne, 2), face normals (nf, 3),
-// triangles (nf, 3), its local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos (3), ub per
-// row; cutoff polytope_ellipsoid's (a pair proven beyond it: APART); posed: polytope_ellipsoid_posed instead (the
-// hull never stored, as MuJoCo Warp's mesh row runs a large hull).
+// triangles (nf, 3), its local frame) posed at (CP, RP) per pair, pairs [lo, hi): status, dist, normal (3), pos
+// (3), ub per row; cutoff polytope_ellipsoid's (a pair proven beyond it: APART); posed: polytope_ellipsoid_posed
+// instead (the hull never stored, as MuJoCo Warp's mesh row runs a large hull).
 void polytope_ellipsoid(const Centers<>& Ce, const Rotations<>& Re, const Centers<>& re, const Centers<>& CP,
                         const Rotations<>& RP, const Centers<>& vertices, const EdgeArray& edges,
                         const Centers<>& normals, const FaceArray& faces, Rows<9> out,

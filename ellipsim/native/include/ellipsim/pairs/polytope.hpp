@@ -920,10 +920,13 @@ ELLIPSIM_HD Result polytope_ellipsoid(const Ellipsoid& E, const Vec3& cP, const 
 
 // polytope_ellipsoid with the hull never stored (Posed: each vertex and face normal computed where read, the same
 // bits): scratch only flags, posed_flags_size(H.nv) bytes, so a large hull fits a GPU thread (MuJoCo Warp's
-// meshes).  H must have its adjacency.  More arithmetic than the stored path (a vertex a product, a normal three).
+// meshes).  H must have its adjacency (without, a non-finite result: the callers' fallback).  More arithmetic than
+// the stored path (a vertex a product, a normal three).
 ELLIPSIM_HD Result polytope_ellipsoid_posed(const Ellipsoid& E, const Vec3& cP, const Mat3& RP, const Hull& H,
                                             unsigned char* flags, double cutoff = INFINITY,
                                             Vec3 start = {0.0, 0.0, 0.0}) {
+  if (H.adj_start == nullptr || H.vface_start == nullptr)
+    return {ENUMERATED, NAN, {NAN, NAN, NAN}, {NAN, NAN, NAN}, NAN};
   const Mat3 T = distance::tmatmul(E.R, RP);
   const Posed P = {rotate_t(E.R, sub(cP, E.c)), T, &H};
   double far = 0.0;

@@ -181,6 +181,10 @@ ELLIPSIM_HD_CALL void warp_mesh_contact(const V& c1, const M& R1, const V& r1, c
   const Ellipsoid P = pose(c2, R2, r1);  // the mesh's centre and rotation (r1 unused)
   const Ellipsoid E = pose(c1, R1, r1);
   const bool stored = H.nv <= MAX_HULL_VERTICES && H.nf <= MAX_HULL_FACES;
+  if (!stored && H.nv > MAX_POSED_HULL_VERTICES) {  // (hull_arrays refuses such a hull: never read past scratch)
+    status = -1, deep = 0, dist = NAN;
+    return;
+  }
   const pairs::polytope::Result r =
       stored ? pairs::polytope::polytope_ellipsoid(E, P.c, P.R, H, scratch, cutoff)
              : pairs::polytope::polytope_ellipsoid_posed(E, P.c, P.R, H, reinterpret_cast<unsigned char*>(scratch),

@@ -796,6 +796,10 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
     for (int f = 0; f < H.nf; ++f)
       consider_walk(a2, p, H, vertex(p, H.face[3 * f]), flip(normal_of(m, f)), w, low);
   };
+  const auto seed = [&]() {  // the enumeration's start: b at least sigma at every face normal, its sigma exact
+    face_pass(b);
+    b.value = sigma_hull(a2, p, H.nv, b.n);
+  };
   if (H.adj_start != nullptr && H.vface_start != nullptr) {
     // the fast start, from E's normal nearest P's origin (foot3); then the best face normal (sigma by descent),
     // the contact feature's pieces, a wider band's (1e-2 of the hull's size): ub1 over the feature's triangles
@@ -843,18 +847,17 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
     // (over triangles, ub1 >= -rho: below -rho - tol it cannot close, and is not computed)
     if (!(b.value < -rho - tol)) ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
     if (!(ub - b.value <= tol)) normals();
-    if (skipped) {  // the enumeration's start, where ub1 and ub2 are then tried: the best face normal
-      face_pass(b);
-      b.value = sigma_hull(a2, p, H.nv, b.n);
-    }
+    if (skipped) seed();  // the best face normal, where ub2 is then tried
+
     const double scale = far;  // the hull's size from E's centre, as refine's
     // The two stages only while the incumbent is above -rho.  Deeper, ub1 over triangles (>= -rho) cannot close,
     // nor can any tangent plane of E near a maximum below -rho (along the sphere the plane's bound rises as
     // value cos(angle)); ub2 closes deep face contacts from the walk's own maximum, and the enumeration starts
     // from it (after the face normals' pass it needs): the feature's pieces cost more than they save there
     // (bench meshes, deep: 15-20% a pair).
-    faces = skipped || !(b.value < -rho);
-    for (int stage = 0; !skipped && stage < (faces ? 2 : 0) && !(ub - b.value <= tol); ++stage) {
+    const bool stages = !skipped && !(b.value < -rho);
+    faces = skipped || stages;
+    for (int stage = 0; stage < (stages ? 2 : 0) && !(ub - b.value <= tol); ++stage) {
       Best w = b;
       if (stage == 0) {
         face_pass(w);
@@ -890,10 +893,7 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
   if (!(ub - b.value <= tol)) ub = min2(ub, upper_bound2(a2, p, H, m, b.n, b.value));
   int status = CERTIFIED;
   if (!(ub - b.value <= tol)) {
-    if (!faces) {
-      face_pass(b);
-      b.value = sigma_hull(a2, p, H.nv, b.n);
-    }
+    if (!faces) seed();
     b = enumerate_max(a2, p, H, m, tol, rho, b, ctr, flags);
     status = ENUMERATED;
   }

@@ -256,19 +256,35 @@ ELLIPSIM_HD double below_slack(double size, const Vec3& a2, double best) {
   return tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (size + math::sqrt(max2(max2(a2.x, a2.y), a2.z)) + math::fabs(best));
 }
 
-// closed[i] = 1 when f_{p_i} <= floor (< 0) on vertex i's whole closed stratum, the cone of the -m_f over the
-// triangles f through i (the normal cone of P at p_i, negated: Schneider, Convex Bodies 2.2), else 0.  One
-// tangent plane a vertex: f_{p_i}(n) <= (p_i - x_i).n for any x_i in E (h_E(n) >= n.x_i), below floor at every
-// corner, so on the cone (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners, with
-// the rolling ball of radius rho there (tangent_cones.hpp node_below).  With the adjacency, vertex by vertex over
-// its triangles; without, by passes over the triangles with ctr (3 nv numbers of scratch; the same sums, in the
-// same order).  O(nf) and nv support points.
+// A plane's level at the corner c (floor <= floor2 < 0): CLOSED when g.c / |c| <= floor, CONVEX when only
+// <= floor2, else OPEN (enumerate_max's vertex states); worse and better of two levels.
+constexpr unsigned char OPEN = 0, CLOSED = 1, CONVEX = 2;
+
+ELLIPSIM_HD unsigned char corner_level(const Vec3& g, const Vec3& c, double floor, double floor2) {
+  const double d = dot(g, c);
+  if (d > 0.0) return OPEN;
+  const double dd = d * d, cc = dot(c, c);
+  return dd >= floor * floor * cc ? CLOSED : dd >= floor2 * floor2 * cc ? CONVEX : OPEN;
+}
+
+ELLIPSIM_HD unsigned char worse(unsigned char x, unsigned char y) { return x == OPEN || y == OPEN ? OPEN : max2(x, y); }
+
+ELLIPSIM_HD unsigned char better(unsigned char x, unsigned char y) { return x == OPEN ? y : y == OPEN ? x : min2(x, y); }
+
+// closed[i] = CLOSED when f_{p_i} <= floor (< 0) on vertex i's whole closed stratum, the cone of the -m_f over
+// the triangles f through i (the normal cone of P at p_i, negated: Schneider, Convex Bodies 2.2), CONVEX when
+// only <= floor2 (floor <= floor2 < 0; enumerate_max's convexity floor), else OPEN.  One tangent plane a vertex:
+// f_{p_i}(n) <= (p_i - x_i).n for any x_i in E (h_E(n) >= n.x_i), below the level at every corner, so on the cone
+// (tangent_cones.hpp's argument); x_i E's support point at the sum of the corners, with the rolling ball of
+// radius rho there (tangent_cones.hpp node_below).  With the adjacency, vertex by vertex over its triangles;
+// without, by passes over the triangles with ctr (3 nv numbers of scratch; the same sums, in the same order).
+// O(nf) and nv support points.
 template <class V, class M>
-ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const M& m, double floor, double rho,
-                                double* ctr, unsigned char* closed) {
-  for (int i = 0; i < H.nv; ++i) closed[i] = floor < 0.0 ? 1 : 0;
-  if (!(floor < 0.0)) return;
-  const double ball = floor + rho < 0.0 ? rho : 0.0;
+ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const M& m, double floor, double floor2,
+                                double rho, double* ctr, unsigned char* closed) {
+  for (int i = 0; i < H.nv; ++i) closed[i] = floor2 < 0.0 ? CLOSED : OPEN;
+  if (!(floor2 < 0.0)) return;
+  const double ball = floor2 + rho < 0.0 ? rho : 0.0;
   // the plane of vertex i (its cone's centre c): (p_i - x + s c).n, s c = rho c / |c| the rolling ball's
   const auto plane = [&](int i, const Vec3& c) {
     const Vec3 x = point_ellipsoid::support(a2, c).s, q = vertex(p, i);
@@ -284,22 +300,26 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
         c = {c.x - mf.x, c.y - mf.y, c.z - mf.z};
       }
       if (!(dot(c, c) > 0.0)) {  // no triangle through i: its cone is unknown, solved
-        closed[i] = 0;
+        closed[i] = OPEN;
         continue;
       }
       const Vec3 g = plane(i, c);
-      int miss = -1;  // the first corner above the floor
-      for (int k = k0; k < k1 && miss < 0; ++k)
-        if (!tangent_cones::corner_below(g, flip(normal_of(m, H.vface[k])), floor + ball)) miss = k;
-      if (miss < 0 || ball == 0.0) {
-        closed[i] = miss < 0 ? 1 : 0;
-        continue;
+      int miss = -1;  // the first corner not below floor
+      unsigned char level = CLOSED;
+      for (int k = k0; k < k1 && level != OPEN; ++k) {
+        const unsigned char l = corner_level(g, flip(normal_of(m, H.vface[k])), floor + ball, floor2 + ball);
+        if (l != CLOSED && miss < 0) miss = k;
+        level = worse(level, l);
       }
-      // with the rolling ball, the plane tangent at that corner instead (tangent_cones node_below's retry)
+      closed[i] = level;
+      if (miss < 0 || ball == 0.0) continue;
+      // with the rolling ball, the plane tangent at that corner as well (tangent_cones node_below's retry)
       const Vec3 w = flip(normal_of(m, H.vface[miss]));
       const Vec3 gw = plane(i, w);
-      for (int k = k0; k < k1 && closed[i] != 0; ++k)
-        if (!tangent_cones::corner_below(gw, flip(normal_of(m, H.vface[k])), floor + ball)) closed[i] = 0;
+      unsigned char lw = CLOSED;
+      for (int k = k0; k < k1 && lw != OPEN; ++k)
+        lw = worse(lw, corner_level(gw, flip(normal_of(m, H.vface[k])), floor + ball, floor2 + ball));
+      closed[i] = better(level, lw);
     }
     return;
   }
@@ -316,7 +336,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
   for (int i = 0; i < H.nv; ++i) {
     const Vec3 c = vertex(ctr, i);
     if (!(dot(c, c) > 0.0)) {
-      closed[i] = 0;
+      closed[i] = OPEN;
       continue;
     }
     const Vec3 g = plane(i, c);
@@ -329,7 +349,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
     const Vec3 c = {-mf.x, -mf.y, -mf.z};
     for (int k = 0; k < 3; ++k) {
       const int i = H.face[3 * f + k];
-      if (closed[i] != 0 && !tangent_cones::corner_below(vertex(ctr, i), c, floor + ball)) closed[i] = 0;
+      if (closed[i] != OPEN) closed[i] = worse(closed[i], corner_level(vertex(ctr, i), c, floor + ball, floor2 + ball));
     }
   }
 }
@@ -370,12 +390,45 @@ ELLIPSIM_HD_CALL bool fan_below(const Vec3& a2, const V& p, const Hull& H, const
   return k1 > k0;
 }
 
+// The arc of the edge (i, j) through a CONVEX end (f <= -rconvex on it) has no interior local maximum of f
+// (enumerate_max): when its largest radius of curvature across the edge, R_arc = lam / sqrt(mu) (E's projection,
+// squared semi-axes lam >= mu), is at most rconvex, or when the arc's planes (tangent_cones arc_below, the
+// incumbent's plane at bn where the arc holds it) put f below -R_arc, or below floor (the arc then closed
+// outright), whichever is higher; slack the planes' rounding allowance.  The arc runs between the normals of the
+// two triangles through the edge (found through vface; none or one: not proven).
+template <class V, class M>
+ELLIPSIM_HD bool arc_convex(const Vec3& a2, const V& p, const Hull& H, const M& m, int i, int j, double lam, double mu,
+                            double rconvex, double floor, double slack, const Vec3& bn, const Vec3& xb) {
+  const double rarc = lam / math::sqrt(mu) * (1.0 + 1e-9);
+  if (rarc <= rconvex) return true;
+  if (H.vface_start == nullptr) return false;
+  int g = -1, h = -1;
+  for (int k = H.vface_start[i]; k < H.vface_start[i + 1]; ++k) {
+    const int f = H.vface[k];
+    if (H.face[3 * f] == j || H.face[3 * f + 1] == j || H.face[3 * f + 2] == j) (g < 0 ? g : h) = f;
+  }
+  return h >= 0 && tangent_cones::arc_below(a2, vertex(p, i), {0.0, 0.0, 1.0}, 0.0, bn, xb, flip(normal_of(m, g)),
+                                            flip(normal_of(m, h)), max2(floor, -rarc - slack));
+}
+
 // The maximum of sigma (top comment) over the hull p (E's frame, nv vertices) and its edges and face normals
 // (normals in E's frame, nf of them), from the incumbent start (at least sigma at every face normal: local_max's):
-// (value, n).  A vertex whose closed stratum is below the incumbent is skipped with every edge through it (an
-// edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}): by one tangent plane
+// (value, n).  A vertex whose closed stratum is below the incumbent (CLOSED) is skipped with every edge through it
+// (an edge's arc lies in both its vertices' closed strata, where sigma = f_{p_i}): by one tangent plane
 // (close_vertices), by its f's global bound (|q| - r_min, sd_upper), or by the fan of its cone (fan_below, with
-// the adjacency).  scratch: 4 nv numbers.
+// the adjacency).
+//
+// Deep crossings, by convexity: along a unit-speed great circle f_q'' = -f_q - R, R = t^T (A^2 - x x^T) t / h_E(n)
+// the radius of curvature of E's section in the circle's direction t (the Hessian of the 1-homogeneous h_E; for
+// a sphere of radius r, f'' = -n.q).  An interior local maximum of f_q has f_q'' <= 0 in every direction, so
+// f_q >= -R_min(n) >= -a_mid^2 / a_min there (min over t perpendicular to n of t^T A^2 t is at most a_mid^2,
+// Courant-Fischer; h_E >= a_min).  A vertex whose f is below -a_mid^2 / a_min on its whole stratum (CONVEX, the
+// same planes at that floor) has no interior maximum there: its maximum is on its edges' arcs, and its own
+// critical points are not solved.  An arc through a CONVEX vertex has no interior maximum either where f <= -R_arc
+// on it, R_arc = lam / sqrt(mu) the largest radius of curvature of E's projection across the edge (its squared
+// semi-axes lam >= mu): when R_arc <= a_mid^2 / a_min, or proven by the arc's planes (tangent_cones arc_below, at
+// -R_arc or the incumbent's floor, whichever is higher); then its maximum is at its ends, face normals, at most
+// the incumbent.  Otherwise its critical points are solved.  scratch: 4 nv numbers.
 template <class V, class M>
 ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const V& p, const Hull& H, const M& m, double tol, double rolling,
                                     const Best& start, double* ctr, unsigned char* closed) {
@@ -385,19 +438,27 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const V& p, const Hull& H, c
   Best b = start;
   double size = 0.0;
   for (int i = 0; i < nv; ++i) size = max2(size, math::sqrt(dot(vertex(p, i), vertex(p, i))));
-  close_vertices(a2, p, H, m, b.value + tol - below_slack(size, a2, b.value), rho, ctr, closed);
-  // vertices closed by their f's global bound |q| - r_min, or by their fan (deep crossings: a vertex's own
-  // global bound, sd(q, E) >= 0 for a vertex outside E, never closes it; its stratum's fan does)
   const double floor = b.value + tol - below_slack(size, a2, b.value);
-  double lowest = INFINITY;  // at the incumbent: a vertex tied there holds it in its cone, its fan cannot close
+  // the convexity floor, -a_mid^2 / a_min (rounded up in magnitude) less the planes' rounding allowance: used
+  // where it is above the incumbent's floor (a crossing deeper than that)
+  const double a2lo = min2(min2(a2.x, a2.y), a2.z);
+  const double a2mid = max2(min2(a2.x, a2.y), min2(max2(a2.x, a2.y), a2.z));
+  const double rconvex = a2mid / math::sqrt(a2lo) * (1.0 + 1e-9);
+  const double floor2 = max2(floor, -rconvex - below_slack(size, a2, rconvex));
+  close_vertices(a2, p, H, m, floor, floor2, rho, ctr, closed);
+  // vertices closed by their f's global bound |q| - r_min, or by their fan (deep crossings: a vertex's own
+  // global bound, sd(q, E) >= 0 for a vertex outside E, never closes it; its stratum's fan does; a vertex tied
+  // at the incumbent holds it in its cone, so its fan cannot close).  Not the fans at the convexity floor: they
+  // cost more than the roots they save (bench meshes, deep: 1-6% more instructions a pair)
+  double lowest = INFINITY;
   for (int i = 0; i < nv; ++i) lowest = min2(lowest, dot(b.n, vertex(p, i)));
   for (int i = 0; i < nv; ++i) {
-    if (closed[i] != 0) continue;
+    if (closed[i] == CLOSED) continue;
     const Vec3 q = vertex(p, i);
     if (vertex_beaten(q, rmin, b.value + tol) ||
-        (H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
+        (closed[i] == OPEN && H.vface_start != nullptr && floor < 0.0 && dot(b.n, q) > lowest + 1e-9 * size &&
          fan_below(a2, p, H, m, i, floor, rho)))
-      closed[i] = 1;
+      closed[i] = CLOSED;
   }
   // every open vertex's global maximiser (the incumbent only rises, so what closed stays closed), its f's global
   // bound sd_upper kept for the first OPEN_KEPT open vertices (recomputed for any further one)
@@ -405,7 +466,7 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const V& p, const Hull& H, c
   double kept[OPEN_KEPT];
   int nopen = 0;
   for (int i = 0; i < nv; ++i)
-    if (closed[i] == 0) {
+    if (closed[i] == OPEN) {
       const Vec3 q = vertex(p, i);
       const point_ellipsoid::Foot3 ft = foot3(a2, q);
       if (nopen < OPEN_KEPT) kept[nopen] = sd_upper(a2, q, ft.t);
@@ -414,20 +475,25 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const V& p, const Hull& H, c
     }
   // every other critical point of the open vertices whose f could beat it
   for (int i = 0, k = 0; i < nv; ++i) {
-    if (closed[i] != 0) continue;
+    if (closed[i] != OPEN) continue;
     const Vec3 q = vertex(p, i);
     const double bound = k < OPEN_KEPT ? kept[k] : sd_upper(a2, q, foot3(a2, q).t);
     ++k;
     if (vertex_beaten(q, rmin, b.value + tol) || bound <= b.value + tol) continue;
     point_ellipsoid::other_critical_normals(a2, q, [&](const Vec3& n) { consider(a2, p, nv, q, n, b); }, false);
   }
-  // each open edge (an arc between two open vertices): its great circle's maximiser, then every other critical
-  // point there when the circle's bound sd_upper2 beats the incumbent
+  // each edge between vertices not CLOSED, unless its arc is convex through a CONVEX end (above): its great
+  // circle's maximiser, then every other critical point there when the circle's bound sd_upper2 beats the
+  // incumbent
+  const Vec3 xb = point_ellipsoid::support(a2, b.n).s;
   for (int k = 0; k < H.ne; ++k) {
     const int i = H.edge[2 * k], j = H.edge[2 * k + 1];
-    if (closed[i] != 0 || closed[j] != 0 || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
+    if (closed[i] == CLOSED || closed[j] == CLOSED || edge_beaten(p, i, j, rmin, b.value + tol)) continue;
     const EdgeProblem ep = edge_problem(a2, p, i, j);
     const double lam = ep.el.lam, mu = ep.el.mu;
+    if ((closed[i] == CONVEX || closed[j] == CONVEX) && arc_convex(a2, p, H, m, i, j, lam, mu, rconvex, floor,
+                                                                    below_slack(size, a2, lam / math::sqrt(mu)), b.n, xb))
+      continue;
     const point_ellipsoid::Foot2 ft = foot2(lam, mu, ep.p.x, ep.p.y);
     consider(a2, p, nv, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b);
     if (sd_upper2(lam, mu, ep.p.x, ep.p.y, ft.t) <= b.value + tol) continue;

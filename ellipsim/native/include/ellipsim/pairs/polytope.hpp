@@ -320,6 +320,29 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
       for (int k = k0; k < k1 && lw != OPEN; ++k)
         lw = worse(lw, corner_level(gw, flip(normal_of(m, H.vface[k])), floor + ball, floor2 + ball));
       closed[i] = better(level, lw);
+      if (closed[i] != OPEN) continue;
+      // then both planes: f <= min(g.n, gw.n).  The plane d.n = 0 (d = g - gw) splits the cone in two, each below
+      // its lower plane where that plane is below the level at the part's extreme rays: its own corners and the
+      // crossings of the boundary arcs; every crossing of a pair of corners (opposite sides) is tested, under both
+      // planes, so the boundary's are among them whatever the corners' order (tangent_cones.hpp's argument on each
+      // part; bench meshes, deep: 11% fewer instructions on 8 points, 0-1.5% on 40 to 500)
+      const Vec3 d = sub(g, gw);
+      unsigned char ls = CLOSED;
+      for (int k = k0; k < k1 && ls != OPEN; ++k) {
+        const Vec3 ck = flip(normal_of(m, H.vface[k]));
+        const double dk = dot(d, ck);
+        ls = worse(ls, corner_level(dk <= 0.0 ? g : gw, ck, floor + ball, floor2 + ball));
+        for (int l = k0; l < k && ls != OPEN; ++l) {
+          const Vec3 cl = flip(normal_of(m, H.vface[l]));
+          const double dl = dot(d, cl);
+          if ((dk <= 0.0) == (dl <= 0.0)) continue;
+          const double sg = dl < 0.0 ? -1.0 : 1.0;  // dl ck - dk cl: a positive combination, on the plane
+          const Vec3 x = {sg * (dl * ck.x - dk * cl.x), sg * (dl * ck.y - dk * cl.y), sg * (dl * ck.z - dk * cl.z)};
+          ls = worse(ls, worse(corner_level(g, x, floor + ball, floor2 + ball),
+                               corner_level(gw, x, floor + ball, floor2 + ball)));
+        }
+      }
+      closed[i] = ls;
     }
     return;
   }

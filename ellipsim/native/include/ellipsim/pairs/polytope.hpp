@@ -267,6 +267,15 @@ ELLIPSIM_HD unsigned char corner_level(const Vec3& g, const Vec3& c, double floo
   return dd >= floor * floor * cc ? CLOSED : dd >= floor2 * floor2 * cc ? CONVEX : OPEN;
 }
 
+// corner_level at a face normal (unit to a few ulps: distance::unit) against floors deflated by unit_floor: no |c|
+// (g.c <= floor (1 + 16u) puts g.c / |c| below floor for any |c| <= 1 + 8u).
+ELLIPSIM_HD unsigned char unit_level(const Vec3& g, const Vec3& c, double floor, double floor2) {
+  const double d = dot(g, c);
+  return d <= floor ? CLOSED : d <= floor2 ? CONVEX : OPEN;
+}
+
+ELLIPSIM_HD double unit_floor(double floor) { return floor * (1.0 + 16.0 * tol::U); }
+
 ELLIPSIM_HD unsigned char worse(unsigned char x, unsigned char y) { return x == OPEN || y == OPEN ? OPEN : max2(x, y); }
 
 ELLIPSIM_HD unsigned char better(unsigned char x, unsigned char y) { return x == OPEN ? y : y == OPEN ? x : min2(x, y); }
@@ -285,6 +294,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
   for (int i = 0; i < H.nv; ++i) closed[i] = floor2 < 0.0 ? CLOSED : OPEN;
   if (!(floor2 < 0.0)) return;
   const double ball = floor2 + rho < 0.0 ? rho : 0.0;
+  const double f1 = unit_floor(floor + ball), f2 = unit_floor(floor2 + ball);  // the corners: face normals
   // the plane of vertex i (its cone's centre c): (p_i - x + s c).n, s c = rho c / |c| the rolling ball's
   const auto plane = [&](int i, const Vec3& c) {
     const Vec3 x = point_ellipsoid::support(a2, c).s, q = vertex(p, i);
@@ -307,7 +317,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
       int miss = -1;  // the first corner not below floor
       unsigned char level = CLOSED;
       for (int k = k0; k < k1 && level != OPEN; ++k) {
-        const unsigned char l = corner_level(g, flip(normal_of(m, H.vface[k])), floor + ball, floor2 + ball);
+        const unsigned char l = unit_level(g, flip(normal_of(m, H.vface[k])), f1, f2);
         if (l != CLOSED && miss < 0) miss = k;
         level = worse(level, l);
       }
@@ -318,7 +328,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
       const Vec3 gw = plane(i, w);
       unsigned char lw = CLOSED;
       for (int k = k0; k < k1 && lw != OPEN; ++k)
-        lw = worse(lw, corner_level(gw, flip(normal_of(m, H.vface[k])), floor + ball, floor2 + ball));
+        lw = worse(lw, unit_level(gw, flip(normal_of(m, H.vface[k])), f1, f2));
       closed[i] = better(level, lw);
       if (closed[i] != OPEN) continue;
       // then both planes: f <= min(g.n, gw.n).  The plane d.n = 0 (d = g - gw) splits the cone in two, each below
@@ -331,7 +341,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
       for (int k = k0; k < k1 && ls != OPEN; ++k) {
         const Vec3 ck = flip(normal_of(m, H.vface[k]));
         const double dk = dot(d, ck);
-        ls = worse(ls, corner_level(dk <= 0.0 ? g : gw, ck, floor + ball, floor2 + ball));
+        ls = worse(ls, unit_level(dk <= 0.0 ? g : gw, ck, f1, f2));
         for (int l = k0; l < k && ls != OPEN; ++l) {
           const Vec3 cl = flip(normal_of(m, H.vface[l]));
           const double dl = dot(d, cl);
@@ -372,7 +382,7 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
     const Vec3 c = {-mf.x, -mf.y, -mf.z};
     for (int k = 0; k < 3; ++k) {
       const int i = H.face[3 * f + k];
-      if (closed[i] != OPEN) closed[i] = worse(closed[i], corner_level(vertex(ctr, i), c, floor + ball, floor2 + ball));
+      if (closed[i] != OPEN) closed[i] = worse(closed[i], unit_level(vertex(ctr, i), c, f1, f2));
     }
   }
 }

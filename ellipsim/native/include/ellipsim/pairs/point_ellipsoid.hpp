@@ -503,8 +503,14 @@ struct PoleNormal {
 };
 
 // The limit critical point at the pole t = -a2_i (exact when q_i = 0): x_j = a2_j q_j / (a2_j - a2_i) for
-// j != i, x_i = sign * sqrt(a2_i (1 - sum_j x_j^2 / a2_j)).
-ELLIPSIM_HD PoleNormal pole_normal(const Vec3& a2, const Vec3& q, int i, double sign) {
+// j != i, x_i = sign * sqrt(a2_i (1 - sum_j x_j^2 / a2_j)).  PoleFoot: the x_j and the rest 1 - sum (ok false
+// where a denominator vanishes), shared by both signs.
+struct PoleFoot {
+  bool ok;
+  double x0, x1, x2, rest;
+};
+
+ELLIPSIM_HD PoleFoot pole_foot(const Vec3& a2, const Vec3& q, int i) {
   const double ai = at(a2, i);
   double x0 = 0.0, x1 = 0.0, x2 = 0.0;
   double rest = 1.0;
@@ -527,14 +533,33 @@ ELLIPSIM_HD PoleNormal pole_normal(const Vec3& a2, const Vec3& q, int i, double 
     x2 = den != 0.0 ? a2.z * q.z / den : 0.0;
     rest -= x2 * x2 / a2.z;
   }
-  if (!ok || rest < 0.0) return {false, {1.0, 0.0, 0.0}};
-  const double xi = sign * math::sqrt(rest * ai);
-  x0 = i == 0 ? xi : x0;
-  x1 = i == 1 ? xi : x1;
-  x2 = i == 2 ? xi : x2;
+  return {ok && !(rest < 0.0), x0, x1, x2, rest};
+}
+
+// The unit normal ~ x / a2 at the pole foot with x_i = xi.
+ELLIPSIM_HD PoleNormal pole_at(const Vec3& a2, const PoleFoot& p, int i, double xi) {
+  const double x0 = i == 0 ? xi : p.x0, x1 = i == 1 ? xi : p.x1, x2 = i == 2 ? xi : p.x2;
   const Vec3 n = {x0 / a2.x, x1 / a2.y, x2 / a2.z};
   if (!(norm2(n) > 0.0)) return {false, {1.0, 0.0, 0.0}};
   return {true, unit(n)};
+}
+
+ELLIPSIM_HD PoleNormal pole_normal(const Vec3& a2, const Vec3& q, int i, double sign) {
+  const PoleFoot p = pole_foot(a2, q, i);
+  if (!p.ok) return {false, {1.0, 0.0, 0.0}};
+  return pole_at(a2, p, i, sign * math::sqrt(p.rest * at(a2, i)));
+}
+
+// f at both of pole i's limit points that exist, the + sign's first (pole_normal's, the foot computed once).
+template <typename F>
+ELLIPSIM_HD void pole_normals(const Vec3& a2, const Vec3& q, int i, F&& f) {
+  const PoleFoot p = pole_foot(a2, q, i);
+  if (!p.ok) return;
+  const double r = math::sqrt(p.rest * at(a2, i));
+  const PoleNormal plus = pole_at(a2, p, i, r);
+  if (plus.ok) f(plus.n);
+  const PoleNormal minus = pole_at(a2, p, i, -r);
+  if (minus.ok) f(minus.n);
 }
 
 // --- every critical point a piece's maximum may be (box.hpp's and polytope.hpp's enumerations) -----------------
@@ -549,12 +574,7 @@ ELLIPSIM_HD void other_critical_normals(const Vec3& a2, const Vec3& q, F&& f, bo
     const double t = roots.t[m];
     if (t == t) f(unit({q.x / (t + a2.x), q.y / (t + a2.y), q.z / (t + a2.z)}));
   }
-  for (int i = 0; i < 3; ++i) {
-    for (int m = 0; m < 2; ++m) {
-      const PoleNormal pn = pole_normal(a2, q, i, m == 0 ? 1.0 : -1.0);
-      if (pn.ok) f(pn.n);
-    }
-  }
+  for (int i = 0; i < 3; ++i) pole_normals(a2, q, i, f);
 }
 
 // The same in a plane (w1, w2), for E's projection there (ellipse: project_ellipse) and the projected point p
@@ -574,12 +594,8 @@ ELLIPSIM_HD void other_critical_normals2(const Ellipse& el, const Vec3& p, const
       f(from_plane(u.x, u.y, el.c, el.s, w1, w2));
     }
   }
-  for (int i = 0; i < 2; ++i) {
-    for (int m = 0; m < 2; ++m) {
-      const PoleNormal pn = pole_normal(b3, p, i, m == 0 ? 1.0 : -1.0);
-      if (pn.ok) f(from_plane(pn.n.x, pn.n.y, el.c, el.s, w1, w2));
-    }
-  }
+  for (int i = 0; i < 2; ++i)
+    pole_normals(b3, p, i, [&](const Vec3& n) { f(from_plane(n.x, n.y, el.c, el.s, w1, w2)); });
 }
 
 }  // namespace ellipsim::pairs::point_ellipsoid

@@ -135,10 +135,10 @@ ELLIPSIM_HD double prism_sigma(const Prism& P, const Vec3& lc, const Mat3& L, co
 }
 
 // The pre-test: apart when a direction proves the prism beyond the margin, sigma less its rounding allowance
-// (PAIR_SIGMA_SLACK_ULPS of the pair's scale) at a face normal, or from E's centre towards the nearest point of
-// the prism's top (the separating direction of a prism beside or below E's side).  Most prisms under the bounding
-// box are apart, and this costs a few dot products, against a solve.  Otherwise n: the direction of the largest
-// sigma tried (field frame), the solve's start.
+// (PAIR_SIGMA_SLACK_ULPS of the pair's scale) at a face normal, or normal to the plane separating E and the
+// prism's top at their nearest points in E's metric (below).  Most prisms under the bounding box are apart, and
+// this costs a few dot products, against a solve.  Otherwise n: the direction of the largest sigma tried (field
+// frame), the solve's start.
 struct PreTest {
   bool apart;
   Vec3 n;
@@ -158,9 +158,18 @@ ELLIPSIM_HD PreTest apart_by_faces(const Prism& P, const Vec3& lc, const Mat3& L
   };
   auto face = [&](int f) { return Vec3{-P.normal[3 * f], -P.normal[3 * f + 1], -P.normal[3 * f + 2]}; };
   if (beyond(face(1))) return t;  // the top, most often
-  const Vec3 x = polytope::nearest_on_triangle(lc, polytope::vertex(P.v, 3), polytope::vertex(P.v, 4),
-                                               polytope::vertex(P.v, 5));
-  const Vec3 d = sub(x, lc);
+  // E's metric: the top's vertices in E's frame scaled to the unit ball, y their triangle's nearest point to the
+  // origin; n = L diag(1/r) y is normal to the plane that separates the ball and the triangle there (for a sphere,
+  // the direction from its centre to the top's nearest point).  Exact where the prism's nearest point to E is on
+  // its top and E is above it (n down: the base's vertices are then no lower along n), as for the prisms beside a
+  // resting ellipsoid's contact (the terrain scene: 41% fewer instructions a call than E's centre towards the
+  // top's nearest point in the field's metric; bench height field: 3-4%)
+  const auto scaled = [&](int i) {
+    const Vec3 w = rotate_t(L, {P.v[3 * i] - lc.x, P.v[3 * i + 1] - lc.y, P.v[3 * i + 2] - lc.z});
+    return Vec3{w.x / r.x, w.y / r.y, w.z / r.z};
+  };
+  const Vec3 y = polytope::nearest_on_triangle({0.0, 0.0, 0.0}, scaled(3), scaled(4), scaled(5));
+  const Vec3 d = matvec(L, {y.x / r.x, y.y / r.y, y.z / r.z});
   const double dd = polytope::dot(d, d);
   if (dd > 0.0) {
     const double s = 1.0 / math::sqrt(dd);

@@ -88,6 +88,7 @@ def test_quick_bench_writes_report_and_plots(tmp_path, monkeypatch):
         "## 14. Meshes and height fields",
         "| ellipsoid x mesh of 500 points | deep |",
         "| ellipsoid x height field, 30 x 30 | deep |",
+        "| ellipsoid x height field, the terrain scene's | resting |",
         "mj_step on the terrain scenario's scene",
     ):
         assert section in report

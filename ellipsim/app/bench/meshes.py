@@ -8,7 +8,8 @@ log-uniform in [1e-6, 0.1] m), touching (gap 0), penetrating (up to half the ell
 deep (the ellipsoid's centre within 0.3 of its shortest semi-axis of the hull's centre).  Height fields: a 30 x 30
 field (2 m square, 10 cm of relief, random elevations: MuJoCo's cells are 6.9 cm) and ellipsoids over random
 points of it, binned by their deepest prism: apart (0 to 2 cm above every prism), shallow (up to 1 mm in) and deep
-(more).  Each pose is a pair of geoms of one model; both functions run in a compiled loop (margin 0), ellipsim's
+(more); and resting: the terrain scenario's scene after 300 steps of landing (below), every ellipsoid whose bounding
+sphere reaches the field's top against its field.  Each pose is a pair of geoms of one model; both functions run in a compiled loop (margin 0), ellipsim's
 on a data attached in mode "narrowphase", in interleaved rounds; the contacts per call are counted on both sides.
 """
 
@@ -126,6 +127,29 @@ def field_poses(n, rng):
     return out
 
 
+def _terrain_scene():
+    """The terrain scenario's scene (6 figures on a height field among 8 mesh rocks) and its state after 300 steps
+    of landing."""
+    model = mujoco.MjModel.from_xml_string(
+        scenes.scene_xml(6, spacing=0.9, seed=4, terrain=True, props=8, drop_height=0.15)
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, 300)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def resting_field_pairs():
+    """(model, data, pairs) of the terrain scene at rest: (field, ellipsoid) for every ellipsoid whose bounding
+    sphere reaches the field's top (the figures' limbs resting on it and those just above)."""
+    model, data = _terrain_scene()
+    field = int(np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD)[0])
+    top = data.geom_xpos[field][2] + model.hfield_size[model.geom_dataid[field]][2]
+    ell = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+    near = ell[data.geom_xpos[ell, 2] - model.geom_rbound[ell] < top]
+    return model, data, np.ascontiguousarray(np.stack([np.full_like(near, field), near], 1), dtype=np.int32)
+
+
 def _time(model, data, pairs, theirs, size, rounds=5):
     """(ellipsim ns/call, MuJoCo ns/call, ellipsim contacts, MuJoCo contacts, fallbacks) on the pairs."""
     con = np.zeros(_CON)
@@ -150,11 +174,7 @@ def terrain_steps(size, rounds=5):
     """(plain mj_step us, narrowphase mj_step us, narrowphase counters) on the terrain scenario's scene (6 figures
     on a height field among 8 mesh rocks) after 300 steps of landing, size["terrain_steps"] steps a round from that
     state, interleaved rounds."""
-    model = mujoco.MjModel.from_xml_string(
-        scenes.scene_xml(6, spacing=0.9, seed=4, terrain=True, props=8, drop_height=0.15)
-    )
-    start = mujoco.MjData(model)
-    mujoco.mj_step(model, start, 300)
+    model, start = _terrain_scene()
     k = size["terrain_steps"]
     counters = {}
 
@@ -193,6 +213,8 @@ def measure(size):
     field = table[int(mujoco.mjtGeom.mjGEOM_HFIELD) * ntypes + int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)]
     for category, (model, data, pairs) in field_poses(n, rng).items():
         out["hfield"][category] = _time(model, data, pairs, field, size) if len(pairs) else None
+    model, data, pairs = resting_field_pairs()
+    out["hfield"]["resting"] = _time(model, data, pairs, field, size)
     say("meshes: mj_step on the terrain scene ...")
     out["terrain"] = terrain_steps(size)
     return out
@@ -223,8 +245,9 @@ def write(result, size, out, plt):
             L.append(f"| ellipsoid x height field | {category} | - | - | - | no pose | - |")
             continue
         ours, theirs, made, theirs_made, fallbacks = row
+        field = "the terrain scene's" if category == "resting" else "30 x 30"
         L.append(
-            f"| ellipsoid x height field, 30 x 30 | {category} | {ours:.0f} | {theirs:.0f} | {theirs / ours:.2f}x "
+            f"| ellipsoid x height field, {field} | {category} | {ours:.0f} | {theirs:.0f} | {theirs / ours:.2f}x "
             f"| {made} / {theirs_made} | {fallbacks} |"
         )
     plain, ours, ratio, c = result["terrain"]

@@ -726,16 +726,28 @@ ELLIPSIM_HD_CALL double upper_bound2(const Vec3& a2, const V& p, const Hull& H, 
 
 // --- the fast start (a hull with its adjacency): the contact feature found by walking the edges -------------
 
-// The vertex lowest in n.p, by descent along the edges from `start`: a vertex no edge descends from minimises the
-// linear function over the polytope (the simplex method's optimality test; Ziegler, Lectures on Polytopes 3.2).
-template <class V>
-ELLIPSIM_HD int descend(const V& p, const Hull& H, const Vec3& n, int start) {
+// A vertex's key along n: n.p_i less n.e, the same for every vertex (p_i = e + T v_i, so n.p_i = n.e + m.v_i,
+// m = T^T n), read from the hull in its own frame: the walk compares vertices along n by their keys, one product
+// a vertex whether the hull is stored in E's frame or posed (where a vertex in E's frame costs a rotation).
+struct Keys {
+  Vec3 m;
+  const double* v;
+  ELLIPSIM_HD double operator()(int i) const { return m.x * v[3 * i] + m.y * v[3 * i + 1] + m.z * v[3 * i + 2]; }
+};
+
+ELLIPSIM_HD Keys keys(const Hull& H, const Mat3& T, const Vec3& n) { return {rotate_t(T, n), H.v}; }
+
+// The vertex lowest in n.p, by descent along the edges from `start` (by their keys): a vertex no edge descends from
+// minimises the linear function over the polytope (the simplex method's optimality test; Ziegler, Lectures on
+// Polytopes 3.2).
+ELLIPSIM_HD int descend(const Hull& H, const Mat3& T, const Vec3& n, int start) {
+  const Keys key = keys(H, T, n);
   int i = start;
-  double v = dot(n, vertex(p, i));
+  double v = key(i);
   for (;;) {
     int next = i;
     for (int k = H.adj_start[i]; k < H.adj_start[i + 1]; ++k) {
-      const double w = dot(n, vertex(p, H.adj[k]));
+      const double w = key(H.adj[k]);
       if (w < v) {
         v = w;
         next = H.adj[k];
@@ -749,11 +761,11 @@ ELLIPSIM_HD int descend(const V& p, const Hull& H, const Vec3& n, int start) {
 // consider with sigma by descent from *low (the incumbent's lowest vertex, moved to the candidate's when it wins).
 // Returns whether the incumbent reached stop (the walk's callers then stop: the pair is proven apart).
 template <class V>
-ELLIPSIM_HD bool consider_walk(const Vec3& a2, const V& p, const Hull& H, const Vec3& q, const Vec3& n, Best& b,
-                               int& low, double stop = INFINITY) {
+ELLIPSIM_HD bool consider_walk(const Vec3& a2, const V& p, const Hull& H, const Mat3& T, const Vec3& q, const Vec3& n,
+                               Best& b, int& low, double stop = INFINITY) {
   const double h = math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z);
   if (!(n.x * q.x + n.y * q.y + n.z * q.z - h > b.value)) return false;
-  const int k = descend(p, H, n, low);
+  const int k = descend(H, T, n, low);
   const double v = dot(n, vertex(p, k)) - h;
   if (v > b.value) {
     b = {v, n};
@@ -762,13 +774,13 @@ ELLIPSIM_HD bool consider_walk(const Vec3& a2, const V& p, const Hull& H, const 
   return b.value >= stop;
 }
 
-// The vertices within band of the lowest (low) in n.p, at most 16, by a walk along the edges from low (every
-// one is reached: from each, a descending path to low stays in the band), marked in mark (1 added: a mark's odd
-// part is membership, walk_refine keeps the round it tried a vertex in the rest); returns their count.
-template <class V>
-ELLIPSIM_HD int feature(const V& p, const Hull& H, const Vec3& n, int low, double band, int* active,
+// The vertices within band of the lowest (low) in n.p (by their keys), at most 16, by a walk along the edges from
+// low (every one is reached: from each, a descending path to low stays in the band), marked in mark (1 added: a
+// mark's odd part is membership, walk_refine keeps the round it tried a vertex in the rest); returns their count.
+ELLIPSIM_HD int feature(const Hull& H, const Mat3& T, const Vec3& n, int low, double band, int* active,
                         unsigned char* mark) {
-  const double top = dot(n, vertex(p, low)) + band;
+  const Keys key = keys(H, T, n);
+  const double top = key(low) + band;
   int na = 1;
   active[0] = low;
   mark[low] += 1;
@@ -776,7 +788,7 @@ ELLIPSIM_HD int feature(const V& p, const Hull& H, const Vec3& n, int low, doubl
     const int i = active[a];
     for (int k = H.adj_start[i]; k < H.adj_start[i + 1] && na < 16; ++k) {
       const int j = H.adj[k];
-      if ((mark[j] & 1) == 0 && dot(n, vertex(p, j)) <= top) {
+      if ((mark[j] & 1) == 0 && key(j) <= top) {
         mark[j] += 1;
         active[na++] = j;
       }
@@ -805,15 +817,16 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const V& p, const Hull& H, const Ma
     const Best before = b;
     const Vec3 pl = vertex(p, low);
     const double band = band_rel * max2(scale, math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z));
-    const int na = feature(p, H, b.n, low, band, active, mark);
+    const int na = feature(H, T, b.n, low, band, active, mark);
     for (int a = 0; a < na && !done; ++a) {
       const int i = active[a];
       const int ri = round_of(i);
       if (ri < 0) {
-        done = consider_walk(a2, p, H, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low, stop);
+        done = consider_walk(a2, p, H, T, vertex(p, i), foot3(a2, vertex(p, i)).n, b, low, stop);
         for (int k = H.vface_start[i]; k < H.vface_start[i + 1] && !done; ++k) {
           const Vec3 mf = face_normal(T, H, p, H.vface[k]);
-          done = consider_walk(a2, p, H, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low, stop);
+          done =
+              consider_walk(a2, p, H, T, vertex(p, H.face[3 * H.vface[k]]), {-mf.x, -mf.y, -mf.z}, b, low, stop);
         }
         if (ns < 64) {
           seen[ns++] = i;
@@ -828,7 +841,7 @@ ELLIPSIM_HD Best walk_refine(const Vec3& a2, const V& p, const Hull& H, const Ma
         if (ri >= 0 && (all_edges || (in && rj == ri))) continue;  // tried in round ri
         const EdgeProblem ep = edge_problem(a2, p, i, j);
         const point_ellipsoid::Foot2 ft = foot2(ep.el.lam, ep.el.mu, ep.p.x, ep.p.y);
-        done = consider_walk(a2, p, H, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b,
+        done = consider_walk(a2, p, H, T, ep.q, from_plane(ft.n0, ft.n1, ep.el.c, ep.el.s, ep.pl.b1, ep.pl.b2), b,
                              low, stop);
       }
     }
@@ -845,7 +858,7 @@ template <class V, class F>
 ELLIPSIM_HD Best walk_max(const Vec3& a2, const V& p, const Hull& H, const Mat3& T, const Vec3& n0, int& low,
                           unsigned char* mark, double stop, F&& skip) {
   const Vec3 n = unit(n0);
-  low = descend(p, H, n, 0);
+  low = descend(H, T, n, 0);
   const Best b = {dot(n, vertex(p, low)) - math::sqrt(a2.x * n.x * n.x + a2.y * n.y * n.y + a2.z * n.z * n.z), n};
   if (skip(b.value)) return b;
   return walk_refine(a2, p, H, T, b, low, 1e-6, 0.0, 16, false, mark, stop);
@@ -855,13 +868,13 @@ ELLIPSIM_HD Best walk_max(const Vec3& a2, const V& p, const Hull& H, const Mat3&
 // point y of a triangle is a point of P, so sd(x', P) <= |x' - y| whatever x' (inside P, sd < 0); tight when the
 // witness lies on one of them.  mark: as walk_max's.
 template <class V>
-ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const V& p, const Hull& H, double rho, const Vec3& n,
-                                     int low, unsigned char* mark) {
+ELLIPSIM_HD double upper_bound1_walk(const Vec3& a2, const V& p, const Hull& H, const Mat3& T, double rho,
+                                     const Vec3& n, int low, unsigned char* mark) {
   const Vec3 s = point_ellipsoid::support(a2, n).s;
   const Vec3 w = {s.x - rho * n.x, s.y - rho * n.y, s.z - rho * n.z};
   int active[16];
   const Vec3 pl = vertex(p, low);
-  const int na = feature(p, H, n, low, 1e-6 * (math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z)), active, mark);
+  const int na = feature(H, T, n, low, 1e-6 * (math::fabs(pl.x) + math::fabs(pl.y) + math::fabs(pl.z)), active, mark);
   double best = INFINITY;
   for (int a = 0; a < na; ++a) {
     const int i = active[a];
@@ -914,7 +927,7 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
   bool faces = true;  // b is at least sigma (by descent) at every face normal: enumerate_max's start
   const auto face_pass = [&](Best& w) {  // every face normal, sigma by descent
     for (int f = 0; f < H.nf; ++f)
-      consider_walk(a2, p, H, vertex(p, H.face[3 * f]), flip(normal_of(m, f)), w, low);
+      consider_walk(a2, p, H, T, vertex(p, H.face[3 * f]), flip(normal_of(m, f)), w, low);
   };
   // the enumeration's start: b at least sigma at every face normal (to rounding), its sigma exact.  Along -m_f
   // the face's own vertex is the lowest (a supporting plane), so sigma there is that vertex's f: one product a
@@ -981,7 +994,7 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
     if (apart(walked)) return {APART, b.value, matvec(E.R, b.n), {}, INFINITY};
     b.value = walked;
     // (over triangles, ub1 >= -rho: below -rho - tol it cannot close, and is not computed)
-    if (!(b.value < -rho - tol)) ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+    if (!(b.value < -rho - tol)) ub = upper_bound1_walk(a2, p, H, T, rho, b.n, low, mark);
     if (!(ub - b.value <= tol)) normals();
     if (skipped) seed();  // the best face normal, where ub2 is then tried
 
@@ -1005,9 +1018,9 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
       w.value = sigma_hull(a2, p, H.nv, w.n);
       if (w.value > b.value) {
         b = w;
-        ub = upper_bound1_walk(a2, p, H, rho, b.n, low, mark);
+        ub = upper_bound1_walk(a2, p, H, T, rho, b.n, low, mark);
       } else {
-        low = descend(p, H, b.n, low);  // back to the incumbent's lowest vertex
+        low = descend(H, T, b.n, low);  // back to the incumbent's lowest vertex
       }
     }
     // the full ub1: x' inside P (a crossing deeper than rho) is bounded by every face plane; not where the walk

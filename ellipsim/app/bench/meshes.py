@@ -8,9 +8,10 @@ log-uniform in [1e-6, 0.1] m), touching (gap 0), penetrating (up to half the ell
 deep (the ellipsoid's centre within 0.3 of its shortest semi-axis of the hull's centre).  Height fields: a 30 x 30
 field (2 m square, 10 cm of relief, random elevations: MuJoCo's cells are 6.9 cm) and ellipsoids over random
 points of it, binned by their deepest prism: apart (0 to 2 cm above every prism), shallow (up to 1 mm in) and deep
-(more); and resting: the terrain scenario's scene after 300 steps of landing (below), every ellipsoid whose bounding
-sphere reaches the field's top against its field.  Each pose is a pair of geoms of one model; both functions run in a compiled loop (margin 0), ellipsim's
-on a data attached in mode "narrowphase", in interleaved rounds; the contacts per call are counted on both sides.
+(more); and resting: the terrain scenario's scene after 300 steps of landing (below), every ellipsoid whose
+bounding sphere reaches the field's top against its field.  Each pose is a pair of geoms of one model; both
+functions run in a compiled loop (margin 0), ellipsim's on a data attached in mode "narrowphase", in interleaved
+rounds; the contacts per call are counted on both sides.
 """
 
 import time

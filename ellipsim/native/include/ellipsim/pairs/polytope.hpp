@@ -482,7 +482,7 @@ ELLIPSIM_HD_CALL Best enumerate_max(const Vec3& a2, const V& p, const Hull& H, c
   // vertices closed by their f's global bound |q| - r_min, or by their fan (deep crossings: a vertex's own
   // global bound, sd(q, E) >= 0 for a vertex outside E, never closes it; its stratum's fan does; a vertex tied
   // at the incumbent holds it in its cone, so its fan cannot close).  Not the fans at the convexity floor: they
-  // cost more than the roots they save (bench meshes, deep: 1-6% more instructions a pair)
+  // cost more than the roots they save (bench meshes, deep: 0.2-3.5% more instructions a pair)
   double lowest = INFINITY;
   for (int i = 0; i < nv; ++i) lowest = min2(lowest, dot(b.n, vertex(p, i)));
   for (int i = 0; i < nv; ++i) {

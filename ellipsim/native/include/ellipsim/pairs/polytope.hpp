@@ -933,7 +933,7 @@ ELLIPSIM_HD Result solve(const Ellipsoid& E, const Vec3& cP, const Mat3& T, cons
   // the face's own vertex is the lowest (a supporting plane), so sigma there is that vertex's f: one product a
   // face, no descent; the best face's sigma is then computed in full, and where it falls short of its vertex's f
   // by more than rounding (a degenerate triangle's normal: a height field's flat prism) every face by descent
-  // (bench meshes, deep: 2-4% fewer instructions a pair)
+  // (bench meshes, deep: 1.5-4% fewer instructions a pair)
   const double slack = tol::PAIR_SIGMA_SLACK_ULPS * tol::U * (far + max3(E.r));
   const auto seed = [&]() {
     Best w = b;

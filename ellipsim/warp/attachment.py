@@ -26,9 +26,9 @@ stay with Warp: a sensor reads Warp's own collision record).  A mesh pair is tak
 own hull (mesh_graph; the one MuJoCo C's narrow phase runs) of at most kernels.MAX_POSED_HULL_VERTICES = 3000
 vertices (in every world's geom_dataid): up to kernels.MAX_HULL_VERTICES = 64 the mesh row stores the hull in the
 ellipsoid's frame in its per-thread scratch, above it runs the core's posed path (the same bits, two bytes of
-scratch a vertex); a larger hull, or a mesh without one, stays with Warp's GJK/EPA.  The hulls are built once at attach (core.pairs.hull.mesh_graph_hull,
-mujoco/hull.py's mesh_hull's reader, on the Model's mesh_graph and float32 mesh_vert; the core's adjacency
-builder) and uploaded.
+scratch a vertex); a larger hull, or a mesh without one, stays with Warp's GJK/EPA.  The hulls are built once at
+attach (core.pairs.hull.mesh_graph_hull, mujoco/hull.py's mesh_hull's reader, on the Model's mesh_graph and
+float32 mesh_vert; the core's adjacency builder) and uploaded.
 
 Graph capture: the hook launches one kernel (two on a model with surface velocities) on arrays made at
 attach (pair table, counters) and the model's and data's own; it makes
@@ -355,7 +355,7 @@ class Attachment:
 
 def attach(m):
     """Give ellipsim's contacts to the sphere, capsule, ellipsoid, cylinder, box, convex mesh (a hull of at most
-    kernels.MAX_POSED_HULL_VERTICES = 3000 vertices; larger ones stay with Warp) and height field x ellipsoid pairs of the
-    mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
+    kernels.MAX_POSED_HULL_VERTICES = 3000 vertices; larger ones stay with Warp) and height field x ellipsoid pairs
+    of the mujoco_warp Model m (collision, forward and step on m, every world in one launch); returns the
     Attachment (a context manager; .detach(), .counters)."""
     return Attachment(m)

@@ -295,12 +295,8 @@ ELLIPSIM_HD void close_vertices(const Vec3& a2, const V& p, const Hull& H, const
   if (!(floor2 < 0.0)) return;
   const double ball = floor2 + rho < 0.0 ? rho : 0.0;
   const double f1 = unit_floor(floor + ball), f2 = unit_floor(floor2 + ball);  // the corners: face normals
-  // the plane of vertex i (its cone's centre c): (p_i - x + s c).n, s c = rho c / |c| the rolling ball's
-  const auto plane = [&](int i, const Vec3& c) {
-    const Vec3 x = point_ellipsoid::support(a2, c).s, q = vertex(p, i);
-    const double s = ball / math::sqrt(dot(c, c));
-    return Vec3{q.x - x.x + s * c.x, q.y - x.y + s * c.y, q.z - x.z + s * c.z};
-  };
+  // the plane of vertex i at the direction c (its cone's centre, or a corner), with the rolling ball's term
+  const auto plane = [&](int i, const Vec3& c) { return tangent_cones::ball_plane(a2, vertex(p, i), c, ball); };
   if (H.vface_start != nullptr) {
     for (int i = 0; i < H.nv; ++i) {
       const int k0 = H.vface_start[i], k1 = H.vface_start[i + 1];

@@ -63,6 +63,14 @@ ELLIPSIM_HD bool holds(const Vec3& n, const Vec3& a, const Vec3& b, const Vec3& 
   return dot(cross3(a, b), n) >= eps && dot(cross3(b, c), n) >= eps && dot(cross3(c, a), n) >= eps;
 }
 
+// The rolling-ball plane of the point q at the direction c (E = E' + ball(k), node_below's): g = q - x + k c / |c|, x
+// E's support point at c, so that f_q(n) <= g.n - k for unit n.
+ELLIPSIM_HD Vec3 ball_plane(const Vec3& a2, const Vec3& q, const Vec3& c, double k) {
+  const Vec3 x = point_ellipsoid::support(a2, c).s;
+  const double s = k / math::sqrt(dot(c, c));
+  return {q.x - x.x + s * c.x, q.y - x.y + s * c.y, q.z - x.z + s * c.z};
+}
+
 // f <= floor on the cone a, b, c: the plane at the incumbent bn (xb its tangent point; r > 0 or bn = 0: not
 // tried, the cylinder's rim incumbent is smooth) when the cone holds it, else (or then) the plane at the cone's
 // centre.
@@ -79,10 +87,8 @@ ELLIPSIM_HD bool node_below(const Vec3& a2, const Vec3& q, const Vec3& u, double
       plane_below({q.x + k * bn.x, q.y + k * bn.y, q.z + k * bn.z}, xb, a, b, c, floor + k))
     return true;
   const Vec3 m = add(add(a, b), c);
-  const Vec3 x = tangent_point(a2, u, r, m);
-  if (k == 0.0) return plane_below(q, x, a, b, c, floor);
-  const double s = k / math::sqrt(dot(m, m));
-  const Vec3 g = {q.x - x.x + s * m.x, q.y - x.y + s * m.y, q.z - x.z + s * m.z};
+  if (k == 0.0) return plane_below(q, tangent_point(a2, u, r, m), a, b, c, floor);
+  const Vec3 g = ball_plane(a2, q, m, k);  // (k > 0 only for r = 0: the support point is the tangent point)
   const Vec3* w = &a;  // the first corner the centre's plane leaves above the floor, if any
   if (corner_below(g, a, floor + k)) {
     w = &b;
